@@ -1,0 +1,20 @@
+"""The single exception type of fem2tmm.
+
+Every problem with user input (a file, a case key, a group, an element) raises :class:`Fem2TmmError`
+with a message that names the culprit and says what to do.  The command line prints the message
+without a traceback and exits with status 2.
+"""
+
+from __future__ import annotations
+
+
+class Fem2TmmError(Exception):
+    """A user-facing error: bad input, inconsistent case, unsolvable model."""
+
+
+def format_ids(ids, limit: int = 10) -> str:
+    """Render a list of ids for an error message: at most ``limit`` of them, then '… (N in all)'."""
+    ids = [int(i) for i in ids]
+    if len(ids) <= limit:
+        return ", ".join(str(i) for i in ids)
+    return ", ".join(str(i) for i in ids[:limit]) + f", … ({len(ids)} in all)"
