@@ -1,0 +1,431 @@
+"""The TOML case file -> validated frozen dataclasses.  The only place that knows the schema.
+
+Temperatures are °C in the file and Kelvin in the dataclasses; lengths in metres except ``[mesh] unit``
+which is the length unit of the mesh file.  Every error names the file, the key and what was expected.
+Unknown keys are errors (a typo must not silently change a model).
+
+See DESIGN §4.2 for an annotated example.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Mapping
+
+from .errors import Fem2TmmError
+from .io.units import LENGTH_UNITS
+
+KELVIN = 273.15
+ABSOLUTE_ZERO_C = -KELVIN
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str
+    conductivity: float | None  # W/(m K)
+    density: float | None = None  # kg/m³
+    specific_heat: float | None = None  # J/(kg K)
+
+
+@dataclass(frozen=True)
+class Optics:
+    """Optical properties of one side of a surface (IR and solar bands).
+
+    ``specular`` is the fraction of the reflected energy reflected specularly; ``transmissivity`` applies
+    to both bands and ``transmission_specular`` is the fraction of the transmitted energy transmitted
+    without change of direction.  IR reflectance = 1 - emissivity - transmissivity.
+    """
+
+    name: str
+    emissivity: float
+    absorptivity: float
+    specular: float = 0.0
+    transmissivity: float = 0.0
+    transmission_specular: float = 1.0
+
+
+NONE_OPTICS = "none"
+
+
+@dataclass(frozen=True)
+class Part:
+    name: str
+    groups: tuple[str, ...]
+    material: str | None  # None: from the mesh (Nastran MAT4/MAT1)
+    thickness: float | None  # m, shells; None: from the mesh (PSHELL)
+    front: str  # optics name or "none"
+    back: str
+    super_nodes: int
+    quadric: bool = False
+    index: int = 0
+
+
+@dataclass(frozen=True)
+class Boundary:
+    kind: str  # temperature | power | flux
+    value: float  # K for temperature, W for power, W/m² for flux
+    groups: tuple[str, ...] = ()
+    nodes: tuple[int, ...] = ()  # original node (GRID) ids
+    name: str = ""
+    index: int = 0
+
+
+@dataclass(frozen=True)
+class Environment:
+    sink_temperature: float = 3.0  # K
+    sun_direction: tuple[float, float, float] | None = None  # unit vector from the model towards the Sun
+    solar_flux: float = 0.0  # W/m²
+    solar_on: str = "detailed"  # detailed | super_faces
+
+
+@dataclass(frozen=True)
+class RadiationSettings:
+    enabled: bool = True  # face-to-face REFs; False: every active side sees only space
+    rays_per_face: int | None = 1000
+    ray_density: float | None = None  # rays per m²
+    sampling: str = "halton"
+    seed: int = 0
+    max_bounces: int = 1000
+    target_lse: float | None = None
+
+
+@dataclass(frozen=True)
+class ReductionSettings:
+    enabled: bool = True
+    method: str = "local"
+    capacitance: str = "cluster"  # cluster | equivalent
+    filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
+    keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
+
+
+@dataclass(frozen=True)
+class ClusteringSettings:
+    feature_angle: float = 30.0
+    seed: int = 0
+    smoothing_layers: int = 2
+
+
+@dataclass(frozen=True)
+class ReferenceSettings:
+    detailed: bool = True
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    tolerance: float = 1e-9  # K, max |ΔT| of the last Newton step
+    max_iterations: int = 200
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    file: Path | None
+    unit: str = "m"
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case.  Build it with :meth:`from_toml` or :meth:`from_dict`."""
+
+    source: str
+    mesh: MeshSpec
+    materials: Mapping[str, Material]
+    optics: Mapping[str, Optics]
+    parts: tuple[Part, ...]
+    boundaries: tuple[Boundary, ...] = ()
+    environment: Environment = field(default_factory=Environment)
+    radiation: RadiationSettings = field(default_factory=RadiationSettings)
+    reduction: ReductionSettings = field(default_factory=ReductionSettings)
+    clustering: ClusteringSettings = field(default_factory=ClusteringSettings)
+    reference: ReferenceSettings = field(default_factory=ReferenceSettings)
+    solver: SolverSettings = field(default_factory=SolverSettings)
+    raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> "Case":
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise Fem2TmmError(f"case file {path} does not exist") from None
+        except OSError as exc:
+            raise Fem2TmmError(f"case file {path} cannot be read: {exc}") from None
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise Fem2TmmError(f"{path}: not valid TOML: {exc}") from None
+        return cls.from_dict(data, base_dir=path.parent, source=str(path))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], base_dir: str | Path = ".", source: str = "<case>") -> "Case":
+        return _Parser(source, Path(base_dir)).case(data)
+
+    def with_changes(self, **sections) -> "Case":
+        """A copy with some sections replaced, e.g. ``case.with_changes(reference=ReferenceSettings(False))``."""
+        return replace(self, **sections)
+
+
+# ---------------------------------------------------------------------------------------------- parser
+class _Parser:
+    def __init__(self, source: str, base: Path):
+        self.src = source
+        self.base = base
+
+    def err(self, where: str, msg: str) -> Fem2TmmError:
+        return Fem2TmmError(f"{self.src}: {where}: {msg}")
+
+    def table(self, data: Any, where: str, allowed: set[str], required: set[str] = frozenset()) -> dict:
+        if not isinstance(data, Mapping):
+            raise self.err(where, f"expected a table, got {type(data).__name__}")
+        unknown = sorted(set(data) - allowed)
+        if unknown:
+            raise self.err(where, f"unknown key(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(sorted(allowed))}")
+        missing = sorted(required - set(data))
+        if missing:
+            raise self.err(where, f"missing required key(s) {', '.join(map(repr, missing))}")
+        return dict(data)
+
+    def number(self, d: Mapping, key: str, where: str, default=None, lo=None, hi=None, lo_open=False,
+               integer=False, required=False):
+        if key not in d:
+            if required:
+                raise self.err(where, f"missing required key {key!r}")
+            return default
+        v = d[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.err(f"{where}.{key}", f"expected a number, got {v!r}")
+        if integer and (not float(v).is_integer()):
+            raise self.err(f"{where}.{key}", f"expected an integer, got {v!r}")
+        v = int(v) if integer else float(v)
+        if not math.isfinite(v):
+            raise self.err(f"{where}.{key}", f"expected a finite number, got {v!r}")
+        if lo is not None and (v < lo or (lo_open and v == lo)):
+            raise self.err(f"{where}.{key}", f"must be {'>' if lo_open else '>='} {lo}, got {v}")
+        if hi is not None and v > hi:
+            raise self.err(f"{where}.{key}", f"must be <= {hi}, got {v}")
+        return v
+
+    def string(self, d, key, where, default=None, choices=None, required=False):
+        if key not in d:
+            if required:
+                raise self.err(where, f"missing required key {key!r}")
+            return default
+        v = d[key]
+        if not isinstance(v, str):
+            raise self.err(f"{where}.{key}", f"expected a string, got {v!r}")
+        if choices is not None and v not in choices:
+            raise self.err(f"{where}.{key}", f"must be one of {', '.join(map(repr, choices))}, got {v!r}")
+        return v
+
+    def boolean(self, d, key, where, default):
+        v = d.get(key, default)
+        if not isinstance(v, bool):
+            raise self.err(f"{where}.{key}", f"expected true or false, got {v!r}")
+        return v
+
+    def strings(self, d, key, where) -> tuple[str, ...]:
+        v = d.get(key, [])
+        if isinstance(v, str):
+            v = [v]
+        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+            raise self.err(f"{where}.{key}", f"expected a list of strings, got {v!r}")
+        return tuple(v)
+
+    def ints(self, d, key, where) -> tuple[int, ...]:
+        v = d.get(key, [])
+        if not isinstance(v, list) or not all(isinstance(x, int) and not isinstance(x, bool) for x in v):
+            raise self.err(f"{where}.{key}", f"expected a list of integer ids, got {v!r}")
+        return tuple(v)
+
+    # -------------------------------------------------------------------------------------- sections
+    def case(self, data: Mapping[str, Any]) -> Case:
+        top = self.table(data, "case", {"mesh", "materials", "optics", "parts", "boundary", "environment",
+                                        "radiation", "reduction", "clustering", "reference", "solver"},
+                         {"parts"})
+        mesh = self.mesh(top.get("mesh", {}))
+        materials = {}
+        for name, m in self.table(top.get("materials", {}), "[materials]", set(top.get("materials", {}) or {})).items():
+            materials[name] = self.material(name, m)
+        optics = {}
+        for name, o in self.table(top.get("optics", {}), "[optics]", set(top.get("optics", {}) or {})).items():
+            if name == NONE_OPTICS:
+                raise self.err(f"[optics.{name}]", "'none' is reserved for inactive sides; choose another name")
+            optics[name] = self.optic(name, o)
+        parts_raw = top["parts"]
+        if not isinstance(parts_raw, list) or not parts_raw:
+            raise self.err("[[parts]]", "expected at least one [[parts]] entry")
+        parts = tuple(self.part(i, p, materials, optics) for i, p in enumerate(parts_raw))
+        names = [p.name for p in parts]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise self.err("[[parts]]", f"part names must be unique; repeated: {', '.join(dup)}")
+        b_raw = top.get("boundary", [])
+        if not isinstance(b_raw, list):
+            raise self.err("[[boundary]]", "expected an array of tables ([[boundary]] entries)")
+        boundaries = tuple(self.boundary(i, b) for i, b in enumerate(b_raw))
+        return Case(
+            source=self.src,
+            mesh=mesh,
+            materials=materials,
+            optics=optics,
+            parts=parts,
+            boundaries=boundaries,
+            environment=self.environment(top.get("environment", {})),
+            radiation=self.radiation(top.get("radiation", {})),
+            reduction=self.reduction(top.get("reduction", {})),
+            clustering=self.clustering(top.get("clustering", {})),
+            reference=self.reference(top.get("reference", {})),
+            solver=self.solver(top.get("solver", {})),
+            raw=dict(data),
+        )
+
+    def mesh(self, d) -> MeshSpec:
+        d = self.table(d, "[mesh]", {"file", "unit"})
+        f = self.string(d, "file", "[mesh]")
+        unit = self.string(d, "unit", "[mesh]", default="m")
+        if unit.lower() not in LENGTH_UNITS:
+            raise self.err("[mesh].unit", f"unknown length unit {unit!r}; expected one of {', '.join(LENGTH_UNITS)}")
+        return MeshSpec(file=(self.base / f) if f is not None else None, unit=unit.lower())
+
+    def material(self, name, d) -> Material:
+        w = f"[materials.{name}]"
+        d = self.table(d, w, {"conductivity", "density", "specific_heat"}, {"conductivity"})
+        return Material(
+            name=name,
+            conductivity=self.number(d, "conductivity", w, lo=0, lo_open=True),
+            density=self.number(d, "density", w, lo=0, lo_open=True),
+            specific_heat=self.number(d, "specific_heat", w, lo=0, lo_open=True),
+        )
+
+    def optic(self, name, d) -> Optics:
+        w = f"[optics.{name}]"
+        d = self.table(d, w, {"emissivity", "absorptivity", "specular", "transmissivity", "transmission_specular"},
+                       {"emissivity"})
+        eps = self.number(d, "emissivity", w, lo=0, hi=1)
+        alpha = self.number(d, "absorptivity", w, default=eps, lo=0, hi=1)
+        tau = self.number(d, "transmissivity", w, default=0.0, lo=0, hi=1)
+        if eps + tau > 1 + 1e-12:
+            raise self.err(w, f"emissivity + transmissivity = {eps + tau} exceeds 1")
+        if alpha + tau > 1 + 1e-12:
+            raise self.err(w, f"absorptivity + transmissivity = {alpha + tau} exceeds 1")
+        return Optics(
+            name=name,
+            emissivity=eps,
+            absorptivity=alpha,
+            specular=self.number(d, "specular", w, default=0.0, lo=0, hi=1),
+            transmissivity=tau,
+            transmission_specular=self.number(d, "transmission_specular", w, default=1.0, lo=0, hi=1),
+        )
+
+    def part(self, i, d, materials, optics) -> Part:
+        w = f"[[parts]][{i}]"
+        d = self.table(d, w, {"name", "groups", "material", "thickness", "front", "back", "super_nodes", "quadric"},
+                       {"name", "groups"})
+        name = self.string(d, "name", w)
+        w = f"[[parts]][{i}] ({name!r})"
+        groups = self.strings(d, "groups", w)
+        if not groups:
+            raise self.err(f"{w}.groups", "expected at least one mesh group")
+        mat = self.string(d, "material", w)
+        if mat is not None and mat not in materials:
+            raise self.err(f"{w}.material", f"{mat!r} is not a defined material; defined: {', '.join(materials) or '(none)'}")
+        sides = {}
+        for side in ("front", "back"):
+            o = self.string(d, side, w, default=NONE_OPTICS)
+            if o != NONE_OPTICS and o not in optics:
+                raise self.err(f"{w}.{side}", f"{o!r} is not a defined optics; defined: {', '.join(optics) or '(none)'}, or 'none'")
+            sides[side] = o
+        return Part(
+            name=name,
+            groups=groups,
+            material=mat,
+            thickness=self.number(d, "thickness", w, lo=0, lo_open=True),
+            front=sides["front"],
+            back=sides["back"],
+            super_nodes=self.number(d, "super_nodes", w, default=1, lo=1, integer=True),
+            quadric=self.boolean(d, "quadric", w, False),
+            index=i,
+        )
+
+    def boundary(self, i, d) -> Boundary:
+        w = f"[[boundary]][{i}]"
+        d = self.table(d, w, {"kind", "groups", "nodes", "value", "name"}, {"kind", "value"})
+        kind = self.string(d, "kind", w, choices=("temperature", "power", "flux"))
+        groups, nodes = self.strings(d, "groups", w), self.ints(d, "nodes", w)
+        if not groups and not nodes:
+            raise self.err(w, "give 'groups' (mesh group names) and/or 'nodes' (original node ids)")
+        if kind == "temperature":
+            v = self.number(d, "value", w, lo=ABSOLUTE_ZERO_C, lo_open=True) + KELVIN
+        else:
+            v = self.number(d, "value", w)
+        return Boundary(kind=kind, value=v, groups=groups, nodes=nodes, name=self.string(d, "name", w, default=f"{kind}_{i}"), index=i)
+
+    def environment(self, d) -> Environment:
+        w = "[environment]"
+        d = self.table(d, w, {"sink_temperature", "sun_direction", "solar_flux", "solar_on"})
+        sink = self.number(d, "sink_temperature", w, default=3.0 - KELVIN, lo=ABSOLUTE_ZERO_C) + KELVIN
+        sun = d.get("sun_direction")
+        if sun is not None:
+            if (not isinstance(sun, list) or len(sun) != 3
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in sun)):
+                raise self.err(f"{w}.sun_direction", f"expected three numbers [x, y, z], got {sun!r}")
+            norm = math.sqrt(sum(float(x) ** 2 for x in sun))
+            if not norm > 0:
+                raise self.err(f"{w}.sun_direction", "must not be the zero vector")
+            sun = tuple(float(x) / norm for x in sun)
+        flux = self.number(d, "solar_flux", w, default=0.0, lo=0)
+        if flux > 0 and sun is None:
+            raise self.err(w, "solar_flux is given but sun_direction is not")
+        return Environment(sink_temperature=sink, sun_direction=sun, solar_flux=flux,
+                           solar_on=self.string(d, "solar_on", w, default="detailed", choices=("detailed", "super_faces")))
+
+    def radiation(self, d) -> RadiationSettings:
+        w = "[radiation]"
+        d = self.table(d, w, {"enabled", "rays_per_face", "ray_density", "sampling", "seed", "max_bounces", "target_lse"})
+        rpf = self.number(d, "rays_per_face", w, lo=1, integer=True)
+        dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
+        if rpf is not None and dens is not None:
+            raise self.err(w, "give either rays_per_face or ray_density, not both")
+        if rpf is None and dens is None:
+            rpf = 1000
+        return RadiationSettings(
+            enabled=self.boolean(d, "enabled", w, True),
+            rays_per_face=rpf,
+            ray_density=dens,
+            sampling=self.string(d, "sampling", w, default="halton", choices=("halton", "random")),
+            seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
+            max_bounces=self.number(d, "max_bounces", w, default=1000, lo=1, integer=True),
+            target_lse=self.number(d, "target_lse", w, lo=0, lo_open=True),
+        )
+
+    def reduction(self, d) -> ReductionSettings:
+        w = "[reduction]"
+        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes"})
+        return ReductionSettings(
+            enabled=self.boolean(d, "enabled", w, True),
+            method=self.string(d, "method", w, default="local", choices=("local", "global")),
+            capacitance=self.string(d, "capacitance", w, default="cluster", choices=("cluster", "equivalent")),
+            filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
+            keep_nodes=self.ints(d, "keep_nodes", w),
+        )
+
+    def clustering(self, d) -> ClusteringSettings:
+        w = "[clustering]"
+        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers"})
+        return ClusteringSettings(
+            feature_angle=self.number(d, "feature_angle", w, default=30.0, lo=0, hi=180),
+            seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
+            smoothing_layers=self.number(d, "smoothing_layers", w, default=2, lo=0, integer=True),
+        )
+
+    def reference(self, d) -> ReferenceSettings:
+        d = self.table(d, "[reference]", {"detailed"})
+        return ReferenceSettings(detailed=self.boolean(d, "detailed", "[reference]", True))
+
+    def solver(self, d) -> SolverSettings:
+        w = "[solver]"
+        d = self.table(d, w, {"tolerance", "max_iterations"})
+        return SolverSettings(tolerance=self.number(d, "tolerance", w, default=1e-9, lo=0, lo_open=True),
+                              max_iterations=self.number(d, "max_iterations", w, default=200, lo=1, integer=True))

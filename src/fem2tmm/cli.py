@@ -1,0 +1,79 @@
+"""Command line: ``fem2tmm run | demo | bench | --version``.
+
+Exit status: 0 success, 2 user error (one message, no traceback), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+from . import __version__
+from .errors import Fem2TmmError
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="fem2tmm", description="Structural FE mesh -> reduced thermal model.")
+    p.add_argument("--version", action="version", version=f"fem2tmm {__version__}")
+    sub = p.add_subparsers(dest="command")
+    r = sub.add_parser("run", help="run a case file")
+    r.add_argument("case", help="case file (TOML)")
+    r.add_argument("--out", default=None, help="output folder (default: <case name>-out next to the case)")
+    r.add_argument("--no-reference", action="store_true", help="do not solve the detailed reference model")
+    r.add_argument("--quiet", action="store_true", help="no progress output")
+    d = sub.add_parser("demo", help="built-in baffle study (no input files needed)")
+    d.add_argument("--out", default="fem2tmm-demo", help="output folder (default: ./fem2tmm-demo)")
+    d.add_argument("--quiet", action="store_true")
+    b = sub.add_parser("bench", help="benchmarks; one JSON object per line")
+    b.add_argument("names", nargs="*", help="benchmarks to run (default: all); 'list' lists them")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.command is None:
+        _parser().print_help()
+        return 2
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            warnings.formatwarning = lambda msg, cat, *a, **k: f"warning: {msg}\n"
+            if args.command == "run":
+                return _run(args)
+            if args.command == "demo":
+                from .demo import run_demo
+
+                return run_demo(out=args.out, quiet=args.quiet)
+            if args.command == "bench":
+                from .bench import main as bench_main
+
+                return bench_main(args.names)
+    except Fem2TmmError as exc:
+        print(f"fem2tmm: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("fem2tmm: interrupted", file=sys.stderr)
+        return 130
+    return 0
+
+
+def _run(args) -> int:
+    from pathlib import Path
+
+    from .case import Case
+    from .pipeline import run
+
+    case = Case.from_toml(args.case)
+    out = Path(args.out) if args.out else Path(args.case).with_name(Path(args.case).stem + "-out")
+    result = run(case, out=out, quiet=args.quiet, reference=False if args.no_reference else None)
+    if not args.quiet:
+        from .report_text import summary_table
+
+        print(summary_table(result.summary))
+        print(f"outputs in {result.out}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

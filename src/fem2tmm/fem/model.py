@@ -1,0 +1,471 @@
+"""The detailed FE thermal model: parts, assembly, radiating faces, boundary conditions.
+
+:func:`build_model` turns a :class:`~fem2tmm.mesh.Mesh` and a :class:`~fem2tmm.case.Case` into a
+:class:`FEModel` of plain arrays.  Conventions:
+
+* Only elements of the case's parts are thermal elements.  Other elements (e.g. surface triangles that
+  tag a face of a solid) may still carry boundary conditions.  GRIDs no element uses are ignored.
+* Degrees of freedom (DOFs): every node of a thermal element, except that the nodes of each
+  fixed-temperature boundary are merged into one isothermal DOF (an exact multi-point constraint).
+* Radiating faces: each shell element is one face with two sides (front = right-hand normal); each outer
+  face of the solids (a face used by exactly one solid of the model) is a face whose front (outward)
+  side has the part's ``front`` optics and whose back side is inactive.
+* Nodal lumping: capacity ``∫ρ c Nᵢ dV``, radiating area ``∫Nᵢ dA`` (row-sum lumping; equal shares on
+  simplices and undistorted elements).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import Fem2TmmError, format_ids
+from ..mesh import Mesh
+from .assembly import ElementCOO, area_shares, conduction_matrices, to_coo, volume_shares
+from .elements import MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
+from .geometry import shell_metric, solid_jacobian
+
+_CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
+
+
+@dataclass(frozen=True)
+class PartInfo:
+    name: str
+    kind: str  # shell | solid
+    elements: np.ndarray  # global element indices
+    super_nodes: int
+    quadric: bool
+
+
+@dataclass(frozen=True)
+class FixedGroup:
+    name: str
+    T: float  # K
+    dof: int
+    nodes: np.ndarray  # mesh node indices merged into the DOF
+
+
+@dataclass(frozen=True)
+class Faces:
+    """Radiating faces.  ``nodes`` (f, 4) mesh node indices (-1 pad for triangles), ``dofs`` (f, 4) DOFs,
+    ``shares`` (f, 4) ``∫Nᵢ dA`` m², ``area`` (f,) m², ``normal`` (f, 3), ``element`` (f,) global element,
+    ``part`` (f,) part index, ``kind`` (f,) 0 shell / 1 solid face.  Side arrays (2f,), side 2i = front
+    of face i: ``emissivity absorptivity specular transmissivity transmission_specular`` and ``active``.
+    ``W`` (f, n_dof) sparse averaging weights (rows sum to 1): face value = W @ nodal value.
+    """
+
+    nodes: np.ndarray
+    dofs: np.ndarray
+    shares: np.ndarray
+    area: np.ndarray
+    normal: np.ndarray
+    element: np.ndarray
+    part: np.ndarray
+    kind: np.ndarray
+    emissivity: np.ndarray
+    absorptivity: np.ndarray
+    specular: np.ndarray
+    transmissivity: np.ndarray
+    transmission_specular: np.ndarray
+    active: np.ndarray
+    W: sp.csr_matrix
+
+    @property
+    def n(self) -> int:
+        return len(self.area)
+
+
+@dataclass(frozen=True)
+class FEModel:
+    """Assembled detailed model (DOF numbering).  Units: W/K, J/K, m², m³, W, K."""
+
+    mesh: Mesh
+    parts: tuple[PartInfo, ...]
+    node_dof: np.ndarray  # (n_nodes,) DOF of each mesh node, -1 if not in the model
+    n_dof: int
+    elements: np.ndarray  # (m,) global element indices of the thermal elements (sorted)
+    element_part: np.ndarray  # (m,) part index
+    element_dofs: np.ndarray  # (m, 8) DOFs padded with -1
+    volume_shares: np.ndarray  # (m, 8) m³ per element node
+    capacity_shares: np.ndarray | None  # (m, 8) J/K, None when some part lacks density/specific heat
+    coo: ElementCOO  # conduction element matrices (DOF numbering, elem = position in ``elements``)
+    K: sp.csr_matrix
+    volume: np.ndarray  # (n_dof,) m³
+    capacity: np.ndarray | None  # (n_dof,) J/K
+    faces: Faces
+    Q: np.ndarray  # (n_dof,) applied loads, W
+    fixed: tuple[FixedGroup, ...]
+    T_sink: float
+    loads: dict = field(default_factory=dict)  # boundary name -> W applied
+
+    @property
+    def fixed_mask(self) -> np.ndarray:
+        m = np.zeros(self.n_dof, bool)
+        m[[g.dof for g in self.fixed]] = True
+        return m
+
+    @property
+    def fixed_values(self) -> np.ndarray:
+        v = np.zeros(self.n_dof)
+        for g in self.fixed:
+            v[g.dof] = g.T
+        return v
+
+    def space_coupling(self) -> np.ndarray:
+        """(n_dof,) εA (m²) of every DOF to space, summed over the active sides of its faces."""
+        f = self.faces
+        eps_active = (f.emissivity * f.active).reshape(-1, 2).sum(axis=1)  # per face, both sides
+        vals = f.shares * eps_active[:, None]
+        ok = f.dofs >= 0
+        return np.bincount(f.dofs[ok], weights=vals[ok], minlength=self.n_dof)
+
+    def node_temperatures(self, T_dof: np.ndarray) -> np.ndarray:
+        """(n_nodes,) temperatures of every mesh node (NaN for nodes outside the model)."""
+        out = np.full(len(self.node_dof), np.nan)
+        ok = self.node_dof >= 0
+        out[ok] = T_dof[self.node_dof[ok]]
+        return out
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
+    owner = np.full(mesh.n_elements, -1, np.int64)
+    parts = []
+    for p in case.parts:
+        els = []
+        for g in p.groups:
+            grp = mesh.group(g, where=f"{case.source}: [[parts]] {p.name!r}.groups")
+            if len(grp.elements) == 0:
+                raise Fem2TmmError(
+                    f"{case.source}: [[parts]] {p.name!r}: group {g!r} holds only nodes (a {grp.dim}-D group); "
+                    "parts need surface (2-D) or volume (3-D) element groups"
+                )
+            els.append(grp.elements)
+        el = np.unique(np.concatenate(els))
+        clash = el[owner[el] >= 0]
+        if len(clash):
+            other = case.parts[int(owner[clash[0]])].name
+            raise Fem2TmmError(
+                f"{case.source}: elements {format_ids(mesh.element_ids[clash])} belong to parts {other!r} and "
+                f"{p.name!r}; each element may be in one part only"
+            )
+        owner[el] = p.index
+        dims = np.unique(mesh.element_dims[el])
+        if len(dims) > 1:
+            raise Fem2TmmError(
+                f"{case.source}: [[parts]] {p.name!r} mixes shell and solid elements; split it into two parts"
+            )
+        parts.append(PartInfo(p.name, "shell" if dims[0] == 2 else "solid", el, p.super_nodes, p.quadric))
+    return parts, owner
+
+
+def _properties(mesh: Mesh, case, parts, owner) -> dict[str, np.ndarray]:
+    """Per-element conductivity, density, specific heat, thickness from the case, else from the mesh."""
+    m = mesh.n_elements
+    props = {k: np.full(m, np.nan) for k in ("k", "rho", "cp", "t")}
+    # mesh-provided data per element (Nastran PIDs)
+    for gname, pdata in mesh.properties.items():
+        grp = mesh.groups.get(gname)
+        if grp is None:
+            continue
+        for key, attr in (("k", "conductivity"), ("rho", "density"), ("cp", "specific_heat"), ("t", "thickness")):
+            v = getattr(pdata, attr)
+            if v is not None:
+                props[key][grp.elements] = v
+    for cp, info in zip(case.parts, parts):
+        el = info.elements
+        if cp.material is not None:
+            mat = case.materials[cp.material]
+            props["k"][el] = mat.conductivity
+            props["rho"][el] = np.nan if mat.density is None else mat.density
+            props["cp"][el] = np.nan if mat.specific_heat is None else mat.specific_heat
+        if cp.thickness is not None:
+            props["t"][el] = cp.thickness
+        if np.isnan(props["k"][el]).any():
+            raise Fem2TmmError(
+                f"{case.source}: [[parts]] {cp.name!r} has no material: set 'material' (a [materials] entry) "
+                "or use a Nastran deck whose PSHELL/PSOLID reference a MAT4 with K"
+            )
+        if info.kind == "shell" and np.isnan(props["t"][el]).any():
+            raise Fem2TmmError(
+                f"{case.source}: [[parts]] {cp.name!r} is a shell part without thickness: set 'thickness' (m) "
+                "or use a Nastran deck with PSHELL T"
+            )
+    return props
+
+
+def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Mirror negatively oriented solids; raise on degenerate or inverted elements.  Returns cells."""
+    cells = cells.copy()
+    size = float(np.ptp(mesh.points[np.unique(cells[cells >= 0])], axis=0).max()) if len(cells) else 1.0
+    for code in np.unique(types):
+        t = _CODE_TYPE[int(code)]
+        sel = np.flatnonzero(types == code)
+        c = cells[sel, : RULES[t].N.shape[1]]
+        if t in SHELL_TYPES:
+            _, dA, nq = shell_metric(mesh.points, c, t)
+            area = dA @ RULES[t].w
+            bad = area <= 1e-12 * size**2
+            if t == "quad4":
+                nbar = nq.sum(axis=1)
+                bad |= (np.einsum("mqc,mc->mq", nq, nbar) <= 0).any(axis=1)
+                # corners: a non-convex or bow-tie quad has a corner whose normal opposes the element's
+                X = mesh.points[c]
+                corner = np.cross(np.roll(X, -1, axis=1) - X, np.roll(X, 1, axis=1) - X)
+                bad |= (np.einsum("mkc,mc->mk", corner, nbar) <= 0).any(axis=1)
+            if bad.any():
+                raise Fem2TmmError(
+                    f"{mesh.source}: {t} elements {format_ids(mesh.element_ids[elements[sel[bad]]])} have zero area "
+                    "or an inverted/non-convex (bow-tie) shape; fix or remove them in the mesh"
+                )
+        else:
+            _, det = solid_jacobian(mesh.points, c, t)
+            vol = det @ RULES[t].w
+            neg = vol < 0
+            if neg.any():
+                c[neg] = c[neg][:, list(MIRROR[t])]
+                cells[sel[neg], : c.shape[1]] = c[neg]
+                _, det = solid_jacobian(mesh.points, c, t)
+                vol = det @ RULES[t].w
+            bad = (det <= 0).any(axis=1) | (np.abs(vol) <= 1e-12 * size**3)
+            if bad.any():
+                raise Fem2TmmError(
+                    f"{mesh.source}: {t} elements {format_ids(mesh.element_ids[elements[sel[bad]]])} have zero volume "
+                    "or an inverted Jacobian (distorted or wrongly numbered nodes); fix them in the mesh"
+                )
+    return cells
+
+
+def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarray):
+    """Outer faces of the solids: ((F, 4) node indices padded -1, (F,) position in ``cells``)."""
+    facelist, owner = [], []
+    for code in np.unique(types):
+        t = _CODE_TYPE[int(code)]
+        if t not in SOLID_TYPES:
+            continue
+        sel = np.flatnonzero(types == code)
+        for f in SOLID_FACES[t]:
+            fc = np.full((len(sel), 4), -1, np.int64)
+            fc[:, : len(f)] = cells[sel][:, list(f)]
+            facelist.append(fc)
+            owner.append(elem_pos[sel])
+    if not facelist:
+        return np.zeros((0, 4), np.int64), np.zeros(0, np.int64)
+    F = np.concatenate(facelist)
+    own = np.concatenate(owner)
+    key = np.sort(np.where(F < 0, np.iinfo(np.int64).max, F), axis=1)
+    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    outer = cnt[inv.ravel()] == 1
+    return F[outer], own[outer]
+
+
+# ------------------------------------------------------------------------------------------ builder
+def build_model(mesh: Mesh, case) -> FEModel:
+    """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring)."""
+    mesh.validate()
+    parts, owner = _part_elements(mesh, case)
+    props = _properties(mesh, case, parts, owner)
+    elements = np.flatnonzero(owner >= 0)
+    unused = mesh.n_elements - len(elements)
+    types = mesh.element_types[elements]
+    cells = _check_and_orient(mesh, elements, types, mesh.padded_cells[elements])
+    epart = owner[elements]
+
+    # ---- DOFs: nodes of thermal elements, fixed-temperature groups merged
+    n_nodes = mesh.n_nodes
+    in_model = np.zeros(n_nodes, bool)
+    in_model[cells[cells >= 0]] = True
+    rep = np.arange(n_nodes)
+    node_boundary = np.full(n_nodes, -1, np.int64)
+    fixed_specs = []
+    for b in case.boundaries:
+        if b.kind != "temperature":
+            continue
+        nodes = _boundary_nodes(mesh, case, b)
+        nodes = nodes[in_model[nodes]]
+        if len(nodes) == 0:
+            raise Fem2TmmError(
+                f"{case.source}: [[boundary]] {b.name!r} (temperature) touches no node of the thermal model's "
+                "elements; check its groups/nodes"
+            )
+        clash = nodes[node_boundary[nodes] >= 0]
+        if len(clash):
+            other = case.boundaries[int(node_boundary[clash[0]])].name
+            raise Fem2TmmError(
+                f"{case.source}: nodes {format_ids(mesh.node_ids[clash])} are in two temperature boundaries "
+                f"({other!r} and {b.name!r}); merge them or make them disjoint"
+            )
+        node_boundary[nodes] = b.index
+        rep[nodes] = nodes[0]
+        fixed_specs.append((b, nodes))
+    used_rep = rep[in_model]
+    uniq, inv = np.unique(used_rep, return_inverse=True)
+    dof_of_rep = np.full(n_nodes, -1, np.int64)
+    dof_of_rep[uniq] = np.arange(len(uniq))
+    node_dof = np.full(n_nodes, -1, np.int64)
+    node_dof[in_model] = dof_of_rep[used_rep]
+    n_dof = len(uniq)
+    fixed = tuple(FixedGroup(b.name, b.value, int(node_dof[nodes[0]]), nodes) for b, nodes in fixed_specs)
+
+    # ---- element integrals
+    element_dofs = np.where(cells >= 0, node_dof[np.maximum(cells, 0)], -1)
+    vshares = np.zeros(cells.shape)
+    coos = []
+    for code in np.unique(types):
+        t = _CODE_TYPE[int(code)]
+        sel = np.flatnonzero(types == code)
+        nk = RULES[t].N.shape[1]
+        c = cells[sel, :nk]
+        el = elements[sel]
+        thick = props["t"][el] if t in SHELL_TYPES else None
+        Ke = conduction_matrices(mesh.points, c, t, props["k"][el], thick)
+        coos.append(to_coo(element_dofs[sel, :nk], Ke, sel))
+        vshares[sel, :nk] = volume_shares(mesh.points, c, t, thick)
+    coo = ElementCOO.concatenate(coos)
+    K = coo.tocsr(n_dof)
+    K.sum_duplicates()
+    ok = element_dofs >= 0
+    volume = np.bincount(element_dofs[ok], weights=vshares[ok], minlength=n_dof)
+    rc = props["rho"][elements] * props["cp"][elements]
+    if np.isnan(rc).any():
+        cshares, capacity = None, None
+    else:
+        cshares = vshares * rc[:, None]
+        capacity = np.bincount(element_dofs[ok], weights=cshares[ok], minlength=n_dof)
+
+    faces = _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof)
+
+    # ---- loads
+    Q = np.zeros(n_dof)
+    loads = {}
+    for b in case.boundaries:
+        if b.kind == "temperature":
+            continue
+        q = _load_vector(mesh, case, b, node_dof, n_dof)
+        Q += q
+        loads[b.name] = float(q.sum())
+    if unused:
+        used_by_bc = set()
+        for b in case.boundaries:
+            for g in b.groups:
+                used_by_bc.update(mesh.groups[g].elements.tolist() if g in mesh.groups else [])
+        stray = np.setdiff1d(np.flatnonzero(owner < 0), np.fromiter(used_by_bc, np.int64, len(used_by_bc)))
+        if len(stray):
+            warnings.warn(
+                f"{mesh.source}: {len(stray)} element(s) belong to no part and carry no boundary condition; they are "
+                f"not part of the thermal model (ids {format_ids(mesh.element_ids[stray])})",
+                stacklevel=2,
+            )
+    return FEModel(mesh=mesh, parts=tuple(parts), node_dof=node_dof, n_dof=n_dof, elements=elements,
+                   element_part=epart, element_dofs=element_dofs, volume_shares=vshares, capacity_shares=cshares,
+                   coo=coo, K=K, volume=volume, capacity=capacity, faces=faces, Q=Q, fixed=fixed,
+                   T_sink=case.environment.sink_temperature, loads=loads)
+
+
+def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:
+    nodes = [mesh.group(g, where=f"{case.source}: [[boundary]] {b.name!r}.groups").nodes for g in b.groups]
+    if b.nodes:
+        ids = np.asarray(b.nodes, np.int64)
+        order = np.argsort(mesh.node_ids)
+        pos = np.searchsorted(mesh.node_ids, ids, sorter=order)
+        pos = np.minimum(pos, len(order) - 1)
+        idx = order[pos]
+        missing = ids[mesh.node_ids[idx] != ids]
+        if len(missing):
+            raise Fem2TmmError(
+                f"{case.source}: [[boundary]] {b.name!r}.nodes: node ids {format_ids(missing)} are not in mesh {mesh.source}"
+            )
+        nodes.append(idx)
+    return np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
+
+
+def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
+    """Nodal loads (n_dof,) W of a power or flux boundary."""
+    where = f"{case.source}: [[boundary]] {b.name!r} ({b.kind})"
+    el = [mesh.group(g, where=where).elements for g in b.groups]
+    el = np.unique(np.concatenate(el)) if el else np.zeros(0, np.int64)
+    node_groups = [g for g in b.groups if len(mesh.groups[g].elements) == 0]
+    nodal = np.zeros(mesh.n_nodes)
+    if len(el):
+        dims = np.unique(mesh.element_dims[el])
+        if len(dims) > 1:
+            raise Fem2TmmError(f"{where}: its groups mix surface and volume elements; use one kind")
+        for t, c, _ in mesh.iter_blocks(el):
+            if t in SHELL_TYPES:
+                sh = area_shares(mesh.points, c, t)
+            else:
+                if b.kind == "flux":
+                    raise Fem2TmmError(f"{where}: a flux (W/m²) needs a surface group; {b.groups} holds volume elements")
+                sh = volume_shares(mesh.points, c, t)
+            np.add.at(nodal, c.ravel(), sh.ravel())
+        total = nodal.sum()
+        if b.kind == "power":
+            nodal *= b.value / total
+        else:
+            nodal *= b.value
+    if node_groups or b.nodes:
+        if b.kind == "flux":
+            raise Fem2TmmError(f"{where}: a flux (W/m²) needs surface groups, not node groups or node ids")
+        if len(el):
+            raise Fem2TmmError(f"{where}: give either element groups or nodes for a power boundary, not both")
+        nodes = _boundary_nodes(mesh, case, b)
+        nodal[nodes] = b.value / len(nodes)
+    ok = node_dof >= 0
+    lost = np.abs(nodal[~ok]).sum()
+    if lost > 1e-12 * max(np.abs(nodal).sum(), 1e-300):
+        raise Fem2TmmError(f"{where}: the load falls on nodes that belong to no thermal element; check its groups")
+    return np.bincount(node_dof[ok], weights=nodal[ok], minlength=n_dof)
+
+
+def _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof) -> Faces:
+    shell = np.isin(types, [TYPE_CODE[t] for t in SHELL_TYPES])
+    pos = np.arange(len(elements))
+    sf = np.full((shell.sum(), 4), -1, np.int64)
+    sf[:, :] = cells[shell, :4]
+    sf[types[shell] == TYPE_CODE["tri3"], 3] = -1
+    of, own = _solid_outer_faces(cells, types, pos)
+    fnodes = np.concatenate([sf, of])
+    fpos = np.concatenate([pos[shell], own])
+    kind = np.concatenate([np.zeros(len(sf), np.int8), np.ones(len(of), np.int8)])
+    nf = len(fnodes)
+    area = np.zeros(nf)
+    normal = np.zeros((nf, 3))
+    shares = np.zeros((nf, 4))
+    for t, nk in (("tri3", 3), ("quad4", 4)):
+        sel = np.flatnonzero((fnodes[:, 3] < 0) if nk == 3 else (fnodes[:, 3] >= 0))
+        if not len(sel):
+            continue
+        c = fnodes[sel, :nk]
+        sh = area_shares(mesh.points, c, t)
+        shares[sel, :nk] = sh
+        area[sel] = sh.sum(axis=1)
+        _, _, n = shell_metric(mesh.points, c, t)
+        nn = n.sum(axis=1)
+        normal[sel] = nn / np.linalg.norm(nn, axis=1, keepdims=True)
+    part = epart[fpos]
+    # side optics
+    eps = np.zeros(2 * nf); alpha = np.zeros(2 * nf); spec = np.zeros(2 * nf)
+    tau = np.zeros(2 * nf); tspec = np.ones(2 * nf); active = np.zeros(2 * nf, bool)
+    for cp in case.parts:
+        for side, oname in ((0, cp.front), (1, cp.back)):
+            sel = np.flatnonzero(part == cp.index)
+            if parts[cp.index].kind == "solid" and side == 1:
+                continue  # back sides of solid outer faces are inside the material
+            if oname == "none" or not len(sel):
+                continue
+            o = case.optics[oname]
+            s = 2 * sel + side
+            eps[s], alpha[s], spec[s], tau[s], tspec[s] = (o.emissivity, o.absorptivity, o.specular,
+                                                           o.transmissivity, o.transmission_specular)
+            active[s] = True
+    fd = np.where(fnodes >= 0, node_dof[np.maximum(fnodes, 0)], -1)
+    ok = fd >= 0
+    rows = np.repeat(np.arange(nf), 4).reshape(nf, 4)
+    W = sp.csr_matrix(((shares / area[:, None])[ok], (rows[ok], fd[ok])), shape=(nf, n_dof))
+    W.sum_duplicates()
+    return Faces(nodes=fnodes, dofs=fd, shares=shares, area=area, normal=normal, element=elements[fpos],
+                 part=part, kind=kind, emissivity=eps, absorptivity=alpha, specular=spec, transmissivity=tau,
+                 transmission_specular=tspec, active=active, W=W)
