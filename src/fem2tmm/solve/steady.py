@@ -199,6 +199,13 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         dT = np.asarray(lin_solve(J, -r[free])).ravel()
         if not np.all(np.isfinite(dT)):
             raise Fem2TmmError("the steady solve failed (singular or ill-conditioned system); check boundary conditions")
+        full = float(np.max(np.abs(dT))) if len(dT) else 0.0
+        if full < tol or full < 1e-13 * float(np.max(np.abs(T))):
+            # converged: the step is below the tolerance (or round-off); take it without line search
+            T[free] += dT
+            r = res(T)
+            step, converged = full, True
+            break
         # positivity: never let a temperature drop by more than 80 % in one step
         a = 1.0
         dec = dT < 0
@@ -216,8 +223,6 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         r = res(T)
         rn = np.linalg.norm(r[free])
         step = float(np.max(np.abs(a * dT))) if len(dT) else 0.0
-        if a == 1.0 and (step < tol or step < 1e-13 * float(np.max(np.abs(T)))):
-            converged = True
     if not converged:
         raise Fem2TmmError(
             f"the steady solve did not converge in {max_iter} Newton iterations (last max |ΔT| = {step:.3g} K); "
@@ -230,7 +235,8 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     fixed_in = float(np.sum(heat_fixed))
     space = float(np.sum(to_space))
     imbalance = applied + fixed_in - space
-    scale = max(abs(applied), abs(fixed_in), abs(space), 1e-300)
+    # relative to the gross heat flows (two fixed nodes may exchange heat with a zero net sum)
+    scale = max(float(np.abs(problem.Q).sum()), float(np.abs(heat_fixed).sum()), float(np.abs(to_space).sum()), 1e-300)
     balance = {"applied_W": applied, "fixed_W": fixed_in, "space_W": space, "imbalance_W": imbalance,
                "relative": abs(imbalance) / scale if scale > 1e-300 else 0.0}
     return SteadySolution(T=T, iterations=it, converged=converged, max_step=step, heat_fixed=heat_fixed,
