@@ -1,0 +1,21 @@
+"""Super nodes and the exact conductive reduction (thesis §4.3, DESIGN §3.2–3.3).
+
+Pure functions on arrays: :func:`build_supernodes` (A), :func:`reduce_conduction` (K_SN with
+``distribute`` / ``recover``), capacitance of the super nodes, and the TMRT link filter.
+"""
+
+from __future__ import annotations
+
+from .capacitance import cluster_capacitance, equivalent_capacitance, supernode_capacitance
+from .conduction import ConductiveReduction, reduce_conduction
+from .supernodes import SuperNodes, build_supernodes
+
+__all__ = [
+    "SuperNodes",
+    "build_supernodes",
+    "ConductiveReduction",
+    "reduce_conduction",
+    "cluster_capacitance",
+    "supernode_capacitance",
+    "equivalent_capacitance",
+]
