@@ -1,0 +1,95 @@
+"""Benchmarks of the mesh readers (wired into ``fem2tmm bench``).
+
+Each function returns a list of dicts, one per measurement, with the median of repeated timings.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import statistics
+import tempfile
+import time
+import tracemalloc
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["bench_nastran", "write_plate_deck"]
+
+
+def write_plate_deck(path, nx: int, ny: int, size: float = 1.0) -> Path:
+    """Write a flat square plate of ``nx`` x ``ny`` CQUAD4 in small-field Nastran format.
+
+    GRID ids ``1 .. (nx+1)(ny+1)`` row by row (x fastest), element ids ``1 .. nx ny``, one PSHELL
+    (PID 1, t = 1e-3) and one MAT4 (MID 1, aluminium in SI).  ``size`` is the side length in deck
+    units.  Returns the path.
+    """
+    path = Path(path)
+    i, j = np.meshgrid(np.arange(nx + 1), np.arange(ny + 1))
+    x = (i.ravel() * (size / nx)).tolist()
+    y = (j.ravel() * (size / ny)).tolist()
+    n1 = nx + 1
+    with open(path, "w") as f:
+        f.write("BEGIN BULK\n")
+        f.write("PSHELL         1       1   0.001\n")
+        f.write("MAT4           1    170.    900.   2700.\n")
+        f.writelines(f"GRID    {k + 1:8d}        {a:8.6f}{b:8.6f}      0.\n" for k, (a, b) in enumerate(zip(x, y)))
+        e = np.arange(nx * ny)
+        r, c = np.divmod(e, nx)
+        g1 = (r * n1 + c + 1).tolist()
+        f.writelines(
+            f"CQUAD4  {k + 1:8d}       1{a:8d}{a + 1:8d}{a + n1 + 1:8d}{a + n1:8d}\n" for k, a in enumerate(g1)
+        )
+        f.write("ENDDATA\n")
+    return path
+
+
+def bench_nastran(n_side: int = 1000, repeats: int = 3, workdir=None) -> list[dict]:
+    """Read a generated ``n_side`` x ``n_side`` CQUAD4 small-field deck (10^6 elements by default).
+
+    Returns one dict: ``name``, ``elements``, ``nodes``, ``file_MB``, ``median_s`` (wall time of
+    :func:`fem2tmm.io.nastran.read_nastran`), ``times_s`` (every repeat), ``peak_MB`` (peak of the
+    memory traced by ``tracemalloc`` during one further read, numpy buffers included) and
+    ``write_s`` (time to generate the deck, not part of the measurement).
+    """
+    from .nastran import read_nastran
+
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        deck = Path(tmp) / "plate.bdf"
+        t0 = time.perf_counter()
+        write_plate_deck(deck, n_side, n_side)
+        write_s = time.perf_counter() - t0
+        times = []
+        mesh = None
+        for _ in range(repeats):
+            del mesh
+            gc.collect()
+            t0 = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                mesh = read_nastran(deck)
+            times.append(time.perf_counter() - t0)
+        n_el, n_nd = mesh.n_elements, mesh.n_nodes
+        del mesh
+        gc.collect()
+        tracemalloc.start()
+        try:
+            read_nastran(deck)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        size = os.path.getsize(deck)
+    return [
+        {
+            "name": "nastran_read",
+            "elements": int(n_el),
+            "nodes": int(n_nd),
+            "file_MB": round(size / 2**20, 1),
+            "median_s": round(statistics.median(times), 3),
+            "times_s": [round(t, 3) for t in times],
+            "peak_MB": round(peak / 2**20, 1),
+            "write_s": round(write_s, 2),
+        }
+    ]
