@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from .capacitance import cluster_capacitance, equivalent_capacitance, supernode_capacitance
 from .conduction import ConductiveReduction, reduce_conduction
+from .filters import filter_links, negative_links
 from .supernodes import SuperNodes, build_supernodes
 
 __all__ = [
@@ -18,4 +19,6 @@ __all__ = [
     "cluster_capacitance",
     "supernode_capacitance",
     "equivalent_capacitance",
+    "filter_links",
+    "negative_links",
 ]

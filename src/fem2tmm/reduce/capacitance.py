@@ -12,6 +12,11 @@ Two conserving choices are offered:
   rows sum to 1).  Hence ``Σ C_eq = 1ᵀ Y c = (Yᵀ1)ᵀ c = Σ c`` exactly.  Capacitance "conductively close" to a
   kept node is given to it; entries may be slightly negative for badly shaped super nodes.
 
+When A was built from the same capacitance shares the two coincide: the nodal capacitance is then
+``c = Aᵀ C_SN`` (each element share is counted once, in its own cluster's row) and ``Y Aᵀ = I`` gives
+``C_eq = C_SN``, with 0 for kept nodes.  They differ when A uses other weights (volumes with a varying ρ·c,
+areas for surface super nodes).
+
 Units: shares and capacitances in J/K (or m³ when volumes are used as weights in steady state).
 """
 
