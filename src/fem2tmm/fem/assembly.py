@@ -16,7 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .elements import RULES, SHELL_TYPES, SOLID_TYPES
-from .geometry import shell_metric, solid_jacobian
+from .geometry import inverse3, shell_metric, solid_jacobian
 
 
 @dataclass(frozen=True)
@@ -50,46 +50,91 @@ class ElementCOO:
         return ElementCOO(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("rows", "cols", "vals", "elem")))
 
 
+@dataclass(frozen=True)
+class BlockGeometry:
+    """Geometry of one element block at its quadrature points, computed once and reused.
+
+    ``measure`` (m, q): dA (shells, m²) or |det J| (solids, m³) per unit reference measure;
+    ``metric`` (m, q, 3): shells, inverse surface metric entries (g⁻¹₀₀, g⁻¹₀₁, g⁻¹₁₁);
+    ``Jinv`` (m, q, 3, 3): solids, dξ/dX; ``normal`` (m, q, 3) shells, un-normalised; ``det`` (m, q) solids, signed.
+    """
+
+    etype: str
+    measure: np.ndarray
+    metric: np.ndarray | None = None
+    Jinv: np.ndarray | None = None
+    normal: np.ndarray | None = None
+    det: np.ndarray | None = None
+
+
+def block_geometry(points: np.ndarray, cells: np.ndarray, etype: str, need_gradients: bool = True) -> BlockGeometry:
+    """Quadrature-point geometry of ``cells`` (m, k) of type ``etype``."""
+    rule = RULES[etype]
+    if etype in SHELL_TYPES:
+        J, dA, n = shell_metric(points, cells, etype, rule)
+        metric = None
+        if need_gradients:
+            a, b = J[..., 0], J[..., 1]
+            g00 = np.einsum("...c,...c->...", a, a)
+            g01 = np.einsum("...c,...c->...", a, b)
+            g11 = np.einsum("...c,...c->...", b, b)
+            det = np.where(dA > 0, dA * dA, 1.0)
+            metric = np.stack([g11 / det, -g01 / det, g00 / det], axis=-1)
+        return BlockGeometry(etype, dA, metric=metric, normal=n)
+    J, det = solid_jacobian(points, cells, etype, rule)
+    Jinv = inverse3(J, np.where(det != 0, det, 1.0)) if need_gradients else None
+    return BlockGeometry(etype, np.abs(det), Jinv=Jinv, det=det)
+
+
 def conduction_matrices(points: np.ndarray, cells: np.ndarray, etype: str, k: np.ndarray,
-                        thickness: np.ndarray | None = None) -> np.ndarray:
+                        thickness: np.ndarray | None = None, geom: BlockGeometry | None = None) -> np.ndarray:
     """Element conduction matrices (m, nk, nk) in W/K.
 
     Shells: ``t k ∫ ∇ₛNᵢ·∇ₛNⱼ dA`` with the surface gradient of the (possibly warped) element;
     solids: ``k ∫ ∇Nᵢ·∇Nⱼ dV``.  ``k`` (m,) W/(m K); ``thickness`` (m,) m for shells.
     """
     rule = RULES[etype]
+    geom = block_geometry(points, cells, etype) if geom is None else geom
+    m, nk = cells.shape
+    q = len(rule.w)
+    wm = geom.measure * rule.w  # (m, q)
     if etype in SHELL_TYPES:
-        J, dA, _ = shell_metric(points, cells, etype, rule)
-        G = np.einsum("mqcd,mqce->mqde", J, J)
-        Ginv = np.linalg.inv(G)
-        Ke = np.einsum("q,mq,qad,mqde,qbe->mab", rule.w, dA, rule.dN, Ginv, rule.dN)
+        # K_ab = Σ_q w dA Σ_de dN_ad g⁻¹_de dN_be: three (m, q) x (q, k²) products
+        dN = rule.dN
+        P00 = np.einsum("qa,qb->qab", dN[..., 0], dN[..., 0]).reshape(q, nk * nk)
+        P11 = np.einsum("qa,qb->qab", dN[..., 1], dN[..., 1]).reshape(q, nk * nk)
+        P01 = np.einsum("qa,qb->qab", dN[..., 0], dN[..., 1])
+        P01 = (P01 + P01.transpose(0, 2, 1)).reshape(q, nk * nk)
+        g = geom.metric
+        Ke = (wm * g[..., 0]) @ P00 + (wm * g[..., 1]) @ P01 + (wm * g[..., 2]) @ P11
+        Ke = Ke.reshape(m, nk, nk)
         return Ke * (np.asarray(k) * np.asarray(thickness))[:, None, None]
-    J, det = solid_jacobian(points, cells, etype, rule)
-    Jinv = np.linalg.inv(J)  # dxi/dX
-    grad = np.einsum("qkd,mqdc->mqkc", rule.dN, Jinv)
-    Ke = np.einsum("q,mq,mqac,mqbc->mab", rule.w, np.abs(det), grad, grad)
+    Ke = np.zeros((m, nk, nk))
+    for i in range(q):
+        grad = np.matmul(rule.dN[i][None, :, :], geom.Jinv[:, i])  # (m, k, 3) = dN/dξ · dξ/dX
+        Ke += wm[:, i, None, None] * np.matmul(grad, grad.transpose(0, 2, 1))
     return Ke * np.asarray(k)[:, None, None]
 
 
 def volume_shares(points: np.ndarray, cells: np.ndarray, etype: str,
-                  thickness: np.ndarray | None = None) -> np.ndarray:
+                  thickness: np.ndarray | None = None, geom: BlockGeometry | None = None) -> np.ndarray:
     """Row-sum lumped volume of each element node, ``∫ Nᵢ dV`` (m, nk) in m³ (shells: x thickness).
 
     Rows sum to the element volume; tri3/tet4 and undistorted quad4/hex8/wedge6 give equal shares.
     """
     rule = RULES[etype]
+    geom = block_geometry(points, cells, etype, need_gradients=False) if geom is None else geom
+    sh = (geom.measure * rule.w) @ rule.N
     if etype in SHELL_TYPES:
-        _, dA, _ = shell_metric(points, cells, etype, rule)
-        return np.einsum("q,mq,qk->mk", rule.w, dA, rule.N) * np.asarray(thickness)[:, None]
-    _, det = solid_jacobian(points, cells, etype, rule)
-    return np.einsum("q,mq,qk->mk", rule.w, np.abs(det), rule.N)
+        return sh * np.asarray(thickness)[:, None]
+    return sh
 
 
-def area_shares(points: np.ndarray, cells: np.ndarray, etype: str) -> np.ndarray:
+def area_shares(points: np.ndarray, cells: np.ndarray, etype: str, geom: BlockGeometry | None = None) -> np.ndarray:
     """``∫ Nᵢ dA`` over shell (or face) elements (m, nk) in m²; rows sum to the element area."""
     rule = RULES[etype]
-    _, dA, _ = shell_metric(points, cells, etype, rule)
-    return np.einsum("q,mq,qk->mk", rule.w, dA, rule.N)
+    geom = block_geometry(points, cells, etype, need_gradients=False) if geom is None else geom
+    return (geom.measure * rule.w) @ rule.N
 
 
 def to_coo(cells: np.ndarray, Ke: np.ndarray, elem: np.ndarray) -> ElementCOO:
@@ -97,7 +142,7 @@ def to_coo(cells: np.ndarray, Ke: np.ndarray, elem: np.ndarray) -> ElementCOO:
     m, nk = cells.shape
     rows = np.repeat(cells, nk, axis=1).ravel()
     cols = np.tile(cells, (1, nk)).ravel()
-    return ElementCOO(rows.astype(np.int64), cols.astype(np.int64), Ke.ravel(),
+    return ElementCOO(rows.astype(np.int64, copy=False), cols.astype(np.int64, copy=False), Ke.ravel(),
                       np.repeat(np.asarray(elem, np.int64), nk * nk))
 
 
@@ -109,6 +154,8 @@ def scatter_shares(cells: np.ndarray, shares: np.ndarray, n: int, weights: np.nd
 
 __all__ = [
     "ElementCOO",
+    "BlockGeometry",
+    "block_geometry",
     "conduction_matrices",
     "volume_shares",
     "area_shares",

@@ -24,9 +24,9 @@ import scipy.sparse as sp
 
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
-from .assembly import ElementCOO, area_shares, conduction_matrices, to_coo, volume_shares
+from .assembly import ElementCOO, area_shares, block_geometry, conduction_matrices, to_coo, volume_shares
 from .elements import MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
-from .geometry import shell_metric, solid_jacobian
+from .geometry import cross, solid_jacobian
 
 _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
 
@@ -131,6 +131,14 @@ class FEModel:
 
 
 # ------------------------------------------------------------------------------------------ helpers
+def _union(index_arrays, n: int) -> np.ndarray:
+    """Sorted union of index arrays in [0, n) (a mask: linear time, unlike a hash/sort unique)."""
+    mask = np.zeros(n, bool)
+    for a in index_arrays:
+        mask[a] = True
+    return np.flatnonzero(mask)
+
+
 def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
     owner = np.full(mesh.n_elements, -1, np.int64)
     parts = []
@@ -144,7 +152,7 @@ def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
                     "parts need surface (2-D) or volume (3-D) element groups"
                 )
             els.append(grp.elements)
-        el = np.unique(np.concatenate(els))
+        el = _union(els, mesh.n_elements)
         clash = el[owner[el] >= 0]
         if len(clash):
             other = case.parts[int(owner[clash[0]])].name
@@ -153,8 +161,8 @@ def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
                 f"{p.name!r}; each element may be in one part only"
             )
         owner[el] = p.index
-        dims = np.unique(mesh.element_dims[el])
-        if len(dims) > 1:
+        dims = mesh.element_dims[el]
+        if dims.min() != dims.max():
             raise Fem2TmmError(
                 f"{case.source}: [[parts]] {p.name!r} mixes shell and solid elements; split it into two parts"
             )
@@ -197,24 +205,30 @@ def _properties(mesh: Mesh, case, parts, owner) -> dict[str, np.ndarray]:
     return props
 
 
-def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Mirror negatively oriented solids; raise on degenerate or inverted elements.  Returns cells."""
+def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells: np.ndarray):
+    """Mirror negatively oriented solids; raise on degenerate or inverted elements.
+
+    Returns ``(cells, blocks)`` with ``blocks`` a list of ``(etype, rows, cells_of_rows, BlockGeometry)``.
+    """
     cells = cells.copy()
-    size = float(np.ptp(mesh.points[np.unique(cells[cells >= 0])], axis=0).max()) if len(cells) else 1.0
+    size = float(np.ptp(mesh.points, axis=0).max()) or 1.0
+    blocks = []
     for code in np.unique(types):
         t = _CODE_TYPE[int(code)]
         sel = np.flatnonzero(types == code)
-        c = cells[sel, : RULES[t].N.shape[1]]
+        nk = RULES[t].N.shape[1]
+        c = cells[sel, :nk]
         if t in SHELL_TYPES:
-            _, dA, nq = shell_metric(mesh.points, c, t)
-            area = dA @ RULES[t].w
+            geom = block_geometry(mesh.points, c, t)
+            area = geom.measure @ RULES[t].w
             bad = area <= 1e-12 * size**2
             if t == "quad4":
+                nq = geom.normal
                 nbar = nq.sum(axis=1)
                 bad |= (np.einsum("mqc,mc->mq", nq, nbar) <= 0).any(axis=1)
                 # corners: a non-convex or bow-tie quad has a corner whose normal opposes the element's
                 X = mesh.points[c]
-                corner = np.cross(np.roll(X, -1, axis=1) - X, np.roll(X, 1, axis=1) - X)
+                corner = cross(np.roll(X, -1, axis=1) - X, np.roll(X, 1, axis=1) - X)
                 bad |= (np.einsum("mkc,mc->mk", corner, nbar) <= 0).any(axis=1)
             if bad.any():
                 raise Fem2TmmError(
@@ -223,20 +237,20 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
                 )
         else:
             _, det = solid_jacobian(mesh.points, c, t)
-            vol = det @ RULES[t].w
-            neg = vol < 0
+            neg = (det @ RULES[t].w) < 0
             if neg.any():
                 c[neg] = c[neg][:, list(MIRROR[t])]
-                cells[sel[neg], : c.shape[1]] = c[neg]
-                _, det = solid_jacobian(mesh.points, c, t)
-                vol = det @ RULES[t].w
-            bad = (det <= 0).any(axis=1) | (np.abs(vol) <= 1e-12 * size**3)
+                cells[sel[neg], :nk] = c[neg]
+            geom = block_geometry(mesh.points, c, t)
+            vol = geom.det @ RULES[t].w
+            bad = (geom.det <= 0).any(axis=1) | (np.abs(vol) <= 1e-12 * size**3)
             if bad.any():
                 raise Fem2TmmError(
                     f"{mesh.source}: {t} elements {format_ids(mesh.element_ids[elements[sel[bad]]])} have zero volume "
                     "or an inverted Jacobian (distorted or wrongly numbered nodes); fix them in the mesh"
                 )
-    return cells
+        blocks.append((t, sel, c, geom))
+    return cells, blocks
 
 
 def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarray):
@@ -271,7 +285,7 @@ def build_model(mesh: Mesh, case) -> FEModel:
     elements = np.flatnonzero(owner >= 0)
     unused = mesh.n_elements - len(elements)
     types = mesh.element_types[elements]
-    cells = _check_and_orient(mesh, elements, types, mesh.padded_cells[elements])
+    cells, blocks = _check_and_orient(mesh, elements, types, mesh.padded_cells[elements])
     epart = owner[elements]
 
     # ---- DOFs: nodes of thermal elements, fixed-temperature groups merged
@@ -314,16 +328,13 @@ def build_model(mesh: Mesh, case) -> FEModel:
     element_dofs = np.where(cells >= 0, node_dof[np.maximum(cells, 0)], -1)
     vshares = np.zeros(cells.shape)
     coos = []
-    for code in np.unique(types):
-        t = _CODE_TYPE[int(code)]
-        sel = np.flatnonzero(types == code)
-        nk = RULES[t].N.shape[1]
-        c = cells[sel, :nk]
+    for t, sel, c, geom in blocks:
+        nk = c.shape[1]
         el = elements[sel]
         thick = props["t"][el] if t in SHELL_TYPES else None
-        Ke = conduction_matrices(mesh.points, c, t, props["k"][el], thick)
+        Ke = conduction_matrices(mesh.points, c, t, props["k"][el], thick, geom=geom)
         coos.append(to_coo(element_dofs[sel, :nk], Ke, sel))
-        vshares[sel, :nk] = volume_shares(mesh.points, c, t, thick)
+        vshares[sel, :nk] = volume_shares(mesh.points, c, t, thick, geom=geom)
     coo = ElementCOO.concatenate(coos)
     K = coo.tocsr(n_dof)
     K.sum_duplicates()
@@ -336,7 +347,7 @@ def build_model(mesh: Mesh, case) -> FEModel:
         cshares = vshares * rc[:, None]
         capacity = np.bincount(element_dofs[ok], weights=cshares[ok], minlength=n_dof)
 
-    faces = _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof)
+    faces = _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof, blocks)
 
     # ---- loads
     Q = np.zeros(n_dof)
@@ -385,13 +396,12 @@ def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:
 def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
     """Nodal loads (n_dof,) W of a power or flux boundary."""
     where = f"{case.source}: [[boundary]] {b.name!r} ({b.kind})"
-    el = [mesh.group(g, where=where).elements for g in b.groups]
-    el = np.unique(np.concatenate(el)) if el else np.zeros(0, np.int64)
+    el = _union([mesh.group(g, where=where).elements for g in b.groups], mesh.n_elements)
     node_groups = [g for g in b.groups if len(mesh.groups[g].elements) == 0]
     nodal = np.zeros(mesh.n_nodes)
     if len(el):
-        dims = np.unique(mesh.element_dims[el])
-        if len(dims) > 1:
+        dims = mesh.element_dims[el]
+        if dims.min() != dims.max():
             raise Fem2TmmError(f"{where}: its groups mix surface and volume elements; use one kind")
         for t, c, _ in mesh.iter_blocks(el):
             if t in SHELL_TYPES:
@@ -400,7 +410,7 @@ def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.nd
                 if b.kind == "flux":
                     raise Fem2TmmError(f"{where}: a flux (W/m²) needs a surface group; {b.groups} holds volume elements")
                 sh = volume_shares(mesh.points, c, t)
-            np.add.at(nodal, c.ravel(), sh.ravel())
+            nodal += np.bincount(c.ravel(), weights=sh.ravel(), minlength=mesh.n_nodes)
         total = nodal.sum()
         if b.kind == "power":
             nodal *= b.value / total
@@ -420,11 +430,10 @@ def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.nd
     return np.bincount(node_dof[ok], weights=nodal[ok], minlength=n_dof)
 
 
-def _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof) -> Faces:
+def _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof, blocks) -> Faces:
     shell = np.isin(types, [TYPE_CODE[t] for t in SHELL_TYPES])
     pos = np.arange(len(elements))
-    sf = np.full((shell.sum(), 4), -1, np.int64)
-    sf[:, :] = cells[shell, :4]
+    sf = cells[shell, :4].copy()
     sf[types[shell] == TYPE_CODE["tri3"], 3] = -1
     of, own = _solid_outer_faces(cells, types, pos)
     fnodes = np.concatenate([sf, of])
@@ -434,16 +443,23 @@ def _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_d
     area = np.zeros(nf)
     normal = np.zeros((nf, 3))
     shares = np.zeros((nf, 4))
+    # shells reuse their block geometry; face index of shell element row r is its rank among shells
+    shell_rank = np.cumsum(shell) - 1
+    todo = []
+    for t, sel, c, geom in blocks:
+        if t in SHELL_TYPES:
+            todo.append((t, shell_rank[sel], c, geom))
     for t, nk in (("tri3", 3), ("quad4", 4)):
-        sel = np.flatnonzero((fnodes[:, 3] < 0) if nk == 3 else (fnodes[:, 3] >= 0))
-        if not len(sel):
-            continue
-        c = fnodes[sel, :nk]
-        sh = area_shares(mesh.points, c, t)
+        sel = len(sf) + np.flatnonzero((of[:, 3] < 0) if nk == 3 else (of[:, 3] >= 0))
+        if len(sel):
+            c = fnodes[sel, :nk]
+            todo.append((t, sel, c, block_geometry(mesh.points, c, t, need_gradients=False)))
+    for t, sel, c, geom in todo:
+        nk = c.shape[1]
+        sh = area_shares(mesh.points, c, t, geom=geom)
         shares[sel, :nk] = sh
         area[sel] = sh.sum(axis=1)
-        _, _, n = shell_metric(mesh.points, c, t)
-        nn = n.sum(axis=1)
+        nn = geom.normal.sum(axis=1)
         normal[sel] = nn / np.linalg.norm(nn, axis=1, keepdims=True)
     part = epart[fpos]
     # side optics

@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..errors import Fem2TmmError
+from ..linalg import factorize
 
 SIGMA = 5.670374419e-8  # W/(m² K⁴), CODATA 2018
 
@@ -183,10 +183,19 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         J = sp.csr_matrix(J)
         return J[free][:, free].tocsc()
 
-    def lin_solve(J, b):
+    cache = {}
+
+    def step_solve(T, b):
+        # a purely conductive problem has a constant Jacobian: factorise it once
+        if not radiative and "lu" in cache:
+            return cache["lu"](b)
+        J = jacobian(T)
         if dense:
             return np.linalg.solve(J, b)
-        return spla.spsolve(J, b)
+        lu = factorize(J)
+        if not radiative:
+            cache["lu"] = lu.solve
+        return lu.solve(b)
 
     r = res(T)
     rn = np.linalg.norm(r[free])
@@ -195,8 +204,7 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         converged = True
     while not converged and it < max_iter:
         it += 1
-        J = jacobian(T)
-        dT = np.asarray(lin_solve(J, -r[free])).ravel()
+        dT = np.asarray(step_solve(T, -r[free])).ravel()
         if not np.all(np.isfinite(dT)):
             raise Fem2TmmError("the steady solve failed (singular or ill-conditioned system); check boundary conditions")
         full = float(np.max(np.abs(dT))) if len(dT) else 0.0
