@@ -289,3 +289,95 @@ def rotation(axis: str, angle_deg: float) -> np.ndarray:
     j, k = [q for q in range(3) if q != i]
     R[j, j], R[j, k], R[k, j], R[k, k] = c, -s, s, c
     return R
+
+
+def revolve(profile, n_theta: int = 48, name: str = "surface", flip: bool = False) -> Mesh:
+    """Surface of revolution about z of a polyline ``profile`` ((p, 2) points (r, z), metres).
+
+    Node rings sit at the profile points, ``n_theta`` nodes per ring (a ring of radius 0 is not allowed).
+    The front side is e_θ x (profile direction) rotated; ``flip`` reverses it.  Groups: ``name`` (2-D),
+    ``name + '_start'`` and ``name + '_end'`` (first and last ring, nodes).
+    """
+    prof = np.asarray(profile, float)
+    if prof.ndim != 2 or prof.shape[1] != 2 or len(prof) < 2 or (prof[:, 0] <= 0).any():
+        raise Fem2TmmError("meshes.revolve: profile must be (p >= 2, 2) points (r > 0, z)")
+    th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
+    R, TH = np.meshgrid(prof[:, 0], th, indexing="ij")
+    Z = np.broadcast_to(prof[:, 1:2], R.shape)
+    pts = np.column_stack([(R * np.cos(TH)).ravel(), (R * np.sin(TH)).ravel(), Z.ravel()])
+    quads = _grid_quads(n_theta, len(prof) - 1, wrap_u=True)
+    if flip:
+        quads = quads[:, ::-1]
+    idx = np.arange(R.size).reshape(len(prof), n_theta)
+    groups = {name: (2, np.arange(len(quads)), None), f"{name}_start": (1, None, idx[0]),
+              f"{name}_end": (1, None, idx[-1])}
+    return _build(pts, {"quad4": quads}, groups, "revolve")
+
+
+def _segment(p0, p1, h: float, include_end: bool = True) -> np.ndarray:
+    n = max(1, int(np.ceil(np.hypot(p1[0] - p0[0], p1[1] - p0[1]) / h)))
+    t = np.linspace(0, 1, n + 1) if include_end else np.linspace(0, 1, n + 1)[:-1]
+    return np.asarray(p0, float) + t[:, None] * (np.asarray(p1, float) - np.asarray(p0, float))
+
+
+def baffle(h: float = 3.0e-3, n_theta: int = 72, screw_radius: float = 2.5e-3) -> Mesh:
+    """EUI-like entrance baffle (thesis §3.3, §6.3) as a structured shell mesh: the geometry of the
+    committed ``meshes/baffle.msh`` (axis +z, aperture at z = 90 mm, flange at z = 0, Ø80 mm) without
+    the screw holes, in metres.
+
+    Element size along the profiles ≈ ``h``; ``n_theta`` nodes per ring.  2-D groups
+    ``aperture_lip front_cone outer_skin main_cone middle_annulus back_annulus`` (front sides: lip and
+    main cone towards the axis, front cone +z, skin outward, middle annulus -z, back annulus +z, as in
+    ``baffle.msh``); node groups ``screw_1`` … ``screw_6`` (flange nodes within ``screw_radius`` of
+    the six screw axes on the Ø70 mm bolt circle, ``screw_1`` at +x) and their union ``screw_rims``.
+    """
+    mm = 1e-3
+    r_ap, z_front, r_out, z_fc, z_mid, r_flange_in, r_cone_back = 13, 90, 40, 86, 45, 16, 30
+    z_lip = 82
+    r_cone_mid = r_ap + (r_cone_back - r_ap) * (z_lip - z_mid) / z_lip  # main cone radius at z = 45
+    hm = h / mm
+    seg = lambda a, b: _segment(a, b, hm) * mm  # noqa: E731 - tiny local helper
+    parts = [
+        revolve(seg((r_ap, z_front), (r_ap, z_lip)), n_theta, "aperture_lip", flip=False),
+        revolve(seg((r_ap, z_front), (r_out, z_fc)), n_theta, "front_cone", flip=True),
+        revolve(seg((r_out, z_fc), (r_out, z_mid)), n_theta, "outer_skin", flip=False),
+        revolve(np.concatenate([seg((r_ap, z_lip), (r_cone_mid, z_mid))[:-1],
+                                seg((r_cone_mid, z_mid), (r_cone_back, 0.0))]), n_theta, "main_cone", flip=False),
+        revolve(seg((r_cone_mid, z_mid), (r_out, z_mid)), n_theta, "middle_annulus", flip=True),
+        revolve(np.concatenate([seg((r_flange_in, 0.0), (r_cone_back, 0.0))[:-1],
+                                seg((r_cone_back, 0.0), (r_out, 0.0))]), n_theta, "back_annulus", flip=False),
+    ]
+    m = merge(*parts, tol=1e-7, name="baffle")
+    # orient by the documented rule (the revolve direction depends on the profile direction)
+    m = _orient_baffle(m)
+    flange = m.groups["back_annulus"].nodes
+    groups = {g.name: (g.dim, g.elements, g.nodes) for g in m.groups.values()
+              if not g.name.endswith(("_start", "_end"))}
+    screws = []
+    for k in range(6):
+        a = np.radians(60 * k)
+        c = 35 * mm * np.array([np.cos(a), np.sin(a), 0.0])
+        near = flange[np.linalg.norm(m.points[flange] - c, axis=1) <= screw_radius]
+        if not len(near):
+            raise Fem2TmmError("meshes.baffle: no flange node near a screw; use a finer mesh or a larger screw_radius")
+        groups[f"screw_{k + 1}"] = (1, None, near)
+        screws.append(near)
+    groups["screw_rims"] = (1, None, np.concatenate(screws))
+    return _build(m.points, {b.type: b.cells for b in m.blocks}, groups, "baffle")
+
+
+def _orient_baffle(m: Mesh) -> Mesh:
+    """Flip elements so that each baffle surface's front side follows the documented rule."""
+    cells = m.blocks[0].cells.copy()
+    n = m.element_normals()
+    c = m.element_centroids()
+    radial = np.column_stack([c[:, 0], c[:, 1], np.zeros(len(c))])
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    want = {"aperture_lip": -radial, "main_cone": -radial, "outer_skin": radial,
+            "front_cone": np.tile([0, 0, 1.0], (len(c), 1)), "middle_annulus": np.tile([0, 0, -1.0], (len(c), 1)),
+            "back_annulus": np.tile([0, 0, 1.0], (len(c), 1))}
+    for g, w in want.items():
+        el = m.groups[g].elements
+        flip = el[np.einsum("ij,ij->i", n[el], w[el]) < 0]
+        cells[flip] = cells[flip][:, ::-1]
+    return Mesh(m.points, (ElementBlock("quad4", cells, m.blocks[0].ids),), m.groups, m.node_ids, m.source)
