@@ -10,12 +10,12 @@ GRID                       ID, CP, X1-X3 (CP: coordinate system of the position;
 GRDSET                     default CP (and CD, ignored) for GRIDs whose CP field is blank
 CORD2R, CORD2C, CORD2S     rectangular, cylindrical (r, theta deg, z), spherical (r, theta deg, phi deg)
                            systems given by three points A, B, C in a reference system RID; RID chains
-                           of any depth and in any order in the file
+                           of any depth and in any order in the file; blank coordinates are 0.0
 CTRIA3, CQUAD4             -> ``tri3``, ``quad4``; THETA/MCID, ZOFFS, TFLAG and T1-T4 are tolerated and
                            ignored; a blank PID means PID = EID (Nastran's default)
 CTETRA, CHEXA, CPENTA      -> ``tet4``, ``hex8``, ``wedge6`` (4, 8, 6 nodes; Nastran's node order is the
                            VTK order of :mod:`fem2tmm.fem.elements`); quadratic variants are an error
-PSHELL                     PID, MID1, T
+PSHELL                     PID, MID1 (the membrane material, the one heat transfer uses), T
 PSOLID                     PID, MID
 MAT4                       MID, K, CP, RHO
 MAT1                       MID, RHO (E, G, NU, ... ignored); MAT4 values win when both exist
@@ -95,6 +95,7 @@ _ELEMENTS: dict[str, tuple[str, int, int]] = {
     "CPENTA": ("wedge6", 6, 9),
 }
 _CORDS = {"CORD2R": "R", "CORD2C": "C", "CORD2S": "S"}
+_CORD_FIELDS = ("A1", "A2", "A3", "B1", "B2", "B3", "C1", "C2", "C3")
 _SUPPORTED = ("GRID", "GRDSET", *_CORDS, *_ELEMENTS, "PSHELL", "PSOLID", "MAT4", "MAT1")
 
 #: card name as written in field 1 (bytes, upper case, optionally with '*') -> (card, line width)
@@ -190,6 +191,7 @@ class _Deck:
             self.bulk_started = True
         has_dollar = b"$" in data
         has_comma = b"," in data
+        del data  # the lines hold the text from here on
         names = self.names
         card_line = self.card_line
         where_file = self.files[fi]
@@ -523,16 +525,16 @@ def _cartesian(kind: str, x: np.ndarray) -> np.ndarray:
 
 def _coordinate_systems(deck: _Deck) -> dict[int, tuple[str, np.ndarray, np.ndarray]]:
     """CID -> (kind, origin (3,), rows ex, ey, ez (3, 3)) in the basic system, deck length units."""
-    spec = {"cid": (0, "i"), "rid": (1, "i")}
-    spec.update({f"p{j}": (2 + j, "r") for j in range(9)})
+    spec = {"CID": (0, "i"), "RID": (1, "i")}
+    spec.update({name: (2 + j, "r") for j, name in enumerate(_CORD_FIELDS)})
     cards: dict[int, tuple[str, int, np.ndarray, str]] = {}
     for card, kind in _CORDS.items():
         t = deck.table(card, spec)
-        t.require("cid", *(f"p{j}" for j in range(9)))
-        rid = t.get("rid", 0)
-        pts = np.stack([t.val[f"p{j}"] for j in range(9)], axis=1).reshape(-1, 3, 3)
+        t.require("CID")  # blank A, B, C coordinates are 0.0
+        rid = t.get("RID", 0)
+        pts = np.stack([t.val[name] for name in _CORD_FIELDS], axis=1).reshape(-1, 3, 3)
         for r in range(len(t)):
-            cid = int(t.val["cid"][r])
+            cid = int(t.val["CID"][r])
             if cid <= 0:
                 raise Fem2TmmError(f"{t.where(r)}: {card} id must be a positive integer, got {cid}")
             if cid in cards:
@@ -589,15 +591,15 @@ def _cord_hint(deck: _Deck) -> str:
 
 def _grids(deck: _Deck, systems) -> tuple[np.ndarray, np.ndarray, "_Table"]:
     """GRID ids (n,) and basic coordinates (n, 3) in deck length units."""
-    gs = deck.table("GRDSET", {"cp": (1, "i")})
+    gs = deck.table("GRDSET", {"CP": (1, "i")})
     if len(gs) > 1:
         raise Fem2TmmError(f"more than one GRDSET card: {gs.where(0)} and {gs.where(1)}; keep one")
-    cp_default = int(gs.get("cp", 0)[0]) if len(gs) else 0
-    t = deck.table("GRID", {"id": (0, "i"), "cp": (1, "i"), "x1": (2, "r"), "x2": (3, "r"), "x3": (4, "r")})
-    t.require("id")
-    ids = t.val["id"]
-    cp = t.get("cp", cp_default)
-    x = np.stack([t.val["x1"], t.val["x2"], t.val["x3"]], axis=1)  # blanks parse as 0.0 (default)
+    cp_default = int(gs.get("CP", 0)[0]) if len(gs) else 0
+    t = deck.table("GRID", {"ID": (0, "i"), "CP": (1, "i"), "X1": (2, "r"), "X2": (3, "r"), "X3": (4, "r")})
+    t.require("ID")
+    ids = t.val["ID"]
+    cp = t.get("CP", cp_default)
+    x = np.stack([t.val["X1"], t.val["X2"], t.val["X3"]], axis=1)  # blanks parse as 0.0 (default)
     for c in _sorted_unique(cp):
         c = int(c)
         if c == 0:
@@ -613,18 +615,18 @@ def _grids(deck: _Deck, systems) -> tuple[np.ndarray, np.ndarray, "_Table"]:
     return ids, x, t
 
 
-def _check_unique(ids: np.ndarray, what: str, where) -> None:
-    """Error naming the first duplicated id and two of its locations (``where(row)``)."""
+def _check_unique(ids: np.ndarray, seq: np.ndarray, what: str, deck: _Deck) -> None:
+    """Error naming the first duplicated id and its first two locations (cards ``seq``)."""
     if len(ids) < 2:
         return
-    order = np.argsort(ids, kind="stable")
+    order = np.lexsort((seq, ids))
     s = ids[order]
     dup = np.flatnonzero(s[1:] == s[:-1])
     if len(dup):
         r0, r1 = order[dup[0]], order[dup[0] + 1]
         n_dup = len(_sorted_unique(s[dup]))
         raise Fem2TmmError(
-            f"{what} {int(s[dup[0]])} is defined twice: {where(r0)} and {where(r1)}"
+            f"{what} {int(s[dup[0]])} is defined twice: {deck.where(int(seq[r0]))} and {deck.where(int(seq[r1]))}"
             + (f"; {n_dup} ids are duplicated: {format_ids(_sorted_unique(s[dup]))}" if n_dup > 1 else "")
             + "; ids must be unique"
         )
@@ -651,27 +653,25 @@ def _material_factors(unit: str) -> tuple[float, float, float] | None:
 
 def _properties(deck: _Deck, used: dict[int, int], unit: str, scale: float) -> dict[str, PropertyData]:
     """``"PID n"`` -> PropertyData (SI) for the property ids in ``used`` (PID -> element dimension)."""
-    ps = deck.table("PSHELL", {"pid": (0, "i"), "mid": (1, "i"), "t": (2, "r")})
-    pv = deck.table("PSOLID", {"pid": (0, "i"), "mid": (1, "i")})
-    m4 = deck.table("MAT4", {"mid": (0, "i"), "k": (1, "r"), "cp": (2, "r"), "rho": (3, "r")})
-    m1 = deck.table("MAT1", {"mid": (0, "i"), "rho": (4, "r")})
+    ps = deck.table("PSHELL", {"PID": (0, "i"), "MID": (1, "i"), "T": (2, "r")})
+    pv = deck.table("PSOLID", {"PID": (0, "i"), "MID": (1, "i")})
+    m4 = deck.table("MAT4", {"MID": (0, "i"), "K": (1, "r"), "CP": (2, "r"), "RHO": (3, "r")})
+    m1 = deck.table("MAT1", {"MID": (0, "i"), "RHO": (4, "r")})
     for t in (ps, pv, m4, m1):
-        t.require(*(("pid",) if "pid" in t.val else ("mid",)))
-    pid_all = np.concatenate([ps.val["pid"], pv.val["pid"]])
-    _check_unique(
-        pid_all, "property id (PSHELL/PSOLID)", lambda r: ps.where(r) if r < len(ps) else pv.where(r - len(ps))
-    )
-    _check_unique(m4.val["mid"], "MAT4", m4.where)
-    _check_unique(m1.val["mid"], "MAT1", m1.where)
+        t.require(*(("PID",) if "PID" in t.val else ("MID",)))
+    pid_all = np.concatenate([ps.val["PID"], pv.val["PID"]])
+    _check_unique(pid_all, np.concatenate([ps.seq, pv.seq]), "property id (PSHELL/PSOLID)", deck)
+    _check_unique(m4.val["MID"], m4.seq, "MAT4", deck)
+    _check_unique(m1.val["MID"], m1.seq, "MAT1", deck)
 
     mats: dict[int, list] = {}
     for r in range(len(m1)):
-        rho = None if m1.blank["rho"][r] else float(m1.val["rho"][r])
-        mats[int(m1.val["mid"][r])] = [None, rho, None]
+        rho = None if m1.blank["RHO"][r] else float(m1.val["RHO"][r])
+        mats[int(m1.val["MID"][r])] = [None, rho, None]
     for r in range(len(m4)):
-        vals = [None if m4.blank[k][r] else float(m4.val[k][r]) for k in ("k", "rho", "cp")]
-        old = mats.get(int(m4.val["mid"][r]), [None, None, None])
-        mats[int(m4.val["mid"][r])] = [v if v is not None else o for v, o in zip(vals, old)]
+        vals = [None if m4.blank[k][r] else float(m4.val[k][r]) for k in ("K", "RHO", "CP")]
+        old = mats.get(int(m4.val["MID"][r]), [None, None, None])
+        mats[int(m4.val["MID"][r])] = [v if v is not None else o for v, o in zip(vals, old)]
 
     factors = _material_factors(unit)
     out: dict[str, PropertyData] = {}
@@ -679,7 +679,7 @@ def _properties(deck: _Deck, used: dict[int, int], unit: str, scale: float) -> d
     dropped = False
     for table, card, dim in ((ps, "PSHELL", 2), (pv, "PSOLID", 3)):
         for r in range(len(table)):
-            pid = int(table.val["pid"][r])
+            pid = int(table.val["PID"][r])
             if pid not in used:
                 continue
             if used[pid] != dim:
@@ -687,10 +687,10 @@ def _properties(deck: _Deck, used: dict[int, int], unit: str, scale: float) -> d
                     f"{table.where(r)}: {card} {pid} is used by {'shell' if used[pid] == 2 else 'solid'} "
                     f"elements; a {card} is for {'shell' if dim == 2 else 'solid'} elements"
                 )
-            mid = None if table.blank["mid"][r] else int(table.val["mid"][r])
+            mid = None if table.blank["MID"][r] else int(table.val["MID"][r])
             t = None
-            if card == "PSHELL" and not table.blank["t"][r]:
-                t = float(table.val["t"][r]) * scale
+            if card == "PSHELL" and not table.blank["T"][r]:
+                t = float(table.val["T"][r]) * scale
             k = rho = cp = None
             if mid is not None:
                 if mid not in mats:
@@ -763,47 +763,47 @@ def read_nastran(path, unit: str = "m") -> Mesh:
     systems = _coordinate_systems(deck)
     gid, x, gtab = _grids(deck, systems)
     _bad_ids(gid, "GRID", gtab.where)
-    _check_unique(gid, "GRID", gtab.where)
+    _check_unique(gid, gtab.seq, "GRID", deck)
     order = np.argsort(gid, kind="stable")
     sorted_gid = gid[order]
 
     # elements, per card type
     per_type: dict[str, list] = {t: [] for t in ELEMENT_TYPES}
-    all_eids, all_where = [], []
-    missing_el, missing_gr, missing_where = [], [], None
+    all_eids, all_seqs = [], []
+    missing_el, missing_gr, missing_seq = [], [], []
     quadratic = []
     for card, (etype, k, extra) in _ELEMENTS.items():
-        spec = {"eid": (0, "i"), "pid": (1, "i")}
-        spec.update({f"g{j}": (2 + j, "i") for j in range(k)})
-        spec.update({f"x{j}": (2 + k + j, "b") for j in range(extra)})
+        spec = {"EID": (0, "i"), "PID": (1, "i")}
+        spec.update({f"G{j + 1}": (2 + j, "i") for j in range(k)})
+        spec.update({f"G{k + j + 1}": (2 + k + j, "b") for j in range(extra)})
         t = deck.table(card, spec)
         if not len(t):
             continue
-        t.require("eid", *(f"g{j}" for j in range(k)))
+        t.require("EID", *(f"G{j + 1}" for j in range(k)))
         if etype in ("tri3", "quad4"):
-            pid = t.get("pid", t.val["eid"])  # Nastran: PID defaults to EID for shells
+            pid = t.get("PID", t.val["EID"])  # Nastran: PID defaults to EID for shells
         else:
-            t.require("pid")
-            pid = t.val["pid"]
-        eid = t.val["eid"]
+            t.require("PID")
+            pid = t.val["PID"]
+        eid = t.val["EID"]
         _bad_ids(eid, card, t.where)
         if extra:
-            quad = ~np.all([t.blank[f"x{j}"] for j in range(extra)], axis=0)
+            quad = ~np.all([t.blank[f"G{k + j + 1}"] for j in range(extra)], axis=0)
             if quad.any():
                 quadratic.append((card, eid[quad], t.where(np.flatnonzero(quad)[0])))
                 continue
-        g = np.stack([t.val[f"g{j}"] for j in range(k)], axis=1)
+        g = np.stack([t.val[f"G{j + 1}"] for j in range(k)], axis=1)
         pos = np.searchsorted(sorted_gid, g)
         found = sorted_gid[np.minimum(pos, len(sorted_gid) - 1)] == g if len(gid) else np.zeros(g.shape, bool)
         if not found.all():
             rows = np.flatnonzero(~found.all(axis=1))
             missing_el.append(eid[rows])
             missing_gr.append(g[~found])
-            missing_where = missing_where or t.where(rows[0])
+            missing_seq.append(t.seq[rows[0]])
         cells = order[np.minimum(pos, len(gid) - 1)] if len(gid) else pos
         per_type[etype].append((eid, pid, cells))
         all_eids.append(eid)
-        all_where.append(t)
+        all_seqs.append(t.seq)
     if quadratic:
         msg = "; ".join(
             f"{card} elements {format_ids(ids)} (first at {w}) have midside nodes" for card, ids, w in quadratic
@@ -815,17 +815,11 @@ def read_nastran(path, unit: str = "m") -> Mesh:
     if missing_el:
         raise Fem2TmmError(
             f"{source}: elements {format_ids(_sorted_unique(np.concatenate(missing_el)))} reference GRIDs "
-            f"{format_ids(_sorted_unique(np.concatenate(missing_gr)))} that are not defined (first at {missing_where})"
+            f"{format_ids(_sorted_unique(np.concatenate(missing_gr)))} that are not defined "
+            f"(first at {deck.where(int(min(missing_seq)))})"
         )
     if all_eids:
-        tabs = all_where
-        lengths = np.cumsum([0] + [len(e) for e in all_eids])
-
-        def where(r):
-            b = int(np.searchsorted(lengths, r, side="right") - 1)
-            return tabs[b].where(r - lengths[b])
-
-        _check_unique(np.concatenate(all_eids), "element id", where)
+        _check_unique(np.concatenate(all_eids), np.concatenate(all_seqs), "element id", deck)
 
     blocks, pids, dims = [], [], []
     for etype in ELEMENT_TYPES:
