@@ -62,12 +62,26 @@ class Result:
     summary: dict
     detailed: SteadySolution | None = None
     out: Path | None = None
+    clustering: object | None = None
+    reduced: object | None = None  # fem2tmm.network.ReducedModel
+    reduced_solution: SteadySolution | None = None
+    T_recovered: np.ndarray | None = None  # (n_dof,) K
     extras: dict = field(default_factory=dict)
 
     @property
     def T_detailed_nodes(self) -> np.ndarray | None:
         """(n_nodes,) detailed temperatures in K (NaN outside the model), or None."""
         return None if self.detailed is None else self.model.node_temperatures(self.detailed.T)
+
+    @property
+    def T_recovered_nodes(self) -> np.ndarray | None:
+        """(n_nodes,) temperatures recovered from the reduced model in K (NaN outside the model), or None."""
+        return None if self.T_recovered is None else self.model.node_temperatures(self.T_recovered)
+
+    @property
+    def T_nodes(self) -> np.ndarray:
+        """The result temperatures (K) of every mesh node: recovered when reduced, detailed otherwise."""
+        return self.T_recovered_nodes if self.T_recovered is not None else self.T_detailed_nodes
 
 
 def load_mesh(case: Case) -> Mesh:
@@ -100,34 +114,52 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
     overrides ``[reference] detailed``.
     """
+    from .network import build_reduced, cluster_model
+
     prog = Progress(quiet=quiet)
     with prog.stage("read", "reading the mesh"):
         mesh = load_mesh(case) if mesh is None else mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
     do_ref = case.reference.detailed if reference is None else reference
-    detailed = None
     problem = detailed_problem(model)
     check_solvable(problem, describe=_describe_nodes(model))
-    with prog.stage("solve_detailed", "solving the detailed model"):
-        detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
-    summary = _summary(case, mesh, model, detailed, prog.timings, do_ref)
-    result = Result(case=case, mesh=mesh, model=model, summary=summary, detailed=detailed)
+    result = Result(case=case, mesh=mesh, model=model, summary={})
+    if case.reduction.enabled:
+        with prog.stage("cluster", "clustering"):
+            bar = prog.bar(len(model.parts), "clustering parts")
+            result.clustering = cluster_model(model, case, progress=lambda i, n: bar.update(1))
+            bar.close()
+        with prog.stage("reduce", "reducing conduction"):
+            result.reduced = build_reduced(model, result.clustering, case)
+        with prog.stage("solve_reduced", "solving the reduced model"):
+            result.reduced_solution = solve_steady(result.reduced.problem(), tol=case.solver.tolerance,
+                                                   max_iter=case.solver.max_iterations)
+        with prog.stage("recover", "recovering detailed temperatures"):
+            result.T_recovered = result.reduced.reduction.recover(result.reduced_solution.T, model.Q)
+    if do_ref or not case.reduction.enabled:
+        with prog.stage("solve_detailed", "solving the detailed model"):
+            result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+    result.summary = _summary(result, prog.timings)
     if out is not None:
         t0 = time.perf_counter()
-        summary["timings_s"]["write"] = 0.0
+        result.summary["timings_s"]["write"] = 0.0
         result.out = write_outputs(result, Path(out))
         prog.timings["write"] = time.perf_counter() - t0
     return result
 
 
-def _summary(case, mesh, model: FEModel, detailed: SteadySolution | None, timings, reference: bool) -> dict:
-    T = None if detailed is None else model.node_temperatures(detailed.T)
+def _summary(result: "Result", timings) -> dict:
+    from .network import conductive_links
+
+    case, mesh, model = result.case, result.mesh, result.model
+    detailed = result.detailed
+    T = result.T_detailed_nodes
     fixed_heat = {}
     if detailed is not None:
         for g in model.fixed:
             fixed_heat[g.name] = float(detailed.heat_fixed[g.dof])
-    return {
+    s = {
         "version": __version__,
         "case": case.source,
         "mesh": {"file": str(case.mesh.file) if case.mesh.file else mesh.source, "nodes": int(mesh.n_nodes),
@@ -147,6 +179,31 @@ def _summary(case, mesh, model: FEModel, detailed: SteadySolution | None, timing
         "energy_balance_W": {"reduced": None, "detailed": None if detailed is None else detailed.balance},
         "timings_s": dict(timings),
     }
+    rm, rs = result.reduced, result.reduced_solution
+    if rm is not None:
+        n_links_space = int(np.count_nonzero(rm.g_space > 0))
+        s["reduced"] = {
+            "super_nodes": int(np.count_nonzero(rm.kind == "cluster")),
+            "boundary_nodes": int(np.count_nonzero(rm.kind == "boundary")),
+            "kept_nodes": int(np.count_nonzero(rm.kind == "kept")),
+            "super_faces": int(np.count_nonzero(rm.area > 0)),
+            "conductive_links": conductive_links(rm.K),
+            "radiative_links": n_links_space + (0 if rm.GR is None else conductive_links(rm.GR)),
+            "negative_links": rm.report.get("negative_links", 0),
+            "method": rm.report.get("method"),
+            "filter": rm.report.get("filter"),
+            "clustering": result.clustering.report if result.clustering is not None else None,
+            "iterations": rs.iterations,
+            "heat_into_fixed_W": {str(rm.names[i]): float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
+            "to_space_W": float(rs.to_space.sum()),
+        }
+        s["energy_balance_W"]["reduced"] = rs.balance
+        if detailed is not None:
+            ok = model.node_dof >= 0
+            err = (model.node_temperatures(result.T_recovered) - T)[ok]
+            s["accuracy"] = {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
+                             "nodes": int(ok.sum())}
+    return s
 
 
 def _jsonable(x):
@@ -179,11 +236,20 @@ def write_outputs(result: Result, out: Path) -> Path:
     os.chmod(tmp, 0o777 & ~umask)
     try:
         model, mesh = result.model, result.mesh
-        T = result.T_detailed_nodes
+        T = result.T_nodes
         point_data = {"temperature": T - KELVIN}
-        cell_data = {"part": _element_part_full(model, mesh.n_elements)}
+        if result.T_recovered is not None and result.detailed is not None:
+            Td = result.T_detailed_nodes
+            point_data["reference_temperature"] = Td - KELVIN
+            point_data["error"] = T - Td
+        cell_data = {"part": _element_full(model, mesh.n_elements, model.element_part)}
+        if result.clustering is not None:
+            cell_data["cluster"] = result.clustering.labels
+            cell_data["region"] = result.clustering.regions
         write_vtu(tmp / "temperatures.vtu", mesh, point_data, cell_data, elements=model.elements)
         write_temp(tmp / "temperatures.bdf", mesh.node_ids, T - KELVIN)
+        if result.reduced is not None:
+            _write_reduced(tmp, result)
         (tmp / "summary.json").write_text(json.dumps(_jsonable(result.summary), indent=2), encoding="utf-8")
         if out.exists():
             if not out.is_dir():
@@ -200,7 +266,32 @@ def write_outputs(result: Result, out: Path) -> Path:
     return out
 
 
-def _element_part_full(model: FEModel, n_elements: int) -> np.ndarray:
+def _element_full(model: FEModel, n_elements: int, values: np.ndarray) -> np.ndarray:
     v = np.full(n_elements, -1, np.int64)
-    v[model.elements] = model.element_part
+    v[model.elements] = values
     return v
+
+
+def _write_reduced(folder: Path, result: Result) -> None:
+    """``reduced.npz`` and ``model.esatan`` of the reduced network."""
+    from .export.esatan import Deck, node_numbers, write_esatan
+
+    rm, rs = result.reduced, result.reduced_solution
+    n = rm.n
+    GR = np.zeros((n + 1, n + 1))
+    if rm.GR is not None:
+        GR[:n, :n] = rm.GR
+    GR[:n, n] = GR[n, :n] = rm.g_space
+    C = rm.C if rm.C is not None else np.full(n, np.nan)
+    np.savez(folder / "reduced.npz", names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR,
+             Q=rm.Q, T=rs.T - KELVIN, kind=rm.kind.astype(str), part=rm.part,
+             T_sink=np.float64(rm.T_sink - KELVIN))
+    numbers, space = node_numbers(rm.part, len(result.model.parts))
+    GL = -rm.K.copy()
+    np.fill_diagonal(GL, 0.0)
+    area = rm.area if rm.area is not None else np.zeros(n)
+    eps = np.divide(rm.g_space, area, out=np.zeros(n), where=area > 0)
+    deck = Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
+                alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
+                GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink)
+    write_esatan(folder / "model.esatan", deck, title=Path(result.case.source).stem)

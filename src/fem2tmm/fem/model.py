@@ -89,6 +89,9 @@ class FEModel:
     elements: np.ndarray  # (m,) global element indices of the thermal elements (sorted)
     element_part: np.ndarray  # (m,) part index
     element_dofs: np.ndarray  # (m, 8) DOFs padded with -1
+    element_cells: np.ndarray  # (m, 8) mesh node indices (solids re-oriented positive), padded with -1
+    element_types: np.ndarray  # (m,) int8 type codes
+    element_attribute: np.ndarray  # (m,) int: same value <=> same part, conductivity, ρc, thickness, optics
     volume_shares: np.ndarray  # (m, 8) m³ per element node
     capacity_shares: np.ndarray | None  # (m, 8) J/K, None when some part lacks density/specific heat
     coo: ElementCOO  # conduction element matrices (DOF numbering, elem = position in ``elements``)
@@ -370,8 +373,12 @@ def build_model(mesh: Mesh, case) -> FEModel:
                 f"not part of the thermal model (ids {format_ids(mesh.element_ids[stray])})",
                 stacklevel=2,
             )
+    key = np.column_stack([epart, props["k"][elements], props["rho"][elements] * props["cp"][elements],
+                           props["t"][elements]])
+    _, attribute = np.unique(np.nan_to_num(key, nan=-1.0), axis=0, return_inverse=True)
     return FEModel(mesh=mesh, parts=tuple(parts), node_dof=node_dof, n_dof=n_dof, elements=elements,
-                   element_part=epart, element_dofs=element_dofs, volume_shares=vshares, capacity_shares=cshares,
+                   element_part=epart, element_dofs=element_dofs, element_cells=cells, element_types=types,
+                   element_attribute=attribute.ravel().astype(np.int64), volume_shares=vshares, capacity_shares=cshares,
                    coo=coo, K=K, volume=volume, capacity=capacity, faces=faces, Q=Q, fixed=fixed,
                    T_sink=case.environment.sink_temperature, loads=loads)
 

@@ -1,0 +1,170 @@
+"""ESATAN-TMS input deck of a reduced network (``$NODES``, ``$CONDUCTORS``) and a reader for the same subset.
+
+Node numbers are deterministic: part ``p`` (0-based) numbers its super nodes ``(p + 1)·B + k`` (k = 1, 2 …),
+boundary and kept nodes follow in block ``(n_parts + 1)·B``, and the space node is ``(n_parts + 2)·B``,
+with ``B = 1000`` (or the next power of ten above the largest part).  Diffusion nodes (D) carry label,
+temperature T (°C), capacitance C (J/K), area A (m²), ALP and EPS; fixed-temperature nodes and space are
+boundary nodes (B).  ``GL(a, b)`` W/K and ``GR(a, b)`` m².  Negative GL (positive off-diagonal terms of
+the exact reduced conduction matrix) are kept — they belong to the exact reduction — and counted in a
+comment.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import Fem2TmmError
+
+KELVIN = 273.15
+
+
+@dataclass(frozen=True)
+class Deck:
+    """A thermal network as read from / written to a deck.  Temperatures K, C J/K, A m², GL W/K, GR m².
+
+    ``numbers`` (n,) node numbers, ``labels`` (n,), ``boundary`` (n,) bool, ``T`` (n,) K, ``C`` (n,),
+    ``A`` (n,), ``alp`` (n,), ``eps`` (n,), ``GL`` (n, n) symmetric (zero diagonal), ``GR`` (n, n) and
+    ``GR_space`` (n,); ``space`` node number and ``T_space`` K; ``Q`` (n,) W.
+    """
+
+    numbers: np.ndarray
+    labels: np.ndarray
+    boundary: np.ndarray
+    T: np.ndarray
+    C: np.ndarray
+    A: np.ndarray
+    alp: np.ndarray
+    eps: np.ndarray
+    GL: np.ndarray
+    GR: np.ndarray
+    GR_space: np.ndarray
+    Q: np.ndarray
+    space: int
+    T_space: float
+
+
+def node_numbers(part: np.ndarray, n_parts: int) -> tuple[np.ndarray, int]:
+    """Deterministic node numbers (n,) and the space node number from the part index of each node (-1: boundary)."""
+    part = np.asarray(part, np.int64)
+    counts = np.bincount(part[part >= 0], minlength=n_parts) if n_parts else np.zeros(0, np.int64)
+    largest = max(int(counts.max(initial=0)), int(np.count_nonzero(part < 0)), 1)
+    B = 1000
+    while B <= largest:
+        B *= 10
+    numbers = np.zeros(len(part), np.int64)
+    for p in range(n_parts):
+        idx = np.flatnonzero(part == p)
+        numbers[idx] = (p + 1) * B + 1 + np.arange(len(idx))
+    idx = np.flatnonzero(part < 0)
+    numbers[idx] = (n_parts + 1) * B + 1 + np.arange(len(idx))
+    return numbers, (n_parts + 2) * B
+
+
+def _fmt(v: float) -> str:
+    return repr(float(v)) if np.isfinite(v) else "0.0"
+
+
+def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced model") -> dict:
+    """Write ``deck`` as an ESATAN input deck; returns counts {nodes, GL, GR, negative_GL}."""
+    n = len(deck.numbers)
+    lines = [f"$MODEL {re.sub(r'[^A-Za-z0-9_]', '_', title)[:24].upper() or 'FEM2TMM'}",
+             f"# {title}", "# units: T degC, C J/K, A m2, GL W/K, GR m2, QI W", "$NODES"]
+    for i in range(n):
+        kind = "B" if deck.boundary[i] else "D"
+        lines.append(f"{kind}{deck.numbers[i]} = '{deck.labels[i]}', T = {_fmt(deck.T[i] - KELVIN)}, "
+                     f"C = {_fmt(deck.C[i])}, A = {_fmt(deck.A[i])}, ALP = {_fmt(deck.alp[i])}, EPS = {_fmt(deck.eps[i])};")
+    lines.append(f"B{deck.space} = 'SPACE', T = {_fmt(deck.T_space - KELVIN)};")
+    iu, ju = np.triu_indices(n, 1)
+    gl = deck.GL[iu, ju]
+    nz = gl != 0
+    negative = int(np.count_nonzero(gl[nz] < 0))
+    lines.append("$CONDUCTORS")
+    lines.append(f"# {int(nz.sum())} conductive links; {negative} are negative (exact reduction: they belong to the "
+                 "reduced conduction matrix as a whole and must be kept)")
+    for a, b, g in zip(iu[nz], ju[nz], gl[nz]):
+        tag = "  # negative" if g < 0 else ""
+        lines.append(f"GL({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};{tag}")
+    gr = deck.GR[iu, ju]
+    nzr = gr != 0
+    for a, b, g in zip(iu[nzr], ju[nzr], gr[nzr]):
+        lines.append(f"GR({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};")
+    nzs = np.flatnonzero(deck.GR_space != 0)
+    for a in nzs:
+        lines.append(f"GR({deck.numbers[a]}, {deck.space}) = {_fmt(deck.GR_space[a])};")
+    lines.append("$CONSTANTS")
+    lines.append("$VARIABLES1")
+    for i in np.flatnonzero(deck.Q != 0):
+        lines.append(f"QI{deck.numbers[i]} = {_fmt(deck.Q[i])};")
+    lines.append("$EXECUTION")
+    lines.append("    SOLVFM;")
+    lines.append("$ENDMODEL")
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return {"nodes": n, "GL": int(nz.sum()), "GR": int(nzr.sum() + len(nzs)), "negative_GL": negative}
+
+
+_NODE = re.compile(r"^([DB])(\d+)\s*=\s*'([^']*)'\s*,(.*);\s*$")
+_COND = re.compile(r"^(GL|GR)\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*([^;]+);")
+_QI = re.compile(r"^QI(\d+)\s*=\s*([^;]+);")
+
+
+def read_esatan(path: str | Path) -> Deck:
+    """Read a deck written by :func:`write_esatan` (the same subset of the ESATAN language)."""
+    path = Path(path)
+    nodes, conds, qs = [], [], {}
+    section = None
+    for lineno, raw in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        if line.startswith("$"):
+            section = line.split()[0].upper()
+            continue
+        try:
+            if section == "$NODES":
+                mt = _NODE.match(line)
+                if not mt:
+                    raise ValueError("not a node definition")
+                attrs = dict(re.findall(r"(\w+)\s*=\s*([-+0-9.eE]+)", mt.group(4)))
+                nodes.append((mt.group(1), int(mt.group(2)), mt.group(3), {k.upper(): float(v) for k, v in attrs.items()}))
+            elif section == "$CONDUCTORS":
+                mt = _COND.match(line)
+                if not mt:
+                    raise ValueError("not a GL/GR conductor")
+                conds.append((mt.group(1), int(mt.group(2)), int(mt.group(3)), float(mt.group(4))))
+            elif section == "$VARIABLES1":
+                mt = _QI.match(line)
+                if mt:
+                    qs[int(mt.group(1))] = float(mt.group(2))
+        except ValueError as exc:
+            raise Fem2TmmError(f"{path}:{lineno}: cannot read {raw.strip()!r} ({exc})") from None
+    space = [n for n in nodes if n[2].upper() == "SPACE"]
+    if len(space) != 1:
+        raise Fem2TmmError(f"{path}: expected exactly one node labelled 'SPACE'")
+    nodes = [n for n in nodes if n[2].upper() != "SPACE"]
+    num = np.array([n[1] for n in nodes], np.int64)
+    index = {v: i for i, v in enumerate(num)}
+    n = len(nodes)
+    GL, GR, GRs = np.zeros((n, n)), np.zeros((n, n)), np.zeros(n)
+    sp_num = space[0][1]
+    for kind, a, b, v in conds:
+        if kind == "GR" and (a == sp_num or b == sp_num):
+            GRs[index[b if a == sp_num else a]] += v
+            continue
+        M = GL if kind == "GL" else GR
+        M[index[a], index[b]] += v
+        M[index[b], index[a]] += v
+    get = lambda key, default=0.0: np.array([nd[3].get(key, default) for nd in nodes])  # noqa: E731
+    return Deck(numbers=num, labels=np.array([nd[2] for nd in nodes]), boundary=np.array([nd[0] == "B" for nd in nodes]),
+                T=get("T") + KELVIN, C=get("C"), A=get("A"), alp=get("ALP"), eps=get("EPS"), GL=GL, GR=GR,
+                GR_space=GRs, Q=np.array([qs.get(int(v), 0.0) for v in num]), space=sp_num,
+                T_space=space[0][3].get("T", 0.0) + KELVIN)
+
+
+def deck_matrices(deck: Deck) -> tuple[np.ndarray, np.ndarray]:
+    """(K, GR) of a deck: K = diag(GL·1) − GL (W/K) and the node-to-node GR (m²)."""
+    K = np.diag(deck.GL.sum(axis=1)) - deck.GL
+    return K, deck.GR
