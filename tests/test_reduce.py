@@ -220,9 +220,14 @@ def test_floating_and_disconnected_parts_and_clusters_without_interior():
     part1 = [0, 1, 6, 8]
     others = [2, 3, 4, 5, 7]
     assert np.abs(red.K[np.ix_(part1, others)]).max() == 0.0
-    # keep_factors=False recomputes the local factorisations and must give the same recovery
-    red2 = reduce_conduction(pr.coo, sn, labels, keep_factors=False)
+    # solver paths: the tet part is one floating cluster (LU of P); clusters 3 (one element wide), 6 and 7
+    # have no interior node; the others, including those of the floating quad part, use Cholesky of K_II.
+    # A zero memory budget recomputes the local factorisations at each call and must give the same results
+    assert red.diagnostics["cluster_solvers"] == {"cholesky": 4, "lu": 1, "none": 3}
+    red2 = reduce_conduction(pr.coo, sn, labels, factor_memory_mb=0)
+    assert red2.diagnostics["factor_bytes"] == red2.operator.frontal.nbytes
     assert rel(red2.recover(T_sn, q), X @ q + Y.T @ T_sn) < 1e-9
+    assert rel(red2.distribute(q), Y @ q) < 1e-9
 
 
 def merged_plate():

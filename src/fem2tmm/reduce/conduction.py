@@ -34,15 +34,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
 from ..fem.assembly import ElementCOO
+from .frontal import ClusterTree, Frontal, elimination_nodes
 from .recovery import Factor, GlobalOperator, LocalCluster, LocalOperator
 from .supernodes import SuperNodes
 
-#: interior-node count below which a cluster's local saddle matrix is factorised with dense LAPACK
-DENSE_BELOW = 250
-#: number of right-hand sides solved at once in the Guyan / global steps (memory n × batch doubles)
+#: interior-node count below which a cluster is factorised with dense LAPACK (see recovery.ClusterSolver)
+DENSE_BELOW = 4000
+#: memory (MiB) up to which per-cluster factorisations are kept for distribute / recover
+FACTOR_MEMORY_MB = 1024.0
+#: number of right-hand sides solved at once by the global method (memory n × batch doubles)
 BATCH = 256
 
 
@@ -99,19 +103,6 @@ def _finish(raw: np.ndarray) -> tuple[np.ndarray, dict]:
     return K, diag
 
 
-def _schur(KSS: np.ndarray, KFS: sp.csr_matrix, lu: Factor | None, batch: int) -> np.ndarray:
-    """``K_SS − K_FSᵀ K_FF⁻¹ K_FS`` with K_FF⁻¹ applied in batches of columns."""
-    out = np.array(KSS, dtype=float)
-    if lu is None:
-        return out
-    KFS = KFS.tocsc()
-    for j0 in range(0, KFS.shape[1], batch):
-        j1 = min(j0 + batch, KFS.shape[1])
-        Z = lu.solve(KFS[:, j0:j1].toarray())
-        out[:, j0:j1] -= KFS.T @ Z
-    return out
-
-
 def _check_coo(coo: ElementCOO, n_dof: int) -> None:
     if coo.rows.size and (min(coo.rows.min(), coo.cols.min()) < 0 or max(coo.rows.max(), coo.cols.max()) >= n_dof):
         raise Fem2TmmError(f"conduction entries refer to DOFs outside 0..{n_dof - 1}; renumber them like the cells")
@@ -149,7 +140,16 @@ def _entry_clusters(coo: ElementCOO, labels: np.ndarray, elements: np.ndarray | 
     return labels[r]
 
 
-def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, keep_factors: bool, batch: int):
+def _floating(li: np.ndarray, lj: np.ndarray, nI: int, nB: int) -> bool:
+    """True when some interior node of the cluster is not connected to any of its interface nodes."""
+    if nB == 0:
+        return True
+    g = sp.csr_matrix((np.ones(li.size, np.int8), (li, lj)), shape=(nI + nB, nI + nB))
+    _, comp = connected_components(g, directed=False)
+    return bool(np.any(~np.isin(comp[:nI], comp[nI:])))
+
+
+def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, factor_memory_mb: float):
     n, ns, nc = sn.n_dof, sn.n_sn, sn.n_clusters
     ec = _entry_clusters(coo, labels, elements)
     if ec.size and ec.max() >= nc:
@@ -184,9 +184,11 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
     order = np.argsort(ec, kind="stable")
     e_start = np.searchsorted(ec[order], np.arange(nc + 1))
     rows_s, cols_s, vals_s = coo.rows[order], coo.cols[order], coo.vals[order]
+    del order
     A = sn.A
     loc = np.full(n, -1, np.int64)
-    blocks_i, blocks_v, clusters = [], [], []
+    budget, kept_bytes = factor_memory_mb * 2 ** 20, 0
+    blocks, clusters, multipliers = [], [], {}
     for c in range(nc):
         nodes = p_node[p_start[c]:p_start[c + 1]]
         inner = ~iface[nodes]
@@ -202,6 +204,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
         a[loc[a_idx]] = A.data[A.indptr[c]:A.indptr[c + 1]]
         s = slice(e_start[c], e_start[c + 1])
         li, lj, v = loc[rows_s[s]], loc[cols_s[s]], vals_s[s]
+        loc[nodes] = -1
         bb = (li >= nI) & (lj >= nI)
         KBB = np.bincount((li[bb] - nI) * nB + (lj[bb] - nI), weights=v[bb], minlength=nB * nB).reshape(nB, nB)
         if nI:
@@ -214,50 +217,53 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
             C = sp.csr_matrix((np.concatenate([v[ib], a[nI:]]),
                                (np.concatenate([li[ib], np.full(nB, nI)]),
                                 np.concatenate([lj[ib] - nI, np.arange(nB)]))), shape=(nI + 1, nB))
-            cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=P, C=C, dense=nI < dense_below)
-            rhs = np.zeros((nI + 1, nB + 1))
-            rhs[:, :nB] = C.toarray()
-            rhs[nI, nB] = 1.0
-            Z = cl.factor(keep_factors).solve(rhs)
-            CtZ = C.T @ Z
-            blk = np.empty((nB + 1, nB + 1))
-            blk[:nB, :nB] = KBB - CtZ[:, :nB]
-            blk[:nB, nB] = blk[nB, :nB] = CtZ[:, nB]
-            blk[nB, nB] = -Z[nI, nB]
+            if nI >= dense_below:
+                kind = "sparse"
+            else:
+                kind = "lu" if _floating(li, lj, nI, nB) else "cholesky"
+            cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=P, C=C, kind=kind)
+            solver = cl.solver()
+            blk = solver.condensed(C, KBB)
+            if kept_bytes + solver.nbytes <= budget:
+                cl._solver = solver
+                kept_bytes += solver.nbytes
+            del solver
             gidx = np.concatenate([cl.kB, [c]])
         else:
-            cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=None, C=None, dense=True, mu=int(mu_of[c]))
+            cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=None, C=None, kind="none", mu=int(mu_of[c]))
             blk = np.zeros((nB + 2, nB + 2))
-            blk[:nB, :nB] = KBB
+            blk[:nB, :nB] = 0.5 * (KBB + KBB.T)
             blk[:nB, nB] = blk[nB, :nB] = a
             blk[nB, nB + 1] = blk[nB + 1, nB] = -1.0
             gidx = np.concatenate([cl.kB, [cl.mu, c]])
-        loc[nodes] = -1
-        blk = 0.5 * (blk + blk.T)
-        blocks_i.append(gidx)
-        blocks_v.append(blk.ravel())
+            multipliers[cl.mu] = cl.kB[cl.kB >= ns]
+        blocks.append((gidx, blk))
         clusters.append(cl)
 
-    rr = np.concatenate([np.repeat(g, g.size) for g in blocks_i]) if blocks_i else np.zeros(0, np.int64)
-    cc = np.concatenate([np.tile(g, g.size) for g in blocks_i]) if blocks_i else np.zeros(0, np.int64)
-    Kstar = sp.csr_matrix((np.concatenate(blocks_v) if blocks_v else np.zeros(0), (rr, cc)), shape=(n_star, n_star))
-    del rr, cc, blocks_v
-    KSS = Kstar[:ns, :ns].toarray()
-    KFS = Kstar[ns:, :ns].tocsr()
-    lu = None
-    if n_star > ns:
-        lu = Factor(Kstar[ns:, ns:], dense=False,
-                    what="interface system of the local reduction (the super nodes do not determine the "
-                         "interface temperatures)")
-    raw = _schur(KSS, KFS, lu, batch)
-    op = LocalOperator(clusters, kidx, ns, lu, KFS, keep_factors)
-    return raw, op, {"n_interface": int(np.count_nonzero(iface)), "n_condensed": int(n_star - ns),
-                     "factor_bytes": op.factor_nbytes}
+    # tree of clusters from the interface unknowns they share, then multifrontal condensation
+    var = np.concatenate([g for g, _ in blocks]) if blocks else np.zeros(0, np.int64)
+    owner = np.repeat(np.arange(nc), [g.size for g, _ in blocks])
+    cond = var >= ns
+    inc = sp.csr_matrix((np.ones(int(cond.sum())), (var[cond] - ns, owner[cond])), shape=(n_star - ns, nc))
+    adj = (inc.T @ inc).tocsr()
+    adj.setdiag(0)
+    adj.eliminate_zeros()
+    tree = ClusterTree(adj)
+    elim = elimination_nodes(tree, var[cond], owner[cond], n_star, ns, multipliers)
+    frontal = Frontal(blocks, tree, elim, ns,
+                      what="interface system of the local reduction (the super nodes do not determine the "
+                           "interface temperatures)")
+    del blocks
+    op = LocalOperator(clusters, kidx, ns, n_star, frontal)
+    kinds = [cl.kind for cl in clusters]
+    return frontal.K, op, {"n_interface": int(np.count_nonzero(iface)), "n_condensed": int(n_star - ns),
+                           "factor_bytes": op.factor_nbytes,
+                           "cluster_solvers": {k: kinds.count(k) for k in sorted(set(kinds))}}
 
 
 def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarray,
                       elements: np.ndarray | None = None, method: str = "local", *,
-                      dense_below: int = DENSE_BELOW, keep_factors: bool = True,
+                      dense_below: int = DENSE_BELOW, factor_memory_mb: float = FACTOR_MEMORY_MB,
                       batch: int = BATCH) -> ConductiveReduction:
     """Reduced conduction matrix between super nodes, ``K_SN = (A K⁺ Aᵀ)⁻¹``.
 
@@ -269,8 +275,9 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
     elements : (m,) the global element index (``coo.elem`` value) of each row of ``labels``; default 0 … m−1.
     method : "local" (default; per-cluster condensation + Guyan) or "global" (sparse LU of M; reference).
     dense_below : interior-node count under which a cluster is factorised with dense LAPACK (local method).
-    keep_factors : keep per-cluster factorisations for fast ``distribute`` / ``recover`` (local method).
-    batch : right-hand sides solved at once (memory ``batch × n`` doubles).
+    factor_memory_mb : per-cluster factorisations are kept, for fast ``distribute`` / ``recover``, while their
+        total stays under this many MiB; the others are recomputed at each call (local method).
+    batch : right-hand sides solved at once by the global method (memory ``batch × n`` doubles).
 
     Returns
     -------
@@ -283,7 +290,7 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
     if method == "global":
         raw, op, info = _global(coo, supernodes, batch)
     else:
-        raw, op, info = _local(coo, supernodes, labels, elements, dense_below, keep_factors, batch)
+        raw, op, info = _local(coo, supernodes, labels, elements, dense_below, factor_memory_mb)
     K, diag = _finish(raw)
     diag.update(info)
     diag["seconds"] = time.perf_counter() - t0

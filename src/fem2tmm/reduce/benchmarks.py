@@ -1,0 +1,161 @@
+"""Benchmarks of the conductive reduction (wired into ``fem2tmm bench reduce`` by the CLI).
+
+Each public ``bench_*`` function returns a list of dicts, one per measurement, with medians of repeated
+timings in seconds.  Problems are generated here (structured quad shells, Voronoi clusters around seeded
+random elements: contiguous, irregular, deterministic for a seed).
+
+* :func:`bench_local_vs_global` — ~18 k-node quad cylinder, bottom ring a fixed-temperature DOF, 10 and 100
+  super nodes: local and global in the same run, their largest relative difference.
+* :func:`bench_large` — 10⁶ quad elements → 1000 super nodes, local method alone: time and peak memory
+  (peak resident set size of a fresh subprocess, so the figure is not polluted by earlier work).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..fem.assembly import ElementCOO, conduction_matrices, to_coo, volume_shares
+from .conduction import reduce_conduction
+from .supernodes import build_supernodes
+
+ALUMINIUM_K = 170.0  # W/(m K)
+THICKNESS = 1e-3  # m
+
+
+def quad_cylinder(n_theta: int, n_z: int, radius: float = 0.5, height: float = 1.0):
+    """Closed quad4 cylinder: points (n_theta·(n_z+1), 3) m and cells (n_theta·n_z, 4)."""
+    th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
+    z = np.linspace(0, height, n_z + 1)
+    T, Z = np.meshgrid(th, z, indexing="ij")
+    pts = np.c_[radius * np.cos(T.ravel()), radius * np.sin(T.ravel()), Z.ravel()]
+    g = np.arange(pts.shape[0]).reshape(n_theta, n_z + 1)
+    g1 = np.roll(g, -1, axis=0)
+    cells = np.stack([g[:, :-1], g1[:, :-1], g1[:, 1:], g[:, 1:]], -1).reshape(-1, 4)
+    return pts, cells
+
+
+def quad_plate(nx: int, ny: int, lx: float = 1.0, ly: float = 1.0):
+    """Flat quad4 plate: points ((nx+1)(ny+1), 3) m and cells (nx·ny, 4)."""
+    x, y = np.meshgrid(np.linspace(0, lx, nx + 1), np.linspace(0, ly, ny + 1), indexing="ij")
+    pts = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+    g = np.arange(pts.shape[0]).reshape(nx + 1, ny + 1)
+    cells = np.stack([g[:-1, :-1], g[1:, :-1], g[1:, 1:], g[:-1, 1:]], -1).reshape(-1, 4)
+    return pts, cells
+
+
+def voronoi_labels(points: np.ndarray, cells: np.ndarray, n_clusters: int, seed: int = 0) -> np.ndarray:
+    """Cluster id (m,) = nearest of ``n_clusters`` seed elements drawn at random (seeded), renumbered 0..n−1."""
+    cen = points[cells].mean(axis=1)
+    rng = np.random.default_rng(seed)
+    seeds = cen[rng.choice(len(cen), n_clusters, replace=False)]
+    lab = cKDTree(seeds).query(cen)[1]
+    return np.unique(lab, return_inverse=True)[1]
+
+
+def shell_problem(points: np.ndarray, cells: np.ndarray, fixed_nodes: np.ndarray | None = None):
+    """Conduction COO, padded cells and volume shares of an aluminium quad4 shell, DOF-numbered.
+
+    ``fixed_nodes`` are merged into one isothermal DOF (the last one).  Returns
+    ``(coo, cells_dof (m, 4), shares (m, 4), n_dof, fixed_dof or None)``.
+    """
+    m = len(cells)
+    t = np.full(m, THICKNESS)
+    coo = to_coo(cells, conduction_matrices(points, cells, "quad4", np.full(m, ALUMINIUM_K), t), np.arange(m))
+    shares = volume_shares(points, cells, "quad4", t)
+    n = points.shape[0]
+    if fixed_nodes is None:
+        return coo, cells, shares, n, None
+    rest = np.setdiff1d(np.arange(n), fixed_nodes)
+    node_map = np.empty(n, np.int64)
+    node_map[rest] = np.arange(rest.size)
+    node_map[fixed_nodes] = rest.size
+    return coo.renumber(node_map), node_map[cells], shares, rest.size + 1, rest.size
+
+
+def _timed(fn, repeats: int):
+    times, out = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+def bench_local_vs_global(n_sn=(10, 100), n_theta: int = 180, n_z: int = 99, repeats: int = 3,
+                          seed: int = 0) -> list[dict]:
+    """Local against global reduction on a quad cylinder of n_theta·(n_z+1) nodes (default 18 000)."""
+    pts, cells = quad_cylinder(n_theta, n_z)
+    ring = np.arange(n_theta) * (n_z + 1)  # bottom ring → one fixed-temperature DOF
+    coo, cdof, shares, n, fixed = shell_problem(pts, cells, ring)
+    out = []
+    for k in n_sn:
+        labels = voronoi_labels(pts, cells, k, seed)
+        sn = build_supernodes(n, cdof, shares, labels, boundary=[fixed])
+        tg, rg = _timed(lambda: reduce_conduction(coo, sn, labels, method="global"), repeats)
+        tl, rl = _timed(lambda: reduce_conduction(coo, sn, labels, method="local"), repeats)
+        diff = float(np.abs(rl.K - rg.K).max() / np.abs(rg.K).max())
+        out.append({"name": "reduce_local_vs_global", "nodes": int(pts.shape[0]), "elements": int(len(cells)),
+                    "super_nodes": int(sn.n_sn), "global_s": tg, "local_s": tl, "speedup": tg / tl,
+                    "max_rel_diff": diff, "interface_dofs": rl.diagnostics["n_interface"], "repeats": repeats})
+    return out
+
+
+def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
+    t0 = time.perf_counter()
+    pts, cells = quad_plate(nx, nx)
+    fixed_nodes = np.arange(nx + 1)  # the x = 0 edge
+    coo, cdof, shares, n, fixed = shell_problem(pts, cells, fixed_nodes)
+    labels = voronoi_labels(pts, cells, n_clusters, seed)
+    t1 = time.perf_counter()
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    sn = build_supernodes(n, cdof, shares, labels, boundary=[fixed])
+    t2 = time.perf_counter()
+    red = reduce_conduction(coo, sn, labels)
+    t3 = time.perf_counter()
+    T = red.recover(np.full(sn.n_sn, 300.0))
+    t4 = time.perf_counter()
+    return {"elements": int(len(cells)), "nodes": int(n), "super_nodes": int(sn.n_sn),
+            "setup_s": t1 - t0, "supernodes_s": t2 - t1, "reduce_s": t3 - t2, "recover_s": t4 - t3,
+            "interface_dofs": red.diagnostics["n_interface"], "factor_MB": red.diagnostics["factor_bytes"] / 2 ** 20,
+            "rss_before_reduction_MB": rss0,
+            "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+            "recover_uniform_err": float(np.abs(T - 300.0).max())}
+
+
+def bench_large(nx: int = 1000, n_clusters: int = 997, repeats: int = 3, seed: int = 0) -> list[dict]:
+    """Local reduction of an nx × nx quad plate (10⁶ elements) into ``n_clusters`` + 1 super nodes.
+
+    Each repeat runs in a fresh Python subprocess so that ``peak_rss_MB`` is that run's peak resident memory
+    (mesh, assembly and reduction included; ``rss_before_reduction_MB`` is the part before the reduction).
+    """
+    runs = []
+    code = ("import json,sys; from fem2tmm.reduce.benchmarks import _large_once; "
+            f"print(json.dumps(_large_once({nx}, {n_clusters}, {seed})))")
+    for _ in range(repeats):
+        res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                             env={**os.environ})
+        runs.append(json.loads(res.stdout.strip().splitlines()[-1]))
+    med = {k: float(np.median([r[k] for r in runs])) for k in runs[0] if isinstance(runs[0][k], float)}
+    first = runs[0]
+    return [{"name": "reduce_large_local", "elements": first["elements"], "nodes": first["nodes"],
+             "super_nodes": first["super_nodes"], "interface_dofs": first["interface_dofs"],
+             "repeats": repeats, **{k: med[k] for k in sorted(med)},
+             "reduce_s_all": [r["reduce_s"] for r in runs]}]
+
+
+def run_all() -> list[dict]:
+    """Every reduction benchmark (several minutes on 2 cores)."""
+    return bench_local_vs_global() + bench_large()
+
+
+if __name__ == "__main__":
+    for row in run_all():
+        print(json.dumps(row))
