@@ -44,7 +44,7 @@ class ReducedModel:
     T_sink: float
     supernodes: SuperNodes
     reduction: ConductiveReduction
-    element_cluster: np.ndarray  # (m,) cluster of each model element
+    element_cluster: np.ndarray  # (m,) reduced cluster id of each model element (-1: fully determined element)
     GR: np.ndarray | None = None
     area: np.ndarray | None = None  # (n,) m² radiating area of each super node (both sides, active)
     report: dict = field(default_factory=dict)
@@ -96,17 +96,36 @@ def kept_dofs(model: FEModel, case) -> np.ndarray:
 
 def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     """Super nodes, exact reduced conduction, capacitance, loads and (space-only) radiation."""
-    m = len(model.elements)
-    labels = clustering.labels[model.elements]
-    n_cl = len(clustering.cluster_part)
+    labels_all = clustering.labels[model.elements]
     boundary = np.array([g.dof for g in model.fixed], np.int64)
     kept = kept_dofs(model, case)
+    # Elements whose nodes are all boundary/kept DOFs have no unknown: their conduction links those
+    # one-node super nodes directly, and a cluster made only of them is dropped (it is fully determined).
+    one_node = np.zeros(model.n_dof, bool)
+    one_node[boundary] = True
+    one_node[kept] = True
+    ed = model.element_dofs
+    determined = np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
+    rows = np.flatnonzero(~determined)
+    used_clusters = np.unique(labels_all[rows])
+    new_id = np.full(len(clustering.cluster_part), -1, np.int64)
+    new_id[used_clusters] = np.arange(len(used_clusters))
+    cluster_part = clustering.cluster_part[used_clusters]
+    labels = new_id[labels_all[rows]]
+    n_cl = len(used_clusters)
     shares = model.capacity_shares if model.capacity_shares is not None else model.volume_shares
-    sn = build_supernodes(model.n_dof, model.element_dofs, shares, labels, boundary=boundary, kept=kept,
+    sn = build_supernodes(model.n_dof, ed[rows], shares[rows], labels, boundary=boundary, kept=kept,
                           n_clusters=n_cl)
-    red = reduce_conduction(model.coo, sn, labels, elements=np.arange(m), method=case.reduction.method)
-    K = red.K
-    report = {"method": red.method, "diagnostics": dict(red.diagnostics)}
+    keep_entry = ~determined[model.coo.elem]
+    red = reduce_conduction(model.coo.select(keep_entry), sn, labels, elements=rows, method=case.reduction.method)
+    K = red.K.copy()
+    row_of_dof = np.full(model.n_dof, -1, np.int64)
+    row_of_dof[sn.dof[sn.dof >= 0]] = np.flatnonzero(sn.dof >= 0)
+    if determined.any():
+        direct = model.coo.select(~keep_entry)
+        np.add.at(K, (row_of_dof[direct.rows], row_of_dof[direct.cols]), direct.vals)
+    report = {"method": red.method, "diagnostics": dict(red.diagnostics),
+              "determined_elements": int(determined.sum()), "dropped_clusters": int(len(clustering.cluster_part) - n_cl)}
     if case.reduction.filter > 0:
         K, frep = filter_links(K, case.reduction.filter)
         report["filter"] = frep
@@ -116,20 +135,30 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
         if case.reduction.capacitance == "equivalent":
             C = equivalent_capacitance(red, model.capacity)
         else:
-            C = supernode_capacitance(sn, model.capacity_shares, labels)
+            C = supernode_capacitance(sn, model.capacity_shares[rows], labels)
     Q = red.distribute(model.Q)
     # space-only radiation: each cluster radiates through the εA of its faces' active sides
     f = model.faces
-    face_cluster = clustering.labels[f.element]
+    n = sn.n_sn
     eps_area = (f.emissivity * f.active).reshape(-1, 2).sum(axis=1) * f.area
     area_active = f.active.reshape(-1, 2).sum(axis=1) * f.area
-    n = sn.n_sn
-    g_space = np.zeros(n)
-    area = np.zeros(n)
     row_of_cluster = np.full(n_cl, -1, np.int64)
     row_of_cluster[sn.cluster[sn.cluster >= 0]] = np.flatnonzero(sn.cluster >= 0)
-    g_space += np.bincount(row_of_cluster[face_cluster], weights=eps_area, minlength=n)
-    area += np.bincount(row_of_cluster[face_cluster], weights=area_active, minlength=n)
+    elem_row = np.full(model.mesh.n_elements, -1, np.int64)
+    elem_row[model.elements] = np.arange(len(model.elements))
+    face_row = elem_row[f.element]
+    face_cluster = np.full(f.n, -1, np.int64)
+    live = ~determined[face_row]
+    face_cluster[live] = new_id[labels_all[face_row[live]]]
+    g_space = np.bincount(row_of_cluster[face_cluster[live]], weights=eps_area[live], minlength=n)
+    area = np.bincount(row_of_cluster[face_cluster[live]], weights=area_active[live], minlength=n)
+    if (~live).any():  # faces of determined elements radiate from their one-node super nodes
+        w = f.shares[~live] / f.area[~live, None]
+        d = f.dofs[~live]
+        ok = d >= 0
+        rows_sn = row_of_dof[d[ok]]
+        g_space += np.bincount(rows_sn, weights=(w * eps_area[~live, None])[ok], minlength=n)
+        area += np.bincount(rows_sn, weights=(w * area_active[~live, None])[ok], minlength=n)
     # names, kinds, fixed values
     names, part = [], np.full(n, -1, np.int64)
     counters = {}
@@ -145,7 +174,7 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
         node_of_dof = first
     for i in range(n):
         if sn.cluster[i] >= 0:
-            p = int(clustering.cluster_part[sn.cluster[i]])
+            p = int(cluster_part[sn.cluster[i]])
             part[i] = p
             counters[p] = counters.get(p, 0) + 1
             names.append(f"{model.parts[p].name}_{counters[p]}")
@@ -159,9 +188,11 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     pairs, gl = negative_links(K)
     report["negative_links"] = int(len(pairs))
     report["negative_GL_W_per_K"] = float(gl.sum()) if len(gl) else 0.0
+    element_cluster = np.full(len(model.elements), -1, np.int64)
+    element_cluster[rows] = labels
     return ReducedModel(names=np.array(names), kind=np.asarray(sn.kind), part=part, K=K, C=C, Q=Q,
                         g_space=g_space, fixed=fixed, T_fixed=T_fixed, T_sink=model.T_sink, supernodes=sn,
-                        reduction=red, element_cluster=labels, GR=None, area=area, report=report)
+                        reduction=red, element_cluster=element_cluster, GR=None, area=area, report=report)
 
 
 def conductive_links(K: np.ndarray, rtol: float = 0.0) -> int:
