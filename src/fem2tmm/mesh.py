@@ -214,7 +214,7 @@ class Mesh:
     def nodes_of_elements(self, elements: np.ndarray) -> np.ndarray:
         """Sorted unique node indices used by the given elements."""
         pc = self.padded_cells[np.asarray(elements, dtype=np.int64)]
-        return np.unique(pc[pc >= 0])
+        return unique_ints(pc[pc >= 0])
 
     def used_nodes(self) -> np.ndarray:
         """(n,) bool: nodes referenced by at least one element."""
@@ -243,13 +243,25 @@ class Mesh:
         return self
 
 
+def unique_ints(a) -> np.ndarray:
+    """Sorted unique values of an integer array (sort + mask: numpy 2.4's hash-based ``np.unique`` is
+    ~40x slower on 10⁶–10⁷ integers)."""
+    s = np.sort(np.asarray(a, dtype=np.int64).ravel())
+    if s.size == 0:
+        return s
+    keep = np.empty(s.size, bool)
+    keep[0] = True
+    np.not_equal(s[1:], s[:-1], out=keep[1:])
+    return s[keep]
+
+
 def make_group(name: str, dim: int, elements=None, nodes=None, mesh_cells: np.ndarray | None = None) -> Group:
     """Build a :class:`Group`; element groups get their nodes from ``mesh_cells`` (padded (m, 8))."""
-    el = np.unique(np.asarray(elements if elements is not None else [], dtype=np.int64))
+    el = unique_ints(elements if elements is not None else [])
     if nodes is None:
         if mesh_cells is None:
             raise ValueError("nodes or mesh_cells is needed")
         pc = mesh_cells[el]
         nodes = pc[pc >= 0]
-    nd = np.unique(np.asarray(nodes, dtype=np.int64))
+    nd = unique_ints(nodes)
     return Group(name=name, dim=int(dim), elements=el, nodes=nd)

@@ -79,7 +79,7 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from ..fem.elements import DIM, ELEMENT_TYPES
-from ..mesh import ElementBlock, Group, Mesh, PropertyData
+from ..mesh import ElementBlock, Group, Mesh, PropertyData, unique_ints
 from .units import length_scale
 
 __all__ = ["read_nastran"]
@@ -600,7 +600,7 @@ def _grids(deck: _Deck, systems) -> tuple[np.ndarray, np.ndarray, "_Table"]:
     ids = t.val["ID"]
     cp = t.get("CP", cp_default)
     x = np.stack([t.val["X1"], t.val["X2"], t.val["X3"]], axis=1)  # blanks parse as 0.0 (default)
-    for c in _sorted_unique(cp):
+    for c in unique_ints(cp):
         c = int(c)
         if c == 0:
             continue
@@ -624,10 +624,10 @@ def _check_unique(ids: np.ndarray, seq: np.ndarray, what: str, deck: _Deck) -> N
     dup = np.flatnonzero(s[1:] == s[:-1])
     if len(dup):
         r0, r1 = order[dup[0]], order[dup[0] + 1]
-        n_dup = len(_sorted_unique(s[dup]))
+        n_dup = len(unique_ints(s[dup]))
         raise Fem2TmmError(
             f"{what} {int(s[dup[0]])} is defined twice: {deck.where(int(seq[r0]))} and {deck.where(int(seq[r1]))}"
-            + (f"; {n_dup} ids are duplicated: {format_ids(_sorted_unique(s[dup]))}" if n_dup > 1 else "")
+            + (f"; {n_dup} ids are duplicated: {format_ids(unique_ints(s[dup]))}" if n_dup > 1 else "")
             + "; ids must be unique"
         )
 
@@ -814,8 +814,8 @@ def read_nastran(path, unit: str = "m") -> Mesh:
         )
     if missing_el:
         raise Fem2TmmError(
-            f"{source}: elements {format_ids(_sorted_unique(np.concatenate(missing_el)))} reference GRIDs "
-            f"{format_ids(_sorted_unique(np.concatenate(missing_gr)))} that are not defined "
+            f"{source}: elements {format_ids(unique_ints(np.concatenate(missing_el)))} reference GRIDs "
+            f"{format_ids(unique_ints(np.concatenate(missing_gr)))} that are not defined "
             f"(first at {deck.where(int(min(missing_seq)))})"
         )
     if all_eids:
@@ -851,14 +851,6 @@ def read_nastran(path, unit: str = "m") -> Mesh:
     return mesh.validate()
 
 
-def _sorted_unique(a: np.ndarray) -> np.ndarray:
-    """Sorted unique values of an int array (a sort and a mask: much faster than np.unique on numpy 2.4)."""
-    s = np.sort(a, axis=None)
-    keep = np.ones(len(s), bool)
-    np.not_equal(s[1:], s[:-1], out=keep[1:])
-    return s[keep]
-
-
 def _pid_groups(blocks, pids, dims, n_nodes: int, source: str):
     """Groups ``"PID n"`` (elements and their nodes) and PID -> dimension, without a loop over elements."""
     if not blocks:
@@ -884,7 +876,7 @@ def _pid_groups(blocks, pids, dims, n_nodes: int, source: str):
         )
     # node lists: unique (PID rank, node) pairs over every element corner
     offs = np.cumsum([0] + [len(b.cells) for b in blocks])
-    keys = _sorted_unique(
+    keys = unique_ints(
         np.concatenate([(rank[o : o + len(b.cells), None] * n_nodes + b.cells).ravel() for b, o in zip(blocks, offs)])
     )
     nd_bounds = np.searchsorted(keys // n_nodes, np.arange(len(upid) + 1))
