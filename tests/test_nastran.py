@@ -402,3 +402,26 @@ def test_benchmark_million_quads(request):
     (res,) = bench_nastran(n_side=1000, repeats=1)
     assert res["elements"] == 1_000_000 and res["nodes"] == 1001**2
     assert res["median_s"] < 30.0  # brief: tens of seconds at most on the 2-core machine
+
+
+def test_same_plate_as_msh_and_bdf_gives_the_same_K():
+    # issue 2: one warped, irregular plate written as Gmsh 2.2 and as Nastran bulk data (PSHELL T = 1 mm,
+    # MAT4 K = 170 in mm-t-s units); assembled K agree to 1e-12 relative
+    from pathlib import Path
+
+    from fem2tmm.case import Case
+    from fem2tmm.fem.model import build_model
+    from fem2tmm.io import read_mesh
+
+    data = Path(__file__).parent / "data"
+    case_msh = Case.from_dict({"materials": {"al": {"conductivity": 170.0}},
+                               "parts": [{"name": "p", "groups": ["PID 7"], "material": "al", "thickness": 1e-3}],
+                               "boundary": [{"kind": "temperature", "nodes": [1], "value": 0.0}]})
+    # the Nastran deck carries its own thickness and conductivity (PSHELL/MAT4)
+    case_bdf = Case.from_dict({"parts": [{"name": "p", "groups": ["PID 7"]}],
+                               "boundary": [{"kind": "temperature", "nodes": [1], "value": 0.0}]})
+    K1 = build_model(read_mesh(data / "plate_same.msh", unit="mm"), case_msh).K
+    K2 = build_model(read_mesh(data / "plate_same.bdf", unit="mm"), case_bdf).K
+    assert K1.shape == K2.shape
+    assert abs(K1 - K2).max() <= 1e-12 * abs(K1).max()
+    assert abs(K1).max() > 0.01  # a real conduction matrix (W/K)
