@@ -1,16 +1,36 @@
-"""fem2tmm: structural finite-element mesh -> small, accurate thermal model.
+"""fem2tmm: structural finite-element mesh -> small, accurate thermal model, and back.
 
-Public API (see DESIGN §4.4)::
+Public API (DESIGN §4.4)::
 
     import fem2tmm as ft
+    case = ft.Case.from_toml("case.toml")
+    result = ft.run(case, out="out")
     mesh = ft.read_mesh("part.bdf", unit="mm")
+    labels = ft.partition(points, cells, n_clusters)
 """
 
 from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from . import meshes
+from .case import Case
+from .cluster import partition
 from .errors import Fem2TmmError
+from .io import read_mesh
 from .mesh import ElementBlock, Group, Mesh
+from .pipeline import Result, run
 
-__all__ = ["Fem2TmmError", "Mesh", "ElementBlock", "Group", "__version__"]
+__all__ = [
+    "Case",
+    "ElementBlock",
+    "Fem2TmmError",
+    "Group",
+    "Mesh",
+    "Result",
+    "__version__",
+    "meshes",
+    "partition",
+    "read_mesh",
+    "run",
+]
