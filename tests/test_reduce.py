@@ -178,6 +178,8 @@ def test_local_equals_global_equals_dense_inverse(kind):
     T_sn = rng.normal(size=sn.n_sn)
     for method, dense_below in [("global", 0), ("local", 0), ("local", 10 ** 9)]:
         red = reduce_conduction(pr.coo, sn, labels, method=method, dense_below=dense_below)
+        if method == "local":  # every cluster has interior nodes tied to its interface: one path only
+            assert set(red.diagnostics["cluster_solvers"]) == {"sparse" if dense_below == 0 else "cholesky"}
         # all three agree with the dense inverse to round-off (issue acceptance: 1e-9 relative)
         assert rel(red.K, Kref) < 1e-9, (method, dense_below)
         assert rel(red.distribute(q), Y @ q) < 1e-9
@@ -224,7 +226,9 @@ def test_floating_and_disconnected_parts_and_clusters_without_interior():
     # have no interior node; the others, including those of the floating quad part, use Cholesky of K_II.
     # A zero memory budget recomputes the local factorisations at each call and must give the same results
     assert red.diagnostics["cluster_solvers"] == {"cholesky": 4, "lu": 1, "none": 3}
-    red2 = reduce_conduction(pr.coo, sn, labels, factor_memory_mb=0)
+    red2 = reduce_conduction(pr.coo, sn, labels, factor_memory_mb=0, dense_below=0)
+    assert red2.diagnostics["cluster_solvers"] == {"sparse": 4, "sparse_lu": 1, "none": 3}
+    assert rel(red2.K, Kref) < 1e-9
     assert red2.diagnostics["factor_bytes"] == red2.operator.frontal.nbytes
     assert rel(red2.recover(T_sn, q), X @ q + Y.T @ T_sn) < 1e-9
     assert rel(red2.distribute(q), Y @ q) < 1e-9

@@ -102,7 +102,7 @@ def bench_local_vs_global(n_sn=(10, 100), n_theta: int = 180, n_z: int = 99, rep
         tg, rg = _timed(lambda: reduce_conduction(coo, sn, labels, method="global"), repeats)
         tl, rl = _timed(lambda: reduce_conduction(coo, sn, labels, method="local"), repeats)
         diff = float(np.abs(rl.K - rg.K).max() / np.abs(rg.K).max())
-        out.append({"name": "reduce_local_vs_global", "nodes": int(pts.shape[0]), "elements": int(len(cells)),
+        out.append({"bench": "reduce", "case": "local_vs_global", "nodes": int(pts.shape[0]), "elements": int(len(cells)),
                     "super_nodes": int(sn.n_sn), "global_s": tg, "local_s": tl, "speedup": tg / tl,
                     "max_rel_diff": diff, "interface_dofs": rl.diagnostics["n_interface"], "repeats": repeats})
     return out
@@ -145,17 +145,17 @@ def bench_large(nx: int = 1000, n_clusters: int = 997, repeats: int = 3, seed: i
         runs.append(json.loads(res.stdout.strip().splitlines()[-1]))
     med = {k: float(np.median([r[k] for r in runs])) for k in runs[0] if isinstance(runs[0][k], float)}
     first = runs[0]
-    return [{"name": "reduce_large_local", "elements": first["elements"], "nodes": first["nodes"],
+    return [{"bench": "reduce", "case": "large_local", "elements": first["elements"], "nodes": first["nodes"],
              "super_nodes": first["super_nodes"], "interface_dofs": first["interface_dofs"],
              "repeats": repeats, **{k: med[k] for k in sorted(med)},
              "reduce_s_all": [r["reduce_s"] for r in runs]}]
 
 
-def run_all() -> list[dict]:
-    """Every reduction benchmark (several minutes on 2 cores)."""
+def bench_reduce() -> list[dict]:
+    """Every reduction benchmark (``fem2tmm bench reduce``; several minutes on 2 cores)."""
     return bench_local_vs_global() + bench_large()
 
 
 if __name__ == "__main__":
-    for row in run_all():
+    for row in bench_reduce():
         print(json.dumps(row))

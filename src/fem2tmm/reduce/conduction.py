@@ -217,13 +217,15 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
             C = sp.csr_matrix((np.concatenate([v[ib], a[nI:]]),
                                (np.concatenate([li[ib], np.full(nB, nI)]),
                                 np.concatenate([lj[ib] - nI, np.arange(nB)]))), shape=(nI + 1, nB))
+            floating = _floating(li, lj, nI, nB)
             if nI >= dense_below:
-                kind = "sparse"
+                kind = "sparse_lu" if floating else "sparse"
             else:
-                kind = "lu" if _floating(li, lj, nI, nB) else "cholesky"
+                kind = "lu" if floating else "cholesky"
             cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=P, C=C, kind=kind)
             solver = cl.solver()
             blk = solver.condensed(C, KBB)
+            cl.kind = solver.kind
             if kept_bytes + solver.nbytes <= budget:
                 cl._solver = solver
                 kept_bytes += solver.nbytes

@@ -99,21 +99,24 @@ class GlobalOperator:
 class ClusterSolver:
     """Solves with one cluster's local saddle matrix ``P = [[K_II, a_Iᵀ], [a_I, 0]]`` (size nI + 1).
 
-    Three ways, chosen by size and structure:
+    ``kind`` chooses the method:
 
-    * ``"cholesky"`` (nI < dense_below, every interior node connected to an interface node, so K_II is positive
+    * ``"cholesky"`` (small cluster, every interior node connected to an interface node, so K_II is positive
       definite): dense Cholesky K_II = L Lᵀ with the constraint bordered in: ``u = K_II⁻¹ a_Iᵀ``, ``s = a_I u``;
-    * ``"lu"`` (nI < dense_below, a floating cluster: K_II singular, P is not): dense LU of P;
-    * ``"sparse"`` (larger clusters): SuperLU of P.
+    * ``"lu"`` (small floating cluster: K_II singular, P is not): dense LU of P;
+    * ``"sparse"`` (large cluster, K_II positive definite): the condensed map comes out of one SuperLU
+      factorisation of the local matrix ordered [I, μ, B] without pivoting (the trailing factors *are* the Schur
+      complement); solves use a SuperLU factor of P made on first use;
+    * ``"sparse_lu"`` (large floating cluster): SuperLU of P and solves with its nB + 1 right-hand sides.
 
-    SuperLU factorises quickly but its solves with the nB + 1 right-hand sides of the local step run at well
-    under 1 GFlop/s, while dense LAPACK/BLAS reaches ~100 GFlop/s on 2 cores: dense wins up to a few thousand
-    interior nodes (measured: nI = 850, nB = 145: 8 ms Cholesky path against 20–80 ms with SuperLU).
+    SuperLU factorises quickly but its solves with many right-hand sides run at well under 1 GFlop/s, while
+    dense LAPACK/BLAS reaches ~100 GFlop/s on 2 cores; the "sparse" path avoids those solves altogether.
     """
 
     def __init__(self, P: sp.csc_matrix, kind: str, what: str):
         self.nI = P.shape[0] - 1
-        self.kind = kind
+        self.kind, self.what, self.P = kind, what, P
+        self._lu = None
         nI = self.nI
         if kind == "cholesky":
             Pd = P.toarray()
@@ -128,16 +131,21 @@ class ClusterSolver:
                 raise Fem2TmmError(f"{what} is singular (elements of zero conductivity?)")
             self.u = self._ksolve(self.a)
             self.s = float(self.a @ self.u)
-        else:
-            self.lu = Factor(P, dense=(kind == "lu"), what=what)
+        elif kind == "lu":
+            self._lu = Factor(P, dense=True, what=what)
 
     def _ksolve(self, b):
         return sla.cho_solve((self.L, True), b, check_finite=False)
 
+    def _p_factor(self) -> Factor:
+        if self._lu is None:
+            self._lu = Factor(self.P, dense=False, what=self.what)
+        return self._lu
+
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """``P⁻¹ rhs`` for rhs (nI + 1, r)."""
         if self.kind != "cholesky":
-            return self.lu.solve(rhs)
+            return self._p_factor().solve(rhs)
         y = self._ksolve(rhs[:-1])
         mu = (self.a @ y - rhs[-1]) / self.s
         return np.vstack([y - np.outer(self.u, mu), mu[None, :]])
@@ -145,10 +153,10 @@ class ClusterSolver:
     def condensed(self, C: sp.csr_matrix, KBB: np.ndarray) -> np.ndarray:
         """The cluster's symmetric map K*ᵢ ((nB+1), (nB+1)) from (T_B, T_SN,i) to (f_B, q_i).
 
-        ``C`` (nI+1, nB) = [K_IB; a_B] and ``KBB`` (nB, nB) dense.  With G the Schur complement of K_II in the
-        local matrix over (T_I, T_B, μ): ``G = [[K_BB, a_Bᵀ], [a_B, 0]] − [K_IB, a_Iᵀ]ᵀ K_II⁻¹ [K_IB, a_Iᵀ]``,
-        ``G [T_B; μ] = [f_B; T_SN]`` and q = −μ give ``K*ᵢ = [[G_BB − g gᵀ/γ, g/γ], [gᵀ/γ, −1/γ]]``
-        (g = G_Bμ, γ = G_μμ = −s).  The LU paths use ``K*ᵢ = [[K_BB − Cᵀ P⁻¹ C, Cᵀ P⁻¹ e], [·, −eᵀ P⁻¹ e]]``.
+        ``C`` (nI+1, nB) = [K_IB; a_B] and ``KBB`` (nB, nB) dense.  Eliminating T_I from the local matrix over
+        (T_I, T_B, μ) leaves ``G = [[K_BB, a_Bᵀ], [a_B, 0]] − [K_IB, a_Iᵀ]ᵀ K_II⁻¹ [K_IB, a_Iᵀ]`` with
+        ``G [T_B; μ] = [f_B; T_SN]``; with q = −μ, ``K*ᵢ = [[G_BB − g gᵀ/γ, g/γ], [gᵀ/γ, −1/γ]]`` (g = G_Bμ,
+        γ = G_μμ = −s).  Equivalently ``[[K_BB − Cᵀ P⁻¹ C, Cᵀ P⁻¹ e], [·, −eᵀ P⁻¹ e]]`` (e the last unit vector).
         """
         nB = KBB.shape[0]
         nI = self.nI
@@ -167,20 +175,63 @@ class ClusterSolver:
             out[:nB, :nB] = G[:nB, :nB] - np.outer(g, g) / gam
             out[:nB, nB] = out[nB, :nB] = g / gam
             out[nB, nB] = -1.0 / gam
+        elif self.kind == "sparse" and self._trailing(C, KBB, out):
+            pass
         else:
+            if self.kind == "sparse":  # pivoting was needed after all: solve with P
+                self.kind = "sparse_lu"
             rhs = np.zeros((nI + 1, nB + 1))
             rhs[:, :nB] = C.toarray()
             rhs[nI, nB] = 1.0
-            Z = self.lu.solve(rhs)
+            Z = self._p_factor().solve(rhs)
             CtZ = C.T @ Z
             out[:nB, :nB] = KBB - CtZ[:, :nB]
             out[:nB, nB] = out[nB, :nB] = CtZ[:, nB]
             out[nB, nB] = -Z[nI, nB]
         return 0.5 * (out + out.T)
 
+    def _trailing(self, C: sp.csr_matrix, KBB: np.ndarray, out: np.ndarray) -> bool:
+        """K*ᵢ from the trailing LU factors of the local matrix ordered [I, μ, B]; False if pivoting was needed.
+
+        After eliminating I and then μ without pivoting, the trailing (μ, B) factors hold γ = U_μμ,
+        g/γ = L_Bμ and the Schur complement K*_BB = L_BB U_BB.  I is ordered by SuperLU's minimum degree on
+        K_II (its column permutation with symmetric mode).
+        """
+        nI, nB = self.nI, KBB.shape[0]
+        try:
+            o = spla.splu(self.P[:nI, :nI].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                          options=dict(SymmetricMode=True)).perm_c
+        except RuntimeError:
+            raise Fem2TmmError(f"{self.what} is singular (elements of zero conductivity?)") from None
+        new = np.empty(nI + 1 + nB, np.int64)  # position of each local unknown: I by o, then μ, then B
+        new[o] = np.arange(nI)
+        new[nI] = nI
+        new[nI + 1:] = nI + 1 + np.arange(nB)
+        Pc, Cc = self.P.tocoo(), C.tocoo()
+        bi, bj = np.nonzero(KBB)
+        r = np.concatenate([new[Pc.row], new[Cc.row], nI + 1 + Cc.col, nI + 1 + bi])
+        c = np.concatenate([new[Pc.col], nI + 1 + Cc.col, new[Cc.row], nI + 1 + bj])
+        v = np.concatenate([Pc.data, Cc.data, Cc.data, KBB[bi, bj]])
+        n = nI + 1 + nB
+        try:
+            lu = spla.splu(sp.csc_matrix((v, (r, c)), shape=(n, n)), permc_spec="NATURAL",
+                           diag_pivot_thresh=0.0, options=dict(SymmetricMode=True, Equil=False))
+        except RuntimeError:
+            return False
+        ident = np.arange(n)
+        if not (np.array_equal(lu.perm_r, ident) and np.array_equal(lu.perm_c, ident)):
+            return False
+        Lt = lu.L[nI:, nI:].toarray()
+        Ut = lu.U[nI:, nI:].toarray()
+        out[:nB, :nB] = Lt[1:, 1:] @ Ut[1:, 1:]
+        out[:nB, nB] = out[nB, :nB] = Lt[1:, 0]
+        out[nB, nB] = -1.0 / Ut[0, 0]
+        return True
+
     @property
     def nbytes(self) -> int:
-        return self.L.nbytes + self.u.nbytes if self.kind == "cholesky" else self.lu.nbytes
+        total = self.L.nbytes + self.u.nbytes if self.kind == "cholesky" else 0
+        return total + (self._lu.nbytes if self._lu is not None else 0)
 
 
 @dataclass
