@@ -25,8 +25,9 @@ Width and characteristic length
 -------------------------------
 A shell region is replaced by the *equivalent rectangle* with the same area A and perimeter P:
 ``L + w = P/2, L·w = A`` (a square when the region is more compact than a square, P² < 16A).  This is
-exact for straight and curved strips (an annulus of radii r1 < r2 with r2 - r1 small gives w = r2 - r1 and
-L = π(r1 + r2)), and a closed surface (no perimeter) counts as compact.  A solid region is replaced by the
+exact for a straight strip and right to first order in w/L for a curved one (a narrow annulus of radii
+r1 < r2 gives w ≈ r2 - r1 and L ≈ π(r1 + r2): it has no end edges), and a closed surface (no perimeter)
+counts as compact.  A solid region is replaced by the
 *equivalent square slab* a × a × t with the same volume V and surface S (``V = a²t``, ``S = 2a² + 4at``, a
 cube when S <= 6 V^(2/3)).  Holes add perimeter, so a plate with many holes looks narrower than it is; this
 only matters when a part has several regions.

@@ -5,7 +5,7 @@ with area (volume) weights a refined patch of the mesh does not attract more clu
 
 Algorithm (chosen by measurement, see :mod:`fem2tmm.cluster.benchmarks`):
 
-1. **Weighted subsample.**  When there are more than ``S = max(20 k, 20 000)`` points, S indices are drawn
+1. **Weighted subsample.**  When there are more than ``S = max(20 k, 10 000)`` points, S indices are drawn
    with replacement with probability ∝ w and the distinct ones are weighted by how often they were drawn
    (an unbiased sample of the weighted point set).
 2. **Restarts on the sample.**  Weighted greedy k-means++ (:func:`kmeans_plusplus`) then weighted Lloyd
@@ -91,7 +91,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
     w : (n,) float > 0, weights (m² or m³)
     k : number of centres, 1 <= k <= n
     seed : random seed, an int or a sequence of ints; same inputs and seed give the same centres
-    sample_size : number of weighted draws the restarts work on (default ``max(20 k, 20 000)``); the
+    sample_size : number of weighted draws the restarts work on (default ``max(20 k, 10 000)``); the
         full set is used when it is not larger
     n_init : k-means++ restarts on the sample, the lowest objective wins (default ``2·10⁶ / (n_s k)``
         clipped to [1, 10], n_s the sample size: many restarts on small problems, one at 10⁶ elements)
@@ -108,7 +108,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
     if k == 1:
         return (w @ X / w.sum())[None, :]
     rng = np.random.default_rng(seed)
-    S = max(20 * k, 20_000) if sample_size is None else int(sample_size)
+    S = max(20 * k, 10_000) if sample_size is None else int(sample_size)
     Xs, ws = X, w
     if n > S:
         idx = rng.choice(n, size=S, p=w / w.sum())
