@@ -69,44 +69,89 @@ class SteadySolution:
     heat_fixed: np.ndarray
     to_space: np.ndarray
     balance: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
 
 
-def _as_operator(M):
-    return M if sp.issparse(M) else np.asarray(M, float)
+class _Operators:
+    """The problem's operators, built once: K, the node Laplacian of GR, and the factored face Laplacian."""
 
+    def __init__(self, problem: SteadyProblem):
+        self.p = problem
+        K = problem.K
+        self.dense = not sp.issparse(K)
+        self.K = np.asarray(K, float) if self.dense else sp.csr_matrix(K)
+        self.L = None
+        if problem.GR is not None:
+            GR = problem.GR
+            if sp.issparse(GR):
+                GR = sp.csr_matrix(GR)
+                GR = GR - sp.diags(GR.diagonal())
+                self.L = (sp.diags(np.asarray(GR.sum(axis=1)).ravel()) - GR).tocsr()
+                if self.dense:
+                    self.L = self.L.toarray()
+            else:
+                GR = np.array(GR, float)
+                np.fill_diagonal(GR, 0.0)
+                self.L = np.diag(GR.sum(axis=1)) - GR
+        self.W = self.Lf = None
+        if problem.faced is not None:
+            G = sp.csr_matrix(problem.faced.G)
+            G = G - sp.diags(G.diagonal())
+            self.W = sp.csr_matrix(problem.faced.W)
+            self.Lf = (sp.diags(np.asarray(G.sum(axis=1)).ravel()) - G).tocsr()
+            # lumped radiative conductance per node (for the preconditioner): Σ_f W_fi Σ_j G_fj
+            self.face_lumped = np.asarray(self.W.T @ np.asarray(G.sum(axis=1)).ravel()).ravel()
+        self.g = np.asarray(problem.g_space, float)
+        self.radiative = bool((self.g > 0).any() or self.L is not None or self.Lf is not None)
 
-def _radiation_laplacian(problem: SteadyProblem):
-    """L = diag(GR 1) − GR for node-to-node GR (sparse or dense), or None."""
-    if problem.GR is None:
-        return None
-    GR = problem.GR
-    if sp.issparse(GR):
-        GR = sp.csr_matrix(GR)
-        GR = GR - sp.diags(GR.diagonal())
-        return (sp.diags(np.asarray(GR.sum(axis=1)).ravel()) - GR).tocsr()
-    GR = np.array(GR, float)
-    np.fill_diagonal(GR, 0.0)
-    return np.diag(GR.sum(axis=1)) - GR
+    def radiation(self, T4: np.ndarray) -> np.ndarray:
+        """Net radiated heat (n,) W for nodal T⁴ (without the space term)."""
+        out = np.zeros_like(T4)
+        if self.L is not None:
+            out = out + self.L @ T4
+        if self.Lf is not None:
+            out = out + self.W.T @ (self.Lf @ (self.W @ T4))
+        return SIGMA * np.asarray(out).ravel()
 
+    def residual(self, T: np.ndarray) -> np.ndarray:
+        p = self.p
+        T4 = T**4
+        r = self.K @ T + SIGMA * self.g * (T4 - p.T_sink**4) - p.Q + self.radiation(T4)
+        return np.asarray(r).ravel()
 
-def _faced_laplacian(faced: FacedRadiation):
-    G = sp.csr_matrix(faced.G)
-    G = G - sp.diags(G.diagonal())
-    Lf = (sp.diags(np.asarray(G.sum(axis=1)).ravel()) - G).tocsr()
-    return Lf
+    def jvp(self, d: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Jacobian-vector product J x with d = 4σT³ (full-length vectors)."""
+        y = self.K @ x + d * self.g * x
+        dx = d * x / SIGMA
+        return np.asarray(y).ravel() + self.radiation(dx)
+
+    def jacobian(self, d: np.ndarray, free: np.ndarray, lumped_faces: bool = False):
+        """Assembled Jacobian on the free nodes; with ``lumped_faces`` the face radiation is replaced by its
+        lumped diagonal (the Newton-Krylov preconditioner)."""
+        n = len(d)
+        if self.dense:
+            J = np.array(self.K, float)
+            if self.L is not None:
+                J = J + self.L * d[None, :]
+            J[np.diag_indices(n)] += d * self.g
+            if self.Lf is not None:
+                J = J + (self.W.T @ (self.Lf @ (self.W @ sp.diags(d)))).toarray()
+            return J[np.ix_(free, free)]
+        J = self.K + sp.diags(d * self.g)
+        if self.L is not None:
+            J = J + sp.csr_matrix(self.L) @ sp.diags(d)
+        if self.Lf is not None:
+            if lumped_faces:
+                J = J + sp.diags(d * self.face_lumped)
+            else:
+                J = J + self.W.T @ (self.Lf @ (self.W @ sp.diags(d)))
+        J = sp.csr_matrix(J)
+        return J[free][:, free].tocsc()
 
 
 def residual(problem: SteadyProblem, T: np.ndarray) -> np.ndarray:
     """r(T) (n,) in W: net heat leaving each node minus its applied load."""
-    T4 = T**4
-    r = problem.K @ T + SIGMA * problem.g_space * (T4 - problem.T_sink**4) - problem.Q
-    L = _radiation_laplacian(problem)
-    if L is not None:
-        r = r + SIGMA * (L @ T4)
-    if problem.faced is not None:
-        W = problem.faced.W
-        r = r + SIGMA * (W.T @ (_faced_laplacian(problem.faced) @ (W @ T4)))
-    return np.asarray(r).ravel()
+    return _Operators(problem).residual(T)
 
 
 def check_solvable(problem: SteadyProblem, labels: np.ndarray | None = None, describe=None) -> None:
@@ -114,15 +159,14 @@ def check_solvable(problem: SteadyProblem, labels: np.ndarray | None = None, des
 
     ``describe(node_indices) -> str`` names the culprit part(s) for the message.
     """
-    n = len(problem.Q)
     K = problem.K
     A = sp.csr_matrix(K) if sp.issparse(K) else sp.csr_matrix(np.asarray(K))
     A = abs(A)
     if problem.GR is not None:
         A = A + abs(sp.csr_matrix(problem.GR))
     if problem.faced is not None:
-        W = problem.faced.W
-        A = A + abs(W.T @ (abs(problem.faced.G) @ W))
+        W = sp.csr_matrix(problem.faced.W)
+        A = A + abs(W.T @ (abs(sp.csr_matrix(problem.faced.G)) @ W))
     ncomp, comp = sp.csgraph.connected_components(A, directed=False)
     anchored = np.zeros(ncomp, bool)
     anchored[np.unique(comp[problem.fixed])] = True
@@ -143,7 +187,9 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     """Solve the steady network by damped Newton.
 
     ``T0`` start temperature(s) in K (default: mean of the fixed temperatures, else the sink).
-    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T).
+    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T).  Sparse problems with factored
+    face radiation use Newton-Krylov: GMRES on the exact Jacobian, preconditioned by the LU of the
+    conduction matrix plus the lumped radiative conductances (the exact Jacobian would be dense-ish).
     """
     n = len(problem.Q)
     fixed = np.asarray(problem.fixed, bool)
@@ -154,50 +200,26 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     T[fixed] = problem.T_fixed[fixed]
     if np.any(T <= 0):
         raise Fem2TmmError("start and fixed temperatures must be above absolute zero")
-    K = _as_operator(problem.K)
-    L = _radiation_laplacian(problem)
-    Lf = _faced_laplacian(problem.faced) if problem.faced is not None else None
-    dense = not sp.issparse(K)
-    radiative = (problem.g_space > 0).any() or L is not None or Lf is not None
-
-    def res(T):
-        return residual(problem, T)
-
-    def jacobian(T):
-        d = 4 * SIGMA * T**3
-        if dense:
-            J = np.array(K, float)
-            if L is not None:
-                J = J + (L if not sp.issparse(L) else L.toarray()) * d[None, :]
-            J[np.diag_indices(n)] += d * problem.g_space
-            if Lf is not None:
-                W = problem.faced.W
-                J = J + (W.T @ (Lf @ (W @ sp.diags(d)))).toarray()
-            return J[np.ix_(free, free)]
-        J = sp.csr_matrix(K) + sp.diags(d * problem.g_space)
-        if L is not None:
-            J = J + (sp.csr_matrix(L) @ sp.diags(d))
-        if Lf is not None:
-            W = problem.faced.W
-            J = J + W.T @ (Lf @ (W @ sp.diags(d)))
-        J = sp.csr_matrix(J)
-        return J[free][:, free].tocsc()
-
+    ops = _Operators(problem)
+    krylov = (not ops.dense) and ops.Lf is not None
     cache = {}
+    stats = {"gmres_iterations": 0}
 
     def step_solve(T, b):
         # a purely conductive problem has a constant Jacobian: factorise it once
-        if not radiative and "lu" in cache:
+        if not ops.radiative and "lu" in cache:
             return cache["lu"](b)
-        J = jacobian(T)
-        if dense:
-            return np.linalg.solve(J, b)
-        lu = factorize(J)
-        if not radiative:
+        d = 4 * SIGMA * T**3
+        if ops.dense:
+            return np.linalg.solve(ops.jacobian(d, free), b)
+        if krylov:
+            return _newton_krylov_step(ops, d, free, b, stats)
+        lu = factorize(ops.jacobian(d, free))
+        if not ops.radiative:
             cache["lu"] = lu.solve
         return lu.solve(b)
 
-    r = res(T)
+    r = ops.residual(T)
     rn = np.linalg.norm(r[free])
     converged, it, step = False, 0, np.inf
     if len(free) == 0:
@@ -211,7 +233,7 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         if full < tol or full < 1e-13 * float(np.max(np.abs(T))):
             # converged: the step is below the tolerance (or round-off); take it without line search
             T[free] += dT
-            r = res(T)
+            r = ops.residual(T)
             step, converged = full, True
             break
         # positivity: never let a temperature drop by more than 80 % in one step
@@ -219,16 +241,16 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         dec = dT < 0
         if dec.any():
             a = min(1.0, float(np.min(0.8 * T[free][dec] / -dT[dec])))
-        if radiative:
+        if ops.radiative:
             while a > 1e-6:
                 Tn = T.copy()
                 Tn[free] += a * dT
-                rn_new = np.linalg.norm(res(Tn)[free])
+                rn_new = np.linalg.norm(ops.residual(Tn)[free])
                 if rn_new <= (1 - 1e-4 * a) * rn or rn_new < 1e-12 * (1 + np.abs(problem.Q).sum()):
                     break
                 a *= 0.5
         T[free] += a * dT
-        r = res(T)
+        r = ops.residual(T)
         rn = np.linalg.norm(r[free])
         step = float(np.max(np.abs(a * dT))) if len(dT) else 0.0
     if not converged:
@@ -248,4 +270,32 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     balance = {"applied_W": applied, "fixed_W": fixed_in, "space_W": space, "imbalance_W": imbalance,
                "relative": abs(imbalance) / scale if scale > 1e-300 else 0.0}
     return SteadySolution(T=T, iterations=it, converged=converged, max_step=step, heat_fixed=heat_fixed,
-                          to_space=to_space, balance=balance)
+                          to_space=to_space, balance=balance, stats=stats)
+
+
+def _newton_krylov_step(ops: _Operators, d: np.ndarray, free: np.ndarray, b: np.ndarray, stats: dict) -> np.ndarray:
+    """Solve J x = b on the free nodes with preconditioned GMRES (tight tolerance: the Newton step is exact)."""
+    import scipy.sparse.linalg as spla
+
+    n = len(d)
+    lu = factorize(ops.jacobian(d, free, lumped_faces=True))
+    full = np.zeros(n)
+
+    def matvec(x):
+        full[:] = 0.0
+        full[free] = x
+        return ops.jvp(d, full)[free]
+
+    A = spla.LinearOperator((len(free), len(free)), matvec=matvec, dtype=float)
+    M = spla.LinearOperator((len(free), len(free)), matvec=lu.solve, dtype=float)
+    count = [0]
+
+    def cb(_):
+        count[0] += 1
+
+    x, info = spla.gmres(A, b, rtol=1e-12, atol=0.0, restart=80, maxiter=2000, M=M, callback=cb,
+                         callback_type="pr_norm")
+    stats["gmres_iterations"] += count[0]
+    if info != 0:
+        raise Fem2TmmError("the radiative Newton step did not converge (GMRES); the model may be ill-posed")
+    return x
