@@ -110,7 +110,12 @@ class ClusteringSettings:
 
 @dataclass(frozen=True)
 class ReferenceSettings:
+    """The detailed reference model.  Its face-to-face REFs use ``rays_per_face`` rays per FE face side or
+    ``ray_density`` rays/m² (default: the ``[radiation]`` budget)."""
+
     detailed: bool = True
+    rays_per_face: int | None = None
+    ray_density: float | None = None
 
 
 @dataclass(frozen=True)
@@ -421,8 +426,13 @@ class _Parser:
         )
 
     def reference(self, d) -> ReferenceSettings:
-        d = self.table(d, "[reference]", {"detailed"})
-        return ReferenceSettings(detailed=self.boolean(d, "detailed", "[reference]", True))
+        w = "[reference]"
+        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density"})
+        rpf = self.number(d, "rays_per_face", w, lo=1, integer=True)
+        dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
+        if rpf is not None and dens is not None:
+            raise self.err(w, "give either rays_per_face or ray_density, not both")
+        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, True), rays_per_face=rpf, ray_density=dens)
 
     def solver(self, d) -> SolverSettings:
         w = "[solver]"

@@ -20,7 +20,7 @@ from .errors import Fem2TmmError, format_ids
 from .fem.model import FEModel
 from .reduce import (ConductiveReduction, SuperNodes, build_supernodes, equivalent_capacitance, filter_links,
                      negative_links, reduce_conduction, supernode_capacitance)
-from .solve.steady import SteadyProblem
+from .solve.steady import FacedRadiation, SteadyProblem
 
 
 @dataclass(frozen=True)
@@ -199,3 +199,109 @@ def conductive_links(K: np.ndarray, rtol: float = 0.0) -> int:
     """Number of non-zero off-diagonal pairs (GL) of a symmetric K."""
     iu = np.triu_indices(len(K), 1)
     return int(np.count_nonzero(np.abs(K[iu]) > rtol * np.abs(np.diag(K)).max(initial=0.0)))
+
+
+# ------------------------------------------------------------------------------------------------ radiation
+def radiation_surface(model: FEModel):
+    """The model's radiating faces as a ray-tracing :class:`~fem2tmm.radiation.Surface` (sides 2i front, 2i+1 back)."""
+    from .radiation import Surface
+
+    f = model.faces
+    return Surface(points=model.mesh.points, faces=f.nodes, emissivity=f.emissivity, absorptivity=f.absorptivity,
+                   specular=f.specular, transmissivity=f.transmissivity,
+                   transmission_specular=f.transmission_specular, active=f.active)
+
+
+def _budget(settings, n_groups: int):
+    """(rays_per_group, ray_density) from a settings object with rays_per_face / ray_density."""
+    if getattr(settings, "ray_density", None):
+        return None, float(settings.ray_density)
+    return int(settings.rays_per_face or 1000), None
+
+
+def detailed_radiation(model: FEModel, case, surface=None, rays_per_face=None, ray_density=None):
+    """Face-to-face REFs of the detailed model: every active side is a REF node.
+
+    Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
+    ``g_space`` (n_dof,) m² to the sink, and the :class:`~fem2tmm.radiation.ExchangeResult`.
+    """
+    from .radiation import trace_exchange
+
+    surface = radiation_surface(model) if surface is None else surface
+    f = model.faces
+    active = np.flatnonzero(f.active)
+    groups = np.full(2 * f.n, -1, np.int64)
+    groups[active] = np.arange(len(active))
+    rs = case.radiation
+    if rays_per_face is None and ray_density is None:
+        rays_per_face, ray_density = _budget(rs, len(active))
+    res = trace_exchange(surface, groups, rays_per_group=rays_per_face, ray_density=ray_density,
+                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse)
+    Ws = f.W[active // 2]  # each side takes its face's nodal weights
+    g = len(active)
+    GR = sp_csr(res.GR)
+    faced = FacedRadiation(W=Ws.tocsr(), G=GR[:, :g].tocsr())
+    g_space = np.asarray(Ws.T @ np.asarray(GR[:, g].todense()).ravel()).ravel()
+    return faced, g_space, res
+
+
+def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarray]:
+    """Super faces: the active sides of each super node, grouped by super node and side (front/back).
+
+    Returns ``groups`` (2f,) super-face index of each side (-1 inactive) and ``owner`` (n_sf,) the super-node
+    row of each super face.  Sides of fully determined elements belong to the one-node super node of the
+    face's largest nodal share.
+    """
+    f = model.faces
+    sn = rm.supernodes
+    elem_row = np.full(model.mesh.n_elements, -1, np.int64)
+    elem_row[model.elements] = np.arange(len(model.elements))
+    cl = rm.element_cluster[elem_row[f.element]]
+    row_of_cluster = np.full(max(int(sn.cluster.max(initial=-1)) + 1, 0), -1, np.int64)
+    row_of_cluster[sn.cluster[sn.cluster >= 0]] = np.flatnonzero(sn.cluster >= 0)
+    owner_face = np.full(f.n, -1, np.int64)
+    live = cl >= 0
+    owner_face[live] = row_of_cluster[cl[live]]
+    if (~live).any():
+        row_of_dof = np.full(model.n_dof, -1, np.int64)
+        row_of_dof[sn.dof[sn.dof >= 0]] = np.flatnonzero(sn.dof >= 0)
+        dom = f.dofs[~live, np.argmax(f.shares[~live], axis=1)]
+        owner_face[~live] = row_of_dof[dom]
+    side_owner = np.repeat(owner_face, 2)
+    side = np.tile([0, 1], f.n)
+    key = np.where(f.active, side_owner * 2 + side, -1)
+    uniq, inv = np.unique(key[key >= 0], return_inverse=True)
+    groups = np.full(2 * f.n, -1, np.int64)
+    groups[key >= 0] = inv.ravel()
+    return groups, uniq // 2
+
+
+def reduced_radiation(model: FEModel, rm: ReducedModel, case, surface=None):
+    """REFs between super faces summed into GR between super nodes.
+
+    Returns ``(GR, g_space, result, n_super_faces)``: GR (n, n) m² (zero diagonal), g_space (n,) m².
+    """
+    import scipy.sparse as sp
+
+    from .radiation import trace_exchange
+
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm)
+    n_sf = len(owner)
+    rays_per_group, ray_density = _budget(case.radiation, n_sf)
+    rs = case.radiation
+    res = trace_exchange(surface, groups, rays_per_group=rays_per_group, ray_density=ray_density,
+                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse)
+    S = sp.csr_matrix((np.ones(n_sf), (np.arange(n_sf), owner)), shape=(n_sf, rm.n))
+    GRsf = sp_csr(res.GR)
+    GR = np.asarray((S.T @ GRsf[:, :n_sf] @ S).todense())
+    np.fill_diagonal(GR, 0.0)
+    GR = 0.5 * (GR + GR.T)
+    g_space = np.asarray(S.T @ np.asarray(GRsf[:, n_sf].todense()).ravel()).ravel()
+    return GR, g_space, res, n_sf
+
+
+def sp_csr(M):
+    import scipy.sparse as sp
+
+    return sp.csr_matrix(M)

@@ -6,6 +6,7 @@ folder next to it that is renamed at the end.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -66,6 +67,8 @@ class Result:
     reduced: object | None = None  # fem2tmm.network.ReducedModel
     reduced_solution: SteadySolution | None = None
     T_recovered: np.ndarray | None = None  # (n_dof,) K
+    radiation: object | None = None  # ExchangeResult between super faces
+    radiation_detailed: object | None = None  # ExchangeResult between FE face sides
     extras: dict = field(default_factory=dict)
 
     @property
@@ -114,7 +117,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
     overrides ``[reference] detailed``.
     """
-    from .network import build_reduced, cluster_model
+    from .network import build_reduced, cluster_model, detailed_radiation, radiation_surface, reduced_radiation
 
     prog = Progress(quiet=quiet)
     with prog.stage("read", "reading the mesh"):
@@ -125,6 +128,8 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     problem = detailed_problem(model)
     check_solvable(problem, describe=_describe_nodes(model))
     result = Result(case=case, mesh=mesh, model=model, summary={})
+    trace = case.radiation.enabled and bool(model.faces.active.any())
+    surface = radiation_surface(model) if trace else None
     if case.reduction.enabled:
         with prog.stage("cluster", "clustering"):
             bar = prog.bar(len(model.parts), "clustering parts")
@@ -132,12 +137,25 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
             bar.close()
         with prog.stage("reduce", "reducing conduction"):
             result.reduced = build_reduced(model, result.clustering, case)
+        if trace:
+            with prog.stage("radiation", "tracing super-face exchange factors"):
+                GR, g_space, res, n_sf = reduced_radiation(model, result.reduced, case, surface)
+                result.reduced = dataclasses.replace(result.reduced, GR=GR, g_space=g_space)
+                result.radiation = res
+                result.extras["super_faces"] = n_sf
         with prog.stage("solve_reduced", "solving the reduced model"):
             result.reduced_solution = solve_steady(result.reduced.problem(), tol=case.solver.tolerance,
                                                    max_iter=case.solver.max_iterations)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = result.reduced.reduction.recover(result.reduced_solution.T, model.Q)
     if do_ref or not case.reduction.enabled:
+        if trace:
+            with prog.stage("radiation_detailed", "tracing FE-face exchange factors (detailed model)"):
+                ref = case.reference
+                rpf, dens = ref.rays_per_face, ref.ray_density
+                faced, g_space, res = detailed_radiation(model, case, surface, rays_per_face=rpf, ray_density=dens)
+                problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
+                result.radiation_detailed = res
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
     result.summary = _summary(result, prog.timings)
@@ -167,8 +185,7 @@ def _summary(result: "Result", timings) -> dict:
                  "dofs": int(model.n_dof), "thermal_elements": int(len(model.elements)),
                  "radiating_faces": int(model.faces.n)},
         "reduced": None,
-        "radiation": {"model": "space only: every active side radiates to the sink (face-to-face REFs not traced)",
-                      "rays": 0, "lse_rms": None},
+        "radiation": _radiation_summary(result),
         "accuracy": {"rms_K": None, "max_K": None},
         "detailed": None if detailed is None else {
             "iterations": detailed.iterations,
@@ -186,7 +203,7 @@ def _summary(result: "Result", timings) -> dict:
             "super_nodes": int(np.count_nonzero(rm.kind == "cluster")),
             "boundary_nodes": int(np.count_nonzero(rm.kind == "boundary")),
             "kept_nodes": int(np.count_nonzero(rm.kind == "kept")),
-            "super_faces": int(np.count_nonzero(rm.area > 0)),
+            "super_faces": int(result.extras.get("super_faces", np.count_nonzero(rm.area > 0))),
             "conductive_links": conductive_links(rm.K),
             "radiative_links": n_links_space + (0 if rm.GR is None else conductive_links(rm.GR)),
             "negative_links": rm.report.get("negative_links", 0),
@@ -204,6 +221,27 @@ def _summary(result: "Result", timings) -> dict:
             s["accuracy"] = {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
                              "nodes": int(ok.sum())}
     return s
+
+
+def _radiation_summary(result: "Result") -> dict:
+    def one(res):
+        return {"rays": int(np.sum(res.rays)), "lse_rms": float(res.lse_rms), "kappa": res.kappa,
+                "groups": int(res.n_groups), "links": int(res.GR.nnz), "segments": int(res.segments),
+                "capped_energy_fraction": float(res.capped_energy_fraction),
+                "blocked_fraction": float(res.blocked_fraction), "engine": res.engine, "sampling": res.sampling}
+
+    r, d = result.radiation, result.radiation_detailed
+    if r is None and d is None:
+        return {"model": "space only: every active side radiates to the sink (face-to-face REFs not traced)",
+                "rays": 0, "lse_rms": None, "kappa": None}
+    out = {"model": "face-to-face radiative exchange factors (quasi-Monte Carlo ray tracing)"}
+    if r is not None:
+        out.update(one(r))
+    else:
+        out.update({"rays": 0, "lse_rms": None, "kappa": None})
+    if d is not None:
+        out["detailed"] = one(d)
+    return out
 
 
 def _jsonable(x):
