@@ -288,6 +288,9 @@ def write_outputs(result: Result, out: Path) -> Path:
         write_temp(tmp / "temperatures.bdf", mesh.node_ids, T - KELVIN)
         if result.reduced is not None:
             _write_reduced(tmp, result)
+        from .export.report import write_report
+
+        write_report(tmp, result, _case_text(result.case))
         (tmp / "summary.json").write_text(json.dumps(_jsonable(result.summary), indent=2), encoding="utf-8")
         if out.exists():
             if not out.is_dir():
@@ -308,6 +311,13 @@ def _element_full(model: FEModel, n_elements: int, values: np.ndarray) -> np.nda
     v = np.full(n_elements, -1, np.int64)
     v[model.elements] = values
     return v
+
+
+def _case_text(case: Case) -> str:
+    p = Path(case.source)
+    if p.suffix == ".toml" and p.exists():
+        return p.read_text(encoding="utf-8")
+    return json.dumps(_jsonable(dict(case.raw)), indent=2)
 
 
 def _write_reduced(folder: Path, result: Result) -> None:
@@ -333,3 +343,6 @@ def _write_reduced(folder: Path, result: Result) -> None:
                 alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
                 GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink)
     write_esatan(folder / "model.esatan", deck, title=Path(result.case.source).stem)
+    from .export.sinda import write_sinda
+
+    write_sinda(folder / "model.sinda", deck, submodel=Path(result.case.source).stem)

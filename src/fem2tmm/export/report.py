@@ -1,0 +1,200 @@
+"""Static HTML report (``report.html`` + PNG images), opens offline.
+
+Contents: cluster map, temperature map (recovered when reduced), error map against the detailed
+reference, absorbed solar flux map, reduced-vs-detailed table (RMS, max, heat into each boundary and to
+space), exchange-factor line-sum-error histogram, stage timings and the case echoed.  Images are
+matplotlib renderings of the radiating faces (shells and the outer faces of solids) in an isometric view.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+import numpy as np
+
+#: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
+MAX_FACES = 60_000
+
+
+def _face_polygons(points: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
+    quads = points[np.where(faces < 0, faces[:, :1], faces)]  # triangles repeat their first node
+    return list(quads)
+
+
+def render_faces(path: Path, points: np.ndarray, faces: np.ndarray, values: np.ndarray, title: str, label: str,
+                 cmap: str = "inferno", categorical: bool = False, symmetric: bool = False) -> str:
+    """Render faces (f, 4) (-1 padded) coloured by ``values`` (f,) to ``path`` (PNG); returns a caption note."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    note = ""
+    idx = np.arange(len(faces))
+    if len(idx) > MAX_FACES:
+        idx = np.linspace(0, len(faces) - 1, MAX_FACES).astype(np.int64)
+        note = f" ({MAX_FACES:,} of {len(faces):,} faces drawn)"
+    f, v = faces[idx], np.asarray(values, float)[idx]
+    fig = plt.figure(figsize=(7.5, 6.0), dpi=110)
+    ax = fig.add_subplot(projection="3d")
+    if categorical:
+        k = int(np.nanmax(v)) + 1 if np.isfinite(v).any() else 1
+        perm = np.random.default_rng(0).permutation(max(k, 1))
+        vv = np.where(np.isfinite(v), perm[np.nan_to_num(v, nan=0).astype(np.int64) % max(k, 1)], np.nan)
+        cm = plt.get_cmap("tab20")
+        colors = cm((vv % 20) / 19.0)
+        norm = None
+    else:
+        finite = v[np.isfinite(v)]
+        lo, hi = (finite.min(), finite.max()) if len(finite) else (0.0, 1.0)
+        if symmetric:
+            m = max(abs(lo), abs(hi), 1e-300)
+            lo, hi = -m, m
+        if hi <= lo:
+            hi = lo + 1e-12
+        norm = matplotlib.colors.Normalize(lo, hi)
+        colors = plt.get_cmap(cmap)(norm(v))
+    pc = Poly3DCollection(_face_polygons(points, f), facecolors=colors, edgecolors="none", linewidths=0)
+    ax.add_collection3d(pc)
+    lo3, hi3 = points[np.unique(f[f >= 0])].min(axis=0), points[np.unique(f[f >= 0])].max(axis=0)
+    c, r = (lo3 + hi3) / 2, (hi3 - lo3).max() / 2 or 1.0
+    ax.set_xlim(c[0] - r, c[0] + r)
+    ax.set_ylim(c[1] - r, c[1] + r)
+    ax.set_zlim(c[2] - r, c[2] + r)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=25, azim=-60)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title(title)
+    if norm is not None:
+        sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
+        fig.colorbar(sm, ax=ax, shrink=0.7, label=label)
+    fig.savefig(path)
+    plt.close(fig)
+    return note
+
+
+def _histogram(path: Path, values: np.ndarray, title: str, xlabel: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 3.8), dpi=110)
+    v = np.abs(np.asarray(values, float))
+    v = v[np.isfinite(v) & (v > 0)]
+    if len(v):
+        bins = np.logspace(np.log10(v.min()), np.log10(v.max()) + 1e-9, 40)
+        ax.hist(v, bins=bins, color="#3465a4")
+        ax.set_xscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("count")
+    ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _table(rows: list[tuple], header: tuple) -> str:
+    h = "".join(f"<th>{html.escape(str(x))}</th>" for x in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(x))}</td>" for x in r) + "</tr>" for r in rows)
+    return f"<table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _fmt(v, unit="") -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, float):
+        return f"{v:.6g}{unit}"
+    return f"{v}{unit}"
+
+
+def write_report(folder: Path, result, case_text: str) -> list[str]:
+    """Write ``report.html`` and its images into ``folder``; returns the image file names."""
+    folder = Path(folder)
+    model = result.model
+    s = result.summary
+    f = model.faces
+    pts = model.mesh.points
+    images: list[tuple[str, str]] = []
+
+    def face_values(T_dof: np.ndarray) -> np.ndarray:
+        return np.asarray(f.W @ T_dof).ravel()
+
+    if result.clustering is not None:
+        note = render_faces(folder / "clusters.png", pts, f.nodes, result.clustering.labels[f.element].astype(float),
+                            "Clusters (super nodes)", "cluster", categorical=True)
+        images.append(("clusters.png", "Clusters: each colour is one super node" + note))
+    T_dof = result.T_recovered if result.T_recovered is not None else result.detailed.T
+    kind = "recovered from the reduced model" if result.T_recovered is not None else "detailed model"
+    note = render_faces(folder / "temperature.png", pts, f.nodes, face_values(T_dof) - 273.15,
+                        f"Temperature ({kind})", "T [°C]")
+    images.append(("temperature.png", f"Temperature, {kind}" + note))
+    if result.T_recovered is not None and result.detailed is not None:
+        note = render_faces(folder / "error.png", pts, f.nodes, face_values(result.T_recovered - result.detailed.T),
+                            "Recovered minus detailed", "ΔT [K]", cmap="coolwarm", symmetric=True)
+        images.append(("error.png", "Error of the recovered temperatures against the detailed reference" + note))
+    solar = result.extras.get("absorbed_solar_faces")
+    if solar is not None:
+        note = render_faces(folder / "solar.png", pts, f.nodes, solar, "Absorbed solar flux", "q [W/m²]",
+                            cmap="viridis")
+        images.append(("solar.png", "Absorbed solar flux per face" + note))
+    if result.radiation is not None:
+        _histogram(folder / "lse.png", result.radiation.lse, "Line-sum error of the super-face REFs",
+                   "|LSE| (before closure)")
+        images.append(("lse.png", "Exchange-factor line-sum errors (super faces)"))
+
+    rows = [("mesh", f"{s['mesh']['nodes']:,} nodes, {s['mesh']['elements']:,} elements")]
+    red = s.get("reduced")
+    if red:
+        rows.append(("reduced model", f"{red['super_nodes']} super nodes + {red['boundary_nodes']} boundary nodes; "
+                     f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR, "
+                     f"{red['super_faces']} super faces"))
+    acc = s.get("accuracy") or {}
+    if acc.get("rms_K") is not None:
+        rows.append(("recovered vs detailed", f"RMS {acc['rms_K']:.4g} K, max {acc['max_K']:.4g} K over {acc['nodes']:,} nodes"))
+    rad = s.get("radiation") or {}
+    if rad.get("rays"):
+        rows.append(("radiation (reduced)", f"{rad['rays']:,} rays, RMS LSE {rad['lse_rms']:.3g}"))
+    if rad.get("detailed"):
+        rows.append(("radiation (detailed)", f"{rad['detailed']['rays']:,} rays, RMS LSE {rad['detailed']['lse_rms']:.3g}"))
+
+    flows = []
+    det = s.get("detailed") or {}
+    red_in = (red or {}).get("heat_into_fixed_W", {})
+    det_in = det.get("heat_into_fixed_W", {})
+    for name in sorted(set(red_in) | set(det_in)):
+        flows.append((f"into boundary '{name}'", _fmt(red_in.get(name), " W"), _fmt(det_in.get(name), " W")))
+    flows.append(("radiated to space", _fmt((red or {}).get("to_space_W"), " W"), _fmt(det.get("to_space_W"), " W")))
+    for k in ("reduced", "detailed"):
+        eb = (s.get("energy_balance_W") or {}).get(k)
+        if eb:
+            flows.append((f"energy imbalance ({k})", _fmt(eb["imbalance_W"], " W"), ""))
+    timings = [(k, f"{v:.2f} s") for k, v in (s.get("timings_s") or {}).items()]
+
+    figs = "".join(f'<figure><img src="{name}" alt="{html.escape(cap)}"><figcaption>{html.escape(cap)}'
+                   f"</figcaption></figure>" for name, cap in images)
+    doc = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>fem2tmm report</title>
+<style>
+body {{ font-family: sans-serif; margin: 2em; max-width: 1100px; color: #222; }}
+table {{ border-collapse: collapse; margin: 1em 0; }} td, th {{ border: 1px solid #bbb; padding: 4px 10px; text-align: left; }}
+figure {{ display: inline-block; margin: 0.5em; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
+pre {{ background: #f6f6f6; padding: 1em; overflow-x: auto; }}
+</style></head><body>
+<h1>fem2tmm report</h1>
+<p>Case: <code>{html.escape(str(s.get('case')))}</code> — fem2tmm {html.escape(str(s.get('version')))}</p>
+<h2>Summary</h2>{_table(rows, ("", ""))}
+<h2>Heat flows: reduced against detailed</h2>{_table(flows, ("", "reduced", "detailed"))}
+<h2>Maps</h2>{figs}
+<h2>Stage timings</h2>{_table(timings, ("stage", "time"))}
+<h2>Case</h2><pre>{html.escape(case_text)}</pre>
+<h2>summary.json</h2><pre>{html.escape(json.dumps(s, indent=1, default=str))}</pre>
+</body></html>
+"""
+    (folder / "report.html").write_text(doc, encoding="utf-8")
+    return [name for name, _ in images]

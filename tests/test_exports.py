@@ -1,0 +1,123 @@
+"""Exports: the ESATAN deck round-trips and solves to the same temperatures; SINDA, Nastran TEMP and VTU
+parse with independent simple parsers; the HTML report references only images that exist."""
+
+from __future__ import annotations
+
+import re
+
+import meshio
+import numpy as np
+import pytest
+
+from conftest import make_case
+from fem2tmm import meshes
+from fem2tmm.export.esatan import deck_matrices, read_esatan
+from fem2tmm.pipeline import run
+from fem2tmm.solve.steady import SteadyProblem, solve_steady
+
+
+@pytest.fixture(scope="module")
+def fin_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fin") / "out"
+    mesh = meshes.annulus(0.05, 0.15, 10, 60)
+    case = make_case(
+        [{"name": "fin", "groups": ["annulus"], "material": "al", "thickness": 1e-3, "front": "black",
+          "back": "black", "super_nodes": 12}],
+        [{"kind": "temperature", "groups": ["inner"], "value": 20.0},
+         {"kind": "flux", "groups": ["annulus"], "value": 30.0}],
+        environment={"sink_temperature": -100.0},
+        radiation={"rays_per_face": 200},
+        reference={"detailed": True, "rays_per_face": 20},
+    )
+    return run(case, out=out, mesh=mesh)
+
+
+def test_esatan_deck_round_trip_solves_to_the_same_temperatures(fin_run):
+    # issue 8: written, read back, and solved by the reduced solver to the same temperatures (1e-9 K)
+    deck = read_esatan(fin_run.out / "model.esatan")
+    rm, rs = fin_run.reduced, fin_run.reduced_solution
+    K, GR = deck_matrices(deck)
+    assert np.abs(K - rm.K).max() <= 1e-12 * np.abs(rm.K).max()
+    problem = SteadyProblem(K=K, Q=deck.Q, fixed=deck.boundary, T_fixed=deck.T, g_space=deck.GR_space,
+                            T_sink=deck.T_space, GR=GR)
+    sol = solve_steady(problem)
+    assert np.abs(sol.T - rs.T).max() < 1e-9
+    assert list(deck.labels) == list(rm.names)
+    text = (fin_run.out / "model.esatan").read_text()
+    n_neg = fin_run.summary["reduced"]["negative_links"]
+    assert f"{n_neg} are negative" in text and text.count("# negative") == n_neg
+
+
+def test_sinda_blocks_parse(fin_run):
+    # independent parser: node lines "id, T, C", conductor lines "id, a, b, G"; negative ids = boundary nodes /
+    # radiation conductors
+    text = (fin_run.out / "model.sinda").read_text()
+    blocks = re.split(r"^HEADER ", text, flags=re.M)
+    nodes = [b for b in blocks if b.startswith("NODE DATA")][0].splitlines()[1:]
+    conds = [b for b in blocks if b.startswith("CONDUCTOR DATA")][0].splitlines()[1:]
+    node = {int(ln.split(",")[0]): float(ln.split(",")[1]) for ln in nodes if ln.strip() and "$" in ln}
+    rm, rs = fin_run.reduced, fin_run.reduced_solution
+    assert len(node) == rm.n + 1  # + space
+    assert sum(1 for k in node if k < 0) == int(rm.fixed.sum()) + 1  # boundary nodes and space are negative
+    temps = sorted(v for k, v in node.items() if k > 0)
+    assert np.allclose(temps, sorted(rs.T[~rm.fixed] - 273.15), atol=1e-9)
+    lin = [ln for ln in conds if ln.strip() and not ln.strip().startswith("-") and "," in ln and not ln.startswith("END")]
+    rad = [ln for ln in conds if ln.strip().startswith("-")]
+    G = np.array([float(ln.split(",")[3]) for ln in lin])
+    iu = np.triu_indices(rm.n, 1)
+    assert np.isclose(G.sum(), -rm.K[iu].sum(), rtol=1e-12)
+    GRsum = sum(float(ln.split(",")[3]) for ln in rad)
+    assert np.isclose(GRsum, rm.GR[iu].sum() + rm.g_space.sum(), rtol=1e-12)
+
+
+def test_nastran_temp_cards_parse(fin_run):
+    # independent large-field parser: "TEMP*" + 4 fields of 16, continuation "*" + up to 3 fields of 16
+    lines = (fin_run.out / "temperatures.bdf").read_text().splitlines()
+    temps, default = {}, None
+    i = 0
+    while i < len(lines):
+        ln = lines[i]
+        if ln.startswith("TEMPD*"):
+            default = float(ln[24:40])
+        if ln.startswith("TEMP*"):
+            f = [ln[8 + 16 * k: 24 + 16 * k].strip() for k in range(4)]
+            nxt = lines[i + 1] if i + 1 < len(lines) and lines[i + 1].startswith("*") else ""
+            f += [nxt[8 + 16 * k: 24 + 16 * k].strip() for k in range(3)]
+            vals = [x for x in f[1:] if x]
+            for g, t in zip(vals[0::2], vals[1::2]):
+                temps[int(g)] = float(t)
+        i += 1
+    mesh = fin_run.mesh
+    T = fin_run.T_nodes - 273.15
+    assert len(temps) == mesh.n_nodes and default is not None
+    got = np.array([temps[int(g)] for g in mesh.node_ids])
+    assert np.abs(got - T).max() < 1e-8 * np.abs(T).max()  # 10 significant digits in a 16-character field
+
+
+def test_vtu_fields(fin_run):
+    m = meshio.read(fin_run.out / "temperatures.vtu")
+    T = m.point_data["temperature"]
+    assert np.allclose(T, fin_run.T_nodes - 273.15)
+    assert np.allclose(m.point_data["error"], m.point_data["temperature"] - m.point_data["reference_temperature"])
+    labels = np.concatenate(m.cell_data["cluster"])
+    assert len(np.unique(labels)) == 12
+
+
+def test_report_references_existing_images(fin_run):
+    html = (fin_run.out / "report.html").read_text()
+    imgs = re.findall(r'<img src="([^"]+)"', html)
+    assert {"clusters.png", "temperature.png", "error.png", "lse.png"} <= set(imgs)
+    for name in imgs:
+        data = (fin_run.out / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+    assert "Heat flows" in html and "into boundary" in html
+
+
+def test_reduced_npz_contents(fin_run):
+    d = np.load(fin_run.out / "reduced.npz")
+    n = fin_run.reduced.n
+    assert d["K"].shape == (n, n) and d["GR"].shape == (n + 1, n + 1) and d["C"].shape == (n,)
+    assert np.allclose(d["GR"], d["GR"].T)
+    # total capacitance of the reduced model = total capacitance of the detailed one (exact)
+    assert d["C"].sum() == pytest.approx(fin_run.model.capacity.sum(), rel=1e-12)
+    assert d["T"].shape == (n,) and set(d["names"]) == set(fin_run.reduced.names)
