@@ -19,9 +19,11 @@ A), so they are retained; the other interface nodes are removed by Guyan condens
 singular P; its μ stays an unknown of the interface system, with the symmetric block
 ``[[K_BB, a_Bᵀ, 0], [a_B, 0, −1], [0, −1, 0]]`` over (T_B, μ, T_SN,i).
 
-Memory is proportional to the clusters' sizes (their LU fill) plus the interface system; nothing is n × n dense.
-Small clusters (fewer than ``dense_below`` interior nodes) use dense LAPACK, larger ones SuperLU: measured on
-2-D quad clusters (2 cores), SuperLU wins from about 250 interior nodes (32×32 nodes: 7 ms against 18 ms dense).
+Memory is proportional to the clusters' sizes plus the interface fronts; nothing is n × n dense.  Each cluster
+is condensed either by dense Cholesky (small or chunky clusters) or from the trailing factors of one SuperLU
+factorisation (large shell-like clusters); see :class:`~fem2tmm.reduce.recovery.ClusterSolver` and the
+constants below.  The interface unknowns are then removed by multifrontal elimination over a tree of clusters
+(:mod:`fem2tmm.reduce.frontal`), which is the Guyan condensation done with dense BLAS-3 fronts.
 
 The result is symmetrised and its diagonal reset to minus the off-diagonal row sum, so K_SN is exactly
 symmetric with zero row sums; the raw asymmetry and row-sum residual are kept in ``diagnostics``.
@@ -42,8 +44,14 @@ from .frontal import ClusterTree, Frontal, elimination_nodes
 from .recovery import Factor, GlobalOperator, LocalCluster, LocalOperator
 from .supernodes import SuperNodes
 
-#: interior-node count below which a cluster is factorised with dense LAPACK (see recovery.ClusterSolver)
+#: interior-node count from which a cluster is always condensed by SuperLU (see recovery.ClusterSolver)
 DENSE_BELOW = 4000
+#: below DENSE_BELOW, clusters of at least SPARSE_FROM interior nodes with few interface nodes
+#: (nB + 1 ≤ SPARSE_RATIO · nI: shells) are also condensed by SuperLU; chunky (solid) clusters use dense
+#: Cholesky.  Measured (2 cores, loaded): quad clusters nI = 225…7921 (nB/nI ≤ 0.28) SuperLU 1.3–4× faster;
+#: hex clusters nI = 1728, 3375 (nB/nI = 0.59, 0.46) dense 1.5× faster; nI = 729 (0.83) even.
+SPARSE_FROM = 300
+SPARSE_RATIO = 0.35
 #: memory (MiB) up to which per-cluster factorisations are kept for distribute / recover
 FACTOR_MEMORY_MB = 1024.0
 #: number of right-hand sides solved at once by the global method (memory n × batch doubles)
@@ -217,11 +225,12 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
             C = sp.csr_matrix((np.concatenate([v[ib], a[nI:]]),
                                (np.concatenate([li[ib], np.full(nB, nI)]),
                                 np.concatenate([lj[ib] - nI, np.arange(nB)]))), shape=(nI + 1, nB))
-            floating = _floating(li, lj, nI, nB)
-            if nI >= dense_below:
-                kind = "sparse_lu" if floating else "sparse"
+            if _floating(li, lj, nI, nB):
+                kind = "sparse_lu" if nI >= dense_below else "lu"
+            elif nI >= dense_below or (nI >= SPARSE_FROM and nB + 1 <= SPARSE_RATIO * nI):
+                kind = "sparse"
             else:
-                kind = "lu" if floating else "cholesky"
+                kind = "cholesky"
             cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=P, C=C, kind=kind)
             solver = cl.solver()
             blk = solver.condensed(C, KBB)
@@ -276,7 +285,8 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
     labels : (m,) cluster id of each model element (as given to ``build_supernodes``).
     elements : (m,) the global element index (``coo.elem`` value) of each row of ``labels``; default 0 … m−1.
     method : "local" (default; per-cluster condensation + Guyan) or "global" (sparse LU of M; reference).
-    dense_below : interior-node count under which a cluster is factorised with dense LAPACK (local method).
+    dense_below : interior-node count from which every cluster is condensed by SuperLU instead of dense
+        LAPACK (local method; 0 forces SuperLU everywhere).
     factor_memory_mb : per-cluster factorisations are kept, for fast ``distribute`` / ``recover``, while their
         total stays under this many MiB; the others are recomputed at each call (local method).
     batch : right-hand sides solved at once by the global method (memory ``batch × n`` doubles).

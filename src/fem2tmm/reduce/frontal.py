@@ -16,8 +16,8 @@ super-node averages leaves no free temperature), and a cluster without interior 
 eliminated only where all its condensed interface nodes are eliminated (a constraint with a non-zero row on a
 positive definite block).
 
-The stored factors (LU of each eliminated block and ``W = F_EE⁻¹ F_ER``) give forward / backward solves for
-the power distribution and the temperature recovery.
+The stored factors of each eliminated block (see :class:`_Front`) give forward / backward solves for the
+power distribution and the temperature recovery.
 """
 
 from __future__ import annotations
@@ -113,29 +113,50 @@ class ClusterTree:
                 return node
 
 
-class _BlockSolver:
-    """Factor of a front's eliminated block F_EE: Cholesky when positive definite, else LU (multipliers)."""
+class _Front:
+    """Elimination of the block E from a front ``[[F_EE, F_ER], [F_RE, F_RR]]``.
 
-    def __init__(self, F: np.ndarray, what: str):
+    Positive definite F_EE (no multiplier): Cholesky ``F_EE = L Lᵀ``, ``V = L⁻¹ F_ER`` and the update
+    ``F_RR − Vᵀ V``; otherwise LU with ``W = F_EE⁻¹ F_ER`` and ``F_RR − F_RE W``.  Keeps what the solves need.
+    """
+
+    def __init__(self, F: np.ndarray, e: int, what: str):
+        FEE, FER = F[:e, :e], F[:e, e:]
+        self.chol = True
         try:
-            self.chol = sla.cho_factor(F, lower=True, check_finite=False)
-            d = np.diag(self.chol[0]) ** 2
+            self.L = sla.cholesky(FEE, lower=True, check_finite=False)
+            d = np.diag(self.L) ** 2
         except np.linalg.LinAlgError:
-            self.chol = None
-            self.lu = sla.lu_factor(F, check_finite=False)
+            self.chol = False
+            self.lu = sla.lu_factor(FEE, check_finite=False)
             d = np.abs(np.diag(self.lu[0]))
         if not d.min() > 1e-14 * d.max():
-            raise Fem2TmmError(f"{what} is singular at a front of {F.shape[0]} unknowns "
+            raise Fem2TmmError(f"{what} is singular at a front of {e} unknowns "
                                f"(smallest/largest pivot {d.min():.2e}/{d.max():.2e})")
+        if self.chol:
+            self.V = sla.solve_triangular(self.L, FER, lower=True, check_finite=False)
+            U = F[e:, e:] - self.V.T @ self.V
+        else:
+            self.W = sla.lu_solve(self.lu, FER, check_finite=False)
+            U = F[e:, e:] - F[e:, :e] @ self.W
+        self.update = 0.5 * (U + U.T)
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        if self.chol is not None:
-            return sla.cho_solve(self.chol, b, check_finite=False)
-        return sla.lu_solve(self.lu, b, check_finite=False)
+    def forward(self, bE: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(F_EE⁻¹ b_E, F_RE F_EE⁻¹ b_E)."""
+        if self.chol:
+            y = sla.solve_triangular(self.L, bE, lower=True, check_finite=False)
+            return sla.solve_triangular(self.L, y, lower=True, trans="T", check_finite=False), self.V.T @ y
+        return sla.lu_solve(self.lu, bE, check_finite=False), self.W.T @ bE
+
+    def back(self, xR: np.ndarray) -> np.ndarray:
+        """F_EE⁻¹ F_ER x_R."""
+        if self.chol:
+            return sla.solve_triangular(self.L, self.V @ xR, lower=True, trans="T", check_finite=False)
+        return self.W @ xR
 
     @property
     def nbytes(self) -> int:
-        return (self.chol[0] if self.chol is not None else self.lu[0]).nbytes
+        return (self.L.nbytes + self.V.nbytes) if self.chol else (self.lu[0].nbytes + self.W.nbytes)
 
 
 class Frontal:
@@ -149,7 +170,7 @@ class Frontal:
 
     def __init__(self, blocks, tree: ClusterTree, elim_node: np.ndarray, n_keep: int, what: str):
         self.n_keep = n_keep
-        self.steps = []  # (E, R, factor of F_EE, W = F_EE⁻¹ F_ER) in processing order
+        self.steps = []  # (E, R, _Front) in processing order
         self.nbytes = 0
         n_nodes = tree.lo.size
         members: list = [None] * n_nodes  # per pending node: list of (idx, values) still to be summed
@@ -176,13 +197,12 @@ class Frontal:
                 F[np.ix_(p, p)] += val
             del parts
             e = E.size
-            fac = _BlockSolver(F[:e, :e], what)
-            W = fac.solve(F[:e, e:])
-            U = F[e:, e:] - F[e:, :e] @ W
-            U = 0.5 * (U + U.T)
-            self.steps.append((E, R, fac, W))
-            self.nbytes += fac.nbytes + W.nbytes
-            members[t] = [(ordered[e:], U)]
+            fr = _Front(F, e, what)
+            del F
+            members[t] = [(ordered[e:], fr.update)]
+            fr.update = None
+            self.steps.append((E, R, fr))
+            self.nbytes += fr.nbytes
         parts = members[0]
         self.K = np.zeros((n_keep, n_keep))
         for idx, val in parts:
@@ -193,18 +213,17 @@ class Frontal:
 
     def forward(self, b: np.ndarray) -> np.ndarray:
         """In place on b (n_star, r): eliminated rows become F_EE⁻¹ b_E, kept rows b_S − K_SF K_FF⁻¹ b_F."""
-        for E, R, fac, W in self.steps:
-            bE = b[E]
-            b[R] -= W.T @ bE
-            b[E] = fac.solve(bE)
+        for E, R, fr in self.steps:
+            b[E], upd = fr.forward(b[E])
+            b[R] -= upd
         return b
 
     def backward(self, b: np.ndarray, x_keep: np.ndarray) -> np.ndarray:
         """Solution (n_star, r) of the eliminated unknowns from the forward result b and the kept values."""
         x = b.copy()
         x[:self.n_keep] = x_keep
-        for E, R, fac, W in reversed(self.steps):
-            x[E] -= W @ x[R]
+        for E, R, fr in reversed(self.steps):
+            x[E] -= fr.back(x[R])
         return x
 
 
