@@ -7,6 +7,9 @@ Each case runs in a fresh Python subprocess so that its peak resident memory (``
 * ``"tet3e5"``: cube of 37³ Kuhn-split hexahedra = 303 918 tets -> 300 clusters (1 run).
 
 Goals (issue 3): 10⁶ -> 1000 in < 60 s and < 4 GB, 10⁵ -> 100 in < 5 s.
+
+:func:`bench_seeding` compares weighted k-means variants (the choice made in :mod:`.seeding`).
+Command line: ``python -m fem2tmm.cluster.benchmarks [1e5 1e6 tet3e5]`` or ``... seeding``.
 """
 
 from __future__ import annotations
@@ -86,6 +89,66 @@ def bench_cluster(sizes=("1e5", "1e6", "tet3e5")) -> list[dict]:
     return rows
 
 
+def _graded_centroids(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Centroids (≈n, 3) and areas of a unit plate of quads whose quarter [0, 0.5]² is 10x finer per axis."""
+    nc = max(1, int(round(np.sqrt(n / 121))))
+    xs = np.unique(np.r_[np.linspace(0, 0.5, 10 * nc + 1), np.linspace(0.5, 1, nc + 1)])
+    mid, dx = 0.5 * (xs[1:] + xs[:-1]), np.diff(xs)
+    X, Y = np.meshgrid(mid, mid, indexing="ij")
+    pts = np.c_[X.ravel(), Y.ravel(), np.zeros(X.size)]
+    return pts, (dx[:, None] * dx[None, :]).ravel()
+
+
+def bench_seeding(cases=((300_000, 1000), (1_000_000, 1000)), methods=("weighted_kmeans", "minibatch", "kmeans"),
+                  kmeans_max_nk: float = 3.1e8) -> list[dict]:
+    """Weighted k-means variants on a plate with a 10x refined quarter (one run each, same process).
+
+    Methods: ``weighted_kmeans`` (this package: restarts on a weighted subsample + full Lloyd passes),
+    ``minibatch`` (scikit-learn ``MiniBatchKMeans``, batch 4096), ``kmeans`` (scikit-learn ``KMeans``,
+    ``n_init=1``; skipped when n·k > ``kmeans_max_nk``).  Each row: ``name``, ``n``, ``k``, ``method``,
+    ``time_s``, ``objective`` (Σ w‖p − μ‖², m⁴) and ``objective_ratio`` (to ``weighted_kmeans``).
+    """
+    import time
+
+    from scipy.spatial import cKDTree
+
+    from .seeding import weighted_kmeans
+
+    rows = []
+    for n, k in cases:
+        X, w = _graded_centroids(n)
+        res = {}
+        for method in methods:
+            if method == "kmeans" and len(X) * k > kmeans_max_nk:
+                continue
+            t = time.perf_counter()
+            if method == "weighted_kmeans":
+                C = weighted_kmeans(X, w, k, seed=0)
+            elif method == "minibatch":
+                from sklearn.cluster import MiniBatchKMeans
+
+                C = MiniBatchKMeans(k, batch_size=4096, n_init=1, random_state=0).fit(X, sample_weight=w).cluster_centers_
+            elif method == "kmeans":
+                from sklearn.cluster import KMeans
+
+                C = KMeans(k, n_init=1, random_state=0).fit(X, sample_weight=w).cluster_centers_
+            else:
+                raise ValueError(f"unknown seeding method {method!r}")
+            dt = time.perf_counter() - t
+            d, _ = cKDTree(C).query(X, workers=-1)
+            res[method] = (dt, float(np.dot(w, d * d)))
+        ref = res.get("weighted_kmeans", (None, np.nan))[1]
+        for method, (dt, obj) in res.items():
+            rows.append({"name": f"seeding_{len(X)}_{k}", "n": len(X), "k": k, "method": method, "time_s": dt,
+                         "objective": obj, "objective_ratio": obj / ref})
+    return rows
+
+
 if __name__ == "__main__":  # pragma: no cover
-    for row in bench_cluster(tuple(sys.argv[1:]) or ("1e5", "1e6", "tet3e5")):
-        print(json.dumps(row))
+    args = tuple(sys.argv[1:])
+    if args == ("seeding",):
+        for row in bench_seeding():
+            print(json.dumps(row))
+    else:
+        for row in bench_cluster(args or ("1e5", "1e6", "tet3e5")):
+            print(json.dumps(row))

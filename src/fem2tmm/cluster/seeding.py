@@ -15,10 +15,16 @@ Algorithm (chosen by measurement, see :mod:`fem2tmm.cluster.benchmarks`):
 3. **A few Lloyd iterations on the full set** (``full_iter = 5``) to remove the sampling noise.
 
 Lloyd's assignment step uses a KD-tree on the k centres (``scipy.spatial.cKDTree``, O(n log k)), the update
-step weighted ``bincount``.  Measured on this machine (2 cores), 10⁶ points, k = 1000: plain scikit-learn
-``KMeans`` is out of reach (~96 s already at 3·10⁵ points), ``MiniBatchKMeans`` 6.1 s (objective 136.5 in
-the units of the test), k-means++ on a 20 k subsample + 10 full Lloyd iterations 2.2 s (133.3), this
-scheme 2.5–3.5 s (within 1 % of the latter); a converged full ``KMeans`` reaches ~130.
+step weighted ``bincount``.  Measured with :func:`fem2tmm.cluster.benchmarks.bench_seeding` (plate with a 10x
+refined quarter, area weights, k = 1000, 2 shared cores, one run each):
+
+=========================  ==================  ====================
+method                     3·10⁵ points        10⁶ points
+=========================  ==================  ====================
+this scheme                1.5 s, objective 1  2.9 s, objective 1
+scikit-learn MiniBatch     13.8 s, 1.14        26.6 s, 1.21
+scikit-learn KMeans        54.6 s, 0.984       (not run)
+=========================  ==================  ====================
 
 One seed element per centre: the element whose centroid is nearest; when two centres pick the same
 element, the centre nearer to it keeps it and the other takes its next-nearest free element.
@@ -94,7 +100,8 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
     sample_size : number of weighted draws the restarts work on (default ``max(20 k, 10 000)``); the
         full set is used when it is not larger
     n_init : k-means++ restarts on the sample, the lowest objective wins (default ``2·10⁶ / (n_s k)``
-        clipped to [1, 10], n_s the sample size: many restarts on small problems, one at 10⁶ elements)
+        clipped to [1, min(k, 10)], n_s the sample size: many restarts on small problems, one at 10⁶
+        elements, few when k is small and local minima are few)
     full_iter : most Lloyd iterations on the full set after the sample stage
     tol : relative improvement of the objective below which Lloyd iterations stop
 
@@ -116,7 +123,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
         if len(u) >= k:
             Xs, ws = X[u], cnt.astype(float)
     if n_init is None:
-        n_init = int(np.clip(2e6 // (len(Xs) * k), 1, 10))
+        n_init = int(np.clip(2e6 // (len(Xs) * k), 1, min(k, 10)))
     best, best_obj = None, np.inf
     for _ in range(n_init):
         C, obj = _lloyd(Xs, ws, kmeans_plusplus(Xs, ws, k, rng), 50, tol)
