@@ -1,0 +1,16 @@
+"""Radiation stage: quasi-Monte Carlo ray tracing of radiative exchange factors (thesis ch. 2 and 5, DESIGN §3.5).
+
+Modules: ``engine`` (Embree / numpy closest hit), ``sampling`` (scrambled Halton, area-preserving triangle map,
+cosine directions), ``surfaces`` (two-sided faces with optics, ray scene, super-face emission tables),
+``tracer`` (bounce loop, exchange factors, accuracy control), ``smoothing`` (reciprocity, closure, LSE),
+``benchmarks`` (``bench_rays``).
+"""
+
+from __future__ import annotations
+
+from .engine import HAS_EMBREE
+from .surfaces import Surface, TriangleScene
+from .tracer import ExchangeResult, exchange_factors, trace_exchange, trace_paths
+
+__all__ = ["HAS_EMBREE", "Surface", "TriangleScene", "ExchangeResult", "exchange_factors", "trace_exchange",
+           "trace_paths"]

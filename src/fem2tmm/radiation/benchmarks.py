@@ -1,0 +1,187 @@
+"""Ray-tracing benchmarks (``fem2tmm bench rays``): one dict per measurement, medians of repeated timings.
+
+* ``throughput``: exchange-factor tracing on a closed 20 k-triangle sphere (inner sides, diffuse ε = 0.5) and on an
+  ~18 k-element baffle-like cone shell with vanes (ε = 0.1, specular reflectance 0.9), in intersection queries
+  (ray segments) per second, against bare embreex closest-hit queries on as many rays of the same model, run in
+  the same number of threads (goal: ratio >= 0.7).
+* ``convergence``: mean relative error of ℱ₁₂ between the two quadrangles of thesis §2.3.5 (ε = 0.8, diffuse
+  reflectance 0.2, reference 0.0868) against rays per face, Halton and crude Monte Carlo, and the log-log slope κ
+  (goal: κ >= 0.75 for Halton, thesis Fig. 2.18).
+* ``super_faces``: REF time on the baffle with its FE faces as groups against ~100 super faces (angular/axial
+  strips) at equal ray density (thesis Table 5.1 reports a 29x gain with its own per-face tracer).
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from .smoothing import convergence_rate
+from .surfaces import GroupEmitters, Surface, TriangleScene
+from .tracer import exchange_factors, trace_exchange
+
+TWO_QUADS = (
+    np.array([[1, 0, 0], [6, -1, 0], [6, 5.5, 0], [1, 5, 0], [0, 0, 0.5], [0, 4, 0.5], [0, 5, 4.5], [0, -1, 4.5]],
+             float),
+    np.array([[0, 1, 2, 3], [4, 5, 6, 7]]),
+)
+TWO_QUADS_F12 = 0.0868  # thesis §2.3.5, ESARAD with 10^9 rays
+
+
+def sphere_surface(subdivisions: int = 5) -> tuple[Surface, np.ndarray]:
+    """Closed icosphere (radius 1 m) with its *inner* sides emitting (ε = 0.5, diffuse): (surface, groups)."""
+    import trimesh
+
+    m = trimesh.creation.icosphere(subdivisions)
+    faces = np.asarray(m.faces)[:, ::-1]  # reversed: the right-hand normal (front) points inwards
+    f = len(faces)
+    surf = Surface(np.asarray(m.vertices), faces, emissivity=0.5,
+                   active=np.stack([np.ones(f, bool), np.zeros(f, bool)], axis=1))
+    groups = np.stack([np.arange(f), np.full(f, -1)], axis=1).ravel()
+    return surf, groups
+
+
+def baffle_surface(n_circ: int = 240, n_axial: int = 60, n_vanes: int = 3, n_vane_rings: int = 6):
+    """Baffle-like quad shell: a cone frustum (radius 0.05 -> 0.15 m over 0.3 m, inner side active) with
+    ``n_vanes`` annular vanes inside (both sides active); ε = 0.1 with a specular reflectance of 0.9.
+
+    Returns ``(surface, fe_groups (2f,), super_groups (2f,), n_super)``: FE faces sides as groups, and super faces
+    made of angular/axial strips (cone: 16 sectors x 4 bands; each vane side: 6 sectors).
+    """
+    r0, r1, length = 0.05, 0.15, 0.3
+    th = np.linspace(0.0, 2 * np.pi, n_circ, endpoint=False)
+    z = np.linspace(0.0, length, n_axial + 1)
+    r = r0 + (r1 - r0) * z / length
+    cone_pts = np.stack([np.outer(r, np.cos(th)), np.outer(r, np.sin(th)), np.repeat(z[:, None], n_circ, 1)], -1)
+    pts = [cone_pts.reshape(-1, 3)]
+    ia = np.arange(n_axial)[:, None]
+    ic = np.arange(n_circ)[None, :]
+    nxt = (ic + 1) % n_circ
+    # node order (a, c), (a, c+1), (a+1, c+1), (a+1, c): right-hand normal points inwards
+    cone = np.stack([ia * n_circ + ic, ia * n_circ + nxt, (ia + 1) * n_circ + nxt, (ia + 1) * n_circ + ic], -1)
+    cone = cone.reshape(-1, 4)
+    faces = [cone]
+    cone_sector = (np.broadcast_to(ic, (n_axial, n_circ)) * 16 // n_circ).ravel()
+    cone_band = (np.broadcast_to(ia, (n_axial, n_circ)) * 4 // n_axial).ravel()
+    fe_sf_front = [cone_sector + 16 * cone_band]
+    fe_sf_back = [np.full(len(cone), -1)]
+    base = len(pts[0])
+    n_sf = 64
+    for k in range(n_vanes):
+        zk = length * (k + 1) / (n_vanes + 1)
+        rk = r0 + (r1 - r0) * zk / length
+        rad = np.linspace(0.55 * rk, rk, n_vane_rings + 1)
+        vp = np.stack([np.outer(rad, np.cos(th)), np.outer(rad, np.sin(th)), np.full((n_vane_rings + 1, n_circ), zk)], -1)
+        pts.append(vp.reshape(-1, 3))
+        ja = np.arange(n_vane_rings)[:, None]
+        vq = np.stack([ja * n_circ + ic, ja * n_circ + nxt, (ja + 1) * n_circ + nxt, (ja + 1) * n_circ + ic], -1)
+        faces.append(vq.reshape(-1, 4) + base)
+        base += len(pts[-1])
+        sector = (np.broadcast_to(ic, (n_vane_rings, n_circ)) * 6 // n_circ).ravel()
+        fe_sf_front.append(n_sf + sector)
+        fe_sf_back.append(n_sf + 6 + sector)
+        n_sf += 12
+    pts = np.concatenate(pts)
+    faces = np.concatenate(faces)
+    f = len(faces)
+    n_cone = len(cone)
+    active_back = np.ones(f, bool)
+    active_back[:n_cone] = False
+    surf = Surface(pts, faces, emissivity=0.1, specular=1.0, active=np.stack([np.ones(f, bool), active_back], 1))
+    active = np.stack([np.ones(f, bool), active_back], 1).ravel()
+    fe = np.where(active, np.cumsum(active) - 1, -1)  # one group per active side
+    sf = np.stack([np.concatenate(fe_sf_front), np.concatenate(fe_sf_back)], 1).ravel()
+    return surf, fe.astype(np.int64), sf.astype(np.int64), n_sf
+
+
+def _median_time(fn, repeat: int, cpu: bool = False):
+    """Median wall time of ``fn()`` over ``repeat`` calls (and the median CPU time of the process when ``cpu``)."""
+    wall, proc, out = [], [], None
+    for _ in range(repeat):
+        t, c = time.perf_counter(), time.process_time()
+        out = fn()
+        wall.append(time.perf_counter() - t)
+        proc.append(time.process_time() - c)
+    if cpu:
+        return float(np.median(wall)), float(np.median(proc)), out
+    return float(np.median(wall)), out
+
+
+def _raw_embree(scene: TriangleScene, groups: np.ndarray, n: int, threads: int, seed: int = 0):
+    """Bare embreex queries on ``n`` emission rays of the model (origins on the emitting sides, cosine
+    directions), split over ``threads`` Python threads: returns the callable to time."""
+    surf = scene.surface
+    em = GroupEmitters.build(scene, groups, np.where(surf.active, surf.emissivity, 0.0), int(groups.max()) + 1)
+    rng = np.random.default_rng(seed)
+    k = rng.integers(0, len(em.entry_prim), n)
+    o, d = scene.emit(em.entry_prim[k], 1.0 - 2.0 * em.entry_side[k], rng.random((n, 4)))
+    o32 = np.ascontiguousarray(o - scene.engine.center, np.float32)
+    d32 = np.ascontiguousarray(d, np.float32)
+    chunks = np.array_split(np.arange(n), max(threads, 1) * 8)
+
+    def run():
+        with ThreadPoolExecutor(max_workers=threads) as ex:
+            list(ex.map(lambda c: scene.engine.raw(o32[c[0]: c[-1] + 1], d32[c[0]: c[-1] + 1]), chunks))
+
+    return run
+
+
+def bench_throughput(repeat: int = 3, threads: int = 2, rays_per_face: int = 50) -> list[dict]:
+    """Segments per second of exchange-factor tracing vs bare embreex on the sphere and the baffle."""
+    out = []
+    for name, (surf, groups) in (("sphere_20k", sphere_surface()), ("baffle_18k", baffle_surface()[:2])):
+        scene = TriangleScene(surf)
+        if scene.engine.name != "embree":
+            return [{"bench": "rays.throughput", "skipped": "embreex not importable"}]
+        t_ex, c_ex, res = _median_time(lambda: trace_exchange(surf, groups, rays_per_group=rays_per_face,
+                                                              threads=threads), repeat, cpu=True)
+        raw = _raw_embree(scene, groups, res.segments, threads)
+        t_raw, c_raw, _ = _median_time(raw, repeat, cpu=True)
+        out.append({
+            "bench": "rays.throughput", "model": name, "triangles": len(scene.tri_face),
+            "groups": res.n_groups, "rays": int(res.rays.sum()), "segments": res.segments,
+            "threads": threads, "exchange_s": t_ex, "exchange_segments_per_s": res.segments / t_ex,
+            "exchange_rays_per_s": float(res.rays.sum()) / t_ex, "raw_embree_s": t_raw,
+            "raw_embree_rays_per_s": res.segments / t_raw, "ratio": t_raw / t_ex,
+            "exchange_cpu_s": c_ex, "raw_embree_cpu_s": c_raw, "ratio_cpu": c_raw / c_ex, "goal_ratio": 0.7,
+        })
+    return out
+
+
+def bench_convergence(seeds: int = 20, rays=(1000, 4000, 16000, 64000)) -> list[dict]:
+    """Mean relative error of ℱ₁₂ (two quadrangles, thesis §2.3.5) against rays, Halton and random, with κ."""
+    pts, faces = TWO_QUADS
+    out = []
+    for sampling in ("halton", "random"):
+        errs = []
+        t = time.perf_counter()
+        for n in rays:
+            e = [abs(exchange_factors(pts, faces, emissivity=0.8, rays_per_face=n, sampling=sampling, seed=s,
+                                      threads=1).F[0, 1] / TWO_QUADS_F12 - 1.0) for s in range(seeds)]
+            errs.append(float(np.mean(e)))
+        slope = -np.polyfit(np.log(rays), np.log(errs), 1)[0]
+        out.append({"bench": "rays.convergence", "case": "two_quads_F12", "sampling": sampling,
+                    "rays_per_face": list(rays), "mean_rel_error": errs, "kappa": float(slope),
+                    "kappa_last_two": convergence_rate(rays[-2], errs[-2], rays[-1], errs[-1]),
+                    "seeds": seeds, "goal_kappa_halton": 0.75, "seconds": time.perf_counter() - t})
+    return out
+
+
+def bench_super_faces(repeat: int = 3, ray_density: float = 2.0e5, threads: int = 2) -> list[dict]:
+    """REF time on the baffle: FE faces as groups vs ~100 super faces at equal ray density (rays per m²)."""
+    surf, fe, sf, n_sf = baffle_surface()
+    rows = {}
+    for label, groups in (("fe_faces", fe), ("super_faces", sf)):
+        t, res = _median_time(lambda: trace_exchange(surf, groups, ray_density=ray_density, threads=threads), repeat)
+        rows[label] = {"groups": res.n_groups, "rays": int(res.rays.sum()), "seconds": t,
+                       "nnz_GR": int(res.GR.nnz), "lse_rms": res.lse_rms}
+    return [{"bench": "rays.super_faces", "model": "baffle_18k", "ray_density_per_m2": ray_density,
+             **{f"{k}_{q}": v for k, d in rows.items() for q, v in d.items()},
+             "gain": rows["fe_faces"]["seconds"] / rows["super_faces"]["seconds"], "thesis_gain_table_5_1": 29.0}]
+
+
+def bench_rays(repeat: int = 3) -> list[dict]:
+    """All ray-tracing measurements of ``fem2tmm bench rays`` (list of dicts, medians over ``repeat``)."""
+    return bench_throughput(repeat=repeat) + bench_convergence() + bench_super_faces(repeat=repeat)

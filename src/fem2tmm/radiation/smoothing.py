@@ -1,0 +1,134 @@
+"""Reciprocity and closure enforcement of raw radiative exchange factors, line-sum error, convergence rate.
+
+Thesis §2.5.1 (eq. 2.45-2.46) and §1.3.3 (eq. 1.47).  All matrices are scipy.sparse; nothing is quadratic in the
+number of groups except through the non-zeros that ray tracing actually produced.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+RECIPROCITY_METHODS = ("linear", "fractional_variance")
+
+
+def _weights(rows, cols, eps_area, rays, method, exponent, pooled=None):
+    """Weight w_ij of the (i -> j) estimate S_ij in GR_ij = w_ij S_ij + w_ji S_ji (w_ij + w_ji = 1), at the
+    positions (rows, cols).  ``pooled`` (k,) = (S_ij + S_ji)/2 there (needed by "fractional_variance")."""
+    if method == "linear":
+        # per-ray energy a = εA / n; a group that traced no ray gets X = -1 / +1 (no weight on its estimate)
+        a = eps_area / np.maximum(rays, 1)
+        ai, aj = a[rows], a[cols]
+        none_i, none_j = rays[rows] <= 0, rays[cols] <= 0
+        den = aj + ai
+        X = np.divide(aj - ai, den, out=np.zeros_like(den), where=den > 0)
+        X[none_i & ~none_j] = -1.0
+        X[none_j & ~none_i] = 1.0
+        X[none_i & none_j] = 0.0
+        return 0.5 * (1.0 + np.sign(X) * np.abs(X) ** exponent)
+    if method == "fractional_variance":
+        # binomial variances of the two estimates of GR_ij, both evaluated at the pooled value so that a pair seen
+        # from one side only is not given zero variance on the unseen side (thesis §2.5.1, [300])
+        ea_i, ea_j = eps_area[rows], eps_area[cols]
+        n_i, n_j = rays[rows], rays[cols]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            fi = np.where(ea_i > 0, pooled / ea_i, 0.0)
+            fj = np.where(ea_j > 0, pooled / ea_j, 0.0)
+            var_i = np.where(n_i > 0, ea_i**2 * fi * (1 - fi) / np.maximum(n_i, 1), np.inf)
+            var_j = np.where(n_j > 0, ea_j**2 * fj * (1 - fj) / np.maximum(n_j, 1), np.inf)
+            w = var_j / (var_i + var_j)
+        w = np.where(np.isinf(var_i) & ~np.isinf(var_j), 0.0, w)
+        w = np.where(np.isinf(var_j) & ~np.isinf(var_i), 1.0, w)
+        return np.where(np.isfinite(w), w, 0.5)
+    raise ValueError(f"unknown reciprocity method {method!r}: use one of {RECIPROCITY_METHODS}")
+
+
+def enforce_reciprocity(S: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, method: str = "linear",
+                        exponent: float = 0.4) -> sp.csr_matrix:
+    """Symmetric GR (g, g) m² from the raw exchange S_ij = (εA)_i F̃_ij (g, g) m² by linear averaging.
+
+    GR_ij = w_ij S_ij + w_ji S_ji with w_ij + w_ji = 1; ``method`` "linear": w_ij = ½(1 + sign(X)|X|^exponent),
+    X = (a_j - a_i)/(a_j + a_i), a = εA/n_rays (thesis eq. 2.45-2.46: the estimate carried by the less energetic
+    rays weighs more), or "fractional_variance": w_ij = σ²_ji/(σ²_ij + σ²_ji) with binomial variances.
+    ``eps_area`` (g,) m², ``rays`` (g,) rays traced per group (0 allowed: that group's estimates get no weight).
+    Written as GR = M + Mᵀ with M = S∘W, so the result is symmetric to the last bit.
+    """
+    S = sp.csr_matrix(S, dtype=float)
+    S.sum_duplicates()
+    eps_area = np.asarray(eps_area, float)
+    rays = np.asarray(rays, float)
+    if method == "linear":
+        M = S.copy()
+        rows = np.repeat(np.arange(S.shape[0]), np.diff(S.indptr))
+        M.data = S.data * _weights(rows, S.indices, eps_area, rays, method, exponent)
+    else:
+        U = (S + S.T).tocsr()  # pattern of S and S^T; data = S_ij + S_ji
+        U.sum_duplicates()
+        rows = np.repeat(np.arange(U.shape[0]), np.diff(U.indptr))
+        W = U.copy()
+        W.data = _weights(rows, U.indices, eps_area, rays, method, exponent, pooled=0.5 * U.data)
+        M = S.multiply(W).tocsr()
+    GR = (M + M.T).tocsr()
+    GR.eliminate_zeros()
+    return GR
+
+
+def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: np.ndarray | None = None,
+           method: str = "linear", exponent: float = 0.4):
+    """Reciprocity, then closure through the space column; returns ``(F, GR, lse)``.
+
+    ``F_raw`` (g, g + 1) raw REFs (last column space), ``eps_area`` (g,) m², ``rays`` (g,), ``blocked`` (g,) the
+    fraction of each group's rays stopped by sides that are not REF nodes (default 0).  The line-sum error is
+    LSE_i = 1 - blocked_i - Σ_j F_ij after reciprocity and before the closure adjustment (thesis eq. 1.47); the
+    space column then absorbs it so every row of ``F`` sums to 1 - blocked_i.  ``F`` (g, g + 1), ``GR``
+    (g, g + 1) m² with GR = diag(εA) F (symmetric g x g block), ``lse`` (g,).  Rows of groups with εA = 0 are 0.
+    """
+    F_raw = sp.csr_matrix(F_raw)
+    g = F_raw.shape[0]
+    eps_area = np.asarray(eps_area, float)
+    blocked = np.zeros(g) if blocked is None else np.asarray(blocked, float)
+    D = sp.diags(eps_area)
+    S = D @ F_raw[:, :g]
+    GRb = enforce_reciprocity(S, eps_area, rays, method, exponent)
+    with np.errstate(divide="ignore"):
+        inv = np.where(eps_area > 0, 1.0 / np.where(eps_area > 0, eps_area, 1.0), 0.0)
+    Fb = sp.diags(inv) @ GRb
+    space_raw = F_raw[:, g].toarray().ravel()
+    lse = np.where(eps_area > 0, 1.0 - blocked - np.asarray(Fb.sum(axis=1)).ravel() - space_raw, 0.0)
+    space = np.where(eps_area > 0, space_raw + lse, 0.0)
+    F = append_column(Fb, space)
+    GR = append_column(GRb, eps_area * space)
+    return F, GR, lse
+
+
+def append_column(A: sp.spmatrix, column: np.ndarray) -> sp.csr_matrix:
+    """csr (g, k + 1): ``A`` (g, k) with ``column`` (g,) appended as its last column (zeros dropped), in O(nnz)."""
+    A = sp.csr_matrix(A)
+    A.sort_indices()
+    g, k = A.shape
+    indptr = A.indptr + np.arange(g + 1)
+    last = indptr[1:] - 1  # the new entry closes each row
+    data = np.empty(A.nnz + g)
+    indices = np.empty(A.nnz + g, dtype=A.indices.dtype if A.nnz + g < 2**31 else np.int64)
+    old = np.ones(A.nnz + g, bool)
+    old[last] = False
+    data[old], indices[old] = A.data, A.indices
+    data[last], indices[last] = column, k
+    out = sp.csr_matrix((data, indices, indptr), shape=(g, k + 1))
+    out.eliminate_zeros()
+    return out
+
+
+def rms(values: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """Root mean square of ``values`` (over ``mask`` when given); 0 for an empty selection."""
+    v = np.asarray(values, float)
+    if mask is not None:
+        v = v[mask]
+    return float(np.sqrt(np.mean(v**2))) if v.size else 0.0
+
+
+def convergence_rate(n1: float, e1: float, n2: float, e2: float) -> float:
+    """κ in e ∝ n^-κ from two (rays, error) points (log-log slope, thesis §2.5.1); nan if undefined."""
+    if not (n1 > 0 and n2 > 0 and e1 > 0 and e2 > 0 and n1 != n2):
+        return float("nan")
+    return float(-np.log(e2 / e1) / np.log(n2 / n1))

@@ -1,0 +1,379 @@
+"""Radiating surfaces: two-sided FE faces with per-side optics, their triangulation, the ray scene and the
+emission tables of super faces (groups of sides).
+
+Conventions (DESIGN §3.5, thesis §1.3 and §3.1):
+
+* ``faces`` (f, 4) int node indices, padded with -1 for triangles.  Side ``2 i`` is the *front* of face i (the
+  side its right-hand normal points to), side ``2 i + 1`` its *back*.  Every per-side array has length 2f.
+* A quad is split into the triangles (0, 1, 2) and (0, 2, 3); each triangle keeps the face's sides.
+* IR: absorptance = emittance ``emissivity``; reflectance = 1 - ε - τ.  Solar: ``absorptivity`` and
+  ``solar_transmissivity`` (= ``transmissivity`` unless given).  ``specular`` is the specular fraction of the
+  *reflected* energy, ``transmission_specular`` the specular fraction of the *transmitted* energy.
+* An inactive side emits nothing and stops every ray that reaches it (the skin of an opaque volume).
+
+Extension points for later issues: :class:`TriangleScene` is the only object the bounce loop talks to for geometry
+(``intersect``, ``hit_geometry``, ``sample``); quadric super faces subclass it to replace intersections, hit
+normals and emission points of their members.  Parallel-ray sources build their own origins and call the bounce
+loop directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from ..errors import Fem2TmmError, format_ids
+from .engine import MISS, make_engine
+
+FRONT, BACK = 0, 1
+#: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
+ORIGIN_OFFSET = 2e-6
+#: retries with a 4x larger offset when a ray hits the triangle it leaves (float32 round-off)
+SELF_HIT_RETRIES = 4
+
+
+def _per_side(value, n_faces: int, name: str, dtype=float) -> np.ndarray:
+    """Broadcast a scalar, (f,), (f, 2) or (2f,) per-side property to a (2f,) array (side 2i front, 2i+1 back)."""
+    a = np.asarray(value, dtype=dtype)
+    if a.ndim == 0:
+        return np.full(2 * n_faces, a, dtype=dtype)
+    if a.shape == (n_faces, 2):
+        return a.reshape(-1).copy()
+    if a.shape == (2 * n_faces,):
+        return a.copy()
+    if a.shape == (n_faces,):
+        return np.repeat(a, 2)
+    raise Fem2TmmError(
+        f"optical property {name!r} has shape {a.shape}; give a scalar, one value per face ({n_faces},), "
+        f"one per face and side ({n_faces}, 2) or one per side ({2 * n_faces},)"
+    )
+
+
+def _side_label(sides: np.ndarray) -> str:
+    names = ["front", "back"]
+    return ", ".join(f"{s // 2} ({names[s % 2]})" for s in sides[:10]) + (
+        f", … ({len(sides)} in all)" if len(sides) > 10 else ""
+    )
+
+
+def pad_faces(faces) -> np.ndarray:
+    """Faces as an (f, 4) int64 array padded with -1 for triangles; accepts (f, 3) or (f, 4) input."""
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] not in (3, 4):
+        raise Fem2TmmError(f"faces must be an (m, 3) or (m, 4) array of node indices, got shape {f.shape}")
+    f = f.astype(np.int64)
+    if f.shape[1] == 3:
+        f = np.concatenate([f, np.full((len(f), 1), -1, np.int64)], axis=1)
+    return f
+
+
+@dataclass(frozen=True)
+class Triangles:
+    """Triangulation of the faces: ``vertices`` (t, 3, 3) m, ``face`` (t,) owning face, ``normal`` (t, 3) unit
+    right-hand normal (front side), ``area`` (t,) m²."""
+
+    vertices: np.ndarray
+    face: np.ndarray
+    normal: np.ndarray
+    area: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class SideOptics:
+    """Per-side optics of one band, ready for the bounce loop.
+
+    ``cum`` (2f, 4): cumulative probabilities of (absorbed, specularly reflected, specularly transmitted,
+    diffusely transmitted); the remainder up to 1 is diffuse reflection (thesis l. 664).  ``active`` (2f,) bool.
+    ``absorb`` (2f,) is the absorptance of the band (ε for IR, α for solar).
+    """
+
+    absorb: np.ndarray
+    cum: np.ndarray
+    active: np.ndarray
+
+    @cached_property
+    def all_diffuse_reflectors(self) -> bool:
+        """True when no side reflects specularly or transmits (fast path of the bounce loop)."""
+        return bool(np.all(self.cum[:, 3] == self.cum[:, 0]) and np.all(self.cum[:, 1] == self.cum[:, 0]))
+
+
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """Two-sided radiating faces with per-side optics.
+
+    ``points`` (n, 3) m; ``faces`` (f, 3) or (f, 4) node indices (stored (f, 4), -1 padded).  Optical arguments
+    are scalars, (f,) (both sides alike), (f, 2) or (2f,) per side; they are stored as (2f,) float arrays:
+    ``emissivity`` (IR absorptance), ``absorptivity`` (solar), ``specular`` (specular fraction of the reflected
+    energy), ``transmissivity`` (IR), ``solar_transmissivity`` (defaults to ``transmissivity``),
+    ``transmission_specular`` (specular fraction of the transmitted energy, default 1), ``active`` (bool).
+    Raises :class:`Fem2TmmError` naming the faces on a negative reflectance, a value outside [0, 1], a node index
+    out of range or a face of zero area.
+    """
+
+    points: np.ndarray
+    faces: np.ndarray
+    emissivity: np.ndarray = 0.8
+    absorptivity: np.ndarray = 0.2
+    specular: np.ndarray = 0.0
+    transmissivity: np.ndarray = 0.0
+    solar_transmissivity: np.ndarray | None = None
+    transmission_specular: np.ndarray = 1.0
+    active: np.ndarray = True
+
+    def __post_init__(self):
+        pts = np.asarray(self.points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
+            raise Fem2TmmError(f"points must be a finite (n, 3) array of coordinates in m, got shape {pts.shape}")
+        faces = pad_faces(self.faces)
+        f = len(faces)
+        bad = np.nonzero((faces[:, :3] < 0).any(axis=1) | (faces >= len(pts)).any(axis=1) | (faces < -1).any(axis=1))[0]
+        if bad.size:
+            raise Fem2TmmError(f"faces {format_ids(bad)} refer to nodes outside 0..{len(pts) - 1}; fix the connectivity")
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass normalisation
+        set_("points", pts)
+        set_("faces", faces)
+        for name in ("emissivity", "absorptivity", "specular", "transmissivity", "transmission_specular"):
+            set_(name, _per_side(getattr(self, name), f, name))
+        sol = self.transmissivity if self.solar_transmissivity is None else self.solar_transmissivity
+        set_("solar_transmissivity", _per_side(sol, f, "solar_transmissivity"))
+        set_("active", _per_side(self.active, f, "active", dtype=bool))
+        for name in ("emissivity", "absorptivity", "specular", "transmissivity", "solar_transmissivity",
+                     "transmission_specular"):
+            a = getattr(self, name)
+            out = np.nonzero(~np.isfinite(a) | (a < 0) | (a > 1))[0]
+            if out.size:
+                raise Fem2TmmError(f"{name} must lie in [0, 1]; faces (side) {_side_label(out)} do not")
+        for absorb, trans, band in ((self.emissivity, self.transmissivity, "IR: emissivity + transmissivity"),
+                                    (self.absorptivity, self.solar_transmissivity,
+                                     "solar: absorptivity + solar_transmissivity")):
+            neg = np.nonzero(absorb + trans > 1.0 + 1e-12)[0]
+            if neg.size:
+                raise Fem2TmmError(
+                    f"negative reflectance ({band} > 1) on faces (side) {_side_label(neg)}; lower one of them"
+                )
+        tri = self.triangles
+        face_area = np.bincount(tri.face, weights=tri.area, minlength=f)
+        scale = float(np.ptp(pts, axis=0).max()) if len(pts) else 0.0
+        flat = np.nonzero(face_area <= 1e-14 * max(scale, 1e-300) ** 2)[0]
+        if flat.size:
+            raise Fem2TmmError(f"faces {format_ids(flat)} have zero area; remove or repair them")
+
+    @property
+    def n_faces(self) -> int:
+        return len(self.faces)
+
+    @cached_property
+    def triangles(self) -> Triangles:
+        """Triangulation (quads split into (0, 1, 2) and (0, 2, 3)); zero-area halves of collapsed quads are kept
+        (they are never sampled and never hit)."""
+        f = self.faces
+        quad = f[:, 3] >= 0
+        tri_nodes = np.concatenate([f[:, [0, 1, 2]], f[quad][:, [0, 2, 3]]])
+        tri_face = np.concatenate([np.arange(len(f)), np.nonzero(quad)[0]])
+        order = np.argsort(tri_face, kind="stable")
+        tri_nodes, tri_face = tri_nodes[order], tri_face[order]
+        v = self.points[tri_nodes]
+        c = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        norm = np.linalg.norm(c, axis=1)
+        n = np.divide(c, norm[:, None], out=np.zeros_like(c), where=norm[:, None] > 0)
+        return Triangles(vertices=v, face=tri_face, normal=n, area=0.5 * norm)
+
+    @cached_property
+    def face_areas(self) -> np.ndarray:
+        """Area of each face (f,) m² (sum of its triangles)."""
+        t = self.triangles
+        return np.bincount(t.face, weights=t.area, minlength=self.n_faces)
+
+    def optics(self, band: str = "ir") -> SideOptics:
+        """Bounce-loop optics of ``band`` "ir" (emissivity, transmissivity) or "solar" (absorptivity,
+        solar_transmissivity)."""
+        if band == "ir":
+            a, tau = self.emissivity, self.transmissivity
+        elif band == "solar":
+            a, tau = self.absorptivity, self.solar_transmissivity
+        else:
+            raise ValueError(f"unknown band {band!r}: use 'ir' or 'solar'")
+        rho = np.clip(1.0 - a - tau, 0.0, None)
+        ts = self.transmission_specular
+        cum = np.cumsum(np.stack([a, self.specular * rho, ts * tau, (1.0 - ts) * tau], axis=1), axis=1)
+        return SideOptics(absorb=a, cum=cum, active=self.active)
+
+
+class TriangleScene:
+    """Ray-scene of a :class:`Surface`: robust closest-hit queries, emission and diffuse scattering on its
+    triangles.  This is the only geometry object the bounce loop talks to; curved super faces (quadrics) subclass
+    it and override :meth:`emit`, :meth:`hit_geometry`, :meth:`scatter` and :meth:`intersect`.
+
+    ``backend``: "auto" (Embree when importable), "embree" or "numpy".  Origins are offset by
+    ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray leaves; a hit on the very
+    triangle the ray leaves (float32 round-off) is rejected and re-traced from a 4x larger offset.
+    """
+
+    def __init__(self, surface: Surface, backend: str = "auto"):
+        from .sampling import tangent_frames
+
+        self.surface = surface
+        tri = surface.triangles
+        self.tri_vertices = tri.vertices
+        self.tri_face = tri.face
+        self.tri_normal = tri.normal
+        self.tri_area = tri.area
+        lo, hi = surface.points.min(axis=0), surface.points.max(axis=0)
+        self.diagonal = float(np.linalg.norm(hi - lo))
+        self.eps = ORIGIN_OFFSET * max(self.diagonal, 1e-300)
+        self.engine = make_engine(tri.vertices, backend)
+        v = tri.vertices
+        t1, t2 = tangent_frames(np.where(np.linalg.norm(tri.normal, axis=1)[:, None] > 0, tri.normal, [0, 0, 1.0]))
+        # per-triangle columns p0 (0:3), p1 - p0 (3:6), p2 - p0 (6:9), t1 (9:12), t2 (12:15), n (15:18), centroid
+        # (18:21), stored column-major: 1-D gathers per component are much faster in numpy than strided row gathers
+        self._cols = np.ascontiguousarray(np.concatenate([v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], t1, t2,
+                                                          tri.normal, v.mean(axis=1)], axis=1).T)
+
+    def sample(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Points on primitives ``prim`` (r,) from unit-square samples ``u``, ``v`` (r,) by the area-preserving
+        map (1 - √u, √u (1 - v), √u v) (thesis eq. 2.18): returns ``(points (r, 3) m, unit front normals (r, 3))``."""
+        s = np.sqrt(u)
+        a, b = s * (1.0 - v), s * v
+        C = self._cols
+        p = np.empty((len(prim), 3))
+        n = np.empty((len(prim), 3))
+        for c in range(3):  # loop over x, y, z
+            p[:, c] = C[c].take(prim) + a * C[3 + c].take(prim) + b * C[6 + c].take(prim)
+            n[:, c] = C[15 + c].take(prim)
+        return p, n
+
+    def emit(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Emitted rays from primitives ``prim`` (r,), side ``sign`` (r,) +1 front / -1 back, driven by the
+        unit-hypercube samples ``U`` (r, >= 4): U[:, 0:2] place the origin by the area-preserving map (eq. 2.18),
+        U[:, 2:4] give a cosine-law direction about the side's normal (Malley: radius √u₃, angle 2πu₄).
+        Returns ``(origins (r, 3) offset off the surface, unit directions (r, 3))``."""
+        s = np.sqrt(U[:, 0])
+        a, b = s * (1.0 - U[:, 1]), s * U[:, 1]
+        x, y, z = _disc(U[:, 2], U[:, 3])
+        z *= sign
+        C = self._cols
+        p = np.empty((len(prim), 3))
+        d = np.empty((len(prim), 3))
+        for c in range(3):  # loop over x, y, z
+            p[:, c] = C[c].take(prim) + a * C[3 + c].take(prim) + b * C[6 + c].take(prim)
+            d[:, c] = x * C[9 + c].take(prim) + y * C[12 + c].take(prim) + z * C[15 + c].take(prim)
+        return self.offset(prim, p, sign), d
+
+    def scatter(self, prim: np.ndarray, normals: np.ndarray, sign: np.ndarray, u: np.ndarray, v: np.ndarray):
+        """Cosine-law directions (r, 3) about ``sign`` (r,) x the front normal of the hit primitives ``prim`` (r,)
+        (diffuse reflection or transmission); ``normals`` (r, 3) are the unit front normals at the hit points, as
+        returned by :meth:`hit_geometry` (planar triangles use their precomputed frames; curved surfaces use these)."""
+        x, y, z = _disc(u, v)
+        z *= sign
+        C = self._cols
+        d = np.empty((len(prim), 3))
+        for c in range(3):  # loop over x, y, z
+            d[:, c] = x * C[9 + c].take(prim) + y * C[12 + c].take(prim) + z * C[15 + c].take(prim)
+        return d
+
+    def hit_geometry(self, prim, origins, directions, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For hits on ``prim`` (r,) at distance ``t`` (r,): ``(face (r,), point (r, 3), unit front normal (r, 3))``.
+
+        The point o + t d carries the float32 error of t (~1e-7 of the scene size), far below the origin offset."""
+        return self.tri_face[prim], origins + t[:, None] * directions, self.tri_normal[prim]
+
+    def intersect(self, origins: np.ndarray, directions: np.ndarray, leaving: np.ndarray):
+        """Closest hit of rays leaving primitives ``leaving`` (r,) (-1: none): ``(prim (r,), t (r,))``, prim -1 on a
+        miss.  Self hits (prim == leaving) are re-traced from an origin pushed 4x further off the surface; a ray
+        still hitting itself after SELF_HIT_RETRIES pushes is returned as prim -1 with t = -1 (lost)."""
+        prim, t = self.engine.intersect(origins, directions)
+        bad = np.flatnonzero((prim == leaving) & (prim >= 0))
+        push = self.eps
+        for _ in range(SELF_HIT_RETRIES):
+            if bad.size == 0:
+                break
+            push *= 4.0
+            n = self.tri_normal[leaving[bad]]
+            side = np.where(np.einsum("ij,ij->i", directions[bad], n) >= 0.0, 1.0, -1.0)
+            o2 = origins[bad] + (push * side)[:, None] * n
+            p2, t2 = self.engine.intersect(o2, directions[bad])
+            prim[bad], t[bad] = p2, t2
+            bad = bad[(p2 == leaving[bad]) & (p2 >= 0)]
+        if bad.size:
+            prim[bad], t[bad] = MISS, -1.0
+        return prim, t
+
+    def offset(self, prim: np.ndarray, points: np.ndarray, sign: np.ndarray) -> np.ndarray:
+        """Origins for rays leaving ``points`` (r, 3) on primitives ``prim`` (r,) into side ``sign`` (r,) (+1 front,
+        -1 back): pushed ``eps`` along that side's normal and ``eps`` towards the primitive's centroid, so an origin
+        on (or a float32 ulp beyond) an edge shared with another face still starts inside the model.
+        ``points`` is modified in place and returned."""
+        C = self._cols
+        toward = np.empty_like(points)
+        for c in range(3):  # loop over x, y, z
+            toward[:, c] = C[18 + c].take(prim) - points[:, c]
+        toward *= (self.eps / np.maximum(np.sqrt(np.einsum("ij,ij->i", toward, toward)), 1e-300))[:, None]
+        points += toward
+        e = self.eps * sign
+        for c in range(3):
+            points[:, c] += e * C[15 + c].take(prim)
+        return points
+
+
+def _disc(u: np.ndarray, v: np.ndarray):
+    """Malley's method: the disc point (√u cos 2πv, √u sin 2πv) and its lift √(1 - u) onto the hemisphere."""
+    r = np.sqrt(u)
+    phi = (2.0 * np.pi) * v
+    return r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(1.0 - u, 0.0))
+
+
+@dataclass(frozen=True)
+class GroupEmitters:
+    """Emission tables of groups of sides (super faces), sampled as a whole through their cumulative ε·A.
+
+    ``entry_prim`` (e,) triangle, ``entry_side`` (e,) 0 front / 1 back, ``entry_group`` (e,), ``lo``/``hi`` (e,)
+    bounds of each entry in the keyed cumulative distribution: group g occupies [g, g + 1), entry k of g spans
+    [g + C_{k-1}, g + C_k) with C the normalised cumulative ε·A of the group.  ``weight`` (g,) = Σ ε·A (m²) of
+    the emitting sides of each group, ``area`` (g,) their area (m²).
+    """
+
+    entry_prim: np.ndarray
+    entry_side: np.ndarray
+    entry_group: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    weight: np.ndarray
+    area: np.ndarray
+
+    @classmethod
+    def build(cls, scene: TriangleScene, groups: np.ndarray, emit: np.ndarray, n_groups: int) -> "GroupEmitters":
+        """Tables for ``groups`` (2f,) int group per side (-1: none) with emissive power weights ``emit`` (2f,)
+        (ε for IR, 0 on inactive sides)."""
+        t = len(scene.tri_face)
+        prim = np.repeat(np.arange(t), 2)
+        side = np.tile(np.array([FRONT, BACK]), t)
+        sid = 2 * scene.tri_face[prim] + side
+        w = emit[sid] * scene.tri_area[prim]
+        g = groups[sid]
+        keep = (w > 0) & (g >= 0)
+        prim, side, g, w = prim[keep], side[keep], g[keep], w[keep]
+        order = np.argsort(g, kind="stable")
+        prim, side, g, w = prim[order], side[order], g[order], w[order]
+        weight = np.bincount(g, weights=w, minlength=n_groups)
+        area = np.bincount(g, weights=scene.tri_area[prim], minlength=n_groups)
+        start = np.concatenate([[0], np.cumsum(np.bincount(g, minlength=n_groups))])
+        csum = np.cumsum(w)
+        before = np.concatenate([[0.0], csum])[start[g]]  # cumulative weight before the group's first entry
+        hi = (csum - before) / weight[g]
+        lo = np.concatenate([[0.0], hi[:-1]])
+        lo[start[g] == np.arange(len(g))] = 0.0
+        last = np.append(g[1:] != g[:-1], True) if len(g) else np.zeros(0, bool)
+        hi[last] = 1.0
+        return cls(entry_prim=prim, entry_side=side, entry_group=g, lo=g + lo, hi=g + hi, weight=weight, area=area)
+
+    def locate(self, group: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Entry and rescaled coordinate in [0, 1) for rays of ``group`` (r,) with first sample coordinate ``u``:
+        the 1-D inverse-CDF step that keeps the low-discrepancy structure across the whole super face."""
+        x = group + u
+        k = np.searchsorted(self.hi, x, side="right")
+        k = np.minimum(k, len(self.hi) - 1)
+        w = self.hi[k] - self.lo[k]
+        uu = np.clip((x - self.lo[k]) / w, 0.0, np.nextafter(1.0, 0.0))
+        return k, uu

@@ -1,0 +1,419 @@
+"""Monte Carlo ray tracing of radiative exchange factors (REFs): bounce loop, group tallies, accuracy control.
+
+Thesis: MCRT without branching §1.3 (l. 664), coupled 4-D Halton sampling §2.3.5, reciprocity/closure and accuracy
+control §2.5.1, super faces ch. 5.  DESIGN §3.5 and §4.4.
+
+Layers:
+
+* :func:`trace_paths` - the bounce loop over a batch of rays (numpy over the batch, the scene for intersections).
+  It knows nothing about groups or sources: it returns where each ray ended (side index, space, blocked, capped).
+  Exchange factors (below) and, later, parallel-ray solar sources feed it their own origins and directions.
+* :func:`trace_exchange` - REFs between groups of sides (FE faces or super faces) of a :class:`Surface`.
+* :func:`exchange_factors` - the public convenience function of DESIGN §4.4 (front sides only).
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import Fem2TmmError
+from .sampling import HALTON_BASES, ScrambledHalton
+from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, smooth
+from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
+
+#: ends of a ray path besides "absorbed by side s >= 0"
+END_SPACE, END_BLOCKED, END_CAPPED = -1, -2, -3
+MAX_BOUNCES = 1000
+#: coordinates of the coupled Halton point of an emitted ray: origin (2), direction (2), and the direction of its
+#: first diffuse reflection or transmission (2)
+HALTON_DIMS = 6
+BATCH = 1 << 17
+#: random start offsets of the groups in the Halton sequence lie in [0, HALTON_SKIP)
+HALTON_SKIP = 1 << 20
+PILOT_RAYS = (100, 400)
+#: at most this many extrapolated runs after the pilots (the LSE rate measured at 100-400 rays is often steeper
+#: than further on, so one extrapolation can fall short; the next one uses the last two runs)
+EXTRAPOLATIONS = 3
+
+
+
+def stratified_uniforms(keys: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Uniform numbers (r,) stratified within each key: the m entries of a key get (rank + φ)/m, rank a random
+    permutation of 0..m-1 and φ one uniform phase per key (systematic sampling in random order).  Each entry is
+    marginally U[0, 1); the fraction of a key's entries below any threshold p is within 1/m of p."""
+    n = keys.size
+    order = np.argsort(keys + rng.random(n))
+    ks = keys[order]
+    first = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]]) if n else np.zeros(0, np.int64)
+    counts = np.diff(np.r_[first, n])
+    rank = np.arange(n) - np.repeat(first, counts)
+    u = np.empty(n)
+    u[order] = (rank + np.repeat(rng.random(first.size), counts)) / np.repeat(counts, counts)
+    return u
+
+
+def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, directions: np.ndarray,
+                leaving: np.ndarray, rng: np.random.Generator, max_bounces: int = MAX_BOUNCES,
+                strata: np.ndarray | None = None, first_scatter: np.ndarray | None = None):
+    """Follow rays until they are absorbed, leave the model or reach ``max_bounces`` segments.
+
+    ``origins`` (r, 3) m already offset off their surface, ``directions`` (r, 3) unit, ``leaving`` (r,) the
+    primitive each ray leaves (-1 for rays from outside the model), ``optics`` of the band traced.  At each hit the
+    side hit is the front when the ray travels against the face normal; an inactive side stops the ray
+    (``END_BLOCKED``); otherwise one uniform number picks absorption, specular reflection, specular transmission,
+    diffuse transmission or diffuse reflection in the proportions of that side's optics (thesis l. 664); diffuse
+    directions follow the cosine law about the normal of the side the ray leaves.  With ``strata`` (r,) int (the
+    source group of each ray), the uniform numbers of the *first* hit are stratified within each (source, side)
+    pair (:func:`stratified_uniforms`): the number of first-hit absorptions of a pair is then within one of its
+    expectation instead of binomial, so the low-discrepancy emission is not drowned by absorption noise; each
+    ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
+    numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
+    coupled Halton point); later events use ``rng``.
+
+    Returns ``(ends (r,) int64, segments int)``: ends[k] = side index (2 face + back) that absorbed ray k, or
+    ``END_SPACE`` / ``END_BLOCKED`` / ``END_CAPPED``; segments = number of intersection queries made.
+    """
+    n = len(origins)
+    ends = np.full(n, END_CAPPED, np.int64)
+    idx = np.arange(n)
+    o, d, last = origins, directions, leaving
+    # a side stops a ray when u < stop[side]: its absorptance, or always (2 > u) when the side is inactive
+    stop_p = np.where(optics.active, optics.cum[:, 0], 2.0)
+    segments = 0
+    for _ in range(max_bounces):
+        if idx.size == 0:
+            break
+        prim, t = scene.intersect(o, d, last)
+        segments += idx.size
+        hit = prim >= 0
+        if not hit.all():
+            escaped = ~hit & (t > 0)  # t = -1 flags a ray lost to an unresolvable self hit: stays END_CAPPED
+            ends[idx[escaped]] = END_SPACE
+            keep = np.flatnonzero(hit)
+            idx, o, d, prim, t = idx[keep], o[keep], d[keep], prim[keep], t[keep]
+        face, p, nrm = scene.hit_geometry(prim, o, d, t)
+        cos_in = np.einsum("ij,ij->i", d, nrm)
+        back = cos_in > 0.0
+        side = 2 * face + back
+        if strata is not None:  # first hit: stratified event numbers per (source, side)
+            u = stratified_uniforms(strata[idx] * float(len(stop_p)) + side, rng)
+            strata = None
+        else:
+            u = rng.random(idx.size)
+        stop = u < stop_p[side]
+        diffuse_only = optics.all_diffuse_reflectors
+        if stop.any():
+            sid = np.flatnonzero(stop)
+            ss = side[sid]
+            ends[idx[sid]] = np.where(optics.active[ss], ss, END_BLOCKED)
+            keep = np.flatnonzero(~stop)
+            if keep.size == 0:
+                break
+            idx, prim, p, nrm, back = idx[keep], prim[keep], p[keep], nrm[keep], back[keep]
+            if not diffuse_only:
+                d, cos_in, u, side = d[keep], cos_in[keep], u[keep], side[keep]
+        if diffuse_only:
+            sgn = np.where(back, -1.0, 1.0)
+            r2 = first_scatter[idx] if first_scatter is not None else rng.random((idx.size, 2))
+            d = scene.scatter(prim, nrm, sgn, r2[:, 0], r2[:, 1])
+        else:
+            c = optics.cum[side]
+            spec_r = u < c[:, 1]
+            trans = ~spec_r & (u < c[:, 3])
+            diffuse = u >= c[:, 2]
+            # specular reflection d - 2 (d.n) n; specular transmission keeps d; diffuse rays are overwritten below
+            d = d - (2.0 * cos_in * spec_r)[:, None] * nrm
+            # side the ray leaves (sign on the front normal): the side it arrived on, the other one if transmitted
+            sgn = np.where(back != trans, -1.0, 1.0)
+            if diffuse.any():
+                dif = np.flatnonzero(diffuse)
+                r2 = first_scatter[idx[dif]] if first_scatter is not None else rng.random((dif.size, 2))
+                d[dif] = scene.scatter(prim[dif], nrm[dif], sgn[dif], r2[:, 0], r2[:, 1])
+        o = scene.offset(prim, p, sgn)
+        first_scatter = None
+        last = prim
+    return ends, segments
+
+
+@dataclass(frozen=True, eq=False)
+class ExchangeResult:
+    """Radiative exchange factors between g groups of sides (super faces) plus space.
+
+    ``F`` (g, g + 1) csr: REFs after reciprocity and closure, last column space.  ``F_raw`` (g, g + 1): ray
+    counts / rays traced.  ``GR`` (g, g + 1) m² = diag(εA) F, symmetric g x g block.  ``tally`` (g, g + 3) raw ray
+    counts (columns: groups, space, blocked, capped; each row sums to ``rays``).  ``eps_area`` (g,) m² emissive
+    area εA, ``area`` (g,) m² emitting area, ``rays`` (g,) rays traced (last run), ``lse`` (g,) line-sum error
+    after reciprocity and before closure, ``lse_rms`` over the groups that traced rays, ``kappa`` convergence rate
+    from accuracy control (None without ``target_lse``), ``pilot`` ((rays, lse_rms), ...) of the pilot runs,
+    ``capped_energy_fraction`` / ``blocked_fraction`` (fractions of the emitted energy), ``escaped`` (g,) raw
+    fraction of each group's rays that left to space, ``blocked`` (g,) raw blocked fraction, ``segments`` number
+    of intersection queries, ``engine`` "embree" or "numpy", ``sampling``.
+    """
+
+    F: sp.csr_matrix
+    F_raw: sp.csr_matrix
+    GR: sp.csr_matrix
+    tally: sp.csr_matrix
+    eps_area: np.ndarray
+    area: np.ndarray
+    rays: np.ndarray
+    lse: np.ndarray
+    lse_rms: float
+    kappa: float | None
+    pilot: tuple
+    capped_energy_fraction: float
+    blocked_fraction: float
+    escaped: np.ndarray
+    blocked: np.ndarray
+    segments: int
+    engine: str
+    sampling: str
+
+    @property
+    def n_groups(self) -> int:
+        return self.F.shape[0]
+
+
+def _check_groups(surface: Surface, groups) -> tuple[np.ndarray, int]:
+    groups = np.asarray(groups)
+    if groups.shape != (2 * surface.n_faces,) or not np.issubdtype(groups.dtype, np.integer):
+        raise Fem2TmmError(
+            f"groups must be an int array with one entry per side ({2 * surface.n_faces},), got "
+            f"{groups.shape} {groups.dtype}"
+        )
+    groups = groups.astype(np.int64)
+    if groups.size and groups.min() < -1:
+        raise Fem2TmmError("group ids must be >= 0, or -1 for sides that are not REF nodes")
+    return groups, int(groups.max()) + 1 if groups.size else 0
+
+
+class _ExchangeTracer:
+    """Everything one exchange-factor run needs, shared read-only by the batch workers."""
+
+    def __init__(self, surface: Surface, groups: np.ndarray, n_groups: int, backend: str):
+        self.scene = TriangleScene(surface, backend)
+        self.optics = surface.optics("ir")
+        emit = np.where(surface.active, surface.emissivity, 0.0)
+        self.emitters = GroupEmitters.build(self.scene, groups, emit, n_groups)
+        self.groups = groups
+        self.g = n_groups
+
+    def run(self, rays: np.ndarray, sampling: str, seed, stream: int, batch: int, threads: int, max_bounces: int):
+        g = self.g
+        rays = np.where(self.emitters.weight > 0, rays, 0).astype(np.int64)
+        start = np.concatenate([[0], np.cumsum(rays)])
+        total = int(start[-1])
+        ss = np.random.SeedSequence(seed, spawn_key=(stream,))
+        setup = np.random.default_rng(ss.spawn(1)[0])
+        halton = offsets = None
+        if sampling == "halton":
+            halton = ScrambledHalton(setup, bases=HALTON_BASES[:HALTON_DIMS])
+            offsets = setup.integers(0, HALTON_SKIP, size=g)
+        ncol = g + 3
+        # destination column of an absorbing side: its group, or "blocked" when it is not a REF node
+        side_col = np.where(self.groups >= 0, self.groups, g + 1)
+        end_col = np.array([g + 2, g + 1, g])  # indexed by END_CAPPED, END_BLOCKED, END_SPACE (-3, -2, -1)
+
+        def job(b):
+            lo_, hi_ = b * batch, min((b + 1) * batch, total)
+            rho = np.arange(lo_, hi_, dtype=np.int64)
+            g0, g1 = np.searchsorted(start, [lo_, hi_ - 1], side="right") - 1
+            # group of each ray of the batch: its group's rays clipped to the batch
+            cnt = np.minimum(start[g0 + 1 : g1 + 2], hi_) - np.maximum(start[g0 : g1 + 1], lo_)
+            grp = np.repeat(np.arange(g0, g1 + 1), cnt)
+            rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream, 1, b)))
+            if halton is not None:
+                U = halton.points(offsets[grp] + (rho - start[grp]))
+            else:
+                U = rng.random((rho.size, 4))
+            entry, U[:, 0] = self.emitters.locate(grp, U[:, 0])
+            prim = self.emitters.entry_prim[entry]
+            o, d = self.scene.emit(prim, 1.0 - 2.0 * self.emitters.entry_side[entry], U)
+            ends, segs = trace_paths(self.scene, self.optics, o, d, prim, rng, max_bounces,
+                                     strata=grp if halton is not None else None,
+                                     first_scatter=U[:, 4:6] if halton is not None else None)
+            dest = np.where(ends >= 0, side_col[np.maximum(ends, 0)], end_col[np.minimum(ends, -1) + 3])
+            g0 = int(grp[0])
+            span = int(grp[-1]) - g0 + 1
+            local = (grp - g0) * ncol + dest
+            if span * ncol <= 8 * rho.size:
+                counts = np.bincount(local, minlength=span * ncol)
+                keys = np.nonzero(counts)[0]
+                counts = counts[keys]
+            else:
+                keys, counts = np.unique(local, return_counts=True)
+            return keys + g0 * ncol, counts, segs
+
+        nb = math.ceil(total / batch) if total else 0
+        if threads > 1 and nb > 1:
+            with ThreadPoolExecutor(max_workers=threads) as ex:
+                parts = list(ex.map(job, range(nb)))
+        else:
+            parts = [job(b) for b in range(nb)]
+        keys = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
+        counts = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
+        segments = int(sum(p[2] for p in parts))
+        # batches are in group order, so the keys are sorted except where a group straddles two batches
+        order = np.argsort(keys, kind="stable")
+        keys, counts = keys[order], counts[order]
+        first = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]]) if keys.size else np.zeros(0, np.int64)
+        counts = np.add.reduceat(counts, first) if keys.size else counts
+        r, c = np.divmod(keys[first], ncol)
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=g))])
+        tally = sp.csr_matrix((counts.astype(np.float64), c, indptr), shape=(g, ncol))
+        return rays, tally, segments
+
+
+def _budget(emitters: GroupEmitters, g: int, rays_per_group, ray_density) -> np.ndarray:
+    if rays_per_group is not None and ray_density is not None:
+        raise Fem2TmmError("give either rays_per_group (rays_per_face) or ray_density, not both")
+    if ray_density is not None:
+        if not ray_density > 0:
+            raise Fem2TmmError(f"ray_density must be > 0 rays per m², got {ray_density}")
+        rays = np.ceil(ray_density * emitters.area).astype(np.int64)
+    else:
+        rays = np.broadcast_to(np.asarray(1000 if rays_per_group is None else rays_per_group), (g,))
+        if np.any(rays < 0) or not np.issubdtype(rays.dtype, np.integer) and np.any(rays != np.round(rays)):
+            raise Fem2TmmError("rays per group must be non-negative integers")
+        rays = rays.astype(np.int64)
+    return np.where(emitters.weight > 0, rays, 0)
+
+
+def _result(tracer, rays, tally, segments, method, exponent, kappa, pilot, engine, sampling) -> ExchangeResult:
+    g = tracer.g
+    w = tracer.emitters.weight
+    n = np.maximum(rays, 1).astype(float)
+    coo = tally.tocoo()
+    escaped_n, blocked_n, capped_n = (np.bincount(coo.row[coo.col == k], weights=coo.data[coo.col == k], minlength=g)
+                                      for k in (g, g + 1, g + 2))
+    F_raw = (sp.diags(np.where(rays > 0, 1.0 / n, 0.0)) @ tally[:, : g + 1]).tocsr()
+    F_raw.eliminate_zeros()
+    blocked = np.where(rays > 0, blocked_n / n, 0.0)
+    capped = np.where(rays > 0, capped_n / n, 0.0)
+    F, GR, lse = smooth(F_raw, w, rays, blocked, method, exponent)
+    traced = (rays > 0) & (w > 0)
+    wt = w[traced].sum()
+    frac = lambda x: float((w[traced] * x[traced]).sum() / wt) if wt > 0 else 0.0  # noqa: E731
+    return ExchangeResult(
+        F=F, F_raw=F_raw, GR=GR, tally=tally, eps_area=w, area=tracer.emitters.area, rays=rays, lse=lse,
+        lse_rms=rms(lse, traced), kappa=kappa, pilot=tuple(pilot), capped_energy_fraction=frac(capped),
+        blocked_fraction=frac(blocked), escaped=np.where(rays > 0, escaped_n / n, 0.0), blocked=blocked,
+        segments=segments, engine=engine, sampling=sampling,
+    )
+
+
+def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: float | None = None,
+                   sampling: str = "halton", seed: int = 0, max_bounces: int = MAX_BOUNCES, batch: int = BATCH,
+                   threads: int = 2, target_lse: float | None = None, reciprocity: str = "linear",
+                   exponent: float = 0.4, backend: str = "auto") -> ExchangeResult:
+    """Radiative exchange factors between groups of sides of ``surface`` by quasi-Monte Carlo ray tracing.
+
+    ``groups`` (2f,) int: the group (super face, REF node) of each side, -1 for sides that are not REF nodes; a
+    group emits from its active member sides in proportion to ε·A, so the REF is a fraction of the group's emitted
+    energy.  Ray budget: ``rays_per_group`` (int or (g,) ints) or ``ray_density`` (rays per m² of emitting area);
+    default 1000 per group.  ``sampling`` "halton" (one scrambled 4-D Halton point per emitted ray: triangle and
+    position through the cumulative ε·A of the group, then a cosine direction by Malley's method; a random start in
+    the sequence per group) or "random" (crude Monte Carlo, same estimator).  Reflections use pseudo-random numbers.
+    ``reciprocity`` "linear" (thesis eq. 2.45-2.46 with ``exponent``) or "fractional_variance".
+    ``target_lse``: accuracy control (thesis end of §2.5.1): two pilot runs at mean 100 and 400 rays per group
+    (the budget's shape is kept) give the convergence rate κ of the RMS line-sum error (log-log slope, clipped to
+    [0.5, 1]); the budget is extrapolated to reach ``target_lse`` and traced; if the LSE reached is still above the
+    target, the rate of the last two runs extrapolates again (at most ``EXTRAPOLATIONS`` runs).  The result is the
+    last run; ``kappa`` is the rate of the last extrapolation and ``pilot`` lists (rays, lse_rms) of the earlier
+    runs.  ``threads`` batches run concurrently;
+    ``batch`` rays per batch.  The result depends only on the inputs, ``seed`` and ``batch`` (not on threads).
+    Returns an :class:`ExchangeResult`.
+    """
+    if sampling not in ("halton", "random"):
+        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
+    if reciprocity not in RECIPROCITY_METHODS:
+        raise Fem2TmmError(f"reciprocity must be one of {RECIPROCITY_METHODS}, got {reciprocity!r}")
+    if not (isinstance(max_bounces, int | np.integer) and max_bounces >= 1):
+        raise Fem2TmmError(f"max_bounces must be a positive integer, got {max_bounces!r}")
+    groups, g = _check_groups(surface, groups)
+    tracer = _ExchangeTracer(surface, groups, g, backend)
+    engine = tracer.scene.engine.name
+    base = _budget(tracer.emitters, g, rays_per_group, ray_density)
+    run = lambda rays, stream: tracer.run(rays, sampling, seed, stream, int(batch), int(threads), max_bounces)  # noqa: E731
+    kappa, pilot = None, []
+    if target_lse is None:
+        rays, tally, segs = run(base, 0)
+        return _result(tracer, rays, tally, segs, reciprocity, exponent, None, pilot, engine, sampling)
+    if not target_lse > 0:
+        raise Fem2TmmError(f"target_lse must be > 0, got {target_lse}")
+    live = base > 0
+    if not live.any():
+        raise Fem2TmmError("no group emits: accuracy control needs at least one group with ε·A > 0")
+    shape = base / base[live].mean()
+    runs = []
+    for k, mean_rays in enumerate(PILOT_RAYS):
+        rays = np.where(live, np.maximum(1, np.round(shape * mean_rays)), 0).astype(np.int64)
+        runs.append(_result(tracer, *run(rays, k + 1), reciprocity, exponent, None, [], engine, sampling))
+    for k in range(EXTRAPOLATIONS):
+        a, b = runs[-2], runs[-1]
+        kappa = convergence_rate(a.rays.sum(), a.lse_rms, b.rays.sum(), b.lse_rms)
+        kappa = 0.5 if not np.isfinite(kappa) else float(np.clip(kappa, 0.5, 1.0))
+        if b.lse_rms <= target_lse:
+            break
+        factor = (b.lse_rms / target_lse) ** (1.0 / kappa)
+        rays = np.where(live, np.ceil(b.rays * factor), 0).astype(np.int64)
+        runs.append(_result(tracer, *run(rays, len(PILOT_RAYS) + 1 + k), reciprocity, exponent, None, [], engine,
+                            sampling))
+    last = runs[-1]
+    pilot = [(int(r.rays.sum()), r.lse_rms) for r in runs[:-1]]
+    return _result(tracer, last.rays, last.tally, last.segments, reciprocity, exponent, kappa, pilot, engine,
+                   sampling)
+
+
+def _per_face(value, m: int, name: str) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0:
+        return np.full(m, float(a))
+    if a.shape != (m,):
+        raise Fem2TmmError(f"{name} must be a scalar or one value per face ({m},), got shape {a.shape}")
+    return a
+
+
+def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity=0.0, super_faces=None,
+                     rays_per_face=10_000, ray_density=None, sampling="halton", seed=0, *,
+                     target_lse=None, threads=2, max_bounces=MAX_BOUNCES) -> ExchangeResult:
+    """REFs between the front sides of FE faces, or of super faces (DESIGN §4.4).
+
+    ``points`` (n, 3) m, ``faces`` (m, 3) or (m, 4) int (front side = right-hand normal; only front sides emit and
+    absorb, back sides are inactive and stop rays).  ``emissivity``, ``specular`` (specular fraction of the
+    reflected energy), ``transmissivity``: scalars or (m,) arrays.  ``super_faces`` (m,) int groups faces (-1: not
+    a REF node); ``rays_per_face`` counts rays per emitting super face when ``super_faces`` is given and per face
+    otherwise; a ``ray_density`` in rays per m² may be given instead.  ``sampling`` "halton" or "random".
+    Returns an :class:`ExchangeResult` with ``.F`` (n_sf, n_sf + 1), last column space, ``.GR`` (m²) and
+    ``.lse`` (n_sf,).
+    """
+    from .surfaces import pad_faces
+
+    faces = pad_faces(faces)
+    m = len(faces)
+    eps = _per_face(emissivity, m, "emissivity")
+    zero = np.zeros(m)
+    surface = Surface(
+        points, faces,
+        emissivity=np.stack([eps, zero], axis=1),
+        specular=np.stack([_per_face(specular, m, "specular"), zero], axis=1),
+        transmissivity=np.stack([_per_face(transmissivity, m, "transmissivity"), zero], axis=1),
+        active=np.stack([np.ones(m, bool), np.zeros(m, bool)], axis=1),
+    )
+    if super_faces is None:
+        sf = np.arange(m)
+    else:
+        sf = np.asarray(super_faces)
+        if sf.shape != (m,) or not np.issubdtype(sf.dtype, np.integer):
+            raise Fem2TmmError(f"super_faces must be one int per face ({m},), got {sf.shape} {sf.dtype}")
+    groups = np.stack([sf.astype(np.int64), np.full(m, -1, np.int64)], axis=1).ravel()
+    if ray_density is not None:
+        rays_per_face = None
+    return trace_exchange(surface, groups, rays_per_group=rays_per_face, ray_density=ray_density,
+                          sampling=sampling, seed=seed, threads=threads, target_lse=target_lse,
+                          max_bounces=max_bounces)
