@@ -65,7 +65,8 @@ def cluster_model(model: FEModel, case, progress=None) -> Clustering:
         rows = np.flatnonzero(model.element_part == p)
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
-                               n_clusters=info.super_nodes, attribute=model.element_attribute[rows]))
+                               n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
+                               ids=model.mesh.element_ids[model.elements[rows]]))
     cs = case.clustering
     return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
                          seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress)
