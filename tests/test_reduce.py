@@ -234,6 +234,38 @@ def test_floating_and_disconnected_parts_and_clusters_without_interior():
     assert rel(red2.distribute(q), Y @ q) < 1e-9
 
 
+def test_many_clusters_deep_tree_and_kept_nodes_local_equals_global():
+    """60 Voronoi-like clusters on a quad plate (a cluster tree six levels deep), kept nodes on interfaces and
+    inside clusters; the global sparse LU of M is the reference (itself checked against M⁻¹ above)."""
+    pts, c = quad_grid(30, 24, 1.0, 0.8)
+    pr = Problem(pts, [("quad4", c)])
+    rng = np.random.default_rng(4)
+    seeds = pr.centroids()[rng.choice(pr.m, 60, replace=False)]
+    labels = np.argmin(((pr.centroids()[:, None, :] - seeds[None]) ** 2).sum(-1), axis=1)
+    labels = np.unique(labels, return_inverse=True)[1]
+    kept = rng.choice(pr.n, 12, replace=False)
+    sn = build_supernodes(pr.n, pr.cells, pr.shares, labels, boundary=[0], kept=kept)
+    rg = reduce_conduction(pr.coo, sn, labels, method="global")
+    q = rng.normal(size=(pr.n, 2))
+    T_sn = rng.normal(size=(sn.n_sn, 2))
+    for dense_below in (0, 10 ** 9):
+        rl = reduce_conduction(pr.coo, sn, labels, dense_below=dense_below)
+        assert rel(rl.K, rg.K) < 1e-9  # issue acceptance: local = global to 1e-9
+        assert rel(rl.distribute(q), rg.distribute(q)) < 1e-9
+        assert rel(rl.recover(T_sn, q), rg.recover(T_sn, q)) < 1e-9
+
+
+def test_only_one_node_super_nodes():
+    """No cluster at all (every DOF fixed or kept): K_SN is empty of links and recovery returns T_SN."""
+    cells = np.zeros((0, 8), np.int64)
+    sn = build_supernodes(2, cells, np.zeros((0, 8)), np.zeros(0, np.int64), boundary=[1], kept=[0])
+    coo = ElementCOO(*(np.zeros(0, np.int64),) * 2, np.zeros(0), np.zeros(0, np.int64))
+    for method in ("local", "global"):
+        red = reduce_conduction(coo, sn, np.zeros(0, np.int64), method=method)
+        assert np.array_equal(red.K, np.zeros((2, 2)))
+        assert np.array_equal(red.recover(np.array([1.0, 2.0])), [2.0, 1.0])  # DOF 0 is super node 1
+
+
 def merged_plate():
     """Quad plate whose left edge is a fixed-temperature group merged into one DOF (last DOF)."""
     pts, c = quad_grid(16, 10, 0.8, 0.5)

@@ -31,6 +31,7 @@ symmetric with zero row sums; the raw asymmetry and row-sum residual are kept in
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field
 
@@ -56,6 +57,21 @@ SPARSE_RATIO = 0.35
 FACTOR_MEMORY_MB = 1024.0
 #: number of right-hand sides solved at once by the global method (memory n × batch doubles)
 BATCH = 256
+#: BLAS threads used inside the reduction.  One thread: the dense work is many mid-size factorisations, and
+#: OpenBLAS's threads collapse when other processes hold the cores — measured on the shared 2-core machine
+#: (load ≈ 5): 2.5·10⁵ quads → 300 super nodes in 9.9 s with one thread against 52 s with two.
+BLAS_THREADS = 1
+
+
+def blas_threads(n: int | None):
+    """Context manager limiting BLAS to ``n`` threads (no-op for None or without threadpoolctl)."""
+    if n is None:
+        return contextlib.nullcontext()
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # threadpoolctl comes with scikit-learn; without it, leave BLAS alone
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=n, user_api="blas")
 
 
 @dataclass(frozen=True)
@@ -66,7 +82,8 @@ class ConductiveReduction:
     ``method`` "local" | "global"; ``supernodes`` the :class:`SuperNodes` it was built for;
     ``diagnostics`` dict: ``asymmetry`` and ``rowsum_residual`` of the raw result (max abs / max diagonal),
     ``n_interface`` (interface DOFs), ``n_condensed`` (unknowns removed by Guyan condensation),
-    ``factor_bytes`` (memory of the kept factorisations), ``seconds``.
+    ``factor_bytes`` (memory of the kept factorisations), ``cluster_solvers`` (local method: count per
+    :class:`~fem2tmm.reduce.recovery.ClusterSolver` kind), ``blas_threads``, ``seconds``.
     """
 
     K: np.ndarray
@@ -89,7 +106,8 @@ class ConductiveReduction:
         Exact for any load in linear conduction: ``K_SN T_SN = Y q`` has the super-node averages of the detailed
         solution as its solution.  A load distributed like A (``q = Aᵀ v``) gives back v.
         """
-        return self.operator.distribute(q)
+        with blas_threads(self.diagnostics.get("blas_threads")):
+            return self.operator.distribute(q)
 
     def recover(self, T_sn: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Detailed temperatures ``T = X q + Yᵀ T_SN``: T_SN (n_SN,) or (n_SN, r) K, q (n_dof[, r]) W → (n_dof[, r]) K.
@@ -97,7 +115,8 @@ class ConductiveReduction:
         With the q that was distributed this is the exact detailed solution; without q (or q = Aᵀ q_SN, since
         X Aᵀ = 0) it is the field of least conduction energy with the given super-node averages.
         """
-        return self.operator.recover(T_sn, q)
+        with blas_threads(self.diagnostics.get("blas_threads")):
+            return self.operator.recover(T_sn, q)
 
 
 def _finish(raw: np.ndarray) -> tuple[np.ndarray, dict]:
@@ -275,7 +294,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
 def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarray,
                       elements: np.ndarray | None = None, method: str = "local", *,
                       dense_below: int = DENSE_BELOW, factor_memory_mb: float = FACTOR_MEMORY_MB,
-                      batch: int = BATCH) -> ConductiveReduction:
+                      batch: int = BATCH, blas: int | None = BLAS_THREADS) -> ConductiveReduction:
     """Reduced conduction matrix between super nodes, ``K_SN = (A K⁺ Aᵀ)⁻¹``.
 
     Parameters
@@ -290,6 +309,7 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
     factor_memory_mb : per-cluster factorisations are kept, for fast ``distribute`` / ``recover``, while their
         total stays under this many MiB; the others are recomputed at each call (local method).
     batch : right-hand sides solved at once by the global method (memory ``batch × n`` doubles).
+    blas : BLAS threads during the reduction and in ``distribute`` / ``recover`` (None: leave as is).
 
     Returns
     -------
@@ -299,12 +319,14 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
         raise Fem2TmmError(f"reduction method {method!r} is unknown; use 'local' or 'global'")
     _check_coo(coo, supernodes.n_dof)
     t0 = time.perf_counter()
-    if method == "global":
-        raw, op, info = _global(coo, supernodes, batch)
-    else:
-        raw, op, info = _local(coo, supernodes, labels, elements, dense_below, factor_memory_mb)
+    with blas_threads(blas):
+        if method == "global":
+            raw, op, info = _global(coo, supernodes, batch)
+        else:
+            raw, op, info = _local(coo, supernodes, labels, elements, dense_below, factor_memory_mb)
     K, diag = _finish(raw)
     diag.update(info)
+    diag["blas_threads"] = blas
     diag["seconds"] = time.perf_counter() - t0
     return ConductiveReduction(K=K, method=method, supernodes=supernodes, operator=op, diagnostics=diag)
 

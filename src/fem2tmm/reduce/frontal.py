@@ -71,7 +71,7 @@ class ClusterTree:
         nc = adjacency.shape[0]
         self.perm = np.empty(nc, np.int64)
         lo, hi, left, right = [], [], [], []
-        stack = [(np.arange(nc), 0, -1, 0)]  # (clusters, start position, parent, which child)
+        stack = [(np.arange(nc), 0, -1, 0)] if nc else []  # (clusters, start position, parent, which child)
         while stack:
             ids, start, parent, which = stack.pop()
             t = len(lo)
@@ -88,8 +88,8 @@ class ClusterTree:
             a, b = ids[~side], ids[side]
             stack.append((b, start + a.size, t, 1))
             stack.append((a, start, t, 0))  # popped first: preorder numbering
-        self.lo, self.hi = np.array(lo), np.array(hi)
-        self.left, self.right = np.array(left), np.array(right)
+        self.lo, self.hi = np.array(lo, np.int64), np.array(hi, np.int64)
+        self.left, self.right = np.array(left, np.int64), np.array(right, np.int64)
         self.pos = np.empty(nc, np.int64)
         self.pos[self.perm] = np.arange(nc)
         self.leaf_of = np.empty(nc, np.int64)
@@ -203,7 +203,7 @@ class Frontal:
             fr.update = None
             self.steps.append((E, R, fr))
             self.nbytes += fr.nbytes
-        parts = members[0]
+        parts = members[0] if n_nodes else []
         self.K = np.zeros((n_keep, n_keep))
         for idx, val in parts:
             if np.any(idx >= n_keep):

@@ -101,23 +101,26 @@ class ClusterSolver:
 
     ``kind`` chooses the method:
 
-    * ``"cholesky"`` (small cluster, every interior node connected to an interface node, so K_II is positive
-      definite): dense Cholesky K_II = L Lᵀ with the constraint bordered in: ``u = K_II⁻¹ a_Iᵀ``, ``s = a_I u``;
-    * ``"lu"`` (small floating cluster: K_II singular, P is not): dense LU of P;
-    * ``"sparse"`` (large cluster, K_II positive definite): the condensed map comes out of one SuperLU
-      factorisation of the local matrix ordered [I, μ, B] without pivoting (the trailing factors *are* the Schur
-      complement); solves use a SuperLU factor of P made on first use;
-    * ``"sparse_lu"`` (large floating cluster): SuperLU of P and solves with its nB + 1 right-hand sides.
+    * ``"cholesky"`` (small or chunky cluster, every interior node connected to an interface node, so K_II is
+      positive definite): dense Cholesky of K_II;
+    * ``"sparse"`` (large shell-like cluster, K_II positive definite): SuperLU of K_II with a symmetric minimum
+      degree order; the condensed map comes out of a second SuperLU factorisation of the local matrix ordered
+      [I, μ, B] without pivoting (its trailing factors *are* the Schur complement), so no solve with the
+      nB + 1 right-hand sides is needed (``"sparse_solves"`` if that needed pivoting after all);
+    * ``"lu"`` / ``"sparse_lu"`` (floating cluster: K_II singular, P is not): dense LU / SuperLU of P.
+
+    With K_II factorised, solves border the constraint in: ``u = K_II⁻¹ a_Iᵀ``, ``s = a_I u``, and
+    ``P⁻¹ [c; d] = [y − u μ; μ]`` with ``y = K_II⁻¹ c``, ``μ = (a_I y − d)/s``.
 
     SuperLU factorises quickly but its solves with many right-hand sides run at well under 1 GFlop/s, while
-    dense LAPACK/BLAS reaches ~100 GFlop/s on 2 cores; the "sparse" path avoids those solves altogether.
+    dense LAPACK/BLAS reaches ~100 GFlop/s on 2 cores.
     """
 
+    _BORDERED = ("cholesky", "sparse", "sparse_solves")
+
     def __init__(self, P: sp.csc_matrix, kind: str, what: str):
-        self.nI = P.shape[0] - 1
+        self.nI = nI = P.shape[0] - 1
         self.kind, self.what, self.P = kind, what, P
-        self._lu = None
-        nI = self.nI
         if kind == "cholesky":
             Pd = P.toarray()
             self.a = Pd[nI, :nI].copy()
@@ -129,24 +132,29 @@ class ClusterSolver:
             d = np.diag(self.L)
             if not d.min() > 1e-7 * d.max():
                 raise Fem2TmmError(f"{what} is singular (elements of zero conductivity?)")
+        elif kind == "sparse":
+            self.a = P[nI, :nI].toarray().ravel()
+            try:
+                self.klu = spla.splu(P[:nI, :nI].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                     options=dict(SymmetricMode=True))
+            except RuntimeError:
+                raise Fem2TmmError(f"{what} is singular (elements of zero conductivity?)") from None
+        else:
+            self.lu = Factor(P, dense=(kind == "lu"), what=what)
+        if kind in self._BORDERED:
             self.u = self._ksolve(self.a)
             self.s = float(self.a @ self.u)
-        elif kind == "lu":
-            self._lu = Factor(P, dense=True, what=what)
 
     def _ksolve(self, b):
-        return sla.cho_solve((self.L, True), b, check_finite=False)
-
-    def _p_factor(self) -> Factor:
-        if self._lu is None:
-            self._lu = Factor(self.P, dense=False, what=self.what)
-        return self._lu
+        if self.kind == "cholesky":
+            return sla.cho_solve((self.L, True), b, check_finite=False)
+        return self.klu.solve(b)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """``P⁻¹ rhs`` for rhs (nI + 1, r)."""
-        if self.kind != "cholesky":
-            return self._p_factor().solve(rhs)
-        y = self._ksolve(rhs[:-1])
+        if self.kind not in self._BORDERED:
+            return self.lu.solve(rhs)
+        y = self._ksolve(np.asfortranarray(rhs[:-1]))
         mu = (self.a @ y - rhs[-1]) / self.s
         return np.vstack([y - np.outer(self.u, mu), mu[None, :]])
 
@@ -178,12 +186,12 @@ class ClusterSolver:
         elif self.kind == "sparse" and self._trailing(C, KBB, out):
             pass
         else:
-            if self.kind == "sparse":  # pivoting was needed after all: solve with P
-                self.kind = "sparse_lu"
+            if self.kind == "sparse":  # pivoting was needed after all: solve with the right-hand sides
+                self.kind = "sparse_solves"
             rhs = np.zeros((nI + 1, nB + 1))
             rhs[:, :nB] = C.toarray()
             rhs[nI, nB] = 1.0
-            Z = self._p_factor().solve(rhs)
+            Z = self.solve(rhs)
             CtZ = C.T @ Z
             out[:nB, :nB] = KBB - CtZ[:, :nB]
             out[:nB, nB] = out[nB, :nB] = CtZ[:, nB]
@@ -198,11 +206,7 @@ class ClusterSolver:
         K_II (its column permutation with symmetric mode).
         """
         nI, nB = self.nI, KBB.shape[0]
-        try:
-            o = spla.splu(self.P[:nI, :nI].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                          options=dict(SymmetricMode=True)).perm_c
-        except RuntimeError:
-            raise Fem2TmmError(f"{self.what} is singular (elements of zero conductivity?)") from None
+        o = self.klu.perm_c
         new = np.empty(nI + 1 + nB, np.int64)  # position of each local unknown: I by o, then μ, then B
         new[o] = np.arange(nI)
         new[nI] = nI
@@ -230,8 +234,11 @@ class ClusterSolver:
 
     @property
     def nbytes(self) -> int:
-        total = self.L.nbytes + self.u.nbytes if self.kind == "cholesky" else 0
-        return total + (self._lu.nbytes if self._lu is not None else 0)
+        if self.kind == "cholesky":
+            return self.L.nbytes + self.u.nbytes
+        if self.kind in self._BORDERED:
+            return 12 * (self.klu.L.nnz + self.klu.U.nnz) + self.u.nbytes
+        return self.lu.nbytes
 
 
 @dataclass
