@@ -19,13 +19,14 @@ def _weights(rows, cols, eps_area, rays, method, exponent, pooled=None):
         # per-ray energy a = εA / n; a group that traced no ray gets X = -1 / +1 (no weight on its estimate)
         a = eps_area / np.maximum(rays, 1)
         ai, aj = a[rows], a[cols]
-        none_i, none_j = rays[rows] <= 0, rays[cols] <= 0
         den = aj + ai
         X = np.divide(aj - ai, den, out=np.zeros_like(den), where=den > 0)
-        X[none_i & ~none_j] = -1.0
-        X[none_j & ~none_i] = 1.0
-        X[none_i & none_j] = 0.0
-        return 0.5 * (1.0 + np.sign(X) * np.abs(X) ** exponent)
+        if np.any(rays <= 0):
+            none_i, none_j = rays[rows] <= 0, rays[cols] <= 0
+            X[none_i & ~none_j] = -1.0
+            X[none_j & ~none_i] = 1.0
+            X[none_i & none_j] = 0.0
+        return 0.5 + 0.5 * np.copysign(np.abs(X) ** exponent, X)
     if method == "fractional_variance":
         # binomial variances of the two estimates of GR_ij, both evaluated at the pooled value so that a pair seen
         # from one side only is not given zero variance on the unseen side (thesis §2.5.1, [300])
@@ -110,9 +111,8 @@ def append_column(A: sp.spmatrix, column: np.ndarray) -> sp.csr_matrix:
     last = indptr[1:] - 1  # the new entry closes each row
     data = np.empty(A.nnz + g)
     indices = np.empty(A.nnz + g, dtype=A.indices.dtype if A.nnz + g < 2**31 else np.int64)
-    old = np.ones(A.nnz + g, bool)
-    old[last] = False
-    data[old], indices[old] = A.data, A.indices
+    moved = np.arange(A.nnz) + np.repeat(np.arange(g), np.diff(A.indptr))  # entry k of row r moves r places on
+    data[moved], indices[moved] = A.data, A.indices
     data[last], indices[last] = column, k
     out = sp.csr_matrix((data, indices, indptr), shape=(g, k + 1))
     out.eliminate_zeros()
