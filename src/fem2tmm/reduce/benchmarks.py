@@ -1,8 +1,8 @@
 """Benchmarks of the conductive reduction (wired into ``fem2tmm bench reduce`` by the CLI).
 
 Each public ``bench_*`` function returns a list of dicts, one per measurement, with medians of repeated
-timings in seconds.  Problems are generated here (structured quad shells, Voronoi clusters around seeded
-random elements: contiguous, irregular, deterministic for a seed).
+timings in seconds.  Problems: structured quad shells from :mod:`fem2tmm.meshes`, Voronoi clusters around
+seeded random elements (contiguous, irregular, deterministic for a seed).
 
 * :func:`bench_local_vs_global` — ~18 k-node quad cylinder, bottom ring a fixed-temperature DOF, 10 and 100
   super nodes: local and global in the same run, their largest relative difference.
@@ -22,33 +22,13 @@ import time
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..fem.assembly import ElementCOO, conduction_matrices, to_coo, volume_shares
+from .. import meshes
+from ..fem.assembly import conduction_matrices, to_coo, volume_shares
 from .conduction import reduce_conduction
 from .supernodes import build_supernodes
 
 ALUMINIUM_K = 170.0  # W/(m K)
 THICKNESS = 1e-3  # m
-
-
-def quad_cylinder(n_theta: int, n_z: int, radius: float = 0.5, height: float = 1.0):
-    """Closed quad4 cylinder: points (n_theta·(n_z+1), 3) m and cells (n_theta·n_z, 4)."""
-    th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
-    z = np.linspace(0, height, n_z + 1)
-    T, Z = np.meshgrid(th, z, indexing="ij")
-    pts = np.c_[radius * np.cos(T.ravel()), radius * np.sin(T.ravel()), Z.ravel()]
-    g = np.arange(pts.shape[0]).reshape(n_theta, n_z + 1)
-    g1 = np.roll(g, -1, axis=0)
-    cells = np.stack([g[:, :-1], g1[:, :-1], g1[:, 1:], g[:, 1:]], -1).reshape(-1, 4)
-    return pts, cells
-
-
-def quad_plate(nx: int, ny: int, lx: float = 1.0, ly: float = 1.0):
-    """Flat quad4 plate: points ((nx+1)(ny+1), 3) m and cells (nx·ny, 4)."""
-    x, y = np.meshgrid(np.linspace(0, lx, nx + 1), np.linspace(0, ly, ny + 1), indexing="ij")
-    pts = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
-    g = np.arange(pts.shape[0]).reshape(nx + 1, ny + 1)
-    cells = np.stack([g[:-1, :-1], g[1:, :-1], g[1:, 1:], g[:-1, 1:]], -1).reshape(-1, 4)
-    return pts, cells
 
 
 def voronoi_labels(points: np.ndarray, cells: np.ndarray, n_clusters: int, seed: int = 0) -> np.ndarray:
@@ -92,9 +72,9 @@ def _timed(fn, repeats: int):
 def bench_local_vs_global(n_sn=(10, 100), n_theta: int = 180, n_z: int = 99, repeats: int = 3,
                           seed: int = 0) -> list[dict]:
     """Local against global reduction on a quad cylinder of n_theta·(n_z+1) nodes (default 18 000)."""
-    pts, cells = quad_cylinder(n_theta, n_z)
-    ring = np.arange(n_theta) * (n_z + 1)  # bottom ring → one fixed-temperature DOF
-    coo, cdof, shares, n, fixed = shell_problem(pts, cells, ring)
+    m = meshes.cylinder(0.5, 1.0, n_theta, n_z)
+    pts, cells = m.points, m.blocks[0].cells
+    coo, cdof, shares, n, fixed = shell_problem(pts, cells, m.groups["end0"].nodes)  # bottom ring fixed
     out = []
     for k in n_sn:
         labels = voronoi_labels(pts, cells, k, seed)
@@ -110,9 +90,9 @@ def bench_local_vs_global(n_sn=(10, 100), n_theta: int = 180, n_z: int = 99, rep
 
 def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
     t0 = time.perf_counter()
-    pts, cells = quad_plate(nx, nx)
-    fixed_nodes = np.arange(nx + 1)  # the x = 0 edge
-    coo, cdof, shares, n, fixed = shell_problem(pts, cells, fixed_nodes)
+    m = meshes.plate(1.0, 1.0, nx, nx)
+    pts, cells = m.points, m.blocks[0].cells
+    coo, cdof, shares, n, fixed = shell_problem(pts, cells, m.groups["xmin"].nodes)  # x = 0 edge fixed
     labels = voronoi_labels(pts, cells, n_clusters, seed)
     t1 = time.perf_counter()
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024

@@ -6,15 +6,17 @@ apply them:
 * :class:`GlobalOperator` — one sparse LU of M; ``M [T; λ] = [q; T_SN]`` gives T and, with T_SN = 0, λ = Y q.
 * :class:`LocalOperator` — the local scheme of DESIGN §3.3: per cluster the local saddle matrix
   ``P = [[K_II, a_Iᵀ], [a_I, 0]]`` (interior nodes I) and coupling ``C = [K_IB; a_B]`` (interface nodes B), and
-  one sparse LU of the interface block K*_FF of the assembled K* (interface DOFs and the multipliers of clusters
-  without interior nodes).  Recovery runs backwards: interface temperatures from the Guyan relation, then each
-  cluster's interior from its own P.
+  the multifrontal elimination of the interface unknowns (:mod:`fem2tmm.reduce.frontal`).  Power
+  distribution: interior loads are condensed cluster by cluster, then one forward sweep over the fronts.
+  Recovery runs backwards: interface temperatures from a forward + backward sweep (the Guyan relation),
+  then each cluster's interior from its own P.
 
-Per-cluster factorisations are kept by default (``keep_factors=True``): recovery then costs only triangular
-solves.  Their memory is the fill of each cluster's LU (about 12 bytes per non-zero; ~0.5 GB for 10⁶ quad
-elements in 1000 clusters, measured in ``benchmarks.py``), against recomputing them, which costs about the
-local phase of the reduction at every call.  With ``keep_factors=False`` only P and C are stored
-(memory ∝ the cluster's non-zeros) and each call refactorises.
+Memory against time: P and C (∝ the cluster's non-zeros) and the front factors are always kept; each
+cluster's factorisation (dense Cholesky: nI² doubles; SuperLU of K_II: its fill) is kept while the total stays
+under ``factor_memory_mb`` (default 1 GiB) and recomputed at each call beyond that.  At 10⁶ quad elements in
+1000 clusters the shell-like clusters use SuperLU (~0.5 MB each), so everything is kept; a recovery then costs
+triangular solves only.  Dense factors of large chunky clusters would not fit (8 MB at nI = 1000): those are
+recomputed, which costs about the local phase of the reduction per call.
 """
 
 from __future__ import annotations
