@@ -20,6 +20,8 @@ from .errors import Fem2TmmError
 from .io import read_mesh
 from .mesh import ElementBlock, Group, Mesh
 from .pipeline import Result, run
+from .radiation import exchange_factors
+from .radiation.solar import solar_fluxes
 
 __all__ = [
     "Case",
@@ -30,7 +32,9 @@ __all__ = [
     "Result",
     "__version__",
     "meshes",
+    "exchange_factors",
     "partition",
+    "solar_fluxes",
     "read_mesh",
     "run",
 ]

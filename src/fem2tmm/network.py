@@ -151,8 +151,8 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     face_cluster = np.full(f.n, -1, np.int64)
     live = ~determined[face_row]
     face_cluster[live] = new_id[labels_all[face_row[live]]]
-    g_space = np.bincount(row_of_cluster[face_cluster[live]], weights=eps_area[live], minlength=n)
-    area = np.bincount(row_of_cluster[face_cluster[live]], weights=area_active[live], minlength=n)
+    g_space = np.bincount(row_of_cluster[face_cluster[live]], weights=eps_area[live], minlength=n).astype(float)
+    area = np.bincount(row_of_cluster[face_cluster[live]], weights=area_active[live], minlength=n).astype(float)
     if (~live).any():  # faces of determined elements radiate from their one-node super nodes
         w = f.shares[~live] / f.area[~live, None]
         d = f.dofs[~live]

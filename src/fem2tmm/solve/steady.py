@@ -293,9 +293,14 @@ def _newton_krylov_step(ops: _Operators, d: np.ndarray, free: np.ndarray, b: np.
     def cb(_):
         count[0] += 1
 
-    x, info = spla.gmres(A, b, rtol=1e-12, atol=0.0, restart=80, maxiter=2000, M=M, callback=cb,
+    # inexact Newton: 1e-10 relative is far below what the next Newton step corrects; the stopping rule of
+    # the Newton loop (max |ΔT|) still decides convergence
+    x, info = spla.gmres(A, b, rtol=1e-10, atol=0.0, restart=60, maxiter=50, M=M, callback=cb,
                          callback_type="pr_norm")
     stats["gmres_iterations"] += count[0]
     if info != 0:
-        raise Fem2TmmError("the radiative Newton step did not converge (GMRES); the model may be ill-posed")
+        rel = np.linalg.norm(matvec(x) - b) / max(np.linalg.norm(b), 1e-300)
+        if not rel < 1e-6:
+            raise Fem2TmmError(f"the radiative Newton step did not converge (GMRES relative residual {rel:.1e}); "
+                               "the model may be ill-posed")
     return x
