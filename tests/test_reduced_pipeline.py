@@ -83,3 +83,35 @@ def test_circular_fin_convergence_and_better_than_detailed():
     assert rms[10] < rms[5] and rms[20] < rms[10] and rms[50] < rms[20] and rms[100] < rms[50] and rms[200] < rms[100]
     assert rms[200] < rms_detailed  # reduced beats its own 2400-element detailed model
     assert rms_detailed == pytest.approx(0.023, rel=0.5)  # thesis: 0.023 K RMS for the detailed FEM
+
+
+def test_half_shadowed_super_node_detailed_solar_beats_super_faces():
+    # issue 7: a plate whose single super node is half in the shadow of a second plate.  With
+    # solar_on = "detailed" (fluxes traced on the FE faces, exact power distribution q_SN = Y q and X q kept
+    # in the recovery) the recovered field is closer to the detailed model than with the thesis' uniform
+    # super-face fluxes.  Both errors are reported in the assertion message.
+    plate = meshes.plate(0.2, 0.1, 20, 10, name="plate")
+    shade = meshes.plate(0.1, 0.1, 10, 10, origin=(0.0, 0.0, 0.05), name="shade")
+    mesh = meshes.merge(plate, shade)
+    errs = {}
+    for mode in ("detailed", "super_faces"):
+        case = make_case(
+            [{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "paint",
+              "back": "paint", "super_nodes": 1},
+             {"name": "shade", "groups": ["shade"], "material": "al", "thickness": 1e-3, "front": "paint",
+              "back": "paint", "super_nodes": 1}],
+            [{"kind": "temperature", "nodes": [1], "value": 20.0, "name": "corner"}],
+            optics={"paint": {"emissivity": 0.8, "absorptivity": 0.5, "specular": 1.0}},
+            environment={"sink_temperature": -100.0, "sun_direction": [0.0, 0.0, 1.0], "solar_flux": 1366.0,
+                         "solar_on": mode},
+            radiation={"rays_per_face": 2000},
+            reference={"detailed": True, "rays_per_face": 200},
+        )
+        res = run(case, mesh=mesh)
+        s = res.summary
+        # specular sides under a normal Sun reflect straight back to space: the absorbed power is exactly
+        # α S (shade + unshadowed half of the plate) = 0.5·1366·0.02 W
+        assert s["solar"]["detailed_mesh"]["absorbed_W"] == pytest.approx(0.5 * 1366 * 0.02, rel=1e-9)
+        errs[mode] = (s["accuracy"]["rms_K"], s["accuracy"]["max_K"])
+    assert errs["detailed"][0] < 0.5 * errs["super_faces"][0], errs
+    assert errs["detailed"][1] < 0.5 * errs["super_faces"][1], errs

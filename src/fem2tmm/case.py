@@ -79,6 +79,7 @@ class Environment:
     sun_direction: tuple[float, float, float] | None = None  # unit vector from the model towards the Sun
     solar_flux: float = 0.0  # W/m²
     solar_on: str = "detailed"  # detailed | super_faces
+    solar_rays_per_face: int = 100  # per FE face side (super_faces: per FE face of each super face)
 
 
 @dataclass(frozen=True)
@@ -369,7 +370,7 @@ class _Parser:
 
     def environment(self, d) -> Environment:
         w = "[environment]"
-        d = self.table(d, w, {"sink_temperature", "sun_direction", "solar_flux", "solar_on"})
+        d = self.table(d, w, {"sink_temperature", "sun_direction", "solar_flux", "solar_on", "solar_rays_per_face"})
         sink = self.number(d, "sink_temperature", w, default=3.0 - KELVIN, lo=ABSOLUTE_ZERO_C) + KELVIN
         sun = d.get("sun_direction")
         if sun is not None:
@@ -384,7 +385,8 @@ class _Parser:
         if flux > 0 and sun is None:
             raise self.err(w, "solar_flux is given but sun_direction is not")
         return Environment(sink_temperature=sink, sun_direction=sun, solar_flux=flux,
-                           solar_on=self.string(d, "solar_on", w, default="detailed", choices=("detailed", "super_faces")))
+                           solar_on=self.string(d, "solar_on", w, default="detailed", choices=("detailed", "super_faces")),
+                           solar_rays_per_face=self.number(d, "solar_rays_per_face", w, default=100, lo=1, integer=True))
 
     def radiation(self, d) -> RadiationSettings:
         w = "[radiation]"

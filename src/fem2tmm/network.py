@@ -306,3 +306,61 @@ def sp_csr(M):
     import scipy.sparse as sp
 
     return sp.csr_matrix(M)
+
+
+# ---------------------------------------------------------------------------------------------------- solar
+def has_sun(case) -> bool:
+    env = case.environment
+    return env.sun_direction is not None and env.solar_flux > 0
+
+
+def detailed_solar(model: FEModel, case, surface=None, scene=None):
+    """Solar power absorbed by every FE face side, traced on the detailed mesh.
+
+    Returns ``(q, result)``: nodal loads q (n_dof,) W (face power spread by the face's area shares) and the
+    :class:`~fem2tmm.radiation.solar.SolarResult`.
+    """
+    from .radiation.solar import trace_solar
+
+    surface = radiation_surface(model) if surface is None else surface
+    env, rs = case.environment, case.radiation
+    res = trace_solar(surface, env.sun_direction, env.solar_flux, rays_per_group=env.solar_rays_per_face,
+                      sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, scene=scene)
+    q = np.asarray(model.faces.W.T @ res.absorbed_face).ravel()
+    return q, res
+
+
+def super_face_solar(model: FEModel, rm: ReducedModel, case, surface=None, scene=None):
+    """The thesis' super-face solar loads: origins sampled over each super face as a whole (equal ray
+    density to the detailed tracing), absorbed power summed per super node (uniform over it).
+
+    Returns ``(q_sn, result, groups)``: q_sn (n,) W per super node.
+    """
+    from .radiation.solar import trace_solar
+
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm)
+    n_sf = len(owner)
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=n_sf)
+    env, rs = case.environment, case.radiation
+    res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=groups,
+                      rays_per_group=np.maximum(faces_per_group * env.solar_rays_per_face, 1),
+                      sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, scene=scene)
+    # the power absorbed by each side, wherever its origin was, belongs to the super face of that side
+    side_power = res.absorbed_side
+    q_sn = np.zeros(rm.n)
+    ok = groups >= 0
+    np.add.at(q_sn, owner[groups[ok]], side_power[ok])
+    lost = side_power[~ok].sum()  # power absorbed by inactive sides is impossible (they block): keep the books
+    if lost > 1e-12 * max(side_power.sum(), 1e-300):
+        raise Fem2TmmError("internal: solar power absorbed by a side outside every super face")
+    return q_sn, res, groups
+
+
+def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:
+    """Absorbed flux (n_elements,) W/m² of every mesh element from per-face powers (W); NaN outside the model."""
+    f = model.faces
+    n = model.mesh.n_elements
+    p = np.bincount(f.element, weights=face_power, minlength=n)
+    a = np.bincount(f.element, weights=f.area, minlength=n)
+    return np.divide(p, a, out=np.full(n, np.nan), where=a > 0)

@@ -69,6 +69,8 @@ class Result:
     T_recovered: np.ndarray | None = None  # (n_dof,) K
     radiation: object | None = None  # ExchangeResult between super faces
     radiation_detailed: object | None = None  # ExchangeResult between FE face sides
+    solar_detailed: object | None = None  # SolarResult traced on the FE face sides
+    solar_super_faces: object | None = None  # SolarResult traced on the super faces
     extras: dict = field(default_factory=dict)
 
     @property
@@ -117,7 +119,8 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
     overrides ``[reference] detailed``.
     """
-    from .network import build_reduced, cluster_model, detailed_radiation, radiation_surface, reduced_radiation
+    from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
+                          has_sun, radiation_surface, reduced_radiation, super_face_solar)
 
     prog = Progress(quiet=quiet)
     with prog.stage("read", "reading the mesh"):
@@ -129,7 +132,16 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     check_solvable(problem, describe=_describe_nodes(model))
     result = Result(case=case, mesh=mesh, model=model, summary={})
     trace = case.radiation.enabled and bool(model.faces.active.any())
-    surface = radiation_surface(model) if trace else None
+    sun = has_sun(case) and bool(model.faces.active.any())
+    surface = radiation_surface(model) if (trace or sun) else None
+    q_solar = None  # detailed solar nodal loads (n_dof,) W
+    need_detailed_sun = sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed")
+    if need_detailed_sun:
+        with prog.stage("solar_detailed", "tracing solar rays on the detailed mesh"):
+            q_solar, sres = detailed_solar(model, case, surface)
+            result.solar_detailed = sres
+            result.extras["absorbed_solar_faces"] = sres.absorbed_face / model.faces.area
+            result.extras["absorbed_solar_elements"] = face_flux_per_element(model, sres.absorbed_face)
     if case.reduction.enabled:
         with prog.stage("cluster", "clustering"):
             bar = prog.bar(len(model.parts), "clustering parts")
@@ -143,11 +155,27 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
                 result.reduced = dataclasses.replace(result.reduced, GR=GR, g_space=g_space)
                 result.radiation = res
                 result.extras["super_faces"] = n_sf
+        q_recover = model.Q
+        if sun:
+            rm = result.reduced
+            if case.environment.solar_on == "detailed":
+                # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
+                q_sn = rm.reduction.distribute(q_solar)
+                q_recover = model.Q + q_solar
+            else:
+                with prog.stage("solar", "tracing solar rays on the super faces"):
+                    q_sn, sres_sf, _ = super_face_solar(model, rm, case, surface)
+                result.solar_super_faces = sres_sf
+                if "absorbed_solar_elements" not in result.extras:
+                    result.extras["absorbed_solar_elements"] = face_flux_per_element(model, sres_sf.absorbed_face)
+                    result.extras["absorbed_solar_faces"] = sres_sf.absorbed_face / model.faces.area
+            result.reduced = dataclasses.replace(rm, Q=rm.Q + q_sn)
+            result.extras["solar_on"] = case.environment.solar_on
         with prog.stage("solve_reduced", "solving the reduced model"):
             result.reduced_solution = solve_steady(result.reduced.problem(), tol=case.solver.tolerance,
                                                    max_iter=case.solver.max_iterations)
         with prog.stage("recover", "recovering detailed temperatures"):
-            result.T_recovered = result.reduced.reduction.recover(result.reduced_solution.T, model.Q)
+            result.T_recovered = result.reduced.reduction.recover(result.reduced_solution.T, q_recover)
     if do_ref or not case.reduction.enabled:
         if trace:
             with prog.stage("radiation_detailed", "tracing FE-face exchange factors (detailed model)"):
@@ -156,6 +184,8 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
                 faced, g_space, res = detailed_radiation(model, case, surface, rays_per_face=rpf, ray_density=dens)
                 problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
                 result.radiation_detailed = res
+        if q_solar is not None:
+            problem = dataclasses.replace(problem, Q=problem.Q + q_solar)
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
     result.summary = _summary(result, prog.timings)
@@ -194,6 +224,7 @@ def _summary(result: "Result", timings) -> dict:
             "to_space_W": float(detailed.to_space.sum()),
         },
         "energy_balance_W": {"reduced": None, "detailed": None if detailed is None else detailed.balance},
+        "solar": _solar_summary(result),
         "timings_s": dict(timings),
     }
     rm, rs = result.reduced, result.reduced_solution
@@ -244,6 +275,23 @@ def _radiation_summary(result: "Result") -> dict:
     return out
 
 
+def _solar_summary(result: "Result") -> dict | None:
+    def one(r):
+        return {"absorbed_W": float(r.absorbed), "incident_W": float(r.incident), "shadowed_W": float(r.shadowed),
+                "escaped_W": float(r.escaped), "blocked_W": float(r.blocked), "capped_W": float(r.capped),
+                "rays": int(r.rays)}
+
+    d, sf = result.solar_detailed, result.solar_super_faces
+    if d is None and sf is None:
+        return None
+    out = {"solar_on": result.extras.get("solar_on", "detailed")}
+    if d is not None:
+        out["detailed_mesh"] = one(d)
+    if sf is not None:
+        out["super_faces"] = one(sf)
+    return out
+
+
 def _jsonable(x):
     if isinstance(x, dict):
         return {str(k): _jsonable(v) for k, v in x.items()}
@@ -284,6 +332,8 @@ def write_outputs(result: Result, out: Path) -> Path:
         if result.clustering is not None:
             cell_data["cluster"] = result.clustering.labels
             cell_data["region"] = result.clustering.regions
+        if "absorbed_solar_elements" in result.extras:
+            cell_data["absorbed_solar"] = result.extras["absorbed_solar_elements"]
         write_vtu(tmp / "temperatures.vtu", mesh, point_data, cell_data, elements=model.elements)
         write_temp(tmp / "temperatures.bdf", mesh.node_ids, T - KELVIN)
         if result.reduced is not None:
