@@ -26,6 +26,9 @@ def _optional(name: str, target: str) -> None:
     REGISTRY[name] = target
 
 
+_optional("pipeline_baffle", "fem2tmm.bench:bench_pipeline_baffle")
+_optional("pipeline_truss", "fem2tmm.bench:bench_pipeline_truss")
+_optional("pipeline_1m", "fem2tmm.bench:bench_pipeline_1m")
 _optional("nastran", "fem2tmm.io.benchmarks:bench_nastran")
 _optional("cluster", "fem2tmm.cluster.benchmarks:bench_cluster")
 _optional("reduce", "fem2tmm.reduce.benchmarks:bench_reduce")
@@ -106,6 +109,99 @@ def bench_solve(n: int = 1000, repeats: int = 3) -> list[dict]:
              "goal": "< 30 s (issue 2)"}]
 
 
+def _repo_file(*parts) -> str:
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    p = root.joinpath(*parts)
+    if not p.exists():
+        from .errors import Fem2TmmError
+
+        raise Fem2TmmError(f"{p} not found: the pipeline benchmarks run from a source checkout of fem2tmm")
+    return str(p)
+
+
+def _pipeline_row(name: str, result, wall: float) -> dict:
+    s = result.summary
+    return {"bench": name, "wall_s": round(wall, 2), "timings_s": {k: round(v, 3) for k, v in s["timings_s"].items()},
+            "elements": s["mesh"]["elements"], "nodes": s["mesh"]["nodes"],
+            "super_nodes": (s["reduced"] or {}).get("super_nodes"), "rays": (s["radiation"] or {}).get("rays"),
+            "accuracy": s["accuracy"]}
+
+
+def _run_case(name: str, case_file: str, super_nodes: int | None = None) -> list[dict]:
+    """Run an example case (optionally with every part at ``super_nodes``) into a temporary folder."""
+    import dataclasses
+    import tempfile
+
+    from .case import Case
+    from .pipeline import run
+
+    case = Case.from_toml(_repo_file(*case_file.split("/")))
+    if super_nodes is not None:
+        case = dataclasses.replace(case, parts=tuple(dataclasses.replace(p, super_nodes=super_nodes)
+                                                     for p in case.parts))
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        res = run(case, out=f"{tmp}/out")
+        wall = time.perf_counter() - t0
+    return [_pipeline_row(name, res, wall)]
+
+
+def bench_pipeline_baffle() -> list[dict]:
+    """The baffle example (18 404 quads) at 10 and 100 super nodes, detailed reference included
+    (goal: under 60 s each, issue 8)."""
+    return _run_case("pipeline_baffle_10sn", "examples/baffle/case.toml") + \
+        _run_case("pipeline_baffle_100sn", "examples/baffle/case.toml", super_nodes=100)
+
+
+def bench_pipeline_truss() -> list[dict]:
+    """The truss example (121 693 tets, 35 603 nodes) at 10 and 100 super nodes, reference included."""
+    return _run_case("pipeline_truss_10sn", "examples/truss/case.toml") + \
+        _run_case("pipeline_truss_100sn", "examples/truss/case.toml", super_nodes=100)
+
+
+def big_shell_structure(n: int = 408):
+    """A closed shell box 1 x 1 x 0.6 m with two internal shelves, ≈ 10⁶ quads for n = 408 (elements per
+    edge of the 1 m faces)."""
+    from . import meshes
+
+    box = meshes.box(1.0, 1.0, 0.6, n, n, max(int(0.6 * n), 1), name="box")
+    shelves = [meshes.plate(1.0, 1.0, n, n, origin=(0.0, 0.0, z), name=f"shelf_{k}")
+               for k, z in enumerate((0.2, 0.4))]
+    return meshes.merge(box, *shelves)
+
+
+def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7) -> list[dict]:
+    """A generated ≈10⁶-element shell structure (closed box with two shelves, conformal), 1000 super nodes
+    and ≈10⁷ rays between super faces, without the detailed reference (goal < 120 s and < 8 GB, issue 8)."""
+    from .case import Case
+    from .pipeline import run
+
+    mesh = big_shell_structure(n)
+    n_sf = 2 * super_nodes
+    case = Case.from_dict({
+        "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
+        "optics": {"white": {"emissivity": 0.85, "absorptivity": 0.2}},
+        "parts": [{"name": "box", "groups": ["box"], "material": "al", "thickness": 1.5e-3, "front": "white",
+                   "back": "white", "super_nodes": int(super_nodes * 0.6)},
+                  {"name": "shelves", "groups": ["shelf_0", "shelf_1"], "material": "al", "thickness": 1e-3,
+                   "front": "white", "back": "white", "super_nodes": super_nodes - int(super_nodes * 0.6)}],
+        "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "base"},
+                     {"kind": "power", "groups": ["shelf_1"], "value": 200.0, "name": "electronics"}],
+        "environment": {"sink_temperature": -100.0, "sun_direction": [0.3, 0.2, 1.0], "solar_flux": 1366.0,
+                        "solar_on": "super_faces", "solar_rays_per_face": 4},
+        "radiation": {"rays_per_face": int(rays / n_sf)},
+        "reference": {"detailed": False},
+    })
+    t0 = time.perf_counter()
+    res = run(case, mesh=mesh, reference=False)
+    wall = time.perf_counter() - t0
+    row = _pipeline_row("pipeline_1m", res, wall)
+    row["goal"] = "< 120 s and < 8 GB (issue 8)"
+    return [row]
+
+
 def _child(name: str) -> None:
     import importlib
     import resource
@@ -126,10 +222,14 @@ def main(names: list[str] | None = None) -> int:
         for k, v in REGISTRY.items():
             print(f"{k:10s} {v}")
         return 0
-    unknown = [n for n in names if n not in REGISTRY]
+    unknown = [n for n in names if n not in REGISTRY and n != "pipeline"]
     if unknown:
         raise Fem2TmmError(f"unknown benchmark(s) {', '.join(unknown)}; available: {', '.join(REGISTRY)}")
-    for name in names or list(REGISTRY):
+    groups = {"pipeline": ["pipeline_baffle", "pipeline_truss", "pipeline_1m"]}
+    expanded = []
+    for n in names or list(REGISTRY):
+        expanded += groups.get(n, [n])
+    for name in expanded:
         cmd = [sys.executable, "-c", f"from fem2tmm.bench import _child; _child({name!r})"]
         p = subprocess.run(cmd, capture_output=True, text=True)
         lines = [ln[6:] for ln in p.stdout.splitlines() if ln.startswith("BENCH ")]

@@ -58,11 +58,28 @@ class ReducedModel:
                              T_sink=self.T_sink, GR=self.GR, names=tuple(self.names))
 
 
+def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.ndarray:
+    """(m,) bool: model elements whose nodes are all fixed-temperature (or kept) DOFs — no unknown inside."""
+    one_node = np.zeros(model.n_dof, bool)
+    one_node[[g.dof for g in model.fixed]] = True
+    if kept is not None:
+        one_node[kept] = True
+    ed = model.element_dofs
+    return np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
+
+
 def cluster_model(model: FEModel, case, progress=None) -> Clustering:
-    """Cluster every part of ``model`` with its requested number of super nodes."""
+    """Cluster every part of ``model`` with its requested number of super nodes.
+
+    Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
+    clustered: every requested super node goes to elements with unknowns.  They get the label -1.
+    """
+    determined = determined_elements(model, kept_dofs(model, case))
     parts = []
     for p, info in enumerate(model.parts):
-        rows = np.flatnonzero(model.element_part == p)
+        rows = np.flatnonzero((model.element_part == p) & ~determined)
+        if not len(rows):
+            continue  # the whole part is held at fixed temperatures
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
@@ -102,11 +119,8 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     kept = kept_dofs(model, case)
     # Elements whose nodes are all boundary/kept DOFs have no unknown: their conduction links those
     # one-node super nodes directly, and a cluster made only of them is dropped (it is fully determined).
-    one_node = np.zeros(model.n_dof, bool)
-    one_node[boundary] = True
-    one_node[kept] = True
     ed = model.element_dofs
-    determined = np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
+    determined = determined_elements(model, kept) | (labels_all < 0)
     rows = np.flatnonzero(~determined)
     used_clusters = np.unique(labels_all[rows])
     new_id = np.full(len(clustering.cluster_part), -1, np.int64)
