@@ -476,3 +476,12 @@ def test_supernode_rows_and_weights():
     assert list(sn.kind) == ["cluster", "cluster", "boundary", "boundary"]
     assert np.array_equal(np.flatnonzero(sn.interface), [0, 4, 8])
     assert np.allclose(sn.capacity, [0.5, 0.5, 0, 0], rtol=0, atol=1e-15)
+
+
+def test_benchmark_problem_local_equals_global():
+    """The benchmark path on a small closed cylinder (Voronoi clusters, merged fixed ring): same K_SN."""
+    from fem2tmm.reduce.benchmarks import bench_local_vs_global
+
+    (row,) = bench_local_vs_global(n_sn=(6,), n_theta=24, n_z=10, repeats=1)
+    assert row["super_nodes"] == 7 and row["nodes"] == 264
+    assert row["max_rel_diff"] < 1e-9  # issue acceptance: local = global to 1e-9
