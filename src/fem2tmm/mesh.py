@@ -119,10 +119,7 @@ class Mesh:
     @cached_property
     def padded_cells(self) -> np.ndarray:
         """(m, 8) int64 node indices of every element, padded with -1."""
-        out = np.full((self.n_elements, 8), -1, dtype=np.int64)
-        for b, o in zip(self.blocks, self.offsets):
-            out[o : o + len(b.cells), : b.cells.shape[1]] = b.cells
-        return out
+        return pad_cells(self.blocks)
 
     @cached_property
     def element_dims(self) -> np.ndarray:
@@ -241,6 +238,17 @@ class Mesh:
                     f"{self.source}: {b.type} elements {format_ids(badel)} reference nodes that do not exist"
                 )
         return self
+
+
+def pad_cells(blocks) -> np.ndarray:
+    """(m, 8) int64 node indices of the elements of ``blocks`` (in order), padded with -1."""
+    m = sum(len(b.cells) for b in blocks)
+    out = np.full((m, 8), -1, dtype=np.int64)
+    o = 0
+    for b in blocks:
+        out[o : o + len(b.cells), : b.cells.shape[1]] = b.cells
+        o += len(b.cells)
+    return out
 
 
 def unique_ints(a) -> np.ndarray:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import Fem2TmmError
-from .mesh import ElementBlock, Mesh, make_group
+from .mesh import ElementBlock, Mesh, make_group, pad_cells
 
 
 def _build(points, cells_by_type: dict[str, np.ndarray], groups: dict, name: str) -> Mesh:
@@ -26,11 +26,7 @@ def _build(points, cells_by_type: dict[str, np.ndarray], groups: dict, name: str
         c = np.asarray(c, dtype=np.int64)
         blocks.append(ElementBlock(t, c, np.arange(off + 1, off + len(c) + 1, dtype=np.int64)))
         off += len(c)
-    padded = np.full((off, 8), -1, np.int64)
-    o = 0
-    for b in blocks:
-        padded[o : o + len(b.cells), : b.cells.shape[1]] = b.cells
-        o += len(b.cells)
+    padded = pad_cells(blocks)
     gr = {}
     for g, (dim, el, nd) in groups.items():
         gr[g] = make_group(g, dim, el, nd, mesh_cells=padded)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import Fem2TmmError
 from ..fem.elements import ELEMENT_TYPES
-from ..mesh import ElementBlock, Mesh, make_group
+from ..mesh import ElementBlock, Mesh, make_group, pad_cells
 from .units import length_scale
 
 #: meshio cell type -> fem2tmm element type
@@ -113,11 +113,7 @@ def read_gmsh(path: str | Path, unit: str = "m") -> Mesh:
         blocks.append(ElementBlock(t, cells[order], np.arange(offset + 1, offset + len(order) + 1, dtype=np.int64)))
         offset += len(order)
 
-    padded = np.full((offset, 8), -1, np.int64)
-    o = 0
-    for b in blocks:
-        padded[o : o + len(b.cells), : b.cells.shape[1]] = b.cells
-        o += len(b.cells)
+    padded = pad_cells(blocks)
 
     elements_of: dict[str, list[np.ndarray]] = {}
     nodes_of: dict[str, list[np.ndarray]] = {}
