@@ -15,7 +15,7 @@ is condensed into the cluster's symmetric map K*ᵢ from (T_B, T_SN,i) to (f_B, 
 ``K*ᵢ = [[K_BB − Cᵀ P⁻¹ C, Cᵀ P⁻¹ e], [·, −eᵀ P⁻¹ e]]`` (e the last unit vector).  The K*ᵢ are summed into K* over
 (super nodes ∪ interface nodes); kept / boundary DOFs are interface nodes that *are* super nodes (unit rows of
 A), so they are retained; the other interface nodes are removed by Guyan condensation,
-``K_SN = K*_SS − K*_SF K*_FF⁻¹ K*_FS``, with one sparse LU of K*_FF.  A cluster without interior node has a
+``K_SN = K*_SS − K*_SF K*_FF⁻¹ K*_FS`` (thesis eq. 4.9).  A cluster without interior node has a
 singular P; its μ stays an unknown of the interface system, with the symmetric block
 ``[[K_BB, a_Bᵀ, 0], [a_B, 0, −1], [0, −1, 0]]`` over (T_B, μ, T_SN,i).
 
