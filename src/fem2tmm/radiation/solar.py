@@ -29,7 +29,7 @@ pseudo-random numbers.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -98,16 +98,19 @@ def sunlit_emitters(scene: TriangleScene, groups: np.ndarray, n_groups: int, sun
     """Emission tables of the Sun-facing member sides of each group, weighted by projected area A |cos θ|.
 
     ``groups`` (2f,) int group per side (-1: not sampled), ``sun`` (3,) unit.  Built by
-    :meth:`GroupEmitters.build` on a view of the scene in which every triangle is its own "face" with area
-    A |n · s|: the side of a triangle that faces the Sun gets weight 1, the other 0.  ``weight`` = ``area`` (g,) is
-    the projected area (m²) of each group; ``entry_prim`` are triangle ids of ``scene``.
+    :meth:`GroupEmitters.build` on a view of the scene in which every triangle is its own "face" whose two sides
+    weigh their projected areas facing the Sun (:meth:`TriangleScene.facing_areas`: A |n · s| on the side facing
+    the Sun and 0 on the other for a flat triangle; both may be positive on a curved one).  ``weight`` = ``area``
+    (g,) is the projected area (m²) of each group; ``entry_prim`` are triangle ids of ``scene``.
     """
     t = len(scene.tri_face)
-    cos = scene.tri_normal @ sun
-    view = SimpleNamespace(tri_face=np.arange(t), tri_area=scene.tri_area * np.abs(cos))
+    facing = scene.facing_areas(sun)
+    total = facing.sum(axis=1)
+    view = SimpleNamespace(tri_face=np.arange(t), tri_area=total)
     sid = 2 * np.repeat(scene.tri_face, 2) + np.tile([0, 1], t)  # side of the real face, per (triangle, side)
-    facing = np.stack([cos > 0.0, cos < 0.0], axis=1).ravel().astype(float)
-    return GroupEmitters.build(view, groups[sid], facing, n_groups)
+    share = np.divide(facing, total[:, None], out=np.zeros_like(facing), where=total[:, None] > 0).ravel()
+    em = GroupEmitters.build(view, groups[sid], share, n_groups)
+    return replace(em, area=em.weight)
 
 
 def sun_origins(scene: TriangleScene, emitters: GroupEmitters, group: np.ndarray, U: np.ndarray, sun: np.ndarray):
@@ -117,13 +120,20 @@ def sun_origins(scene: TriangleScene, emitters: GroupEmitters, group: np.ndarray
     Returns ``(prim (r,) triangle, side (r,) Sun-facing side index, points (r, 3) on the surface, front normals
     (r, 3), shadow-ray origins (r, 3) offset off the Sun-facing side, lit (r,) bool)``.
     """
+    return _sun_origins(scene, emitters, group, U, sun)[:6]
+
+
+def _sun_origins(scene: TriangleScene, emitters: GroupEmitters, group: np.ndarray, U: np.ndarray, sun: np.ndarray):
+    """:func:`sun_origins` plus the relative power of each ray (r,) (None: uniform; see
+    :meth:`TriangleScene.sample_facing`)."""
     entry, u0 = emitters.locate(group, U[:, 0])
     prim = emitters.entry_prim[entry]
     back = emitters.entry_side[entry]
-    p, nrm = scene.sample(prim, u0, U[:, 1])
-    o = scene.offset(prim, p.copy(), 1.0 - 2.0 * back)
+    sign = 1.0 - 2.0 * back
+    p, nrm, w = scene.sample_facing(prim, sign, u0, U[:, 1], sun)
+    o = scene.offset(prim, p.copy(), sign)
     hit, _ = scene.intersect(o, np.broadcast_to(sun, o.shape), prim)
-    return prim, 2 * scene.tri_face[prim] + back, p, nrm, o, hit < 0
+    return prim, 2 * scene.tri_face[prim] + back, p, nrm, o, hit < 0, w
 
 
 def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, floor, rng, qmc, max_bounces):
@@ -257,8 +267,8 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
             U = halton.points(offsets[grp] + (ray - start[grp]))
         else:
             U = rng.random((ray.size, SOLAR_DIMS))
-        prim, side, p, nrm, _, lit = sun_origins(scene, em, grp, U, sun)
-        w0 = per_ray[grp]
+        prim, side, p, nrm, _, lit, wr = _sun_origins(scene, em, grp, U, sun)
+        w0 = per_ray[grp] if wr is None else per_ray[grp] * wr
         shadowed = float(w0[~lit].sum())
         incident = float(w0[lit].sum())
         live = lit & optics.active[side]

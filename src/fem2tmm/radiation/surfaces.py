@@ -204,14 +204,18 @@ class Surface:
 class TriangleScene:
     """Ray-scene of a :class:`Surface`: robust closest-hit queries, emission and diffuse scattering on its
     triangles.  This is the only geometry object the bounce loop talks to; curved super faces (quadrics) subclass
-    it and override :meth:`emit`, :meth:`hit_geometry`, :meth:`scatter` and :meth:`intersect`.
+    it and override :meth:`emit`, :meth:`hit_geometry`, :meth:`scatter` and :meth:`intersect` (and, for
+    non-uniform sampling of their true area, :meth:`emit_weighted`, :meth:`facing_areas`, :meth:`sample_facing`;
+    see :class:`fem2tmm.radiation.quadric.QuadricScene`).
 
     ``backend``: "auto" (Embree when importable), "embree" or "numpy".  Origins are offset by
     ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray leaves; a hit on the very
     triangle the ray leaves (float32 round-off) is rejected and re-traced from a 4x larger offset.
     """
 
-    def __init__(self, surface: Surface, backend: str = "auto"):
+    def __init__(self, surface: Surface, backend: str = "auto", *, engine: bool = True):
+        """``engine=False`` skips building the ray engine over all triangles (``self.engine`` is None): for
+        subclasses that trace part of the triangles with engines of their own."""
         from .sampling import tangent_frames
 
         self.surface = surface
@@ -223,7 +227,7 @@ class TriangleScene:
         lo, hi = surface.points.min(axis=0), surface.points.max(axis=0)
         self.diagonal = float(np.linalg.norm(hi - lo))
         self.eps = ORIGIN_OFFSET * max(self.diagonal, 1e-300)
-        self.engine = make_engine(tri.vertices, backend)
+        self.engine = make_engine(tri.vertices, backend) if engine else None
         v = tri.vertices
         t1, t2 = tangent_frames(np.where(np.linalg.norm(tri.normal, axis=1)[:, None] > 0, tri.normal, [0, 0, 1.0]))
         # per-triangle columns p0 (0:3), p1 - p0 (3:6), p2 - p0 (6:9), t1 (9:12), t2 (12:15), n (15:18), centroid
@@ -260,6 +264,28 @@ class TriangleScene:
             p[:, c] = C[c].take(prim) + a * C[3 + c].take(prim) + b * C[6 + c].take(prim)
             d[:, c] = x * C[9 + c].take(prim) + y * C[12 + c].take(prim) + z * C[15 + c].take(prim)
         return self.offset(prim, p, sign), d
+
+    def emit_weighted(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray):
+        """:meth:`emit` plus the relative energy of each ray (r,), with mean 1 over the rays of a primitive, or None
+        when all rays of a primitive carry the same energy (planar triangles).  Curved surfaces whose sampling is
+        not uniform over their true area return importance weights here; the tracer normalises them per group."""
+        o, d = self.emit(prim, sign, U)
+        return o, d, None
+
+    def facing_areas(self, direction: np.ndarray) -> np.ndarray:
+        """(t, 2) area (m²) of each triangle's front (column 0) and back (column 1) side projected onto a plane
+        normal to the unit vector ``direction`` (3,), counting only the parts whose side faces ``direction``."""
+        cos = self.tri_normal @ direction
+        return np.stack([self.tri_area * np.maximum(cos, 0.0), self.tri_area * np.maximum(-cos, 0.0)], axis=1)
+
+    def sample_facing(self, prim: np.ndarray, sign: np.ndarray, u: np.ndarray, v: np.ndarray,
+                      direction: np.ndarray):
+        """:meth:`sample` of points on the sides ``sign`` (r,) (+1 front, -1 back) of ``prim`` (r,) for rays
+        arriving against the unit vector ``direction`` (3,): ``(points (r, 3), front normals (r, 3), weights)``,
+        weights (r,) the relative power of each ray (mean 1 over a primitive's side, in proportion to the local
+        projected area that faces ``direction``) or None when uniform (planar triangles)."""
+        p, n = self.sample(prim, u, v)
+        return p, n, None
 
     def scatter(self, prim: np.ndarray, normals: np.ndarray, sign: np.ndarray, u: np.ndarray, v: np.ndarray):
         """Cosine-law directions (r, 3) about ``sign`` (r,) x the front normal of the hit primitives ``prim`` (r,)

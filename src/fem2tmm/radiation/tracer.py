@@ -213,8 +213,13 @@ def _check_groups(surface: Surface, groups) -> tuple[np.ndarray, int]:
 class _ExchangeTracer:
     """Everything one exchange-factor run needs, shared read-only by the batch workers."""
 
-    def __init__(self, surface: Surface, groups: np.ndarray, n_groups: int, backend: str):
-        self.scene = TriangleScene(surface, backend)
+    def __init__(self, surface: Surface, groups: np.ndarray, n_groups: int, backend: str,
+                 scene: TriangleScene | None = None):
+        if scene is None:
+            scene = TriangleScene(surface, backend)
+        elif scene.surface is not surface:
+            raise Fem2TmmError("trace_exchange: `scene` was built for another surface; pass the scene of this surface")
+        self.scene = scene
         self.optics = surface.optics("ir")
         emit = np.where(surface.active, surface.emissivity, 0.0)
         self.emitters = GroupEmitters.build(self.scene, groups, emit, n_groups)
@@ -251,7 +256,7 @@ class _ExchangeTracer:
                 U = rng.random((rho.size, 4))
             entry, U[:, 0] = self.emitters.locate(grp, U[:, 0])
             prim = self.emitters.entry_prim[entry]
-            o, d = self.scene.emit(prim, 1.0 - 2.0 * self.emitters.entry_side[entry], U)
+            o, d, w = self.scene.emit_weighted(prim, 1.0 - 2.0 * self.emitters.entry_side[entry], U)
             ends, segs = trace_paths(self.scene, self.optics, o, d, prim, rng, max_bounces,
                                      strata=grp if halton is not None else None,
                                      first_scatter=U[:, 4:6] if halton is not None else None)
@@ -259,13 +264,18 @@ class _ExchangeTracer:
             g0 = int(grp[0])
             span = int(grp[-1]) - g0 + 1
             local = (grp - g0) * ncol + dest
+            # w: relative ray energies of curved emitters (None: every ray counts 1)
+            wsum = None if w is None else (np.arange(g0, g0 + span), np.bincount(grp - g0, weights=w, minlength=span))
             if span * ncol <= 8 * rho.size:
-                counts = np.bincount(local, minlength=span * ncol)
+                counts = np.bincount(local, weights=w, minlength=span * ncol)
                 keys = np.nonzero(counts)[0]
                 counts = counts[keys]
-            else:
+            elif w is None:
                 keys, counts = np.unique(local, return_counts=True)
-            return keys + g0 * ncol, counts, segs
+            else:
+                keys, inv = np.unique(local, return_inverse=True)
+                counts = np.bincount(inv.ravel(), weights=w, minlength=keys.size)
+            return keys + g0 * ncol, counts, segs, wsum
 
         parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
         keys = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
@@ -279,6 +289,12 @@ class _ExchangeTracer:
         r, c = np.divmod(keys[first], ncol)
         indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=g))])
         tally = sp.csr_matrix((counts.astype(np.float64), c, indptr), shape=(g, ncol))
+        if any(p[3] is not None for p in parts):
+            # weighted rays: scale each group's row so that it sums to its ray count (self-normalised estimator)
+            wsum = np.zeros(g)
+            for p in parts:  # loop over batches
+                np.add.at(wsum, p[3][0], p[3][1])
+            tally = (sp.diags(np.divide(rays, wsum, out=np.zeros(g), where=wsum > 0)) @ tally).tocsr()
         return rays, tally, segments
 
 
@@ -323,7 +339,8 @@ def _result(tracer, rays, tally, segments, method, exponent, kappa, pilot, engin
 def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: float | None = None,
                    sampling: str = "halton", seed: int = 0, max_bounces: int = MAX_BOUNCES, batch: int = BATCH,
                    threads: int = 2, target_lse: float | None = None, reciprocity: str = "linear",
-                   exponent: float = 0.4, backend: str = "auto") -> ExchangeResult:
+                   exponent: float = 0.4, backend: str = "auto",
+                   scene: TriangleScene | None = None) -> ExchangeResult:
     """Radiative exchange factors between groups of sides of ``surface`` by quasi-Monte Carlo ray tracing.
 
     ``groups`` (2f,) int: the group (super face, REF node) of each side, -1 for sides that are not REF nodes; a
@@ -342,6 +359,10 @@ def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: f
     last run; ``kappa`` is the rate of the last extrapolation and ``pilot`` lists (rays, lse_rms) of the earlier
     runs.  ``threads`` batches run concurrently; ``batch`` rays per batch.  The result depends only on the inputs,
     ``seed`` and ``batch`` (not on ``threads``).
+    ``scene``: the ray scene of ``surface`` (default ``TriangleScene(surface, backend)``); curved super faces pass
+    a :class:`~fem2tmm.radiation.quadric.QuadricScene`, whose emitting areas (``area``, ``eps_area``) are the true
+    curved areas and whose rays may carry unequal energies (the tally of a group is then the energy-weighted count,
+    scaled so that the row still sums to the rays traced).
     Returns an :class:`ExchangeResult`.
     """
     if sampling not in ("halton", "random"):
@@ -351,7 +372,7 @@ def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: f
     if not (isinstance(max_bounces, int | np.integer) and max_bounces >= 1):
         raise Fem2TmmError(f"max_bounces must be a positive integer, got {max_bounces!r}")
     groups, g = _check_groups(surface, groups)
-    tracer = _ExchangeTracer(surface, groups, g, backend)
+    tracer = _ExchangeTracer(surface, groups, g, backend, scene)
     engine = tracer.scene.engine.name
     base = _budget(tracer.emitters, g, rays_per_group, ray_density)
     run = lambda rays, stream: tracer.run(rays, sampling, seed, stream, int(batch), int(threads), max_bounces)  # noqa: E731
@@ -396,7 +417,7 @@ def _per_face(value, m: int, name: str) -> np.ndarray:
 
 def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity=0.0, super_faces=None,
                      rays_per_face=10_000, ray_density=None, sampling="halton", seed=0, *,
-                     target_lse=None, threads=2, max_bounces=MAX_BOUNCES) -> ExchangeResult:
+                     target_lse=None, threads=2, max_bounces=MAX_BOUNCES, quadric=None) -> ExchangeResult:
     """REFs between the front sides of FE faces, or of super faces (DESIGN §4.4).
 
     ``points`` (n, 3) m, ``faces`` (m, 3) or (m, 4) int (front side = right-hand normal; only front sides emit and
@@ -404,6 +425,9 @@ def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity
     reflected energy), ``transmissivity``: scalars or (m,) arrays.  ``super_faces`` (m,) int groups faces (-1: not
     a REF node); ``rays_per_face`` counts rays per emitting super face when ``super_faces`` is given and per face
     otherwise; a ``ray_density`` in rays per m² may be given instead.  ``sampling`` "halton" or "random".
+    ``quadric``: True, or one bool per super face (per face without ``super_faces``): fit a quadric to the
+    vertices of each selected super face (Taubin, :func:`~fem2tmm.radiation.quadric.fit_regions`) and trace
+    against it (thesis ch. 5); a super face that is not a quadric raises :class:`Fem2TmmError`.
     Returns an :class:`ExchangeResult` with ``.F`` (n_sf, n_sf + 1), last column space, ``.GR`` (m²) and
     ``.lse`` (n_sf,).
     """
@@ -429,6 +453,16 @@ def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity
     groups = np.stack([sf.astype(np.int64), np.full(m, -1, np.int64)], axis=1).ravel()
     if ray_density is not None:
         rays_per_face = None
+    scene = None
+    if quadric is not None and quadric is not False:
+        from .quadric import QuadricScene
+
+        n_sf = int(sf.max()) + 1 if m else 0
+        sel = np.full(n_sf, bool(quadric)) if np.ndim(quadric) == 0 else np.asarray(quadric)
+        if sel.shape != (n_sf,) or sel.dtype != bool:
+            raise Fem2TmmError(f"quadric must be True or one bool per super face ({n_sf},), got {sel.shape} {sel.dtype}")
+        region = np.where((sf >= 0) & sel[np.maximum(sf, 0)], sf, -1)
+        scene = QuadricScene.from_regions(surface, region, names=[f"super face {i}" for i in range(n_sf)])
     return trace_exchange(surface, groups, rays_per_group=rays_per_face, ray_density=ray_density,
                           sampling=sampling, seed=seed, threads=threads, target_lse=target_lse,
-                          max_bounces=max_bounces)
+                          max_bounces=max_bounces, scene=scene)
