@@ -45,12 +45,14 @@ from .frontal import ClusterTree, Frontal, elimination_nodes
 from .recovery import Factor, GlobalOperator, LocalCluster, LocalOperator
 from .supernodes import SuperNodes
 
-#: interior-node count from which a cluster is always condensed by SuperLU (see recovery.ClusterSolver)
-DENSE_BELOW = 4000
-#: below DENSE_BELOW, clusters of at least SPARSE_FROM interior nodes with few interface nodes
-#: (nB + 1 ≤ SPARSE_RATIO · nI: shells) are also condensed by SuperLU; chunky (solid) clusters use dense
-#: Cholesky.  Measured (2 cores, loaded): quad clusters nI = 225…7921 (nB/nI ≤ 0.28) SuperLU 1.3–4× faster;
-#: hex clusters nI = 1728, 3375 (nB/nI = 0.59, 0.46) dense 1.5× faster; nI = 729 (0.83) even.
+#: interior-node count from which a cluster is always condensed by SuperLU (dense K_II: 8·nI² bytes)
+DENSE_BELOW = 8000
+#: shell-like clusters (nB + 1 ≤ SPARSE_RATIO · nI) of at least SPARSE_FROM interior nodes are condensed by
+#: SuperLU, chunky (solid) ones by dense Cholesky.  Measured per cluster (quiet machine, one BLAS thread),
+#: dense / SuperLU: quad nI = 961: 13 / 23 ms, 3969: 521 / 509 ms, 7921: 3.8 / 1.5 s; hex nI = 729: 23 / 130 ms,
+#: 3375: 0.79 / 2.9 s.  Shells still go to SuperLU from 300 nodes because its kept factors are ~50× smaller, so
+#: recovery stays cheap: 10⁶ quads → 998 super nodes, reduce + recover 41.6 + 0.4 s against 32.1 + 33.5 s with
+#: dense factors (which overflow the factor memory budget and are recomputed at each recovery).
 SPARSE_FROM = 300
 SPARSE_RATIO = 0.35
 #: memory (MiB) up to which per-cluster factorisations are kept for distribute / recover
