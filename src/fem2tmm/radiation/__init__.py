@@ -3,14 +3,16 @@
 Modules: ``engine`` (Embree / numpy closest hit), ``sampling`` (scrambled Halton, area-preserving triangle map,
 cosine directions), ``surfaces`` (two-sided faces with optics, ray scene, super-face emission tables),
 ``tracer`` (bounce loop, exchange factors, accuracy control), ``smoothing`` (reciprocity, closure, LSE),
+``quadric`` (Taubin fit, foot-point projection, ray-quadric roots, :class:`QuadricScene` for curved super faces),
 ``benchmarks`` (``bench_rays``).
 """
 
 from __future__ import annotations
 
 from .engine import HAS_EMBREE
+from .quadric import Quadric, QuadricScene, fit_quadric, fit_regions
 from .surfaces import Surface, TriangleScene
 from .tracer import ExchangeResult, exchange_factors, trace_exchange, trace_paths
 
 __all__ = ["HAS_EMBREE", "Surface", "TriangleScene", "ExchangeResult", "exchange_factors", "trace_exchange",
-           "trace_paths"]
+           "trace_paths", "Quadric", "QuadricScene", "fit_quadric", "fit_regions"]

@@ -30,9 +30,13 @@ never hit, so nothing depends on how the facets and the curved surface differ ne
 the FE faces with the coupled Halton scheme, projects the origins onto the quadric along its normal and rotates
 the directions from the facet normal to the quadric normal; the rays carry energy in proportion to the local ratio
 of quadric to facet area (the area Jacobian of the projection), so the emission is exactly uniform over the true
-area, and emitting areas are the true curved areas (quadrature of that Jacobian).  Where a quadric region borders a
-flat face or another quadric along a curved edge, the crescent between the FE chord and the curves (second order in
-the element size) is open: rays may pass through it.
+area, and emitting areas are the true curved areas (quadrature of that Jacobian).  Two second-order (in the element
+size) effects of defining patches through the FE chords remain: where a quadric region borders a flat face or another
+quadric along a curved edge, the crescent between the chord and the curves is open (rays may pass through it); and at
+a free edge along which the surface normal is tilted against the boundary curve's plane (the end rings of a cone, the
+rim of a paraboloid) the patch boundary moves by ~sagitta x sin(tilt) (a 24 x 6 cone frustum: area 0.11 % short of
+the closed form, against 0.37 % for its facets; 4x less per halving of the element size).  Emission and absorption
+use the same patches, so the energy bookkeeping stays exact.
 """
 
 from __future__ import annotations
