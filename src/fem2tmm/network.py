@@ -234,7 +234,7 @@ def _budget(settings, n_groups: int):
     return int(settings.rays_per_face or 1000), None
 
 
-def detailed_radiation(model: FEModel, case, surface=None, rays_per_face=None, ray_density=None):
+def detailed_radiation(model: FEModel, case, surface=None, rays_per_face=None, ray_density=None, scene=None):
     """Face-to-face REFs of the detailed model: every active side is a REF node.
 
     Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
@@ -251,7 +251,8 @@ def detailed_radiation(model: FEModel, case, surface=None, rays_per_face=None, r
     if rays_per_face is None and ray_density is None:
         rays_per_face, ray_density = _budget(rs, len(active))
     res = trace_exchange(surface, groups, rays_per_group=rays_per_face, ray_density=ray_density,
-                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse)
+                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse,
+                         scene=scene)
     Ws = f.W[active // 2]  # each side takes its face's nodal weights
     g = len(active)
     GR = sp_csr(res.GR)
@@ -291,7 +292,7 @@ def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarra
     return groups, uniq // 2
 
 
-def reduced_radiation(model: FEModel, rm: ReducedModel, case, surface=None):
+def reduced_radiation(model: FEModel, rm: ReducedModel, case, surface=None, scene=None):
     """REFs between super faces summed into GR between super nodes.
 
     Returns ``(GR, g_space, result, n_super_faces)``: GR (n, n) m² (zero diagonal), g_space (n,) m².
@@ -306,7 +307,8 @@ def reduced_radiation(model: FEModel, rm: ReducedModel, case, surface=None):
     rays_per_group, ray_density = _budget(case.radiation, n_sf)
     rs = case.radiation
     res = trace_exchange(surface, groups, rays_per_group=rays_per_group, ray_density=ray_density,
-                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse)
+                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse,
+                         scene=scene)
     S = sp.csr_matrix((np.ones(n_sf), (np.arange(n_sf), owner)), shape=(n_sf, rm.n))
     GRsf = sp_csr(res.GR)
     GR = np.asarray((S.T @ GRsf[:, :n_sf] @ S).todense())
@@ -378,3 +380,36 @@ def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:
     p = np.bincount(f.element, weights=face_power, minlength=n)
     a = np.bincount(f.element, weights=f.area, minlength=n)
     return np.divide(p, a, out=np.full(n, np.nan), where=a > 0)
+
+
+# ------------------------------------------------------------------------------------------------- quadrics
+def quadric_scene(model: FEModel, case, surface, clustering: Clustering | None = None):
+    """The ray scene with fitted quadrics for the parts tagged ``quadric = true``, or None.
+
+    One quadric is fitted per region of a tagged part (regions: the clustering's, i.e. split at sharp edges
+    and junctions; without a clustering, one per part).  A region that is not a quadric is refused with a
+    clear error (see :func:`fem2tmm.radiation.quadric.fit_quadric`).  Returns ``(scene, report)``.
+    """
+    tagged = [i for i, p in enumerate(case.parts) if p.quadric]
+    if not tagged:
+        return None, None
+    from .radiation.quadric import QuadricScene, fit_regions
+
+    f = model.faces
+    in_tagged = np.isin(f.part, tagged)
+    if clustering is not None:
+        region = clustering.regions[f.element]
+        region_of_face = np.where(in_tagged & (region >= 0), region, -1)
+        # determined elements carry no cluster/region: give them their part's id beyond the region ids
+        rest = in_tagged & (region < 0)
+        region_of_face[rest] = int(clustering.regions.max(initial=-1)) + 1 + f.part[rest]
+    else:
+        region_of_face = np.where(in_tagged, f.part, -1)
+    names = {}
+    for r in np.unique(region_of_face[region_of_face >= 0]):
+        part = case.parts[int(f.part[np.flatnonzero(region_of_face == r)[0]])].name
+        names[int(r)] = f"part {part!r} region {int(r)}"
+    quadrics, qof = fit_regions(model.mesh.points, f.nodes, region_of_face, names=names)
+    report = [{"region": names[int(r)], "max_distance_m": float(q.max_distance), "rms_distance_m": float(q.rms_distance),
+               "size_m": float(q.size)} for r, q in zip(sorted(names), quadrics)]
+    return QuadricScene(surface, qof, quadrics), report

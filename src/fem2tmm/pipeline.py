@@ -120,7 +120,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     overrides ``[reference] detailed``.
     """
     from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
-                          has_sun, radiation_surface, reduced_radiation, super_face_solar)
+                          has_sun, quadric_scene, radiation_surface, reduced_radiation, super_face_solar)
 
     prog = Progress(quiet=quiet)
     with prog.stage("read", "reading the mesh"):
@@ -135,23 +135,28 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     sun = has_sun(case) and bool(model.faces.active.any())
     surface = radiation_surface(model) if (trace or sun) else None
     q_solar = None  # detailed solar nodal loads (n_dof,) W
-    need_detailed_sun = sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed")
-    if need_detailed_sun:
-        with prog.stage("solar_detailed", "tracing solar rays on the detailed mesh"):
-            q_solar, sres = detailed_solar(model, case, surface)
-            result.solar_detailed = sres
-            result.extras["absorbed_solar_faces"] = sres.absorbed_face / model.faces.area
-            result.extras["absorbed_solar_elements"] = face_flux_per_element(model, sres.absorbed_face)
     if case.reduction.enabled:
         with prog.stage("cluster", "clustering"):
             bar = prog.bar(len(model.parts), "clustering parts")
             result.clustering = cluster_model(model, case, progress=lambda i, n: bar.update(1))
             bar.close()
+    scene = None
+    if surface is not None and any(p.quadric for p in case.parts):
+        with prog.stage("quadrics", "fitting quadrics"):
+            scene, result.extras["quadrics"] = quadric_scene(model, case, surface, result.clustering)
+    need_detailed_sun = sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed")
+    if need_detailed_sun:
+        with prog.stage("solar_detailed", "tracing solar rays on the detailed mesh"):
+            q_solar, sres = detailed_solar(model, case, surface, scene=scene)
+            result.solar_detailed = sres
+            result.extras["absorbed_solar_faces"] = sres.absorbed_face / model.faces.area
+            result.extras["absorbed_solar_elements"] = face_flux_per_element(model, sres.absorbed_face)
+    if case.reduction.enabled:
         with prog.stage("reduce", "reducing conduction"):
             result.reduced = build_reduced(model, result.clustering, case)
         if trace:
             with prog.stage("radiation", "tracing super-face exchange factors"):
-                GR, g_space, res, n_sf = reduced_radiation(model, result.reduced, case, surface)
+                GR, g_space, res, n_sf = reduced_radiation(model, result.reduced, case, surface, scene=scene)
                 result.reduced = dataclasses.replace(result.reduced, GR=GR, g_space=g_space)
                 result.radiation = res
                 result.extras["super_faces"] = n_sf
@@ -164,7 +169,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
                 q_recover = model.Q + q_solar
             else:
                 with prog.stage("solar", "tracing solar rays on the super faces"):
-                    q_sn, sres_sf, _ = super_face_solar(model, rm, case, surface)
+                    q_sn, sres_sf, _ = super_face_solar(model, rm, case, surface, scene=scene)
                 result.solar_super_faces = sres_sf
                 if "absorbed_solar_elements" not in result.extras:
                     result.extras["absorbed_solar_elements"] = face_flux_per_element(model, sres_sf.absorbed_face)
@@ -181,7 +186,8 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
             with prog.stage("radiation_detailed", "tracing FE-face exchange factors (detailed model)"):
                 ref = case.reference
                 rpf, dens = ref.rays_per_face, ref.ray_density
-                faced, g_space, res = detailed_radiation(model, case, surface, rays_per_face=rpf, ray_density=dens)
+                faced, g_space, res = detailed_radiation(model, case, surface, rays_per_face=rpf, ray_density=dens,
+                                                         scene=scene)
                 problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
                 result.radiation_detailed = res
         if q_solar is not None:
@@ -222,6 +228,7 @@ def _summary(result: "Result", timings) -> dict:
         },
         "energy_balance_W": {"reduced": None, "detailed": None if detailed is None else detailed.balance},
         "solar": _solar_summary(result),
+        "quadrics": result.extras.get("quadrics"),
         "timings_s": dict(timings),
     }
     rm, rs = result.reduced, result.reduced_solution
