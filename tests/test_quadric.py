@@ -8,7 +8,6 @@ written here, or finer faceted meshes; every tolerance says where it comes from.
 from __future__ import annotations
 
 from math import factorial
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +15,7 @@ import pytest
 from fem2tmm import meshes
 from fem2tmm.errors import Fem2TmmError
 from fem2tmm.radiation import HAS_EMBREE, Surface, exchange_factors, trace_exchange
+from fem2tmm.radiation.benchmarks_quadric import cylinder_super_faces, cylinder_surface, read_cylinders
 from fem2tmm.radiation.quadric import (RULE7, Quadric, QuadricScene, face_frames, fit_quadric, fit_regions,
                                        subdivided_rule)
 from fem2tmm.radiation.smoothing import convergence_rate
@@ -23,7 +23,6 @@ from fem2tmm.radiation.solar import trace_solar
 from fem2tmm.radiation.surfaces import TriangleScene
 
 pytestmark = pytest.mark.skipif(not HAS_EMBREE, reason="ray-traced tests need embreex")
-MESHES = Path(__file__).resolve().parents[1] / "meshes"
 
 
 # ---------------------------------------------------------------------------------------------------- geometry
@@ -83,7 +82,8 @@ def exact_surfaces():
 
 
 # ---------------------------------------------------------------------------------------------------------- fit
-@pytest.mark.parametrize("name, points, faces, sampler", exact_surfaces(), ids=lambda v: v if isinstance(v, str) else "")
+@pytest.mark.parametrize("name, points, faces, sampler", exact_surfaces(),
+                         ids=lambda v: v if isinstance(v, str) else "")
 def test_fit_of_exact_meshes_recovers_the_surface(name, points, faces, sampler):
     cen, nrm = face_frames(points, faces)
     q = fit_quadric(points, nrm, cen, name=name)
@@ -397,34 +397,6 @@ def test_curvature_in_refs_concentric_spheres():
 
 
 # ----------------------------------------------------------------------------- perpendicular cylinders (§5.4)
-CYLINDERS = {1: (np.array([-0.075, 0.0, 0.0]), 1), 2: (np.array([0.075, 0.0, 0.0]), 2)}  # axis point, axis index
-
-
-def cylinder_super_faces(points, faces, cyl, n_around=4, n_along=4):
-    """16 super faces per cylinder: 4 sectors (90°, node at angle 0) x 4 bands of 125 mm."""
-    cen, _ = face_frames(points, faces)
-    sf = np.empty(len(faces), int)
-    for c, (o, ax) in CYLINDERS.items():
-        mine = cyl == c
-        u, v = [i for i in range(3) if i != ax]
-        rel = cen[mine] - o
-        sector = np.floor((np.arctan2(rel[:, v], rel[:, u]) % (2 * np.pi)) / (2 * np.pi / n_around)).astype(int)
-        band = np.clip(np.floor((rel[:, ax] + 0.25) / (0.5 / n_along)).astype(int), 0, n_along - 1)
-        sf[mine] = (c - 1) * n_around * n_along + band * n_around + sector
-    return sf
-
-
-def committed_cylinders():
-    from fem2tmm.io import read_mesh
-
-    m = read_mesh(MESHES / "cylinders.msh", unit="mm")
-    faces = m.blocks[0].cells
-    cyl = np.zeros(len(faces), int)
-    cyl[m.groups["cylinder_1"].elements] = 1
-    cyl[m.groups["cylinder_2"].elements] = 2
-    return m.points, faces, cyl
-
-
 def built_cylinders(n_theta, n_z):
     """The same two cylinders built finer with meshes.cylinder (nodes on the true circle, angle 0 included)."""
     m = meshes.cylinder(0.05, 0.5, n_theta, n_z)
@@ -434,14 +406,6 @@ def built_cylinders(n_theta, n_z):
     return np.vstack([a, b]), np.vstack([c, c + len(p)]), np.r_[np.ones(len(c), int), 2 * np.ones(len(c), int)]
 
 
-def cylinder_surface(points, faces):
-    """ε = α = 0.5, the reflected 50 % specular, inner sides inactive (thesis §3.2)."""
-    m = len(faces)
-    one, zero = np.ones(m), np.zeros(m)
-    return Surface(points, faces, emissivity=np.c_[0.5 * one, zero], absorptivity=np.c_[0.5 * one, zero],
-                   specular=np.c_[one, zero], active=np.c_[one > 0, zero > 0])
-
-
 def F12(res, n=16):
     """REF from cylinder 1 (super faces 0..15) to cylinder 2 (16..31) as a whole."""
     GR = res.GR.toarray()
@@ -449,7 +413,7 @@ def F12(res, n=16):
 
 
 def _cylinder_runs(rays, seeds, samplings=("halton",), quadric=True):
-    pts, faces, cyl = committed_cylinders()
+    pts, faces, cyl = read_cylinders()
     sf = cylinder_super_faces(pts, faces, cyl)
     surf = cylinder_surface(pts, faces)
     groups = np.c_[sf, -np.ones(len(faces), int)].ravel()
@@ -465,7 +429,7 @@ def _cylinder_runs(rays, seeds, samplings=("halton",), quadric=True):
 def test_perpendicular_cylinders_quadric_super_faces():
     # thesis §3.2/§5.4: 2 x 240 shells (12 around x 20 along), 16 quadric super faces per cylinder, each fitted on
     # its own 24 vertices (a 90° strip: the face normals resolve the family of quadrics through them)
-    pts, faces, cyl = committed_cylinders()
+    pts, faces, cyl = read_cylinders()
     assert len(faces) == 480
     sf = cylinder_super_faces(pts, faces, cyl)
     assert np.all(np.bincount(sf) == 15)
@@ -536,7 +500,7 @@ def test_perpendicular_cylinders_per_super_face_and_rate_slow():
     # super face: the quadric (mean of seeds 0, 1) against 96 x 160 facets (true geometry; faceting error ~1e-4):
     # mean relative bias measured +0.3 % (its noise: 2 %/√44/√2 ≈ 0.2 %), RMS 2.2 % = ray noise (seed-to-seed RMS
     # 2.0 %); the 12 x 20 facets are biased -1.8 %
-    pts, faces, cyl = committed_cylinders()
+    pts, faces, cyl = read_cylinders()
     sf = cylinder_super_faces(pts, faces, cyl)
     runs, _ = _cylinder_runs([64_000], [0, 1])
     G = lambda r: r.GR.toarray()[:16, 16:32]  # noqa: E731

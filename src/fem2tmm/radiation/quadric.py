@@ -269,7 +269,8 @@ class Quadric:
     def __post_init__(self):
         coef = np.asarray(self.coef, float)
         center = np.asarray(self.center, float)
-        if coef.shape != (10,) or center.shape != (3,) or not (np.all(np.isfinite(coef)) and np.all(np.isfinite(center))):
+        finite = np.all(np.isfinite(coef)) and np.all(np.isfinite(center))
+        if coef.shape != (10,) or center.shape != (3,) or not finite:
             raise Fem2TmmError(f"quadric {self.name!r}: need 10 finite coefficients and a 3-vector center")
         if not np.any(coef[1:]):
             raise Fem2TmmError(f"quadric {self.name!r}: all non-constant coefficients are zero")
@@ -501,7 +502,8 @@ class QuadricScene(TriangleScene):
         f = surface.n_faces
         qf = np.asarray(quadric_of_face)
         K = len(quadrics)
-        if qf.shape != (f,) or not np.issubdtype(qf.dtype, np.integer) or (qf.size and (qf.min() < -1 or qf.max() >= K)):
+        bad = qf.shape != (f,) or not np.issubdtype(qf.dtype, np.integer)
+        if bad or (qf.size and (qf.min() < -1 or qf.max() >= K)):
             raise Fem2TmmError(f"quadric_of_face must be one int per face ({f},) in -1..{K - 1}, got {qf.shape} "
                                f"{qf.dtype}")
         self.quadrics = tuple(quadrics)

@@ -460,7 +460,8 @@ def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity
         n_sf = int(sf.max()) + 1 if m else 0
         sel = np.full(n_sf, bool(quadric)) if np.ndim(quadric) == 0 else np.asarray(quadric)
         if sel.shape != (n_sf,) or sel.dtype != bool:
-            raise Fem2TmmError(f"quadric must be True or one bool per super face ({n_sf},), got {sel.shape} {sel.dtype}")
+            raise Fem2TmmError(f"quadric must be True or one bool per super face ({n_sf},), got {sel.shape} "
+                               f"{sel.dtype}")
         region = np.where((sf >= 0) & sel[np.maximum(sf, 0)], sf, -1)
         scene = QuadricScene.from_regions(surface, region, names=[f"super face {i}" for i in range(n_sf)])
     return trace_exchange(surface, groups, rays_per_group=rays_per_face, ray_density=ray_density,
