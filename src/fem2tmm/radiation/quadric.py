@@ -674,9 +674,7 @@ class QuadricScene(TriangleScene):
         A_fe = self.tri_area[qt]
         Xq, J, dist = self._rule_points(qt, RULE7)
         aq = A_fe * (J @ RULE7[1])
-        mid = 0.5 * (V + V[:, [1, 2, 0]])
-        Mq, _, _, dmid = self._lift(np.repeat(qt, 3), mid.reshape(-1, 3))
-        gap = np.maximum(dist.max(axis=1), dmid.reshape(len(qt), 3).max(axis=1))
+        gap = dist.max(axis=1)  # facet-to-quadric gap at the rule points (largest inside a facet, 0 at vertices)
         edge = np.linalg.norm(V - V[:, [1, 2, 0]], axis=2).max(axis=1)
         coarse = np.flatnonzero(gap > 2e-3 * edge)
         if coarse.size:
@@ -690,14 +688,15 @@ class QuadricScene(TriangleScene):
         self._ratio[qt] = np.divide(aq, A_fe, out=np.ones_like(aq), where=A_fe > 0)
         self.tri_area = self.tri_area.copy()
         self.tri_area[qt] = aq
-        # per traced surface: reach of the membership test, bounding box of its patches (facet points and feet)
+        # per traced surface: reach of the membership test (twice the largest gap plus 16 origin offsets) and the
+        # bounding box of its patches (vertices and rule-point feet, padded by the reach)
         S = self.n_surfaces
         st = self.surface_of_quadric[self.tri_quadric[qt]]
         reach = np.zeros(S)
         np.maximum.at(reach, st, gap)
         self.reach = 2.0 * reach + 16.0 * self.eps
-        lo = np.minimum(V.min(axis=1), np.minimum(Xq.min(axis=1), Mq.reshape(len(qt), 3, 3).min(axis=1)))
-        hi = np.maximum(V.max(axis=1), np.maximum(Xq.max(axis=1), Mq.reshape(len(qt), 3, 3).max(axis=1)))
+        lo = np.minimum(V.min(axis=1), Xq.min(axis=1))
+        hi = np.maximum(V.max(axis=1), Xq.max(axis=1))
         box = np.empty((S, 2, 3))
         box[:, 0], box[:, 1] = np.inf, -np.inf
         np.minimum.at(box[:, 0], st, lo)

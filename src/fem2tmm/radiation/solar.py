@@ -222,7 +222,9 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     about S / ray_density W).  ``sampling`` "halton" (one scrambled 5-D Halton point per ray, a random start per
     group) or "random" (crude Monte Carlo).  ``max_bounces`` segments after the origin, ``min_weight`` relative
     power below which a ray is capped.  ``scene``: the ray scene of ``surface`` (default
-    ``TriangleScene(surface)``; curved super faces pass a subclass); every geometric query goes through it.
+    ``TriangleScene(surface)``; curved super faces pass a subclass, e.g. a
+    :class:`~fem2tmm.radiation.quadric.QuadricScene`, whose origins lie on the true surface and whose rays may carry
+    unequal powers, :meth:`TriangleScene.sample_facing`); every geometric query goes through it.
     ``batch`` rays per batch, ``threads`` batches in parallel; the result depends only on the inputs, ``seed`` and
     ``batch``.  Returns a :class:`SolarResult`.
     """
