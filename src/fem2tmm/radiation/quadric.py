@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import make_engine
@@ -621,8 +622,6 @@ class QuadricScene(TriangleScene):
         # candidate pairs: regions sharing a node
         rows = fn[fn >= 0]
         cols = np.repeat(kf, (fn >= 0).sum(axis=1))
-        import scipy.sparse as sp
-
         R = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(len(sf.points), K))
         P = sp.triu(R.T @ R, k=1).tocoo()
         parent = np.arange(K)
