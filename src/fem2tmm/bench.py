@@ -33,6 +33,8 @@ _optional("nastran", "fem2tmm.io.benchmarks:bench_nastran")
 _optional("cluster", "fem2tmm.cluster.benchmarks:bench_cluster")
 _optional("reduce", "fem2tmm.reduce.benchmarks:bench_reduce")
 _optional("rays", "fem2tmm.radiation.benchmarks:bench_rays")
+_optional("solar", "fem2tmm.radiation.benchmarks_solar:bench_solar")
+_optional("quadric", "fem2tmm.radiation.benchmarks_quadric:bench_quadric")
 
 
 def median_time(fn: Callable[[], object], repeats: int = 3) -> tuple[float, list[float]]:
@@ -202,13 +204,25 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7) 
     return [row]
 
 
+def _peak_rss_gb() -> float:
+    """This process' peak resident set size in GB (VmHWM: unlike ru_maxrss it is not inherited through exec)."""
+    try:
+        for line in open("/proc/self/status"):
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1e6  # kB -> GB
+    except OSError:
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+
+
 def _child(name: str) -> None:
     import importlib
-    import resource
 
     mod, fn = REGISTRY[name].split(":")
     rows = getattr(importlib.import_module(mod), fn)()
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6  # kB -> GB
+    peak = _peak_rss_gb()
     for r in rows:
         r.setdefault("peak_rss_GB", round(peak, 3))
         print("BENCH " + json.dumps(r), flush=True)

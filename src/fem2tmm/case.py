@@ -59,7 +59,7 @@ class Part:
     front: str  # optics name or "none"
     back: str
     super_nodes: int
-    quadric: bool = False
+    quadric: bool | tuple[str, ...] = False  # True: the whole part; a tuple: only these groups of the part
     index: int = 0
 
 
@@ -351,9 +351,20 @@ class _Parser:
             front=sides["front"],
             back=sides["back"],
             super_nodes=self.number(d, "super_nodes", w, default=1, lo=1, integer=True),
-            quadric=self.boolean(d, "quadric", w, False),
+            quadric=self.quadric(d, w, groups),
             index=i,
         )
+
+    def quadric(self, d, w, groups) -> bool | tuple[str, ...]:
+        v = d.get("quadric", False)
+        if isinstance(v, bool):
+            return v
+        if isinstance(v, list) and all(isinstance(x, str) for x in v):
+            missing = [x for x in v if x not in groups]
+            if missing:
+                raise self.err(f"{w}.quadric", f"groups {missing} are not groups of this part ({list(groups)})")
+            return tuple(v) if v else False
+        raise self.err(f"{w}.quadric", f"expected true/false or a list of this part's groups, got {v!r}")
 
     def boundary(self, i, d) -> Boundary:
         w = f"[[boundary]][{i}]"

@@ -384,19 +384,27 @@ def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------------- quadrics
 def quadric_scene(model: FEModel, case, surface, clustering: Clustering | None = None):
-    """The ray scene with fitted quadrics for the parts tagged ``quadric = true``, or None.
+    """The ray scene with fitted quadrics for the parts tagged ``quadric = true`` (or the groups listed in
+    ``quadric = [...]``), or None.
 
-    One quadric is fitted per region of a tagged part (regions: the clustering's, i.e. split at sharp edges
-    and junctions; without a clustering, one per part).  A region that is not a quadric is refused with a
+    One quadric is fitted per region of the tagged faces (regions: the clustering's, i.e. split at sharp edges
+    and junctions, restricted to the tagged groups; without a clustering, one per part).  A region that is not a quadric is refused with a
     clear error (see :func:`fem2tmm.radiation.quadric.fit_quadric`).  Returns ``(scene, report)``.
     """
-    tagged = [i for i, p in enumerate(case.parts) if p.quadric]
-    if not tagged:
+    if not any(p.quadric for p in case.parts):
         return None, None
     from .radiation.quadric import QuadricScene, fit_regions
 
     f = model.faces
-    in_tagged = np.isin(f.part, tagged)
+    mesh = model.mesh
+    tagged_el = np.zeros(mesh.n_elements, bool)
+    for p, info in zip(case.parts, model.parts):
+        if p.quadric is True:
+            tagged_el[info.elements] = True
+        elif p.quadric:
+            for g in p.quadric:
+                tagged_el[np.intersect1d(mesh.group(g).elements, info.elements)] = True
+    in_tagged = tagged_el[f.element]
     if clustering is not None:
         region = clustering.regions[f.element]
         region_of_face = np.where(in_tagged & (region >= 0), region, -1)
