@@ -24,6 +24,7 @@ from .case import KELVIN, Case
 from .errors import Fem2TmmError
 from .fem.model import FEModel, build_model
 from .mesh import Mesh
+from .progress import report, reporting
 from .solve.steady import SteadyProblem, SteadySolution, check_solvable, solve_steady
 
 
@@ -34,13 +35,17 @@ class Progress:
         self.quiet = quiet
         self.stream = stream or sys.stderr
         self.timings: dict[str, float] = {}
+        self._bars: dict[str, object] = {}
 
     @contextmanager
     def stage(self, name: str, label: str | None = None):
         if not self.quiet:
             print(f"[fem2tmm] {label or name} …", file=self.stream, flush=True)
         t0 = time.perf_counter()
-        yield
+        try:
+            yield
+        finally:
+            self.close_bars()
         dt = time.perf_counter() - t0
         self.timings[name] = self.timings.get(name, 0.0) + dt
         if not self.quiet:
@@ -51,6 +56,31 @@ class Progress:
         from tqdm.auto import tqdm
 
         return tqdm(total=total, desc=desc, disable=self.quiet or total <= 1, file=self.stream, leave=False)
+
+    def callback(self):
+        """A :func:`fem2tmm.progress.report` callback driving one tqdm bar per kind of work (None if quiet).
+
+        Bars still open when a stage ends are closed by :meth:`stage`."""
+        if self.quiet:
+            return None
+
+        def cb(done: int, total: int, what: str) -> None:
+            b = self._bars.get(what)
+            if b is None or b.total != total or done < b.n:
+                if b is not None:
+                    b.close()
+                b = self._bars[what] = self.bar(total, what)
+            b.update(done - b.n)  # tqdm limits the redraw rate
+            if done >= total:
+                b.close()
+                self._bars.pop(what, None)
+
+        return cb
+
+    def close_bars(self) -> None:
+        for b in self._bars.values():
+            b.close()
+        self._bars.clear()
 
 
 @dataclass
@@ -119,10 +149,18 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
     overrides ``[reference] detailed``.
     """
+    prog = Progress(quiet=quiet)
+    with reporting(prog.callback()):
+        result = _run(case, prog, mesh, reference)
+    if out is not None:
+        result.out = write_outputs(result, Path(out))
+    return result
+
+
+def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) -> "Result":
     from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
                           has_sun, quadric_scene, radiation_surface, reduced_radiation, super_face_solar)
 
-    prog = Progress(quiet=quiet)
     with prog.stage("read", "reading the mesh"):
         mesh = load_mesh(case) if mesh is None else mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
@@ -137,9 +175,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     q_solar = None  # detailed solar nodal loads (n_dof,) W
     if case.reduction.enabled:
         with prog.stage("cluster", "clustering"):
-            bar = prog.bar(len(model.parts), "clustering parts")
-            result.clustering = cluster_model(model, case, progress=lambda i, n: bar.update(1))
-            bar.close()
+            result.clustering = cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"))
     scene = None
     if surface is not None and any(p.quadric for p in case.parts):
         with prog.stage("quadrics", "fitting quadrics"):
@@ -195,8 +231,6 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
     result.summary = _summary(result, prog.timings)
-    if out is not None:
-        result.out = write_outputs(result, Path(out))
     return result
 
 

@@ -32,6 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import Fem2TmmError
+from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, smooth
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
@@ -149,13 +150,21 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     return ends, segments
 
 
-def map_batches(job, n_batches: int, threads: int) -> list:
+def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") -> list:
     """``[job(0), ..., job(n_batches - 1)]``, run by ``threads`` Python threads (numpy and Embree release the GIL);
-    results in batch order, so a job that seeds its generator from its batch index gives thread-independent output."""
+    results in batch order, so a job that seeds its generator from its batch index gives thread-independent output.
+    Progress is reported (from the calling thread) after each batch."""
+    out = []
     if threads > 1 and n_batches > 1:
         with ThreadPoolExecutor(max_workers=threads) as ex:
-            return list(ex.map(job, range(n_batches)))
-    return [job(b) for b in range(n_batches)]
+            for b, r in enumerate(ex.map(job, range(n_batches))):
+                out.append(r)
+                report(b + 1, n_batches, what)
+        return out
+    for b in range(n_batches):
+        out.append(job(b))
+        report(b + 1, n_batches, what)
+    return out
 
 
 @dataclass(frozen=True, eq=False)

@@ -41,6 +41,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
 from ..fem.assembly import ElementCOO
+from ..progress import report
 from .frontal import ClusterTree, Frontal, elimination_nodes
 from .recovery import Factor, GlobalOperator, LocalCluster, LocalOperator
 from .supernodes import SuperNodes
@@ -241,6 +242,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
     budget, kept_bytes = factor_memory_mb * 2 ** 20, 0
     blocks, clusters, multipliers = [], [], {}
     for c in range(nc):
+        report(c, nc, "clusters reduced")
         nodes = p_node[p_start[c]:p_start[c + 1]]
         inner = ~iface[nodes]
         I, B = nodes[inner], nodes[~inner]
