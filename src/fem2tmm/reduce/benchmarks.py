@@ -25,6 +25,7 @@ import scipy.linalg as sla
 from scipy.spatial import cKDTree
 
 from .. import meshes
+from ..bench import reset_peak, vm
 from ..fem.assembly import conduction_matrices, to_coo, volume_shares
 from .conduction import reduce_conduction
 from .supernodes import build_supernodes
@@ -103,28 +104,6 @@ def bench_scaling(nx: int = 500, n_sn=(300,), repeats: int = 3, seed: int = 0) -
                     f"plate {nx}x{nx} quad4, x=0 edge fixed")
 
 
-def _vm(key: str) -> float:
-    """A /proc/self/status memory figure in MB (Linux), NaN elsewhere."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith(key + ":"):
-                    return int(line.split()[1]) / 1024
-    except OSError:
-        pass
-    return float("nan")
-
-
-def _reset_peak() -> bool:
-    """Reset the kernel's peak-RSS mark (VmHWM) of this process; False where that is not possible."""
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-        return True
-    except OSError:
-        return False
-
-
 def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
     t0 = time.perf_counter()
     m = meshes.plate(1.0, 1.0, nx, nx)
@@ -134,9 +113,9 @@ def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
     labels = voronoi_labels(pts, cells, n_clusters, seed)
     del pts, cells
     t1 = time.perf_counter()
-    setup_peak = _vm("VmHWM")  # not ru_maxrss: Linux carries that over fork + exec from the parent
-    reset = _reset_peak()
-    rss0 = _vm("VmRSS")
+    setup_peak = vm("VmHWM")  # not ru_maxrss: Linux carries that over fork + exec from the parent
+    reset = reset_peak()
+    rss0 = vm("VmRSS")
     sn = build_supernodes(n, cdof, shares, labels, boundary=[fixed])
     t2 = time.perf_counter()
     red = reduce_conduction(coo, sn, labels)
@@ -147,8 +126,8 @@ def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
             "setup_s": t1 - t0, "supernodes_s": t2 - t1, "reduce_s": t3 - t2, "recover_s": t4 - t3,
             "interface_dofs": red.diagnostics["n_interface"], "factor_MB": red.diagnostics["factor_bytes"] / 2 ** 20,
             "setup_peak_rss_MB": setup_peak, "rss_before_reduction_MB": rss0,
-            "reduction_peak_rss_MB": _vm("VmHWM") if reset else float("nan"),
-            "peak_rss_MB": max(setup_peak, _vm("VmHWM")),
+            "reduction_peak_rss_MB": vm("VmHWM") if reset else float("nan"),
+            "peak_rss_MB": max(setup_peak, vm("VmHWM")),
             "recover_uniform_err": float(np.abs(T - 300.0).max())}
 
 
