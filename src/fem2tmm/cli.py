@@ -35,6 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         _parser().print_help()
         return 2
+    old_format = warnings.formatwarning
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
@@ -55,6 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("fem2tmm: interrupted", file=sys.stderr)
         return 130
+    finally:
+        warnings.formatwarning = old_format
     return 0
 
 
