@@ -70,13 +70,12 @@ def test_sinda_blocks_parse(fin_run):
     assert np.isclose(GRsum, rm.GR[iu].sum() + rm.g_space.sum(), rtol=1e-12)
 
 
-def test_nastran_temp_cards_parse(fin_run):
-    # independent large-field parser: "TEMP*" + 4 fields of 16, continuation "*" + up to 3 fields of 16
-    lines = (fin_run.out / "temperatures.bdf").read_text().splitlines()
+def parse_temp(path):
+    """Independent large-field parser: "TEMP*" + 4 fields of 16, continuation "*" + up to 3 fields of 16.
+    Returns ({grid id: T}, TEMPD default)."""
+    lines = path.read_text().splitlines()
     temps, default = {}, None
-    i = 0
-    while i < len(lines):
-        ln = lines[i]
+    for i, ln in enumerate(lines):
         if ln.startswith("TEMPD*"):
             default = float(ln[24:40])
         if ln.startswith("TEMP*"):
@@ -86,7 +85,11 @@ def test_nastran_temp_cards_parse(fin_run):
             vals = [x for x in f[1:] if x]
             for g, t in zip(vals[0::2], vals[1::2]):
                 temps[int(g)] = float(t)
-        i += 1
+    return temps, default
+
+
+def test_nastran_temp_cards_parse(fin_run):
+    temps, default = parse_temp(fin_run.out / "temperatures.bdf")
     mesh = fin_run.mesh
     T = fin_run.T_nodes - 273.15
     assert len(temps) == mesh.n_nodes and default is not None
@@ -121,3 +124,48 @@ def test_reduced_npz_contents(fin_run):
     # total capacitance of the reduced model = total capacitance of the detailed one (exact)
     assert d["C"].sum() == pytest.approx(fin_run.model.capacity.sum(), rel=1e-12)
     assert d["T"].shape == (n,) and set(d["names"]) == set(fin_run.reduced.names)
+
+
+def test_nastran_deck_end_to_end(tmp_path):
+    # a Nastran deck (PSHELL thickness and MAT4 from the deck, mm-t-s units) through the whole pipeline; the
+    # boundary is given by original GRID ids and the TEMP cards come back with the same ids
+    from pathlib import Path
+
+    from fem2tmm.case import Case
+    from fem2tmm.io import read_mesh
+
+    deck = Path(__file__).parent / "data" / "plate_same.bdf"
+    (tmp_path / "case.toml").write_text(f"""
+[mesh]
+file = "{deck}"
+unit = "mm"
+[optics.white]
+emissivity = 0.85
+absorptivity = 0.2
+[[parts]]
+name = "plate"
+groups = ["PID 7"]
+front = "white"
+back = "white"
+super_nodes = 3
+[[boundary]]
+kind = "temperature"
+nodes = [1, 2]
+value = 25.0
+[[boundary]]
+kind = "power"
+groups = ["PID 7"]
+value = 2.0
+[environment]
+sink_temperature = -50.0
+""")
+    res = run(Case.from_toml(tmp_path / "case.toml"), out=tmp_path / "out")
+    s = res.summary
+    assert s["reduced"]["super_nodes"] == 3 and s["reduced"]["boundary_nodes"] == 1
+    assert s["energy_balance_W"]["reduced"]["relative"] < 1e-9
+    mesh = read_mesh(deck, unit="mm")
+    temps, _ = parse_temp(tmp_path / "out" / "temperatures.bdf")
+    assert set(temps) == set(int(g) for g in mesh.node_ids)  # every GRID, by its original id
+    # GRIDs 1 and 2 are held at 25 °C: their recovered temperatures are exactly 25 °C
+    T = res.T_nodes - 273.15
+    assert np.allclose(T[np.isin(mesh.node_ids, [1, 2])], 25.0, atol=1e-9)
