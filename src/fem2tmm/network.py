@@ -152,28 +152,16 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
         else:
             C = supernode_capacitance(sn, model.capacity_shares[rows], labels)
     Q = red.distribute(model.Q)
-    # space-only radiation: each cluster radiates through the εA of its faces' active sides
+    # space-only radiation: each super node radiates through the εA of its faces' active sides
     f = model.faces
     n = sn.n_sn
+    element_cluster = np.full(len(model.elements), -1, np.int64)
+    element_cluster[rows] = labels
+    owner = face_owner(model, sn, element_cluster)
     eps_area = (f.emissivity * f.active).reshape(-1, 2).sum(axis=1) * f.area
     area_active = f.active.reshape(-1, 2).sum(axis=1) * f.area
-    row_of_cluster = np.full(n_cl, -1, np.int64)
-    row_of_cluster[sn.cluster[sn.cluster >= 0]] = np.flatnonzero(sn.cluster >= 0)
-    elem_row = np.full(model.mesh.n_elements, -1, np.int64)
-    elem_row[model.elements] = np.arange(len(model.elements))
-    face_row = elem_row[f.element]
-    face_cluster = np.full(f.n, -1, np.int64)
-    live = ~determined[face_row]
-    face_cluster[live] = new_id[labels_all[face_row[live]]]
-    g_space = np.bincount(row_of_cluster[face_cluster[live]], weights=eps_area[live], minlength=n).astype(float)
-    area = np.bincount(row_of_cluster[face_cluster[live]], weights=area_active[live], minlength=n).astype(float)
-    if (~live).any():  # faces of determined elements radiate from their one-node super nodes
-        w = f.shares[~live] / f.area[~live, None]
-        d = f.dofs[~live]
-        ok = d >= 0
-        rows_sn = row_of_dof[d[ok]]
-        g_space += np.bincount(rows_sn, weights=(w * eps_area[~live, None])[ok], minlength=n)
-        area += np.bincount(rows_sn, weights=(w * area_active[~live, None])[ok], minlength=n)
+    g_space = np.bincount(owner, weights=eps_area, minlength=n).astype(float)
+    area = np.bincount(owner, weights=area_active, minlength=n).astype(float)
     # names, kinds, fixed values
     names, part = [], np.full(n, -1, np.int64)
     counters = {}
@@ -203,8 +191,6 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     pairs, gl = negative_links(K)
     report["negative_links"] = int(len(pairs))
     report["negative_GL_W_per_K"] = float(gl.sum()) if len(gl) else 0.0
-    element_cluster = np.full(len(model.elements), -1, np.int64)
-    element_cluster[rows] = labels
     return ReducedModel(names=np.array(names), kind=np.asarray(sn.kind), part=part, K=K, C=C, Q=Q,
                         g_space=g_space, fixed=fixed, T_fixed=T_fixed, T_sink=model.T_sink, supernodes=sn,
                         reduction=red, element_cluster=element_cluster, GR=None, area=area, report=report)
@@ -261,6 +247,25 @@ def detailed_radiation(model: FEModel, case, surface=None, rays_per_face=None, r
     return faced, g_space, res
 
 
+def face_owner(model: FEModel, sn: SuperNodes, element_cluster: np.ndarray) -> np.ndarray:
+    """(f,) the super-node row each radiating face belongs to: its element's cluster, or, for a face of a
+    fully determined element (cluster -1), the one-node super node of its largest nodal share."""
+    f = model.faces
+    elem_row = np.full(model.mesh.n_elements, -1, np.int64)
+    elem_row[model.elements] = np.arange(len(model.elements))
+    cl = element_cluster[elem_row[f.element]]
+    row_of_cluster = np.full(max(int(sn.cluster.max(initial=-1)) + 1, 0), -1, np.int64)
+    row_of_cluster[sn.cluster[sn.cluster >= 0]] = np.flatnonzero(sn.cluster >= 0)
+    owner = np.full(f.n, -1, np.int64)
+    live = cl >= 0
+    owner[live] = row_of_cluster[cl[live]]
+    if (~live).any():
+        row_of_dof = np.full(model.n_dof, -1, np.int64)
+        row_of_dof[sn.dof[sn.dof >= 0]] = np.flatnonzero(sn.dof >= 0)
+        owner[~live] = row_of_dof[f.dofs[~live, np.argmax(f.shares[~live], axis=1)]]
+    return owner
+
+
 def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarray]:
     """Super faces: the active sides of each super node, grouped by super node and side (front/back).
 
@@ -269,20 +274,7 @@ def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarra
     face's largest nodal share.
     """
     f = model.faces
-    sn = rm.supernodes
-    elem_row = np.full(model.mesh.n_elements, -1, np.int64)
-    elem_row[model.elements] = np.arange(len(model.elements))
-    cl = rm.element_cluster[elem_row[f.element]]
-    row_of_cluster = np.full(max(int(sn.cluster.max(initial=-1)) + 1, 0), -1, np.int64)
-    row_of_cluster[sn.cluster[sn.cluster >= 0]] = np.flatnonzero(sn.cluster >= 0)
-    owner_face = np.full(f.n, -1, np.int64)
-    live = cl >= 0
-    owner_face[live] = row_of_cluster[cl[live]]
-    if (~live).any():
-        row_of_dof = np.full(model.n_dof, -1, np.int64)
-        row_of_dof[sn.dof[sn.dof >= 0]] = np.flatnonzero(sn.dof >= 0)
-        dom = f.dofs[~live, np.argmax(f.shares[~live], axis=1)]
-        owner_face[~live] = row_of_dof[dom]
+    owner_face = face_owner(model, rm.supernodes, rm.element_cluster)
     side_owner = np.repeat(owner_face, 2)
     side = np.tile([0, 1], f.n)
     key = np.where(f.active, side_owner * 2 + side, -1)
@@ -292,17 +284,18 @@ def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarra
     return groups, uniq // 2
 
 
-def reduced_radiation(model: FEModel, rm: ReducedModel, case, surface=None, scene=None):
+def reduced_radiation(model: FEModel, rm: ReducedModel, case, surface=None, scene=None, sf=None):
     """REFs between super faces summed into GR between super nodes.
 
     Returns ``(GR, g_space, result, n_super_faces)``: GR (n, n) m² (zero diagonal), g_space (n,) m².
+    ``sf``: the :func:`super_faces` of ``rm`` if already computed.
     """
     import scipy.sparse as sp
 
     from .radiation import trace_exchange
 
     surface = radiation_surface(model) if surface is None else surface
-    groups, owner = super_faces(model, rm)
+    groups, owner = super_faces(model, rm) if sf is None else sf
     n_sf = len(owner)
     rays_per_group, ray_density = _budget(case.radiation, n_sf)
     rs = case.radiation
@@ -346,16 +339,17 @@ def detailed_solar(model: FEModel, case, surface=None, scene=None):
     return q, res
 
 
-def super_face_solar(model: FEModel, rm: ReducedModel, case, surface=None, scene=None):
+def super_face_solar(model: FEModel, rm: ReducedModel, case, surface=None, scene=None, sf=None):
     """The thesis' super-face solar loads: origins sampled over each super face as a whole (equal ray
     density to the detailed tracing), absorbed power summed per super node (uniform over it).
 
-    Returns ``(q_sn, result, groups)``: q_sn (n,) W per super node.
+    Returns ``(q_sn, result, groups)``: q_sn (n,) W per super node.  ``sf``: the :func:`super_faces` of ``rm``
+    if already computed.
     """
     from .radiation.solar import trace_solar
 
     surface = radiation_surface(model) if surface is None else surface
-    groups, owner = super_faces(model, rm)
+    groups, owner = super_faces(model, rm) if sf is None else sf
     n_sf = len(owner)
     faces_per_group = np.bincount(groups[groups >= 0], minlength=n_sf)
     env, rs = case.environment, case.radiation

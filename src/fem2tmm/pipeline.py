@@ -159,7 +159,8 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
 
 def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) -> "Result":
     from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
-                          has_sun, quadric_scene, radiation_surface, reduced_radiation, super_face_solar)
+                          has_sun, quadric_scene, radiation_surface, reduced_radiation, super_face_solar,
+                          super_faces)
 
     with prog.stage("read", "reading the mesh"):
         mesh = load_mesh(case) if mesh is None else mesh.validate()
@@ -190,9 +191,10 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
     if case.reduction.enabled:
         with prog.stage("reduce", "reducing conduction"):
             result.reduced = build_reduced(model, result.clustering, case)
+        sf = super_faces(model, result.reduced) if surface is not None else None
         if trace:
             with prog.stage("radiation", "tracing super-face exchange factors"):
-                GR, g_space, res, n_sf = reduced_radiation(model, result.reduced, case, surface, scene=scene)
+                GR, g_space, res, n_sf = reduced_radiation(model, result.reduced, case, surface, scene=scene, sf=sf)
                 result.reduced = dataclasses.replace(result.reduced, GR=GR, g_space=g_space)
                 result.radiation = res
                 result.extras["super_faces"] = n_sf
@@ -205,7 +207,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                 q_recover = model.Q + q_solar
             else:
                 with prog.stage("solar", "tracing solar rays on the super faces"):
-                    q_sn, sres_sf, _ = super_face_solar(model, rm, case, surface, scene=scene)
+                    q_sn, sres_sf, _ = super_face_solar(model, rm, case, surface, scene=scene, sf=sf)
                 result.solar_super_faces = sres_sf
                 if "absorbed_solar_elements" not in result.extras:
                     result.extras["absorbed_solar_elements"] = face_flux_per_element(model, sres_sf.absorbed_face)
