@@ -115,3 +115,20 @@ def test_half_shadowed_super_node_detailed_solar_beats_super_faces():
         errs[mode] = (s["accuracy"]["rms_K"], s["accuracy"]["max_K"])
     assert errs["detailed"][0] < 0.5 * errs["super_faces"][0], errs
     assert errs["detailed"][1] < 0.5 * errs["super_faces"][1], errs
+
+
+def test_kept_nodes_are_one_node_super_nodes_and_conduction_stays_exact():
+    # [reduction] keep_nodes: each listed node becomes a one-node super node named after its id; without
+    # radiation the reduction is exact for any load (DESIGN §3.2), so the recovered field is the detailed one
+    mesh = meshes.plate(0.2, 0.1, 10, 5)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "super_nodes": 4}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
+                      {"kind": "flux", "groups": ["plate"], "value": 300.0}],
+                     reduction={"keep_nodes": [30, 40]})
+    res = run(case, mesh=mesh)
+    names = list(res.reduced.names)
+    assert names.count("node_30") == 1 and names.count("node_40") == 1
+    assert res.summary["reduced"]["kept_nodes"] == 2
+    assert res.summary["accuracy"]["max_K"] < 1e-9 * 300.0
+    k = names.index("node_30")
+    assert res.reduced_solution.T[k] == pytest.approx(res.T_detailed_nodes[mesh.node_ids == 30][0], abs=1e-9)

@@ -208,6 +208,18 @@ class Mesh:
                 f"{pre}group {name!r} is not in mesh {self.source}; available groups: {avail}"
             ) from None
 
+    def node_index(self, ids, where: str) -> np.ndarray:
+        """Mesh node indices of original node ids ``ids``; a clear error (``where`` names the key) for ids that are
+        not in the mesh."""
+        ids = np.asarray(ids, np.int64)
+        order = np.argsort(self.node_ids)
+        pos = np.minimum(np.searchsorted(self.node_ids, ids, sorter=order), len(order) - 1)
+        idx = order[pos]
+        missing = ids[self.node_ids[idx] != ids]
+        if len(missing):
+            raise Fem2TmmError(f"{where}: node ids {format_ids(missing)} are not in mesh {self.source}")
+        return idx
+
     def nodes_of_elements(self, elements: np.ndarray) -> np.ndarray:
         """Sorted unique node indices used by the given elements."""
         pc = self.padded_cells[np.asarray(elements, dtype=np.int64)]

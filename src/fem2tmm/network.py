@@ -94,13 +94,7 @@ def kept_dofs(model: FEModel, case) -> np.ndarray:
     ids = np.asarray(case.reduction.keep_nodes, np.int64)
     if not len(ids):
         return np.zeros(0, np.int64)
-    mesh = model.mesh
-    order = np.argsort(mesh.node_ids)
-    pos = np.minimum(np.searchsorted(mesh.node_ids, ids, sorter=order), len(order) - 1)
-    idx = order[pos]
-    missing = ids[mesh.node_ids[idx] != ids]
-    if len(missing):
-        raise Fem2TmmError(f"{case.source}: [reduction] keep_nodes: node ids {format_ids(missing)} are not in the mesh")
+    idx = model.mesh.node_index(ids, where=f"{case.source}: [reduction] keep_nodes")
     dofs = model.node_dof[idx]
     outside = ids[dofs < 0]
     if len(outside):
@@ -134,8 +128,7 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     keep_entry = ~determined[model.coo.elem]
     red = reduce_conduction(model.coo.select(keep_entry), sn, labels, elements=rows, method=case.reduction.method)
     K = red.K.copy()
-    row_of_dof = np.full(model.n_dof, -1, np.int64)
-    row_of_dof[sn.dof[sn.dof >= 0]] = np.flatnonzero(sn.dof >= 0)
+    row_of_dof = _row_of_dof(sn, model.n_dof)
     if determined.any():
         direct = model.coo.select(~keep_entry)
         np.add.at(K, (row_of_dof[direct.rows], row_of_dof[direct.cols]), direct.vals)
@@ -168,13 +161,9 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     fixed = np.zeros(n, bool)
     T_fixed = np.zeros(n)
     fixed_by_dof = {g.dof: g for g in model.fixed}
-    node_of_dof = {}
-    if len(kept):
-        nd = np.flatnonzero(model.node_dof >= 0)
-        first = {}
-        for node, d in zip(nd, model.node_dof[nd]):
-            first.setdefault(int(d), int(node))
-        node_of_dof = first
+    first_node = np.full(model.n_dof, -1, np.int64)  # the lowest mesh node of each DOF (names of kept nodes)
+    in_model = np.flatnonzero(model.node_dof >= 0)
+    first_node[model.node_dof[in_model[::-1]]] = in_model[::-1]
     for i in range(n):
         if sn.cluster[i] >= 0:
             p = int(cluster_part[sn.cluster[i]])
@@ -187,7 +176,7 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
             fixed[i] = True
             T_fixed[i] = g.T
         else:
-            names.append(f"node_{int(model.mesh.node_ids[node_of_dof[int(sn.dof[i])]])}")
+            names.append(f"node_{int(model.mesh.node_ids[first_node[sn.dof[i]]])}")
     pairs, gl = negative_links(K)
     report["negative_links"] = int(len(pairs))
     report["negative_GL_W_per_K"] = float(gl.sum()) if len(gl) else 0.0
@@ -247,6 +236,13 @@ def detailed_radiation(model: FEModel, case, surface=None, rays_per_face=None, r
     return faced, g_space, res
 
 
+def _row_of_dof(sn: SuperNodes, n_dof: int) -> np.ndarray:
+    """(n_dof,) the super-node row of each one-node (boundary/kept) DOF, -1 elsewhere."""
+    row = np.full(n_dof, -1, np.int64)
+    row[sn.dof[sn.dof >= 0]] = np.flatnonzero(sn.dof >= 0)
+    return row
+
+
 def face_owner(model: FEModel, sn: SuperNodes, element_cluster: np.ndarray) -> np.ndarray:
     """(f,) the super-node row each radiating face belongs to: its element's cluster, or, for a face of a
     fully determined element (cluster -1), the one-node super node of its largest nodal share."""
@@ -260,9 +256,7 @@ def face_owner(model: FEModel, sn: SuperNodes, element_cluster: np.ndarray) -> n
     live = cl >= 0
     owner[live] = row_of_cluster[cl[live]]
     if (~live).any():
-        row_of_dof = np.full(model.n_dof, -1, np.int64)
-        row_of_dof[sn.dof[sn.dof >= 0]] = np.flatnonzero(sn.dof >= 0)
-        owner[~live] = row_of_dof[f.dofs[~live, np.argmax(f.shares[~live], axis=1)]]
+        owner[~live] = _row_of_dof(sn, model.n_dof)[f.dofs[~live, np.argmax(f.shares[~live], axis=1)]]
     return owner
 
 

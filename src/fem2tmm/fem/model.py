@@ -386,17 +386,7 @@ def build_model(mesh: Mesh, case) -> FEModel:
 def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:
     nodes = [mesh.group(g, where=f"{case.source}: [[boundary]] {b.name!r}.groups").nodes for g in b.groups]
     if b.nodes:
-        ids = np.asarray(b.nodes, np.int64)
-        order = np.argsort(mesh.node_ids)
-        pos = np.searchsorted(mesh.node_ids, ids, sorter=order)
-        pos = np.minimum(pos, len(order) - 1)
-        idx = order[pos]
-        missing = ids[mesh.node_ids[idx] != ids]
-        if len(missing):
-            raise Fem2TmmError(
-                f"{case.source}: [[boundary]] {b.name!r}.nodes: node ids {format_ids(missing)} are not in mesh {mesh.source}"
-            )
-        nodes.append(idx)
+        nodes.append(mesh.node_index(b.nodes, where=f"{case.source}: [[boundary]] {b.name!r}.nodes"))
     return np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
 
 

@@ -154,7 +154,7 @@ def residual(problem: SteadyProblem, T: np.ndarray) -> np.ndarray:
     return _Operators(problem).residual(T)
 
 
-def check_solvable(problem: SteadyProblem, labels: np.ndarray | None = None, describe=None) -> None:
+def check_solvable(problem: SteadyProblem, describe=None) -> None:
     """Raise if a connected set of free nodes has neither a fixed temperature nor radiation.
 
     ``describe(node_indices) -> str`` names the culprit part(s) for the message.
