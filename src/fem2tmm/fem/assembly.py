@@ -147,9 +147,11 @@ def to_coo(cells: np.ndarray, Ke: np.ndarray, elem: np.ndarray) -> ElementCOO:
 
 
 def scatter_shares(cells: np.ndarray, shares: np.ndarray, n: int, weights: np.ndarray | None = None) -> np.ndarray:
-    """Sum per-element nodal shares (m, k) (optionally x ``weights`` (m,)) into a nodal vector (n,)."""
+    """Sum per-element nodal shares (m, k) (optionally x ``weights`` (m,)) into a nodal vector (n,);
+    padded entries (cells < 0) are ignored."""
     vals = shares if weights is None else shares * np.asarray(weights)[:, None]
-    return np.bincount(cells.ravel(), weights=vals.ravel(), minlength=n)
+    ok = cells >= 0
+    return np.bincount(cells[ok], weights=vals[ok], minlength=n)
 
 
 __all__ = [

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .elements import DIM, RULES, Rule, centroid_rule
+from .elements import RULES, Rule, centroid_rule
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -84,7 +84,3 @@ def solid_volumes(points: np.ndarray, cells: np.ndarray, etype: str) -> np.ndarr
 def centroids(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Mean of the element's nodes (m, 3)."""
     return points[cells].mean(axis=1)
-
-
-def dimension(etype: str) -> int:
-    return DIM[etype]

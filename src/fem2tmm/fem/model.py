@@ -24,7 +24,8 @@ import scipy.sparse as sp
 
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
-from .assembly import ElementCOO, area_shares, block_geometry, conduction_matrices, to_coo, volume_shares
+from .assembly import (ElementCOO, area_shares, block_geometry, conduction_matrices, scatter_shares, to_coo,
+                       volume_shares)
 from .elements import MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
 from .geometry import cross, solid_jacobian
 
@@ -341,14 +342,13 @@ def build_model(mesh: Mesh, case) -> FEModel:
     coo = ElementCOO.concatenate(coos)
     K = coo.tocsr(n_dof)
     K.sum_duplicates()
-    ok = element_dofs >= 0
-    volume = np.bincount(element_dofs[ok], weights=vshares[ok], minlength=n_dof)
+    volume = scatter_shares(element_dofs, vshares, n_dof)
     rc = props["rho"][elements] * props["cp"][elements]
     if np.isnan(rc).any():
         cshares, capacity = None, None
     else:
         cshares = vshares * rc[:, None]
-        capacity = np.bincount(element_dofs[ok], weights=cshares[ok], minlength=n_dof)
+        capacity = scatter_shares(element_dofs, cshares, n_dof)
 
     faces = _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof, blocks)
 
