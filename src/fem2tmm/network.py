@@ -151,10 +151,8 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     element_cluster = np.full(len(model.elements), -1, np.int64)
     element_cluster[rows] = labels
     owner = face_owner(model, sn, element_cluster)
-    eps_area = (f.emissivity * f.active).reshape(-1, 2).sum(axis=1) * f.area
-    area_active = f.active.reshape(-1, 2).sum(axis=1) * f.area
-    g_space = np.bincount(owner, weights=eps_area, minlength=n).astype(float)
-    area = np.bincount(owner, weights=area_active, minlength=n).astype(float)
+    g_space = np.bincount(owner, weights=f.eps_area, minlength=n).astype(float)
+    area = np.bincount(owner, weights=f.active_area, minlength=n).astype(float)
     # names, kinds, fixed values
     names, part = [], np.full(n, -1, np.int64)
     counters = {}

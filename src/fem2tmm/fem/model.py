@@ -78,6 +78,16 @@ class Faces:
     def n(self) -> int:
         return len(self.area)
 
+    @property
+    def eps_area(self) -> np.ndarray:
+        """(f,) εA of each face summed over its active sides, m²."""
+        return (self.emissivity * self.active).reshape(-1, 2).sum(axis=1) * self.area
+
+    @property
+    def active_area(self) -> np.ndarray:
+        """(f,) area of each face's active sides (0, 1 or 2 x its area), m²."""
+        return self.active.reshape(-1, 2).sum(axis=1) * self.area
+
 
 @dataclass(frozen=True)
 class FEModel:
@@ -121,10 +131,7 @@ class FEModel:
     def space_coupling(self) -> np.ndarray:
         """(n_dof,) εA (m²) of every DOF to space, summed over the active sides of its faces."""
         f = self.faces
-        eps_active = (f.emissivity * f.active).reshape(-1, 2).sum(axis=1)  # per face, both sides
-        vals = f.shares * eps_active[:, None]
-        ok = f.dofs >= 0
-        return np.bincount(f.dofs[ok], weights=vals[ok], minlength=self.n_dof)
+        return scatter_shares(f.dofs, f.shares, self.n_dof, weights=f.eps_area / f.area)
 
     def node_temperatures(self, T_dof: np.ndarray) -> np.ndarray:
         """(n_nodes,) temperatures of every mesh node (NaN for nodes outside the model)."""
