@@ -19,22 +19,16 @@ from typing import Callable
 REGISTRY: dict[str, str] = {
     "assemble": "fem2tmm.bench:bench_assemble",
     "solve": "fem2tmm.bench:bench_solve",
+    "pipeline_baffle": "fem2tmm.bench:bench_pipeline_baffle",
+    "pipeline_truss": "fem2tmm.bench:bench_pipeline_truss",
+    "pipeline_1m": "fem2tmm.bench:bench_pipeline_1m",
+    "nastran": "fem2tmm.io.benchmarks:bench_nastran",
+    "cluster": "fem2tmm.cluster.benchmarks:bench_cluster",
+    "reduce": "fem2tmm.reduce.benchmarks:bench_reduce",
+    "rays": "fem2tmm.radiation.benchmarks:bench_rays",
+    "solar": "fem2tmm.radiation.benchmarks_solar:bench_solar",
+    "quadric": "fem2tmm.radiation.benchmarks_quadric:bench_quadric",
 }
-
-
-def _optional(name: str, target: str) -> None:
-    REGISTRY[name] = target
-
-
-_optional("pipeline_baffle", "fem2tmm.bench:bench_pipeline_baffle")
-_optional("pipeline_truss", "fem2tmm.bench:bench_pipeline_truss")
-_optional("pipeline_1m", "fem2tmm.bench:bench_pipeline_1m")
-_optional("nastran", "fem2tmm.io.benchmarks:bench_nastran")
-_optional("cluster", "fem2tmm.cluster.benchmarks:bench_cluster")
-_optional("reduce", "fem2tmm.reduce.benchmarks:bench_reduce")
-_optional("rays", "fem2tmm.radiation.benchmarks:bench_rays")
-_optional("solar", "fem2tmm.radiation.benchmarks_solar:bench_solar")
-_optional("quadric", "fem2tmm.radiation.benchmarks_quadric:bench_quadric")
 
 
 def median_time(fn: Callable[[], object], repeats: int = 3) -> tuple[float, list[float]]:
