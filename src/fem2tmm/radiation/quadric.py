@@ -49,7 +49,6 @@ import scipy.sparse as sp
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import make_engine
-from .sampling import cosine_directions
 from .surfaces import Surface, TriangleScene, pad_faces
 
 #: a region whose largest vertex-to-quadric distance exceeds FIT_TOL x its size is not a quadric
@@ -774,24 +773,27 @@ class QuadricScene(TriangleScene):
             nrm[m] = self._front_normals(prim[m], p[m])
         return face, p, nrm
 
-    def scatter(self, prim, normals, sign, u, v):
-        d = super().scatter(prim, normals, sign, u, v)
-        m = self.tri_quadric[prim] >= 0
-        if m.any():
-            s = np.broadcast_to(np.asarray(sign, float), (len(prim),))[m]
-            d[m] = cosine_directions(normals[m] * s[:, None], u[m], v[m])
-        return d
+    def hit_normals(self, prim, origins, directions, t):
+        """Quadric front normals at the hit points of rays hitting quadric patches (the triangles' own elsewhere)."""
+        hit = prim >= 0
+        q = np.flatnonzero(hit & (self.tri_quadric[np.maximum(prim, 0)] >= 0))
+        if q.size == 0:
+            return super().hit_normals(prim, origins, directions, t)
+        nrm = self.tri_normal[np.maximum(prim, 0)]
+        p = origins[q] + t[q, None] * directions[q]
+        nrm[q] = self._front_normals(prim[q], p)
+        return nrm
 
-    def offset(self, prim, points, sign):
-        m = self.tri_quadric[prim] >= 0
-        if not m.any():
-            return super().offset(prim, points, sign)
-        s = np.broadcast_to(np.asarray(sign, float), (len(prim),))
-        f = ~m
-        if f.any():
-            points[f] = super().offset(prim[f], points[f], s[f])
-        points[m] += (self.eps * s[m])[:, None] * self._front_normals(prim[m], points[m])
-        return points
+    def _curved_triangles(self) -> np.ndarray:
+        return self.tri_quadric >= 0
+
+    def offset(self, prim, points, sign, normals=None):
+        if normals is None:
+            m = np.flatnonzero(self.tri_quadric[prim] >= 0)
+            normals = self.tri_normal[prim]
+            if m.size:
+                normals[m] = self._front_normals(prim[m], points[m])
+        return super().offset(prim, points, sign, normals)
 
     def sample(self, prim, u, v):
         p, n, _ = self._sample(prim, u, v)

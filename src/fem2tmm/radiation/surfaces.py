@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
+from .kernels import cosine_directions, offset_points
 
 FRONT, BACK = 0, 1
 #: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
@@ -216,7 +217,6 @@ class TriangleScene:
     def __init__(self, surface: Surface, backend: str = "auto", *, engine: bool = True):
         """``engine=False`` skips building the ray engine over all triangles (``self.engine`` is None): for
         subclasses that trace part of the triangles with engines of their own."""
-        from .sampling import tangent_frames
 
         self.surface = surface
         tri = surface.triangles
@@ -229,11 +229,11 @@ class TriangleScene:
         self.eps = ORIGIN_OFFSET * max(self.diagonal, 1e-300)
         self.engine = make_engine(tri.vertices, backend) if engine else None
         v = tri.vertices
-        t1, t2 = tangent_frames(np.where(np.linalg.norm(tri.normal, axis=1)[:, None] > 0, tri.normal, [0, 0, 1.0]))
-        # per-triangle columns p0 (0:3), p1 - p0 (3:6), p2 - p0 (6:9), t1 (9:12), t2 (12:15), n (15:18), centroid
-        # (18:21), stored column-major: 1-D gathers per component are much faster in numpy than strided row gathers
-        self._cols = np.ascontiguousarray(np.concatenate([v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], t1, t2,
-                                                          tri.normal, v.mean(axis=1)], axis=1).T)
+        # per-triangle columns p0 (0:3), p1 - p0 (3:6), p2 - p0 (6:9), n (9:12), stored column-major: 1-D gathers
+        # per component are much faster in numpy than strided row gathers
+        self._cols = np.ascontiguousarray(np.concatenate([v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], tri.normal],
+                                                         axis=1).T)
+        self._tables = None
 
     def sample(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points on primitives ``prim`` (r,) from unit-square samples ``u``, ``v`` (r,) by the area-preserving
@@ -245,7 +245,7 @@ class TriangleScene:
         n = np.empty((len(prim), 3))
         for c in range(3):  # loop over x, y, z
             p[:, c] = C[c].take(prim) + a * C[3 + c].take(prim) + b * C[6 + c].take(prim)
-            n[:, c] = C[15 + c].take(prim)
+            n[:, c] = C[9 + c].take(prim)
         return p, n
 
     def emit(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -253,17 +253,11 @@ class TriangleScene:
         unit-hypercube samples ``U`` (r, >= 4): U[:, 0:2] place the origin by the area-preserving map (eq. 2.18),
         U[:, 2:4] give a cosine-law direction about the side's normal (Malley: radius √u₃, angle 2πu₄).
         Returns ``(origins (r, 3) offset off the surface, unit directions (r, 3))``."""
-        s = np.sqrt(U[:, 0])
-        a, b = s * (1.0 - U[:, 1]), s * U[:, 1]
-        x, y, z = _disc(U[:, 2], U[:, 3])
-        z *= sign
-        C = self._cols
-        p = np.empty((len(prim), 3))
-        d = np.empty((len(prim), 3))
-        for c in range(3):  # loop over x, y, z
-            p[:, c] = C[c].take(prim) + a * C[3 + c].take(prim) + b * C[6 + c].take(prim)
-            d[:, c] = x * C[9 + c].take(prim) + y * C[12 + c].take(prim) + z * C[15 + c].take(prim)
-        return self.offset(prim, p, sign), d
+        p, n = TriangleScene.sample(self, prim, U[:, 0], U[:, 1])
+        sign = np.broadcast_to(np.asarray(sign, float), (len(prim),))
+        d = cosine_directions(n, np.ascontiguousarray(sign), np.ascontiguousarray(U[:, 2]),
+                              np.ascontiguousarray(U[:, 3]))
+        return TriangleScene.offset(self, prim, p, sign, n), d
 
     def emit_weighted(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray):
         """:meth:`emit` plus the relative energy of each ray (r,), with mean 1 over the rays of a primitive, or None
@@ -290,14 +284,11 @@ class TriangleScene:
     def scatter(self, prim: np.ndarray, normals: np.ndarray, sign: np.ndarray, u: np.ndarray, v: np.ndarray):
         """Cosine-law directions (r, 3) about ``sign`` (r,) x the front normal of the hit primitives ``prim`` (r,)
         (diffuse reflection or transmission); ``normals`` (r, 3) are the unit front normals at the hit points, as
-        returned by :meth:`hit_geometry` (planar triangles use their precomputed frames; curved surfaces use these)."""
-        x, y, z = _disc(u, v)
-        z *= sign
-        C = self._cols
-        d = np.empty((len(prim), 3))
-        for c in range(3):  # loop over x, y, z
-            d[:, c] = x * C[9 + c].take(prim) + y * C[12 + c].take(prim) + z * C[15 + c].take(prim)
-        return d
+        returned by :meth:`hit_geometry` (:func:`fem2tmm.radiation.kernels.cosine_directions`)."""
+        r = len(prim)
+        return cosine_directions(np.ascontiguousarray(normals, dtype=np.float64),
+                                 np.ascontiguousarray(np.broadcast_to(np.asarray(sign, float), (r,))),
+                                 np.ascontiguousarray(u, dtype=np.float64), np.ascontiguousarray(v, dtype=np.float64))
 
     def hit_geometry(self, prim, origins, directions, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For hits on ``prim`` (r,) at distance ``t`` (r,): ``(face (r,), point (r, 3), unit front normal (r, 3))``.
@@ -326,28 +317,40 @@ class TriangleScene:
             prim[bad], t[bad] = MISS, -1.0
         return prim, t
 
-    def offset(self, prim: np.ndarray, points: np.ndarray, sign: np.ndarray) -> np.ndarray:
+    def offset(self, prim: np.ndarray, points: np.ndarray, sign: np.ndarray, normals: np.ndarray | None = None
+               ) -> np.ndarray:
         """Origins for rays leaving ``points`` (r, 3) on primitives ``prim`` (r,) into side ``sign`` (r,) (+1 front,
-        -1 back): pushed ``eps`` along that side's normal and ``eps`` towards the primitive's centroid, so an origin
+        -1 back): pushed ``eps`` along that side's normal (``normals`` (r, 3) unit front normals at the points,
+        default the triangles' own) and, on flat triangles, ``eps`` towards the primitive's centroid, so an origin
         on (or a float32 ulp beyond) an edge shared with another face still starts inside the model.
-        ``points`` is modified in place and returned."""
-        C = self._cols
-        toward = np.empty_like(points)
-        for c in range(3):  # loop over x, y, z
-            toward[:, c] = C[18 + c].take(prim) - points[:, c]
-        toward *= (self.eps / np.maximum(np.sqrt(np.einsum("ij,ij->i", toward, toward)), 1e-300))[:, None]
-        points += toward
-        e = self.eps * sign
-        for c in range(3):
-            points[:, c] += e * C[15 + c].take(prim)
-        return points
+        ``points`` (float64, C-contiguous) is modified in place and returned."""
+        r = len(prim)
+        tables = self.bounce_tables()
+        if normals is None:
+            normals = tables[1][prim]
+        return offset_points(np.asarray(prim), points, np.ascontiguousarray(np.broadcast_to(np.asarray(sign, float), (r,))),
+                             np.ascontiguousarray(normals, dtype=np.float64), tables[2], tables[3], self.eps)
+
+    def bounce_tables(self):
+        """Per-triangle tables of the compiled bounce kernels: ``(face (t,) int64, unit front normal (t, 3),
+        centroid (t, 3), curved (t,) bool)`` (curved triangles take their normals at the hit point and no centroid
+        push; none here)."""
+        if self._tables is None:
+            self._tables = (np.ascontiguousarray(self.tri_face, dtype=np.int64),
+                            np.ascontiguousarray(self.tri_normal, dtype=np.float64),
+                            np.ascontiguousarray(self.tri_vertices.mean(axis=1)), self._curved_triangles())
+        return self._tables
+
+    def _curved_triangles(self) -> np.ndarray:
+        return np.zeros(len(self.tri_face), bool)
+
+    def hit_normals(self, prim: np.ndarray, origins: np.ndarray, directions: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Unit front normals (r, 3) at the hit points of rays that hit curved primitives, or an empty (0, 3) array
+        when every normal is the hit triangle's own (planar scenes); rows of misses are not used."""
+        return _NO_NORMALS
 
 
-def _disc(u: np.ndarray, v: np.ndarray):
-    """Malley's method: the disc point (√u cos 2πv, √u sin 2πv) and its lift √(1 - u) onto the hemisphere."""
-    r = np.sqrt(u)
-    phi = (2.0 * np.pi) * v
-    return r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(1.0 - u, 0.0))
+_NO_NORMALS = np.zeros((0, 3))
 
 
 @dataclass(frozen=True)

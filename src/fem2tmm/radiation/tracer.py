@@ -34,11 +34,10 @@ import scipy.sparse as sp
 from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
-from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, smooth
+from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, hit_sides
+from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, scale_rows, smooth
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
-#: ends of a ray path besides "absorbed by side s >= 0"
-END_SPACE, END_BLOCKED, END_CAPPED = -1, -2, -3
 MAX_BOUNCES = 1000
 #: coordinates of the coupled Halton point of an emitted ray: origin (2), direction (2), and the direction of its
 #: first diffuse reflection or transmission (2)
@@ -83,7 +82,8 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     expectation instead of binomial, so the low-discrepancy emission is not drowned by absorption noise; each
     ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
     numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
-    coupled Halton point); later events use ``rng``.
+    coupled Halton point); later events use ``rng``.  The work between two intersection queries is one compiled
+    pass over the batch (:func:`fem2tmm.radiation.kernels.bounce`).
 
     Returns ``(ends (r,) int64, segments int)``: ends[k] = side index (2 face + back) that absorbed ray k, or
     ``END_SPACE`` / ``END_BLOCKED`` / ``END_CAPPED``; segments = number of intersection queries made.
@@ -91,62 +91,35 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     n = len(origins)
     ends = np.full(n, END_CAPPED, np.int64)
     idx = np.arange(n)
-    o, d, last = origins, directions, leaving
+    o = np.ascontiguousarray(origins, dtype=np.float64)
+    d = np.ascontiguousarray(directions, dtype=np.float64)
+    last = np.asarray(leaving)
     # a side stops a ray when u < stop[side]: its absorptance, or always (2 > u) when the side is inactive
     stop_p = np.where(optics.active, optics.cum[:, 0], 2.0)
+    cum = np.ascontiguousarray(optics.cum)
+    active = np.ascontiguousarray(optics.active)
+    tables = scene.bounce_tables()
     segments = 0
     for _ in range(max_bounces):
-        if idx.size == 0:
+        m = idx.size
+        if m == 0:
             break
         prim, t = scene.intersect(o, d, last)
-        segments += idx.size
-        hit = prim >= 0
-        if not hit.all():
-            escaped = ~hit & (t > 0)  # t = -1 flags a ray lost to an unresolvable self hit: stays END_CAPPED
-            ends[idx[escaped]] = END_SPACE
-            keep = np.flatnonzero(hit)
-            idx, o, d, prim, t = idx[keep], o[keep], d[keep], prim[keep], t[keep]
-        face, p, nrm = scene.hit_geometry(prim, o, d, t)
-        cos_in = np.einsum("ij,ij->i", d, nrm)
-        back = cos_in > 0.0
-        side = 2 * face + back
+        segments += m
+        nrm = scene.hit_normals(prim, o, d, t)
         if strata is not None:  # first hit: stratified event numbers per (source, side)
-            u = stratified_uniforms(strata[idx] * float(len(stop_p)) + side, rng)
+            side = hit_sides(prim, d, tables[0], tables[1], nrm)
+            hit = side >= 0
+            u = np.zeros(m)
+            u[hit] = stratified_uniforms(strata[idx[hit]] * float(len(stop_p)) + side[hit], rng)
             strata = None
         else:
-            u = rng.random(idx.size)
-        stop = u < stop_p[side]
-        diffuse_only = optics.all_diffuse_reflectors
-        if stop.any():
-            sid = np.flatnonzero(stop)
-            ss = side[sid]
-            ends[idx[sid]] = np.where(optics.active[ss], ss, END_BLOCKED)
-            keep = np.flatnonzero(~stop)
-            if keep.size == 0:
-                break
-            idx, prim, p, nrm, back = idx[keep], prim[keep], p[keep], nrm[keep], back[keep]
-            if not diffuse_only:
-                d, cos_in, u, side = d[keep], cos_in[keep], u[keep], side[keep]
-        if diffuse_only:
-            sgn = np.where(back, -1.0, 1.0)
-            r2 = first_scatter[idx] if first_scatter is not None else rng.random((idx.size, 2))
-            d = scene.scatter(prim, nrm, sgn, r2[:, 0], r2[:, 1])
-        else:
-            c = optics.cum[side]
-            spec_r = u < c[:, 1]
-            trans = ~spec_r & (u < c[:, 3])
-            diffuse = u >= c[:, 2]
-            # specular reflection d - 2 (d.n) n; specular transmission keeps d; diffuse rays are overwritten below
-            d = d - (2.0 * cos_in * spec_r)[:, None] * nrm
-            # side the ray leaves (sign on the front normal): the side it arrived on, the other one if transmitted
-            sgn = np.where(back != trans, -1.0, 1.0)
-            if diffuse.any():
-                dif = np.flatnonzero(diffuse)
-                r2 = first_scatter[idx[dif]] if first_scatter is not None else rng.random((dif.size, 2))
-                d[dif] = scene.scatter(prim[dif], nrm[dif], sgn[dif], r2[:, 0], r2[:, 1])
-        o = scene.offset(prim, p, sgn)
+            u = rng.random(m)
+        r2 = first_scatter[idx] if first_scatter is not None else rng.random((m, 2))
         first_scatter = None
-        last = prim
+        alive, idx, o, d, last = bounce(prim, t, o, d, idx, ends, u, r2, tables[0], tables[1], nrm, tables[2],
+                                        tables[3], stop_p, cum, active, scene.eps)
+        idx, o, d, last = idx[:alive], o[:alive], d[:alive], last[:alive]
     return ends, segments
 
 
@@ -303,7 +276,7 @@ class _ExchangeTracer:
             wsum = np.zeros(g)
             for p in parts:  # loop over batches
                 np.add.at(wsum, p[3][0], p[3][1])
-            tally = (sp.diags(np.divide(rays, wsum, out=np.zeros(g), where=wsum > 0)) @ tally).tocsr()
+            tally = scale_rows(tally, np.divide(rays, wsum, out=np.zeros(g), where=wsum > 0))
         return rays, tally, segments
 
 
@@ -329,7 +302,7 @@ def _result(tracer, rays, tally, segments, method, exponent, kappa, pilot, engin
     coo = tally.tocoo()
     escaped_n, blocked_n, capped_n = (np.bincount(coo.row[coo.col == k], weights=coo.data[coo.col == k], minlength=g)
                                       for k in (g, g + 1, g + 2))
-    F_raw = (sp.diags(np.where(rays > 0, 1.0 / n, 0.0)) @ tally[:, : g + 1]).tocsr()
+    F_raw = scale_rows(tally[:, : g + 1], np.where(rays > 0, 1.0 / n, 0.0))
     F_raw.eliminate_zeros()
     blocked = np.where(rays > 0, blocked_n / n, 0.0)
     capped = np.where(rays > 0, capped_n / n, 0.0)

@@ -1,0 +1,170 @@
+"""Compiled per-ray kernels of the ray tracer (numba, GIL released): cosine-law directions, origin offsets and the
+work a bounce does between two intersection queries.
+
+Why compiled: between two Embree queries a ray needs about twenty small operations (hit point, side, event,
+reflected or diffuse direction, offset origin, compaction).  As numpy passes over the batch they cost as much as
+the Embree query itself (measured: ~300 ns per segment against Embree's ~350 ns on a 20 k-triangle sphere); fused
+into one loop they cost a few tens of ns.  Every function here has one implementation, used by the exchange-factor
+bounce loop, emission, solar tracing and the quadric scene alike.
+
+Conventions (shared with :mod:`fem2tmm.radiation.surfaces`): a *side* index is ``2 * face + back``; a ray leaving a
+side of sign ``s`` (+1 front, -1 back) leaves along ``s`` times the face's front normal; cosine-law directions are
+built in the Duff et al. (2017) orthonormal frame of the *front* normal with the polar component multiplied by ``s``
+(Malley's method, thesis §2.2.1); origins are pushed ``eps`` along ``s`` times the normal and, on flat triangles,
+``eps`` towards the triangle's centroid (so an origin on a shared edge still starts inside its own face).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: ends of a ray path besides "absorbed by side s >= 0" (see :func:`fem2tmm.radiation.tracer.trace_paths`)
+END_SPACE, END_BLOCKED, END_CAPPED = -1, -2, -3
+_TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _cosine_dir(nx, ny, nz, s, u, v):
+    """Cosine-law unit direction about ``s`` x (nx, ny, nz) from the unit-square sample (u, v) (Malley: disc point
+    at radius √u, angle 2πv, lifted onto the hemisphere) in the Duff et al. frame of the front normal."""
+    r = math.sqrt(u)
+    phi = _TWO_PI * v
+    x = r * math.cos(phi)
+    y = r * math.sin(phi)
+    z = s * math.sqrt(max(1.0 - u, 0.0))
+    sg = 1.0 if nz >= 0.0 else -1.0
+    a = -1.0 / (sg + nz)
+    b = nx * ny * a
+    # t1 = (1 + sg nx² a, sg b, -sg nx), t2 = (b, sg + ny² a, -ny)
+    dx = x * (1.0 + sg * nx * nx * a) + y * b + z * nx
+    dy = x * (sg * b) + y * (sg + ny * ny * a) + z * ny
+    dz = -x * sg * nx - y * ny + z * nz
+    return dx, dy, dz
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _offset_one(px, py, pz, nx, ny, nz, s, cx, cy, cz, curved, eps):
+    """Origin pushed ``eps`` along ``s`` x normal, and (flat triangles) ``eps`` towards the centroid (cx, cy, cz)."""
+    if not curved:
+        tx, ty, tz = cx - px, cy - py, cz - pz
+        L = math.sqrt(tx * tx + ty * ty + tz * tz)
+        if L > 1e-300:
+            k = eps / L
+            px += k * tx
+            py += k * ty
+            pz += k * tz
+    e = eps * s
+    return px + e * nx, py + e * ny, pz + e * nz
+
+
+@njit(cache=True, nogil=True)
+def cosine_directions(normals, sign, u, v):
+    """Cosine-law unit directions (r, 3) about ``sign`` (r,) (+1 / -1) times the unit front ``normals`` (r, 3),
+    from the unit-square samples ``u``, ``v`` (r,)."""
+    r = normals.shape[0]
+    out = np.empty((r, 3))
+    for k in range(r):
+        out[k, 0], out[k, 1], out[k, 2] = _cosine_dir(normals[k, 0], normals[k, 1], normals[k, 2], sign[k], u[k],
+                                                      v[k])
+    return out
+
+
+@njit(cache=True, nogil=True)
+def offset_points(prim, points, sign, normals, centroid, curved, eps):
+    """Ray origins (r, 3) for rays leaving ``points`` (r, 3) of primitives ``prim`` (r,) into side ``sign`` (r,):
+    pushed ``eps`` (m) along sign x ``normals`` (r, 3) and, unless ``curved[prim]``, ``eps`` towards
+    ``centroid[prim]`` (t, 3).  ``points`` is overwritten and returned."""
+    for k in range(prim.shape[0]):
+        j = prim[k]
+        points[k, 0], points[k, 1], points[k, 2] = _offset_one(
+            points[k, 0], points[k, 1], points[k, 2], normals[k, 0], normals[k, 1], normals[k, 2], sign[k],
+            centroid[j, 0], centroid[j, 1], centroid[j, 2], curved[j], eps)
+    return points
+
+
+@njit(cache=True, nogil=True)
+def hit_sides(prim, d, tri_face, tri_normal, ray_normal):
+    """Side index (r,) hit by each ray (2 face + 1 when it arrives on the back, i.e. along the front normal), -1 on
+    a miss; ``ray_normal`` (r, 3) overrides the triangle normals when it has r rows (curved hits)."""
+    r = prim.shape[0]
+    own = ray_normal.shape[0] == r
+    out = np.full(r, -1, np.int64)
+    for k in range(r):
+        j = prim[k]
+        if j < 0:
+            continue
+        if own:
+            c = d[k, 0] * ray_normal[k, 0] + d[k, 1] * ray_normal[k, 1] + d[k, 2] * ray_normal[k, 2]
+        else:
+            c = d[k, 0] * tri_normal[j, 0] + d[k, 1] * tri_normal[j, 1] + d[k, 2] * tri_normal[j, 2]
+        out[k] = 2 * tri_face[j] + (1 if c > 0.0 else 0)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def bounce(prim, t, o, d, idx, ends, u, r2, tri_face, tri_normal, ray_normal, centroid, curved, stop_p, cum, active,
+           eps):
+    """One bounce of a batch of rays, after their intersection query (thesis l. 664, MCRT without branching).
+
+    ``prim`` (r,) primitive hit (-1: miss), ``t`` (r,) distance (m; a miss with t <= 0 is a ray lost to an
+    unresolvable self hit and stays ``END_CAPPED``), ``o``/``d`` (r, 3) origins (m) and unit directions, ``idx``
+    (r,) ray ids into ``ends`` (n,) (written for every ray that stops here), ``u`` (r,) the event numbers, ``r2``
+    (r, 2) the numbers of a diffuse direction.  Scene tables: ``tri_face`` (t,), ``tri_normal`` (t, 3) unit front
+    normals, ``ray_normal`` (r, 3) front normals at the hit points when it has r rows (curved hits; ignored
+    otherwise), ``centroid`` (t, 3), ``curved`` (t,) bool, ``eps`` origin offset (m).  Optics per side (2f):
+    ``stop_p`` (absorptance, or 2 on inactive sides so that they always stop the ray), ``cum`` (2f, 4) cumulative
+    (absorbed, specular reflection, specular transmission, diffuse transmission), ``active``.
+
+    At the hit: the side is the front when the ray travels against the normal; u < stop_p[side] ends the ray
+    (absorbed by an active side, ``END_BLOCKED`` by an inactive one); otherwise u picks specular reflection,
+    specular transmission, diffuse transmission or diffuse reflection against ``cum``; diffuse directions follow
+    the cosine law about the normal of the side the ray leaves; the new origin is offset off that side.
+
+    Returns ``(n_alive, idx, o, d, prim)``: the surviving rays compacted into the first n_alive rows of new arrays
+    (ids, offset origins, directions, primitive they leave).
+    """
+    r = prim.shape[0]
+    own = ray_normal.shape[0] == r
+    new_idx = np.empty(r, np.int64)
+    new_o = np.empty((r, 3))
+    new_d = np.empty((r, 3))
+    new_prim = np.empty(r, np.int64)
+    m = 0
+    for k in range(r):
+        j = prim[k]
+        if j < 0:
+            if t[k] > 0.0:
+                ends[idx[k]] = END_SPACE
+            continue
+        if own:
+            nx, ny, nz = ray_normal[k, 0], ray_normal[k, 1], ray_normal[k, 2]
+        else:
+            nx, ny, nz = tri_normal[j, 0], tri_normal[j, 1], tri_normal[j, 2]
+        dx, dy, dz = d[k, 0], d[k, 1], d[k, 2]
+        cos_in = dx * nx + dy * ny + dz * nz
+        back = cos_in > 0.0
+        side = 2 * tri_face[j] + (1 if back else 0)
+        uk = u[k]
+        if uk < stop_p[side]:
+            ends[idx[k]] = side if active[side] else END_BLOCKED
+            continue
+        spec_r = uk < cum[side, 1]
+        trans = (not spec_r) and uk < cum[side, 3]
+        s = -1.0 if back != trans else 1.0
+        if uk >= cum[side, 2]:  # diffuse reflection or transmission
+            dx, dy, dz = _cosine_dir(nx, ny, nz, s, r2[k, 0], r2[k, 1])
+        elif spec_r:
+            c2 = 2.0 * cos_in
+            dx, dy, dz = dx - c2 * nx, dy - c2 * ny, dz - c2 * nz
+        tk = t[k]
+        px, py, pz = o[k, 0] + tk * d[k, 0], o[k, 1] + tk * d[k, 1], o[k, 2] + tk * d[k, 2]
+        new_o[m, 0], new_o[m, 1], new_o[m, 2] = _offset_one(px, py, pz, nx, ny, nz, s, centroid[j, 0],
+                                                            centroid[j, 1], centroid[j, 2], curved[j], eps)
+        new_d[m, 0], new_d[m, 1], new_d[m, 2] = dx, dy, dz
+        new_idx[m] = idx[k]
+        new_prim[m] = j
+        m += 1
+    return m, new_idx, new_o, new_d, new_prim
