@@ -61,6 +61,29 @@ def _offset_one(px, py, pz, nx, ny, nz, s, cx, cy, cz, curved, eps):
 
 
 @njit(cache=True, nogil=True)
+def emit_rays(prim, sign, U, cols, centroid, curved, eps):
+    """Emitted rays from flat triangles ``prim`` (r,), sides ``sign`` (r,), driven by the unit-hypercube samples
+    ``U`` (r, >= 4): origins by the area-preserving map of U[:, 0:2] (thesis eq. 2.18), offset off the side;
+    cosine-law directions from U[:, 2:4].  ``cols`` (12, t): per-triangle p0, p1 - p0, p2 - p0 and the unit front
+    normal, one component per row.  Returns ``(origins (r, 3) m, unit directions (r, 3))``."""
+    r = prim.shape[0]
+    o = np.empty((r, 3))
+    d = np.empty((r, 3))
+    for k in range(r):
+        j = prim[k]
+        s = math.sqrt(U[k, 0])
+        a, b = s * (1.0 - U[k, 1]), s * U[k, 1]
+        px = cols[0, j] + a * cols[3, j] + b * cols[6, j]
+        py = cols[1, j] + a * cols[4, j] + b * cols[7, j]
+        pz = cols[2, j] + a * cols[5, j] + b * cols[8, j]
+        nx, ny, nz = cols[9, j], cols[10, j], cols[11, j]
+        d[k, 0], d[k, 1], d[k, 2] = _cosine_dir(nx, ny, nz, sign[k], U[k, 2], U[k, 3])
+        o[k, 0], o[k, 1], o[k, 2] = _offset_one(px, py, pz, nx, ny, nz, sign[k], centroid[j, 0], centroid[j, 1],
+                                                centroid[j, 2], curved[j], eps)
+    return o, d
+
+
+@njit(cache=True, nogil=True)
 def cosine_directions(normals, sign, u, v):
     """Cosine-law unit directions (r, 3) about ``sign`` (r,) (+1 / -1) times the unit front ``normals`` (r, 3),
     from the unit-square samples ``u``, ``v`` (r,)."""

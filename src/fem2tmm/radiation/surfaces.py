@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import cosine_directions, offset_points
+from .kernels import cosine_directions, emit_rays, offset_points
 
 FRONT, BACK = 0, 1
 #: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
@@ -253,11 +253,10 @@ class TriangleScene:
         unit-hypercube samples ``U`` (r, >= 4): U[:, 0:2] place the origin by the area-preserving map (eq. 2.18),
         U[:, 2:4] give a cosine-law direction about the side's normal (Malley: radius √u₃, angle 2πu₄).
         Returns ``(origins (r, 3) offset off the surface, unit directions (r, 3))``."""
-        p, n = TriangleScene.sample(self, prim, U[:, 0], U[:, 1])
-        sign = np.broadcast_to(np.asarray(sign, float), (len(prim),))
-        d = cosine_directions(n, np.ascontiguousarray(sign), np.ascontiguousarray(U[:, 2]),
-                              np.ascontiguousarray(U[:, 3]))
-        return TriangleScene.offset(self, prim, p, sign, n), d
+        tables = TriangleScene.bounce_tables(self)
+        sign = np.ascontiguousarray(np.broadcast_to(np.asarray(sign, float), (len(prim),)))
+        return emit_rays(np.asarray(prim), sign, np.ascontiguousarray(U, dtype=np.float64), self._cols, tables[2],
+                         tables[3], self.eps)
 
     def emit_weighted(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray):
         """:meth:`emit` plus the relative energy of each ray (r,), with mean 1 over the rays of a primitive, or None
