@@ -107,6 +107,9 @@ class ClusteringSettings:
     feature_angle: float = 30.0
     seed: int = 0
     smoothing_layers: int = 2
+    # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
+    # [environment] solar_on = "super_faces" and there is a Sun
+    solar_aware: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -431,8 +434,10 @@ class _Parser:
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"
-        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers"})
+        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware"})
+        aware = d.get("solar_aware")
         return ClusteringSettings(
+            solar_aware=None if aware is None else self.boolean(d, "solar_aware", w, None),
             feature_angle=self.number(d, "feature_angle", w, default=30.0, lo=0, hi=180),
             seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
             smoothing_layers=self.number(d, "smoothing_layers", w, default=2, lo=0, integer=True),

@@ -68,11 +68,12 @@ def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.nd
     return np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
 
 
-def cluster_model(model: FEModel, case, progress=None) -> Clustering:
+def cluster_model(model: FEModel, case, progress=None, flux: np.ndarray | None = None) -> Clustering:
     """Cluster every part of ``model`` with its requested number of super nodes.
 
     Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
+    ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
     """
     determined = determined_elements(model, kept_dofs(model, case))
     parts = []
@@ -83,7 +84,8 @@ def cluster_model(model: FEModel, case, progress=None) -> Clustering:
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
-                               ids=model.mesh.element_ids[model.elements[rows]]))
+                               ids=model.mesh.element_ids[model.elements[rows]],
+                               flux=None if flux is None else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
     return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
                          seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress)
@@ -329,6 +331,33 @@ def detailed_solar(model: FEModel, case, surface=None, scene=None):
                       sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, scene=scene)
     q = np.asarray(model.faces.W.T @ res.absorbed_face).ravel()
     return q, res
+
+
+PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
+
+
+def solar_aware(case) -> bool:
+    """Whether the clustering follows a solar pre-pass: ``[clustering] solar_aware``, by default on when the
+    super faces carry lumped solar loads (``solar_on = "super_faces"``) and there is a Sun."""
+    flag = case.clustering.solar_aware
+    if flag is None:
+        flag = case.environment.solar_on == "super_faces"
+    return bool(flag) and has_sun(case)
+
+
+def solar_prepass(model: FEModel, case, surface=None) -> np.ndarray:
+    """A cheap solar map for the clustering: absorbed flux (n_elements,) W/m² of every mesh element (NaN outside
+    the model), traced on the flat FE faces with :data:`PREPASS_RAYS_PER_FACE` rays per face on average (one
+    emitting group, origins uniform over the Sun's cross-section), shadowing and reflections included."""
+    from .radiation.solar import trace_solar
+
+    surface = radiation_surface(model) if surface is None else surface
+    env, rs = case.environment, case.radiation
+    f = model.faces
+    res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=np.zeros(2 * f.n, np.int64),
+                      rays_per_group=PREPASS_RAYS_PER_FACE * f.n, sampling=rs.sampling, seed=rs.seed,
+                      max_bounces=rs.max_bounces)
+    return face_flux_per_element(model, res.absorbed_face)
 
 
 def super_face_solar(model: FEModel, rm: ReducedModel, case, surface=None, scene=None, sf=None):

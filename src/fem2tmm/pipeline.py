@@ -159,8 +159,8 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
 
 def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) -> "Result":
     from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
-                          has_sun, quadric_scene, radiation_surface, reduced_radiation, super_face_solar,
-                          super_faces)
+                          has_sun, quadric_scene, radiation_surface, reduced_radiation, solar_aware, solar_prepass,
+                          super_face_solar, super_faces)
 
     with prog.stage("read", "reading the mesh"):
         mesh = load_mesh(case) if mesh is None else mesh.validate()
@@ -175,8 +175,13 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
     surface = radiation_surface(model) if (trace or sun) else None
     q_solar = None  # detailed solar nodal loads (n_dof,) W
     if case.reduction.enabled:
+        flux = None
+        if sun and solar_aware(case):
+            with prog.stage("solar_prepass", "tracing a coarse solar map for the clustering"):
+                flux = solar_prepass(model, case, surface)
         with prog.stage("cluster", "clustering"):
-            result.clustering = cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"))
+            result.clustering = cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"),
+                                              flux=flux)
     scene = None
     if surface is not None and any(p.quadric for p in case.parts):
         with prog.stage("quadrics", "fitting quadrics"):

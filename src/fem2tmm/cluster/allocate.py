@@ -31,6 +31,18 @@ counts as compact.  A solid region is replaced by the
 *equivalent square slab* a × a × t with the same volume V and surface S (``V = a²t``, ``S = 2a² + 4at``, a
 cube when S <= 6 V^(2/3)).  Holes add perimeter, so a plate with many holes looks narrower than it is; this
 only matters when a part has several regions.
+
+Flux-driven allocation (``shape=False``)
+----------------------------------------
+When the super faces carry lumped solar loads (thesis §6.3, ``solar_on = "super_faces"``) the conduction
+reduction is exact and the error comes from spreading each cluster's absorbed power uniformly over it: a
+zero-mean load δq over a cluster of size h in a sheet of conductance kt leaves a temperature error of order
+δq h²/(kt) (Poisson), i.e. proportional to the cluster's *area* and its flux deviation, not to its aspect
+ratio.  The driver then passes ``shape=False`` (quotas in proportion to area only: narrow annuli are not
+given clusters for their length, which is also what the thesis shows at 10 super nodes, "5 of the 6 regions
+are left undivided") and a weight ``A_r (1 + σ_r/σ)`` (σ_r the region's area-weighted flux deviation, σ the
+part's), which equidistributes ``(σ_r + σ) h²`` among the clusters: a cluster on a half-lit region is made
+smaller than one on a uniformly lit (or dark) region.
 """
 
 from __future__ import annotations
@@ -113,7 +125,7 @@ def _round(q: np.ndarray, total: int) -> np.ndarray:
 
 
 def allocate(n_clusters: int, kind: str, measure: np.ndarray, boundary: np.ndarray, n_elements: np.ndarray,
-             weight: np.ndarray | None = None, part: str = "") -> np.ndarray:
+             weight: np.ndarray | None = None, part: str = "", shape: bool = True) -> np.ndarray:
     """Number of clusters of each region of a part.
 
     Parameters
@@ -125,6 +137,8 @@ def allocate(n_clusters: int, kind: str, measure: np.ndarray, boundary: np.ndarr
     n_elements : (r,) number of elements of each region
     weight : (r,) total clustering weight of each region (default: ``measure``)
     part : the part's name, for error messages
+    shape : False: ignore the regions' widths (quotas in proportion to weight only, see "Flux-driven
+        allocation" above)
 
     Returns
     -------
@@ -155,7 +169,7 @@ def allocate(n_clusters: int, kind: str, measure: np.ndarray, boundary: np.ndarr
             f"{where}{n_clusters} super nodes requested but the part splits into {r} regions ({cause}); "
             f"each region needs at least one super node, so ask for at least {r}. Regions: {listed}{more}"
         )
-    width = equivalent_width(kind, measure, boundary)
+    width = equivalent_width(kind, measure, boundary) if shape else np.full(r, np.inf)
     w = measure if weight is None else np.asarray(weight, float)
     density = (w / measure) / (w.sum() / measure.sum())
     dim = 2 if kind == "shell" else 3

@@ -46,6 +46,9 @@ class PartInput:
     attribute : (m,) int or None; elements with different values never share a region (material,
         thickness, optics)
     ids : (m,) int or None; original element ids used in error messages (default: ``elements``)
+    flux : (m,) float or None; absorbed external flux of each element (W/m², e.g. a cheap solar pre-pass).
+        Given, the clusters follow it (:func:`flux_feature`): super faces whose loads are lumped stay
+        nearly uniformly loaded
     """
 
     name: str
@@ -56,6 +59,7 @@ class PartInput:
     n_clusters: int
     attribute: np.ndarray | None = None
     ids: np.ndarray | None = None
+    flux: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -112,6 +116,8 @@ def _check_part(points: np.ndarray, part: PartInput, n_elements: int | None) -> 
         raise Fem2TmmError(f"{where}: cells must be (m, 8) and types (m,) for its {m} elements")
     if part.attribute is not None and np.shape(part.attribute) != (m,):
         raise Fem2TmmError(f"{where}: attribute must have one value per element ({m})")
+    if part.flux is not None and (np.shape(part.flux) != (m,) or not np.isfinite(part.flux).all()):
+        raise Fem2TmmError(f"{where}: flux must have one finite value per element ({m})")
     if n_elements is not None and (part.elements.min() < 0 or part.elements.max() >= n_elements):
         raise Fem2TmmError(f"{where}: element indices outside 0..{n_elements - 1}")
     allowed = [TYPE_CODE[t] for t in _KIND_TYPES[part.kind]]
@@ -175,6 +181,39 @@ def _geometry(points: np.ndarray, part: PartInput):
     return measure, normals, centroids
 
 
+FLUX_CONTRAST = 2.0  # a flux step of one part-wide deviation σ weighs as much as 2 cluster sizes h
+
+
+def flux_feature(flux: np.ndarray, weights: np.ndarray, region: np.ndarray, n_clusters: int, kind: str):
+    """Feature coordinate and allocation densities that make the clusters follow an absorbed-flux map.
+
+    Thesis §6.3: with the super-face solar scheme each cluster's absorbed power is spread uniformly over it, so
+    "shadowing and concentration effects are inherently lost" where a cluster straddles a shadow line or a
+    reflected spot, and regions "where abrupt changes of the external heat fluxes are expected" are the ones to
+    refine.  Two things follow from a flux map ``q`` (a cheap, noisy solar pre-pass is enough):
+
+    * the element centroids get a fourth coordinate ``s = c · h · q / σ`` (m), with ``h = (W/k)^(1/dim)`` the
+      part's mean cluster size, σ the part's weighted flux deviation and c = :data:`FLUX_CONTRAST`; k-means,
+      region growing and boundary smoothing then measure distances in (x, y, z, s), so a cluster boundary is
+      drawn along a shadow line rather than across it (clusters stay contiguous: growing is on the mesh graph);
+    * region r gets the allocation density ``1 + σ_r/σ`` (σ_r its own flux deviation), see :mod:`.allocate`.
+
+    ``flux`` (m,) W/m², ``weights`` (m,) area/volume, ``region`` (m,) region ids.  Returns ``(s (m,) m,
+    density (r,))`` or None when the flux is uniform (nothing to follow).
+    """
+    r = int(region.max()) + 1
+    W = weights.sum()
+    mean = float(np.dot(weights, flux) / W)
+    sigma = float(np.sqrt(np.dot(weights, (flux - mean) ** 2) / W))
+    if not sigma > 1e-9 * max(abs(mean), np.abs(flux).max(initial=0.0)):
+        return None
+    Wr = np.bincount(region, weights, minlength=r)
+    mr = np.bincount(region, weights * flux, minlength=r) / Wr
+    sr = np.sqrt(np.bincount(region, weights * (flux - mr[region]) ** 2, minlength=r) / Wr)
+    h = (W / n_clusters) ** (1.0 / (2 if kind == "shell" else 3))
+    return FLUX_CONTRAST * h * (flux - mean) / sigma, 1.0 + sr / sigma
+
+
 def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, feature_angle: float) -> _Prepared:
     times = dict.fromkeys(_STEPS, 0.0)
     t0 = time.perf_counter()
@@ -200,8 +239,15 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
     reg_measure = np.bincount(region, measure, minlength=r)
     inner = np.bincount(region[graph.a[keep]], graph.measure[keep], minlength=r)
     boundary = np.bincount(region, graph.side_total, minlength=r) - 2 * inner
+    reg_weight = np.bincount(region, weights, minlength=r)
+    feature = None if part.flux is None else flux_feature(np.asarray(part.flux, float), weights, region,
+                                                          part.n_clusters, part.kind)
+    if feature is not None:
+        feature, density = feature
+        centroids = np.hstack([centroids, feature[:, None]])
+        reg_weight = reg_weight * density
     alloc = allocate(part.n_clusters, part.kind, reg_measure, np.maximum(boundary, 0),
-                     np.bincount(region, minlength=r), np.bincount(region, weights, minlength=r), part=part.name)
+                     np.bincount(region, minlength=r), reg_weight, part=part.name, shape=feature is None)
     t3 = time.perf_counter()
     times.update(geometry=t1 - t0, regions=t2 - t1, allocation=t3 - t2)
     return _Prepared(part, weights, measure, centroids, graph, keep, region, alloc, times)
@@ -292,7 +338,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
     if int(smoothing_layers) < 0:
         raise Fem2TmmError(f"smoothing_layers must be >= 0, got {smoothing_layers}")
     parts = [PartInput(p.name, p.kind, np.asarray(p.elements, np.int64), np.asarray(p.cells, np.int64),
-                       np.asarray(p.types, np.int8), p.n_clusters, p.attribute, p.ids) for p in parts]
+                       np.asarray(p.types, np.int8), p.n_clusters, p.attribute, p.ids, p.flux) for p in parts]
     for p in parts:
         _check_part(points, p, n_elements)
     owner = np.bincount(np.concatenate([p.elements for p in parts]), minlength=n_elements) if parts else None

@@ -61,7 +61,7 @@ def pair_cut(indptr, indices, lengths, labels, band, n_in_A: int, A: int, B: int
     """Minimise eq. 4.1 over the band of the pair (A, B) by a minimum s–t cut.
 
     ``band`` (nb,) elements, the first ``n_in_A`` currently in A and the others in B; elements outside the
-    band keep ``labels``.  ``centre_A``, ``centre_B`` (3,) cluster centres, ``is_seed`` (n,) bool,
+    band keep ``labels``.  ``centre_A``, ``centre_B`` (d,) cluster centres, ``is_seed`` (n,) bool,
     ``lbar`` the mean boundary edge length.  ``scratch``: (n,) int64 of -1 (restored on return).
 
     Returns ``(new_A, (pos, own, j, jl, inside))``: ``new_A`` (nb,) bool, True for the band elements the cut
@@ -124,7 +124,7 @@ def smooth(indptr: np.ndarray, indices: np.ndarray, lengths: np.ndarray, labels:
     indptr, indices, lengths : CSR dual graph of the region (n elements), ``lengths`` (nnz,) shared edge
         length (m) or face area (m²) of each link
     labels : (n,) int cluster of each element, 0..k-1, every cluster contiguous
-    centroids : (n, 3) element centroids (m)
+    centroids : (n, d) element centroids (m), d = 3, or 4 with a feature coordinate (see :mod:`.driver`)
     weights : (n,) element weights (area/volume) for the cluster centres
     seeds : (k,) seed element of each cluster (never moved)
     layers : band depth on each side of a boundary (>= 1)
@@ -145,7 +145,7 @@ def smooth(indptr: np.ndarray, indices: np.ndarray, lengths: np.ndarray, labels:
     if k < 2 or layers < 1:
         return lab, stats
     W = np.bincount(lab, weights, minlength=k)
-    centre = np.stack([np.bincount(lab, weights * centroids[:, j], minlength=k) for j in range(3)], 1) / W[:, None]
+    centre = np.stack([np.bincount(lab, weights * centroids[:, j], minlength=k) for j in range(centroids.shape[1])], 1) / W[:, None]
     rows = np.repeat(np.arange(n), np.diff(indptr))
     cut = (rows < indices) & (lab[rows] != lab[indices])
     la, lb = lab[rows[cut]], lab[indices[cut]]
