@@ -61,11 +61,11 @@ def _offset_one(px, py, pz, nx, ny, nz, s, cx, cy, cz, curved, eps):
 
 
 @njit(cache=True, nogil=True)
-def emit_rays(prim, sign, U, cols, centroid, curved, eps):
+def emit_rays(prim, sign, U, geom, centroid, curved, eps):
     """Emitted rays from flat triangles ``prim`` (r,), sides ``sign`` (r,), driven by the unit-hypercube samples
     ``U`` (r, >= 4): origins by the area-preserving map of U[:, 0:2] (thesis eq. 2.18), offset off the side;
-    cosine-law directions from U[:, 2:4].  ``cols`` (12, t): per-triangle p0, p1 - p0, p2 - p0 and the unit front
-    normal, one component per row.  Returns ``(origins (r, 3) m, unit directions (r, 3))``."""
+    cosine-law directions from U[:, 2:4].  ``geom`` (t, 12): per-triangle p0, p1 - p0, p2 - p0 and the unit front
+    normal.  Returns ``(origins (r, 3) m, unit directions (r, 3))``."""
     r = prim.shape[0]
     o = np.empty((r, 3))
     d = np.empty((r, 3))
@@ -73,14 +73,40 @@ def emit_rays(prim, sign, U, cols, centroid, curved, eps):
         j = prim[k]
         s = math.sqrt(U[k, 0])
         a, b = s * (1.0 - U[k, 1]), s * U[k, 1]
-        px = cols[0, j] + a * cols[3, j] + b * cols[6, j]
-        py = cols[1, j] + a * cols[4, j] + b * cols[7, j]
-        pz = cols[2, j] + a * cols[5, j] + b * cols[8, j]
-        nx, ny, nz = cols[9, j], cols[10, j], cols[11, j]
+        px = geom[j, 0] + a * geom[j, 3] + b * geom[j, 6]
+        py = geom[j, 1] + a * geom[j, 4] + b * geom[j, 7]
+        pz = geom[j, 2] + a * geom[j, 5] + b * geom[j, 8]
+        nx, ny, nz = geom[j, 9], geom[j, 10], geom[j, 11]
         d[k, 0], d[k, 1], d[k, 2] = _cosine_dir(nx, ny, nz, sign[k], U[k, 2], U[k, 3])
         o[k, 0], o[k, 1], o[k, 2] = _offset_one(px, py, pz, nx, ny, nz, sign[k], centroid[j, 0], centroid[j, 1],
                                                 centroid[j, 2], curved[j], eps)
     return o, d
+
+
+@njit(cache=True, nogil=True)
+def locate_entries(group, u, start, lo, hi):
+    """Inverse-CDF step of super-face emission: for rays of ``group`` (r,) with first sample coordinate ``u`` (r,),
+    the entry k of the group whose keyed interval [lo[k], hi[k]) holds group + u (binary search within the
+    group's entries ``start[g]:start[g + 1]``) and u rescaled to [0, 1) within it.  Returns ``(k (r,), u (r,))``."""
+    r = group.shape[0]
+    k_out = np.empty(r, np.int64)
+    u_out = np.empty(r)
+    one_minus = np.nextafter(1.0, 0.0)
+    for i in range(r):
+        g = group[i]
+        x = g + u[i]
+        a, b = start[g], start[g + 1] - 1  # first entry with hi > x, at most the group's last
+        while a < b:
+            mid = (a + b) // 2
+            if hi[mid] > x:
+                b = mid
+            else:
+                a = mid + 1
+        k_out[i] = a
+        w = hi[a] - lo[a]
+        v = (x - lo[a]) / w if w > 0.0 else 0.0
+        u_out[i] = min(max(v, 0.0), one_minus)
+    return k_out, u_out
 
 
 @njit(cache=True, nogil=True)

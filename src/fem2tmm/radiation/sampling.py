@@ -14,9 +14,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 HALTON_BASES = (2, 3, 5, 7, 11, 13)
-_ONE_MINUS = np.nextafter(1.0, 0.0)
+_ONE_MINUS = float(np.nextafter(1.0, 0.0))
 _TABLE_SIZE = 1024  # digits of one base are processed in blocks whose b^m combinations fit in this table
 
 
@@ -66,28 +67,43 @@ class ScrambledHalton:
 
     def points(self, index: np.ndarray) -> np.ndarray:
         """Points of the sequence at ``index`` (r,) non-negative int: returns (r, dim) floats in [0, 1)."""
-        index = np.asarray(index, dtype=np.int64)
+        index = np.ascontiguousarray(index, dtype=np.int64)
         out = np.empty((index.size, self.dim))
         top = int(index.max()) if index.size else 0
         if index.size and int(index.min()) < 0:
             raise ValueError("Halton indices must be non-negative")
-        # unsigned 32-bit division by a scalar is several times faster than int64 divmod in numpy
-        itype = np.uint32 if top < 2**32 else np.uint64
-        index = index.astype(itype)
         for c, (B, tables, tails) in enumerate(self._tables):
             nb = 1
             while B**nb <= top and nb < len(tables):
                 nb += 1
-            acc = np.full(index.size, tails[nb])
-            rest = index
-            Bi = itype(B)
-            for k in range(nb):
-                quot = rest // Bi
-                acc += np.take(tables[k], rest - quot * Bi)
-                rest = quot
-            out[:, c] = acc
-        np.minimum(out, _ONE_MINUS, out=out)
+            _radical_inverse(index, np.int64(B), tables, float(tails[nb]), nb, out, c)
         return out
+
+
+@njit(cache=True, nogil=True)
+def _radical_inverse(index, B, tables, tail, nb, out, c):
+    """out[:, c] = scrambled radical inverse of ``index`` (r,): ``nb`` blocks of digits in base ``B`` (= b^m), each
+    looked up in ``tables`` (nblocks, B), plus ``tail`` for the all-zero higher blocks; clipped below 1.  Runs of
+    consecutive indices (each group's rays) step the lowest block and carry, instead of dividing every index."""
+    low = B  # no run yet
+    high = 0.0
+    one = np.int64(1)
+    prev = index[0] if index.shape[0] else 0
+    for k in range(index.shape[0]):
+        i = index[k]
+        if k > 0 and i == prev + one and low + one < B:
+            low += one
+        else:
+            q = i // B
+            low = i - q * B
+            high = tail
+            rest = q
+            for j in range(1, nb):
+                qq = rest // B
+                high += tables[j, rest - qq * B]
+                rest = qq
+        out[k, c] = min(high + tables[0, low], _ONE_MINUS)
+        prev = i
 
 
 def triangle_points(vertices: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import cosine_directions, emit_rays, offset_points
+from .kernels import cosine_directions, emit_rays, locate_entries, offset_points
 
 FRONT, BACK = 0, 1
 #: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
@@ -233,6 +233,7 @@ class TriangleScene:
         # per component are much faster in numpy than strided row gathers
         self._cols = np.ascontiguousarray(np.concatenate([v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], tri.normal],
                                                          axis=1).T)
+        self._geom = np.ascontiguousarray(self._cols.T)  # the same, one row per triangle (compiled kernels)
         self._tables = None
 
     def sample(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -255,7 +256,7 @@ class TriangleScene:
         Returns ``(origins (r, 3) offset off the surface, unit directions (r, 3))``."""
         tables = TriangleScene.bounce_tables(self)
         sign = np.ascontiguousarray(np.broadcast_to(np.asarray(sign, float), (len(prim),)))
-        return emit_rays(np.asarray(prim), sign, np.ascontiguousarray(U, dtype=np.float64), self._cols, tables[2],
+        return emit_rays(np.asarray(prim), sign, np.ascontiguousarray(U, dtype=np.float64), self._geom, tables[2],
                          tables[3], self.eps)
 
     def emit_weighted(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray):
@@ -358,8 +359,8 @@ class GroupEmitters:
 
     ``entry_prim`` (e,) triangle, ``entry_side`` (e,) 0 front / 1 back, ``entry_group`` (e,), ``lo``/``hi`` (e,)
     bounds of each entry in the keyed cumulative distribution: group g occupies [g, g + 1), entry k of g spans
-    [g + C_{k-1}, g + C_k) with C the normalised cumulative ε·A of the group.  ``weight`` (g,) = Σ ε·A (m²) of
-    the emitting sides of each group, ``area`` (g,) their area (m²).
+    [g + C_{k-1}, g + C_k) with C the normalised cumulative ε·A of the group; ``start`` (g + 1,) the first entry
+    of each group.  ``weight`` (g,) = Σ ε·A (m²) of the emitting sides of each group, ``area`` (g,) their area (m²).
     """
 
     entry_prim: np.ndarray
@@ -369,6 +370,7 @@ class GroupEmitters:
     hi: np.ndarray
     weight: np.ndarray
     area: np.ndarray
+    start: np.ndarray
 
     @classmethod
     def build(cls, scene: TriangleScene, groups: np.ndarray, emit: np.ndarray, n_groups: int) -> "GroupEmitters":
@@ -394,14 +396,11 @@ class GroupEmitters:
         lo[start[g] == np.arange(len(g))] = 0.0
         last = np.append(g[1:] != g[:-1], True) if len(g) else np.zeros(0, bool)
         hi[last] = 1.0
-        return cls(entry_prim=prim, entry_side=side, entry_group=g, lo=g + lo, hi=g + hi, weight=weight, area=area)
+        return cls(entry_prim=prim, entry_side=side, entry_group=g, lo=g + lo, hi=g + hi, weight=weight, area=area,
+                   start=start.astype(np.int64))
 
     def locate(self, group: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Entry and rescaled coordinate in [0, 1) for rays of ``group`` (r,) with first sample coordinate ``u``:
         the 1-D inverse-CDF step that keeps the low-discrepancy structure across the whole super face."""
-        x = group + u
-        k = np.searchsorted(self.hi, x, side="right")
-        k = np.minimum(k, len(self.hi) - 1)
-        w = self.hi[k] - self.lo[k]
-        uu = np.clip((x - self.lo[k]) / w, 0.0, np.nextafter(1.0, 0.0))
-        return k, uu
+        return locate_entries(np.ascontiguousarray(group, dtype=np.int64), np.ascontiguousarray(u, dtype=np.float64),
+                              self.start, self.lo, self.hi)
