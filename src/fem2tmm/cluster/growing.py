@@ -10,9 +10,9 @@ only joins a cluster it touches) and, in a connected region, every element is re
 Because the key is the distance to the seed and not an accumulated path length, this is not Dijkstra's
 algorithm: the keys popped are not monotone (an element closer to the seed than the one that exposed it
 is popped at once) and no vectorised shortest-path routine computes the same partition.  The loop is
-therefore run in Python on plain lists, with one exact pruning: a candidate is pushed only if its key is
-smaller than the best key already queued for that element (the queued one would be popped first and win
-anyway; on a tie the earlier push wins).  Measured: 10⁶ quads, 1000 seeds, 5.4 s on this machine.
+therefore compiled (numba), with one exact pruning: a candidate is pushed only if its key is smaller than the
+best key already queued for that element (the queued one would be popped first and win anyway).  Ties of the
+key are broken by element, then cluster index.
 Squared distances are used as keys (same order).  The centroids may carry a fourth, feature coordinate (a
 scaled absorbed flux, see :mod:`.driver`): the distance is then taken in that 4-D space, so clusters follow
 changes of the feature as well as the geometry, and they stay contiguous all the same.
@@ -20,9 +20,8 @@ changes of the feature as well as the geometry, and they stay contiguous all the
 
 from __future__ import annotations
 
-import heapq
-
 import numpy as np
+from numba import njit
 
 
 def grow(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, seeds: np.ndarray) -> np.ndarray:
@@ -47,36 +46,95 @@ def grow(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, seeds: 
     seeds = np.asarray(seeds, np.int64)
     if len(seeds) == 1:
         return np.zeros(n, np.int64)
-    ptr = indptr.tolist()
-    nbr = indices.tolist()
-    if centroids.shape[1] == 3:
-        centroids = np.hstack([centroids, np.zeros((n, 1))])
-    cx, cy, cz, cw = (centroids[:, j].tolist() for j in range(4))
-    sx, sy, sz, sw = (centroids[seeds, j].tolist() for j in range(4))
-    label = [-1] * n
-    best = [float("inf")] * n
-    heap = [(0.0, int(s), c) for c, s in enumerate(seeds)]
-    for s in seeds.tolist():
-        best[s] = 0.0
-    heapq.heapify(heap)
-    pop, push = heapq.heappop, heapq.heappush
-    while heap:
-        _, e, c = pop(heap)
-        if label[e] >= 0:
-            continue
-        label[e] = c
-        x, y, z, v = sx[c], sy[c], sz[c], sw[c]
-        for j in nbr[ptr[e]:ptr[e + 1]]:
-            if label[j] < 0:
-                dx = cx[j] - x
-                dy = cy[j] - y
-                dz = cz[j] - z
-                dw = cw[j] - v
-                d = dx * dx + dy * dy + dz * dz + dw * dw
-                if d < best[j]:
-                    best[j] = d
-                    push(heap, (d, j, c))
-    out = np.array(label, dtype=np.int64)
+    out = _grow(np.asarray(indptr, np.int64), np.asarray(indices, np.int64),
+                np.ascontiguousarray(centroids, dtype=np.float64), seeds)
     if (out < 0).any():
         raise RuntimeError(f"region growing did not reach {int((out < 0).sum())} elements: region not connected")
     return out
+
+
+@njit(cache=True, nogil=True)
+def _less(kd, ke, kc, a, b):
+    """Heap order: key, then element, then cluster (a total order: an element is pushed again only with a
+    strictly smaller key, so no two entries are equal and the pops do not depend on the heap's layout)."""
+    if kd[a] != kd[b]:
+        return kd[a] < kd[b]
+    if ke[a] != ke[b]:
+        return ke[a] < ke[b]
+    return kc[a] < kc[b]
+
+
+@njit(cache=True, nogil=True)
+def _grow(indptr, indices, centroids, seeds):
+    """The growing loop with an array-based binary heap of (key, element, cluster) (at most nnz + k entries)."""
+    n, dim = centroids.shape
+    k = seeds.shape[0]
+    cap = indices.shape[0] + k + 1
+    kd = np.empty(cap)
+    ke = np.empty(cap, np.int64)
+    kc = np.empty(cap, np.int64)
+    label = np.full(n, -1, np.int64)
+    best = np.full(n, np.inf)
+    size = 0
+    for c in range(k):  # push the seeds
+        pos = size
+        kd[pos], ke[pos], kc[pos] = 0.0, seeds[c], c
+        size += 1
+        best[seeds[c]] = 0.0
+        while pos > 0:
+            parent = (pos - 1) // 2
+            if _less(kd, ke, kc, pos, parent):
+                kd[pos], kd[parent] = kd[parent], kd[pos]
+                ke[pos], ke[parent] = ke[parent], ke[pos]
+                kc[pos], kc[parent] = kc[parent], kc[pos]
+                pos = parent
+            else:
+                break
+    seed_xyz = np.empty((k, dim))
+    for c in range(k):
+        seed_xyz[c] = centroids[seeds[c]]
+    while size > 0:
+        e, c = ke[0], kc[0]
+        size -= 1  # pop: the last entry moves to the root and sifts down
+        kd[0], ke[0], kc[0] = kd[size], ke[size], kc[size]
+        pos = 0
+        while True:
+            left = 2 * pos + 1
+            if left >= size:
+                break
+            child = left
+            if left + 1 < size and _less(kd, ke, kc, left + 1, left):
+                child = left + 1
+            if _less(kd, ke, kc, child, pos):
+                kd[pos], kd[child] = kd[child], kd[pos]
+                ke[pos], ke[child] = ke[child], ke[pos]
+                kc[pos], kc[child] = kc[child], kc[pos]
+                pos = child
+            else:
+                break
+        if label[e] >= 0:
+            continue
+        label[e] = c
+        for q in range(indptr[e], indptr[e + 1]):
+            j = indices[q]
+            if label[j] >= 0:
+                continue
+            d = 0.0
+            for a in range(dim):
+                t = centroids[j, a] - seed_xyz[c, a]
+                d += t * t
+            if d < best[j]:
+                best[j] = d
+                pos = size  # push
+                kd[pos], ke[pos], kc[pos] = d, j, c
+                size += 1
+                while pos > 0:
+                    parent = (pos - 1) // 2
+                    if _less(kd, ke, kc, pos, parent):
+                        kd[pos], kd[parent] = kd[parent], kd[pos]
+                        ke[pos], ke[parent] = ke[parent], ke[pos]
+                        kc[pos], kc[parent] = kc[parent], kc[pos]
+                        pos = parent
+                    else:
+                        break
+    return label
