@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
 from ..errors import Fem2TmmError
 from ..progress import report
@@ -121,6 +122,51 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
                                         tables[3], stop_p, cum, active, scene.eps)
         idx, o, d, last = idx[:alive], o[:alive], d[:alive], last[:alive]
     return ends, segments
+
+
+@njit(cache=True, nogil=True)
+def keys_to_csr(keys, values, ncol, g):
+    """CSR arrays ``(indptr (g + 1,), columns, values)`` of the (g, ncol) matrix holding ``values`` (k,) at the
+    flat positions ``keys`` (k,) = row x ncol + column, duplicates summed, columns sorted within each row.  Linear
+    when the keys are nearly sorted (batch tallies: only the rows straddling two batches need a sort)."""
+    k = keys.shape[0]
+    count = np.zeros(g + 1, np.int64)
+    for i in range(k):
+        count[keys[i] // ncol + 1] += 1
+    for r in range(g):
+        count[r + 1] += count[r]
+    slot = count[:-1].copy()
+    kk = np.empty(k, np.int64)
+    vv = np.empty(k)
+    for i in range(k):  # stable counting sort by row
+        r = keys[i] // ncol
+        kk[slot[r]] = keys[i]
+        vv[slot[r]] = values[i]
+        slot[r] += 1
+    indptr = np.zeros(g + 1, np.int64)
+    cols = np.empty(k, np.int64)
+    vals = np.empty(k)
+    m = 0
+    for r in range(g):
+        a, b = count[r], count[r + 1]
+        ordered = True
+        for i in range(a + 1, b):
+            if kk[i] < kk[i - 1]:
+                ordered = False
+                break
+        if not ordered:
+            o = np.argsort(kk[a:b], kind="mergesort")
+            kk[a:b] = kk[a:b][o]
+            vv[a:b] = vv[a:b][o]
+        for i in range(a, b):
+            if m > indptr[r] and cols[m - 1] == kk[i] - r * ncol:
+                vals[m - 1] += vv[i]
+            else:
+                cols[m] = kk[i] - r * ncol
+                vals[m] = vv[i]
+                m += 1
+        indptr[r + 1] = m
+    return indptr, cols[:m].copy(), vals[:m].copy()
 
 
 def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") -> list:
@@ -264,13 +310,8 @@ class _ExchangeTracer:
         counts = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
         segments = int(sum(p[2] for p in parts))
         # batches are in group order, so the keys are sorted except where a group straddles two batches
-        order = np.argsort(keys, kind="stable")
-        keys, counts = keys[order], counts[order]
-        first = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]]) if keys.size else np.zeros(0, np.int64)
-        counts = np.add.reduceat(counts, first) if keys.size else counts
-        r, c = np.divmod(keys[first], ncol)
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=g))])
-        tally = sp.csr_matrix((counts.astype(np.float64), c, indptr), shape=(g, ncol))
+        indptr, c, v = keys_to_csr(keys, counts.astype(np.float64), ncol, g)
+        tally = sp.csr_matrix((v, c, indptr), shape=(g, ncol))
         if any(p[3] is not None for p in parts):
             # weighted rays: scale each group's row so that it sums to its ray count (self-normalised estimator)
             wsum = np.zeros(g)
