@@ -203,10 +203,12 @@ def test_three_quadrangles_see_each_other_front_to_front():
 @pytest.mark.parametrize("rho, ref", [(0.1, 0.0132), (0.5, 0.0228), (0.9, 0.0108)])
 def test_three_quadrangles_diffuse(rho, ref):
     pts, faces = THREE_QUADS
-    res = exchange_factors(pts, faces, emissivity=1 - rho, rays_per_face=1_000_000)
-    # 10^6 coupled-Halton rays per face: error ~0.2 % (5 seeds x 2x10^6 rays scatter by 0.05-0.25 %); within 1 %
-    assert abs(res.F[0, 1] / ref - 1) < 1e-2
-    assert res.capped_energy_fraction < 1e-6
+    runs = [exchange_factors(pts, faces, emissivity=1 - rho, rays_per_face=1_000_000, seed=s) for s in range(4)]
+    # 4 seeds x 10^6 coupled-Halton rays per face.  One run scatters by 0.3 % (ρ = 0.1) to 0.6 % (ρ = 0.9: the
+    # multiple reflections are crude Monte Carlo), so the mean of 4 is within ~0.3 % (1σ); within 1 %
+    mean = np.mean([r.F[0, 1] for r in runs])
+    assert abs(mean / ref - 1) < 1e-2
+    assert max(r.capped_energy_fraction for r in runs) < 1e-6
 
 
 @pytest.mark.parametrize("rho", [0.1, 0.5, 0.9])

@@ -52,11 +52,18 @@ PILOT_RAYS = (100, 400)
 EXTRAPOLATIONS = 3
 
 
-def stratified_uniforms(keys: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def stratified_uniforms(keys: np.ndarray, rng: np.random.Generator, major: np.ndarray | None = None) -> np.ndarray:
     """Uniform numbers (r,) stratified within each key: the m entries of a key get (rank + φ)/m, rank a random
     permutation of 0..m-1 and φ one uniform phase per key (systematic sampling in random order).  Each entry is
-    marginally U[0, 1); the fraction of a key's entries below any threshold p is within 1/m of p."""
+    marginally U[0, 1); the fraction of a key's entries below any threshold p is within 1/m of p.
+
+    ``major`` (r,) int, optional: a non-decreasing coarse part of the keys (entries of one major value are
+    contiguous and ``keys`` never mixes two major values): the entries are then ordered run by run, in linear
+    time for short runs, instead of by one global sort."""
     n = keys.size
+    if major is not None and n and np.all(major[1:] >= major[:-1]):
+        return _stratified_runs(np.ascontiguousarray(major, dtype=np.int64), np.ascontiguousarray(keys, np.int64),
+                                rng.random(n), rng.random(n))
     order = np.argsort(keys + rng.random(n))
     ks = keys[order]
     first = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]]) if n else np.zeros(0, np.int64)
@@ -64,6 +71,34 @@ def stratified_uniforms(keys: np.ndarray, rng: np.random.Generator) -> np.ndarra
     rank = np.arange(n) - np.repeat(first, counts)
     u = np.empty(n)
     u[order] = (rank + np.repeat(rng.random(first.size), counts)) / np.repeat(counts, counts)
+    return u
+
+
+@njit(cache=True, nogil=True)
+def _stratified_runs(major, keys, shuffle, phase):
+    """:func:`stratified_uniforms` for runs of equal ``major``: within each run, entries sorted by key with the
+    uniforms ``shuffle`` (r,) as random tie-breaks; key j of the run gets its phase from ``phase`` at its first
+    entry."""
+    n = keys.shape[0]
+    u = np.empty(n)
+    a = 0
+    while a < n:
+        b = a + 1
+        while b < n and major[b] == major[a]:
+            b += 1
+        # keys are integers: the tie-breaks (< 1) stay within a key (offset by the run's smallest key, so exactly)
+        o = np.argsort((keys[a:b] - keys[a:b].min()) + shuffle[a:b]) + a
+        i = 0
+        while i < b - a:
+            j = i + 1
+            while j < b - a and keys[o[j]] == keys[o[i]]:
+                j += 1
+            m = j - i
+            ph = phase[o[i]]
+            for t in range(i, j):
+                u[o[t]] = (t - i + ph) / m
+            i = j
+        a = b
     return u
 
 
@@ -112,7 +147,8 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
             side = hit_sides(prim, d, tables[0], tables[1], nrm)
             hit = side >= 0
             u = np.zeros(m)
-            u[hit] = stratified_uniforms(strata[idx[hit]] * float(len(stop_p)) + side[hit], rng)
+            sh = strata[idx[hit]]
+            u[hit] = stratified_uniforms(sh * len(stop_p) + side[hit], rng, major=sh)
             strata = None
         else:
             u = rng.random(m)
