@@ -372,15 +372,41 @@ def _budget(emitters: GroupEmitters, g: int, rays_per_group, ray_density) -> np.
     return np.where(emitters.weight > 0, rays, 0)
 
 
+@njit(cache=True, nogil=True)
+def _raw_refs(indptr, indices, data, g, inv_n):
+    """From the ray tally (CSR, g x (g + 3), sorted columns): the raw REFs F_raw = diag(inv_n) tally[:, :g + 1]
+    as CSR arrays (zeros dropped) and the counts (3, g) of the space, blocked and capped columns."""
+    fp = np.zeros(g + 1, np.int64)
+    ends = np.zeros((3, g))
+    for i in range(g):
+        c = 0
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            if j <= g and data[q] != 0.0:
+                c += 1
+            if j >= g:
+                ends[j - g, i] += data[q]
+        fp[i + 1] = fp[i] + c
+    fi = np.empty(fp[g], np.int64)
+    fv = np.empty(fp[g])
+    m = 0
+    for i in range(g):
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            if j <= g and data[q] != 0.0:
+                fi[m] = j
+                fv[m] = inv_n[i] * data[q]
+                m += 1
+    return fp, fi, fv, ends
+
+
 def _result(tracer, rays, tally, segments, method, exponent, kappa, pilot, engine, sampling) -> ExchangeResult:
     g = tracer.g
     w = tracer.emitters.weight
     n = np.maximum(rays, 1).astype(float)
-    coo = tally.tocoo()
-    escaped_n, blocked_n, capped_n = (np.bincount(coo.row[coo.col == k], weights=coo.data[coo.col == k], minlength=g)
-                                      for k in (g, g + 1, g + 2))
-    F_raw = scale_rows(tally[:, : g + 1], np.where(rays > 0, 1.0 / n, 0.0))
-    F_raw.eliminate_zeros()
+    fp, fi, fv, ends_n = _raw_refs(tally.indptr, tally.indices, tally.data, g, np.where(rays > 0, 1.0 / n, 0.0))
+    F_raw = sp.csr_matrix((fv, fi, fp), shape=(g, g + 1))
+    escaped_n, blocked_n, capped_n = ends_n
     blocked = np.where(rays > 0, blocked_n / n, 0.0)
     capped = np.where(rays > 0, capped_n / n, 0.0)
     F, GR, lse = smooth(F_raw, w, rays, blocked, method, exponent)
