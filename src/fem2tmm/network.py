@@ -345,10 +345,11 @@ def solar_aware(case) -> bool:
     return bool(flag) and has_sun(case)
 
 
-def solar_prepass(model: FEModel, case, surface=None) -> np.ndarray:
+def solar_prepass(model: FEModel, case, surface=None, scene=None) -> np.ndarray:
     """A cheap solar map for the clustering: absorbed flux (n_elements,) W/m² of every mesh element (NaN outside
     the model), traced on the flat FE faces with :data:`PREPASS_RAYS_PER_FACE` rays per face on average (one
-    emitting group, origins uniform over the Sun's cross-section), shadowing and reflections included."""
+    emitting group, origins uniform over the Sun's cross-section), shadowing and reflections included.  ``scene``:
+    a flat :class:`~fem2tmm.radiation.surfaces.TriangleScene` of ``surface`` to reuse."""
     from .radiation.solar import trace_solar
 
     surface = radiation_surface(model) if surface is None else surface
@@ -356,7 +357,7 @@ def solar_prepass(model: FEModel, case, surface=None) -> np.ndarray:
     f = model.faces
     res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=np.zeros(2 * f.n, np.int64),
                       rays_per_group=PREPASS_RAYS_PER_FACE * f.n, sampling=rs.sampling, seed=rs.seed,
-                      max_bounces=rs.max_bounces)
+                      max_bounces=rs.max_bounces, scene=scene)
     return face_flux_per_element(model, res.absorbed_face)
 
 

@@ -161,6 +161,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
     from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
                           has_sun, quadric_scene, radiation_surface, reduced_radiation, solar_aware, solar_prepass,
                           super_face_solar, super_faces)
+    from .radiation.surfaces import TriangleScene
 
     with prog.stage("read", "reading the mesh"):
         mesh = load_mesh(case) if mesh is None else mesh.validate()
@@ -174,18 +175,23 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
     sun = has_sun(case) and bool(model.faces.active.any())
     surface = radiation_surface(model) if (trace or sun) else None
     q_solar = None  # detailed solar nodal loads (n_dof,) W
+    scene = None  # one ray scene (Embree BVH) shared by every tracing stage
     if case.reduction.enabled:
         flux = None
         if sun and solar_aware(case):
+            with prog.stage("scene", "building the ray scene"):
+                scene = TriangleScene(surface)
             with prog.stage("solar_prepass", "tracing a coarse solar map for the clustering"):
-                flux = solar_prepass(model, case, surface)
+                flux = solar_prepass(model, case, surface, scene=scene)
         with prog.stage("cluster", "clustering"):
             result.clustering = cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"),
                                               flux=flux)
-    scene = None
     if surface is not None and any(p.quadric for p in case.parts):
         with prog.stage("quadrics", "fitting quadrics"):
             scene, result.extras["quadrics"] = quadric_scene(model, case, surface, result.clustering)
+    elif surface is not None and scene is None:
+        with prog.stage("scene", "building the ray scene"):
+            scene = TriangleScene(surface)
     need_detailed_sun = sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed")
     if need_detailed_sun:
         with prog.stage("solar_detailed", "tracing solar rays on the detailed mesh"):
