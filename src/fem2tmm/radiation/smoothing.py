@@ -54,7 +54,8 @@ def _linear_gr(indptr, indices, data, row_scale, g, a, traced, exponent):
     """CSR arrays of GR = M + Mᵀ (g x g), M_ij = w_ij S_ij, S_ij = row_scale_i x the entries of columns j < g of a
     CSR matrix (sorted columns, no duplicates; later columns are ignored): Mᵀ by a counting sort on the columns,
     then row i of M and of Mᵀ merged (both sorted), zeros dropped.  Every entry is M_ij + M_ji (one commutative
-    addition), so GR is symmetric to the last bit."""
+    addition), so GR is symmetric to the last bit.  ``gi``, ``gv`` are returned with spare room at their end (the
+    first gp[g] entries are the matrix)."""
     mp = np.zeros(g + 1, np.int64)
     tp = np.zeros(g + 1, np.int64)
     for i in range(g):
@@ -86,32 +87,28 @@ def _linear_gr(indptr, indices, data, row_scale, g, a, traced, exponent):
             tv[slot[j]] = v
             slot[j] += 1
     gp = np.zeros(g + 1, np.int64)
-    for sweep in range(2):  # count, then fill
-        if sweep == 1:
-            gi = np.empty(gp[g], np.int64)
-            gv = np.empty(gp[g])
-        k = 0
-        for i in range(g):
-            p, pe = mp[i], mp[i + 1]
-            t, te = tp[i], tp[i + 1]
-            while p < pe or t < te:
-                if t >= te or (p < pe and mi[p] < ti[t]):
-                    col, val = mi[p], mv[p] + 0.0
-                    p += 1
-                elif p >= pe or ti[t] < mi[p]:
-                    col, val = ti[t], 0.0 + tv[t]
-                    t += 1
-                else:
-                    col, val = mi[p], mv[p] + tv[t]
-                    p += 1
-                    t += 1
-                if val != 0.0:
-                    if sweep == 1:
-                        gi[k] = col
-                        gv[k] = val
-                    k += 1
-            if sweep == 0:
-                gp[i + 1] = k
+    gi = np.empty(2 * nnz, np.int64)  # at most nnz(M) + nnz(Mᵀ) entries; the caller only reads gp[g] of them
+    gv = np.empty(2 * nnz)
+    k = 0
+    for i in range(g):
+        p, pe = mp[i], mp[i + 1]
+        t, te = tp[i], tp[i + 1]
+        while p < pe or t < te:
+            if t >= te or (p < pe and mi[p] < ti[t]):
+                col, val = mi[p], mv[p] + 0.0
+                p += 1
+            elif p >= pe or ti[t] < mi[p]:
+                col, val = ti[t], 0.0 + tv[t]
+                t += 1
+            else:
+                col, val = mi[p], mv[p] + tv[t]
+                p += 1
+                t += 1
+            if val != 0.0:
+                gi[k] = col
+                gv[k] = val
+                k += 1
+        gp[i + 1] = k
     return gp, gi, gv
 
 
@@ -161,7 +158,7 @@ def enforce_reciprocity(S: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, 
         g = S.shape[0]
         gp, gi, gv = _linear_gr(S.indptr, S.indices, S.data, np.ones(g), g, eps_area / np.maximum(rays, 1), rays > 0,
                                 float(exponent))
-        return sp.csr_matrix((gv, gi, gp), shape=S.shape)
+        return sp.csr_matrix((gv[:gp[g]].copy(), gi[:gp[g]].copy(), gp), shape=S.shape)
     if method != "fractional_variance":
         raise ValueError(f"unknown reciprocity method {method!r}: use one of {RECIPROCITY_METHODS}")
     U = (S + S.T).tocsr()  # pattern of S and S^T; data = S_ij + S_ji
@@ -193,17 +190,28 @@ def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: 
     if method == "linear":  # S = diag(εA) F_raw[:, :g] is formed inside the compiled kernel
         gp, gi, gv = _linear_gr(F_raw.indptr, F_raw.indices, F_raw.data, eps_area, g, eps_area / np.maximum(rays, 1),
                                 rays > 0, float(exponent))
-        GRb = sp.csr_matrix((gv, gi, gp), shape=(g, g))
     else:
         GRb = enforce_reciprocity(scale_rows(F_raw[:, :g], eps_area), eps_area, rays, method, exponent)
+        GRb.sort_indices()
+        gp, gi, gv = GRb.indptr, GRb.indices, GRb.data
     with np.errstate(divide="ignore"):
         inv = np.where(eps_area > 0, 1.0 / np.where(eps_area > 0, eps_area, 1.0), 0.0)
     space_raw = _column(F_raw.indptr, F_raw.indices, F_raw.data, g)
-    lse = np.where(eps_area > 0, 1.0 - blocked - inv * np.asarray(GRb.sum(axis=1)).ravel() - space_raw, 0.0)
+    lse = np.where(eps_area > 0, 1.0 - blocked - inv * _row_sums(gp, gv) - space_raw, 0.0)
     space = np.where(eps_area > 0, space_raw + lse, 0.0)
-    F = append_column(GRb, space, row_scale=inv)
-    GR = append_column(GRb, eps_area * space)
+    F = _append_arrays(gp, gi, gv, space, g, inv)
+    GR = _append_arrays(gp, gi, gv, eps_area * space, g, np.ones(g))
     return F, GR, lse
+
+
+@njit(cache=True, nogil=True)
+def _row_sums(indptr, data):
+    g = indptr.shape[0] - 1
+    out = np.zeros(g)
+    for i in range(g):
+        for q in range(indptr[i], indptr[i + 1]):
+            out[i] += data[q]
+    return out
 
 
 @njit(cache=True, nogil=True)
@@ -225,12 +233,20 @@ def append_column(A: sp.spmatrix, column: np.ndarray, row_scale: np.ndarray | No
     A.sort_indices()
     g, k = A.shape
     scale = np.ones(g) if row_scale is None else np.asarray(row_scale, np.float64)
-    data, indices, indptr = _append_column(A.indptr, A.indices, A.data, np.asarray(column, np.float64), k, scale)
-    return sp.csr_matrix((data, indices, indptr), shape=(g, k + 1))
+    return _append_arrays(A.indptr, A.indices, A.data, column, k, scale)
+
+
+def _append_arrays(indptr, indices, data, column, k, scale) -> sp.csr_matrix:
+    """:func:`append_column` on the CSR arrays of A (g, k); index arrays int32 when they fit (scipy keeps them)."""
+    g = len(indptr) - 1
+    itype = np.int32 if int(indptr[-1]) + g < 2**31 - 1 and k + 1 < 2**31 - 1 else np.int64
+    out_data, out_ind, out_ptr = _append_column(indptr, indices, data, np.asarray(column, np.float64), k, scale,
+                                                np.empty(0, itype))
+    return sp.csr_matrix((out_data, out_ind, out_ptr), shape=(g, k + 1))
 
 
 @njit(cache=True, nogil=True)
-def _append_column(indptr, indices, data, column, k, scale):
+def _append_column(indptr, indices, data, column, k, scale, itmpl):
     """CSR arrays of [diag(scale) A | column] (column index k) without the zeros of either, in one pass."""
     g = indptr.shape[0] - 1
     n = 0
@@ -239,8 +255,8 @@ def _append_column(indptr, indices, data, column, k, scale):
             n += scale[r] * data[j] != 0.0
         n += column[r] != 0.0
     out_data = np.empty(n)
-    out_ind = np.empty(n, np.int64)
-    out_ptr = np.empty(g + 1, np.int64)
+    out_ind = np.empty(n, itmpl.dtype)
+    out_ptr = np.empty(g + 1, itmpl.dtype)
     m = 0
     out_ptr[0] = 0
     for r in range(g):

@@ -161,7 +161,7 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
 
 
 @njit(cache=True, nogil=True)
-def keys_to_csr(keys, values, ncol, g):
+def keys_to_csr(keys, values, ncol, g, itmpl):
     """CSR arrays ``(indptr (g + 1,), columns, values)`` of the (g, ncol) matrix holding ``values`` (k,) at the
     flat positions ``keys`` (k,) = row x ncol + column, duplicates summed, columns sorted within each row.  Linear
     when the keys are nearly sorted (batch tallies: only the rows straddling two batches need a sort)."""
@@ -179,8 +179,8 @@ def keys_to_csr(keys, values, ncol, g):
         kk[slot[r]] = keys[i]
         vv[slot[r]] = values[i]
         slot[r] += 1
-    indptr = np.zeros(g + 1, np.int64)
-    cols = np.empty(k, np.int64)
+    indptr = np.zeros(g + 1, itmpl.dtype)
+    cols = np.empty(k, itmpl.dtype)
     vals = np.empty(k)
     m = 0
     for r in range(g):
@@ -346,7 +346,8 @@ class _ExchangeTracer:
         counts = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
         segments = int(sum(p[2] for p in parts))
         # batches are in group order, so the keys are sorted except where a group straddles two batches
-        indptr, c, v = keys_to_csr(keys, counts.astype(np.float64), ncol, g)
+        itmpl = np.empty(0, np.int32 if keys.size < 2**31 - 1 and ncol < 2**31 - 1 else np.int64)
+        indptr, c, v = keys_to_csr(keys, counts.astype(np.float64), ncol, g, itmpl)
         tally = sp.csr_matrix((v, c, indptr), shape=(g, ncol))
         if any(p[3] is not None for p in parts):
             # weighted rays: scale each group's row so that it sums to its ray count (self-normalised estimator)
@@ -373,10 +374,10 @@ def _budget(emitters: GroupEmitters, g: int, rays_per_group, ray_density) -> np.
 
 
 @njit(cache=True, nogil=True)
-def _raw_refs(indptr, indices, data, g, inv_n):
+def _raw_refs(indptr, indices, data, g, inv_n, itmpl):
     """From the ray tally (CSR, g x (g + 3), sorted columns): the raw REFs F_raw = diag(inv_n) tally[:, :g + 1]
     as CSR arrays (zeros dropped) and the counts (3, g) of the space, blocked and capped columns."""
-    fp = np.zeros(g + 1, np.int64)
+    fp = np.zeros(g + 1, itmpl.dtype)
     ends = np.zeros((3, g))
     for i in range(g):
         c = 0
@@ -387,7 +388,7 @@ def _raw_refs(indptr, indices, data, g, inv_n):
             if j >= g:
                 ends[j - g, i] += data[q]
         fp[i + 1] = fp[i] + c
-    fi = np.empty(fp[g], np.int64)
+    fi = np.empty(fp[g], itmpl.dtype)
     fv = np.empty(fp[g])
     m = 0
     for i in range(g):
@@ -404,7 +405,8 @@ def _result(tracer, rays, tally, segments, method, exponent, kappa, pilot, engin
     g = tracer.g
     w = tracer.emitters.weight
     n = np.maximum(rays, 1).astype(float)
-    fp, fi, fv, ends_n = _raw_refs(tally.indptr, tally.indices, tally.data, g, np.where(rays > 0, 1.0 / n, 0.0))
+    fp, fi, fv, ends_n = _raw_refs(tally.indptr, tally.indices, tally.data, g, np.where(rays > 0, 1.0 / n, 0.0),
+                                   np.empty(0, np.int32 if tally.nnz < 2**31 - 1 else np.int64))
     F_raw = sp.csr_matrix((fv, fi, fp), shape=(g, g + 1))
     escaped_n, blocked_n, capped_n = ends_n
     blocked = np.where(rays > 0, blocked_n / n, 0.0)
