@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from fem2tmm.radiation.sampling import HALTON_BASES, ScrambledHalton, cosine_directions, tangent_frames, triangle_points
+from fem2tmm.radiation.kernels import cosine_directions
+from fem2tmm.radiation.sampling import HALTON_BASES, ScrambledHalton
+from fem2tmm.radiation.surfaces import Surface, TriangleScene
 
 
 def test_unscrambled_halton_is_scipys_sequence():
@@ -54,7 +56,10 @@ def test_triangle_map_is_area_preserving():
     rng = np.random.default_rng(3)
     n = 100_000
     tri = np.array([[0.0, 0.0, 0.0], [3.0, 0.5, 0.0], [1.0, 2.0, 1.0]])
-    p = triangle_points(np.broadcast_to(tri, (n, 3, 3)), rng.random(n), rng.random(n))
+    scene = TriangleScene(Surface(tri, [[0, 1, 2]]), backend="numpy")
+    p, nrm = scene.sample(np.zeros(n, np.int64), rng.random(n), rng.random(n))
+    np.testing.assert_allclose(nrm, np.broadcast_to(np.cross(tri[1] - tri[0], tri[2] - tri[0]), (n, 3))
+                               / np.linalg.norm(np.cross(tri[1] - tri[0], tri[2] - tri[0])), atol=1e-15)
     # barycentric coordinate of p0 from the solve p = p0 + b1 e1 + b2 e2
     e = np.stack([tri[1] - tri[0], tri[2] - tri[0]], axis=1)
     b = np.linalg.lstsq(e, (p - tri[0]).T, rcond=None)[0].T
@@ -65,18 +70,24 @@ def test_triangle_map_is_area_preserving():
     assert np.all(np.abs(p.mean(axis=0) - tri.mean(axis=0)) < 5 * spread)
 
 
-def test_cosine_directions_follow_lamberts_law():
-    # cosine law (thesis eq. 1.41): E[cos θ] = 2/3 and P(θ < 60°) = sin² 60° = 3/4, for any normal
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_cosine_directions_follow_lamberts_law(side):
+    # cosine law (thesis eq. 1.41) about side x normal: E[cos θ] = 2/3 and P(θ < 60°) = sin² 60° = 3/4, for any
+    # normal (including normals along ±z, where the tangent frame switches branch)
     rng = np.random.default_rng(4)
     n = 200_000
     normals = rng.normal(size=(n, 3))
+    normals[:100] = [0.0, 0.0, 1.0]
+    normals[100:200] = [0.0, 0.0, -1.0]
     normals /= np.linalg.norm(normals, axis=1)[:, None]
-    d = cosine_directions(normals, rng.random(n), rng.random(n))
+    d = cosine_directions(normals, np.full(n, side), rng.random(n), rng.random(n))
     np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0, atol=1e-12)
-    c = np.einsum("ij,ij->i", d, normals)
+    c = side * np.einsum("ij,ij->i", d, normals)
     assert c.min() >= 0.0
     assert abs(c.mean() - 2 / 3) < 4 * np.sqrt(1 / 18 / n)  # Var[cos θ] = 1/2 - 4/9 = 1/18
     assert abs(np.mean(c > 0.5) - 0.75) < 4 * np.sqrt(0.75 * 0.25 / n)
-    t1, t2 = tangent_frames(normals)
-    np.testing.assert_allclose(np.einsum("ij,ij->i", t1, normals), 0.0, atol=1e-12)
-    np.testing.assert_allclose(np.cross(t1, t2), normals, atol=1e-12)
+    # u = 0: along the (signed) normal; u -> 1, any v: in the tangent plane
+    np.testing.assert_allclose(cosine_directions(normals[:50], np.full(50, side), np.zeros(50), rng.random(50)),
+                               side * normals[:50], atol=1e-15)
+    t = cosine_directions(normals[:300], np.full(300, side), np.ones(300), rng.random(300))
+    np.testing.assert_allclose(np.einsum("ij,ij->i", t, normals[:300]), 0.0, atol=1e-12)

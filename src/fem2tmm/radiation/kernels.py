@@ -60,6 +60,30 @@ def _offset_one(px, py, pz, nx, ny, nz, s, cx, cy, cz, curved, eps):
     return px + e * nx, py + e * ny, pz + e * nz
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _triangle_point(geom, j, u, v):
+    """Area-preserving map (thesis eq. 2.18) of the unit-square sample (u, v) onto triangle j of ``geom`` (t, 12)
+    (p0, p1 - p0, p2 - p0, unit front normal): the point (1 - √u) p0 + √u (1 - v) p1 + √u v p2."""
+    s = math.sqrt(u)
+    a, b = s * (1.0 - v), s * v
+    return (geom[j, 0] + a * geom[j, 3] + b * geom[j, 6], geom[j, 1] + a * geom[j, 4] + b * geom[j, 7],
+            geom[j, 2] + a * geom[j, 5] + b * geom[j, 8])
+
+
+@njit(cache=True, nogil=True)
+def sample_points(prim, u, v, geom):
+    """Points (r, 3) on triangles ``prim`` (r,) of ``geom`` (t, 12) from unit-square samples ``u``, ``v`` (r,) by
+    the area-preserving map (thesis eq. 2.18), and the triangles' unit front normals (r, 3)."""
+    r = prim.shape[0]
+    p = np.empty((r, 3))
+    n = np.empty((r, 3))
+    for k in range(r):
+        j = prim[k]
+        p[k, 0], p[k, 1], p[k, 2] = _triangle_point(geom, j, u[k], v[k])
+        n[k, 0], n[k, 1], n[k, 2] = geom[j, 9], geom[j, 10], geom[j, 11]
+    return p, n
+
+
 @njit(cache=True, nogil=True)
 def emit_rays(prim, sign, U, geom, centroid, curved, eps):
     """Emitted rays from flat triangles ``prim`` (r,), sides ``sign`` (r,), driven by the unit-hypercube samples
@@ -71,11 +95,7 @@ def emit_rays(prim, sign, U, geom, centroid, curved, eps):
     d = np.empty((r, 3))
     for k in range(r):
         j = prim[k]
-        s = math.sqrt(U[k, 0])
-        a, b = s * (1.0 - U[k, 1]), s * U[k, 1]
-        px = geom[j, 0] + a * geom[j, 3] + b * geom[j, 6]
-        py = geom[j, 1] + a * geom[j, 4] + b * geom[j, 7]
-        pz = geom[j, 2] + a * geom[j, 5] + b * geom[j, 8]
+        px, py, pz = _triangle_point(geom, j, U[k, 0], U[k, 1])
         nx, ny, nz = geom[j, 9], geom[j, 10], geom[j, 11]
         d[k, 0], d[k, 1], d[k, 2] = _cosine_dir(nx, ny, nz, sign[k], U[k, 2], U[k, 3])
         o[k, 0], o[k, 1], o[k, 2] = _offset_one(px, py, pz, nx, ny, nz, sign[k], centroid[j, 0], centroid[j, 1],

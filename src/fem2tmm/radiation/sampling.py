@@ -1,9 +1,8 @@
-"""Sample generation for the ray tracer: scrambled Halton points, area-preserving triangle map, cosine directions.
+"""Scrambled Halton points for the ray tracer (thesis §2.2.4, coupled 4-D sampling §2.3.2).  The maps that turn
+them into origins and directions (area-preserving triangle map eq. 2.18, Malley's cosine law §2.2.1) are the
+compiled kernels of :mod:`fem2tmm.radiation.kernels`.
 
-Thesis references (``seeds/jacques-2016-reduced-fe-space-thermal.txt``): Halton sequence §2.2.4, area-preserving
-triangle map eq. 2.18, Malley's cosine-law direction sampling §2.2.1 / eq. 2.3, coupled 4-D sampling §2.3.2.
-
-Everything is vectorised over rays; nothing loops over rays in Python.  The scrambled Halton generator is written
+The scrambled Halton generator is written
 here (instead of one ``scipy.stats.qmc.Halton`` object per super face) because a model may have 10^4-10^5 emitting
 groups, each needing its own random segment of the sequence: the generator below takes an arbitrary array of
 integer indices, so every group reads ``offset_g + k`` for its k-th ray in one vectorised call.
@@ -30,8 +29,9 @@ class ScrambledHalton:
     (n = 2^k 3^l consecutive indices put exactly one point in each 2^-k x 3^-l box of the first two coordinates).
     ``scramble=False`` gives the plain radical inverses (identical to ``scipy.stats.qmc.Halton(scramble=False)``).
 
-    The radical inverse is evaluated m digits at a time through a lookup table of the b^m digit combinations, so
-    a call costs about 4 array operations per block of m digits (m = 10, 6, 4, 3, 2, 2 for the bases 2 ... 13).
+    The radical inverse is evaluated m digits at a time through a lookup table of the b^m digit combinations
+    (m = 10, 6, 4, 3, 2, 2 for the bases 2 ... 13), in a compiled loop that steps runs of consecutive indices
+    (about 6 ns per 6-D point).
     """
 
     def __init__(self, rng: np.random.Generator | None = None, bases=HALTON_BASES, scramble: bool = True):
@@ -104,55 +104,3 @@ def _radical_inverse(index, B, tables, tail, nb, out, c):
                 rest = qq
         out[k, c] = min(high + tables[0, low], _ONE_MINUS)
         prev = i
-
-
-def triangle_points(vertices: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Area-preserving map of the unit square onto triangles (thesis eq. 2.18).
-
-    ``vertices`` (r, 3, 3) m (one triangle per sample), ``u``, ``v`` (r,) in [0, 1): the point is
-    (1 - √u) p0 + √u (1 - v) p1 + √u v p2, uniform over the triangle when (u, v) is uniform over the square.
-    Returns (r, 3) m.
-    """
-    s = np.sqrt(u)
-    a = (s * (1.0 - v))[:, None]
-    b = (s * v)[:, None]
-    p0 = vertices[:, 0]
-    return p0 + a * (vertices[:, 1] - p0) + b * (vertices[:, 2] - p0)
-
-
-def tangent_frames(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit tangents (t1, t2), each (r, 3), completing the unit normals ``n`` (r, 3) to right-handed bases.
-
-    Branch-free construction (Frisvad 2012, revised by Duff et al. 2017), continuous except across n_z = 0.
-    """
-    nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
-    sign = np.copysign(1.0, nz)
-    a = -1.0 / (sign + nz)
-    b = nx * ny * a
-    t1 = np.stack([1.0 + sign * nx * nx * a, sign * b, -sign * nx], axis=1)
-    t2 = np.stack([b, sign + ny * ny * a, -ny], axis=1)
-    return t1, t2
-
-
-def cosine_directions(n: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Lambertian (cosine-law) unit directions about the unit normals ``n`` (r, 3) by Malley's method.
-
-    A point of the unit disc at radius √u and angle 2πv is lifted onto the hemisphere (thesis §2.2.1):
-    d = √u cos(2πv) t1 + √u sin(2πv) t2 + √(1 - u) n with (t1, t2) from :func:`tangent_frames` (expanded inline
-    here: this runs once per diffuse bounce).  ``u``, ``v`` (r,) in [0, 1).  Returns (r, 3).
-    """
-    nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
-    r = np.sqrt(u)
-    phi = (2.0 * np.pi) * v
-    x = r * np.cos(phi)
-    y = r * np.sin(phi)
-    z = np.sqrt(np.maximum(1.0 - u, 0.0))
-    sign = np.copysign(1.0, nz)
-    a = -1.0 / (sign + nz)
-    b = nx * ny * a
-    sx = sign * x
-    out = np.empty(n.shape)
-    out[:, 0] = x + sx * nx * nx * a + y * b + z * nx
-    out[:, 1] = sx * b + y * (sign + ny * ny * a) + z * ny
-    out[:, 2] = z * nz - sx * nx - y * ny
-    return out

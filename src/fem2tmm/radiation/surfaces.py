@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import cosine_directions, emit_rays, locate_entries, offset_points
+from .kernels import cosine_directions, emit_rays, locate_entries, offset_points, sample_points
 
 FRONT, BACK = 0, 1
 #: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
@@ -205,9 +205,11 @@ class Surface:
 class TriangleScene:
     """Ray-scene of a :class:`Surface`: robust closest-hit queries, emission and diffuse scattering on its
     triangles.  This is the only geometry object the bounce loop talks to; curved super faces (quadrics) subclass
-    it and override :meth:`emit`, :meth:`hit_geometry`, :meth:`scatter` and :meth:`intersect` (and, for
-    non-uniform sampling of their true area, :meth:`emit_weighted`, :meth:`facing_areas`, :meth:`sample_facing`;
-    see :class:`fem2tmm.radiation.quadric.QuadricScene`).
+    it and override :meth:`intersect`, :meth:`hit_geometry`, :meth:`hit_normals` (the curved normal at a hit),
+    :meth:`offset` and the ``curved`` column of :meth:`bounce_tables`, and the emission methods (:meth:`emit`,
+    :meth:`emit_weighted`, :meth:`facing_areas`, :meth:`sample_facing`, for non-uniform sampling of their true
+    area; see :class:`fem2tmm.radiation.quadric.QuadricScene`).  The per-ray work is done by the compiled kernels
+    of :mod:`fem2tmm.radiation.kernels`.
 
     ``backend``: "auto" (Embree when importable), "embree" or "numpy".  Origins are offset by
     ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray leaves; a hit on the very
@@ -229,25 +231,16 @@ class TriangleScene:
         self.eps = ORIGIN_OFFSET * max(self.diagonal, 1e-300)
         self.engine = make_engine(tri.vertices, backend) if engine else None
         v = tri.vertices
-        # per-triangle columns p0 (0:3), p1 - p0 (3:6), p2 - p0 (6:9), n (9:12), stored column-major: 1-D gathers
-        # per component are much faster in numpy than strided row gathers
-        self._cols = np.ascontiguousarray(np.concatenate([v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], tri.normal],
-                                                         axis=1).T)
-        self._geom = np.ascontiguousarray(self._cols.T)  # the same, one row per triangle (compiled kernels)
+        # one row per triangle: p0 (0:3), p1 - p0 (3:6), p2 - p0 (6:9), unit front normal (9:12)
+        self._geom = np.ascontiguousarray(np.concatenate([v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], tri.normal],
+                                                         axis=1))
         self._tables = None
 
     def sample(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points on primitives ``prim`` (r,) from unit-square samples ``u``, ``v`` (r,) by the area-preserving
         map (1 - √u, √u (1 - v), √u v) (thesis eq. 2.18): returns ``(points (r, 3) m, unit front normals (r, 3))``."""
-        s = np.sqrt(u)
-        a, b = s * (1.0 - v), s * v
-        C = self._cols
-        p = np.empty((len(prim), 3))
-        n = np.empty((len(prim), 3))
-        for c in range(3):  # loop over x, y, z
-            p[:, c] = C[c].take(prim) + a * C[3 + c].take(prim) + b * C[6 + c].take(prim)
-            n[:, c] = C[9 + c].take(prim)
-        return p, n
+        return sample_points(np.asarray(prim), np.ascontiguousarray(u, dtype=np.float64),
+                             np.ascontiguousarray(v, dtype=np.float64), self._geom)
 
     def emit(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Emitted rays from primitives ``prim`` (r,), side ``sign`` (r,) +1 front / -1 back, driven by the
