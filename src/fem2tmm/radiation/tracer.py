@@ -161,6 +161,55 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
 
 
 @njit(cache=True, nogil=True)
+def _batch_tally(grp, ends, side_col, ncol, w):
+    """Sorted flat keys ``group x ncol + column`` and their (energy-weighted) counts for the rays of a batch:
+    ``grp`` (r,) non-decreasing source group, ``ends`` (r,) as returned by :func:`trace_paths`, ``side_col``
+    (2f,) the column of each absorbing side; columns g, g + 1, g + 2 (g = ncol - 3) are space, blocked and capped.
+    ``w`` (r,) ray energies, or empty for unit rays."""
+    r = grp.shape[0]
+    g = ncol - 3
+    weighted = w.shape[0] == r
+    keys = np.empty(r, np.int64)
+    counts = np.empty(r)
+    dest = np.empty(r, np.int64)
+    m = 0
+    a = 0
+    while a < r:
+        b = a + 1
+        while b < r and grp[b] == grp[a]:
+            b += 1
+        for i in range(a, b):
+            e = ends[i]
+            dest[i] = side_col[e] if e >= 0 else g - 1 - e  # -1 space, -2 blocked, -3 capped
+        base = grp[a] * ncol
+        prev = -1
+        if weighted:
+            o = np.argsort(dest[a:b], kind="mergesort") + a
+            for i in o:
+                c = dest[i]
+                if c == prev:
+                    counts[m - 1] += w[i]
+                else:
+                    keys[m] = base + c
+                    counts[m] = w[i]
+                    m += 1
+                    prev = c
+        else:
+            run = dest[a:b]
+            run.sort()  # in place
+            for c in run:
+                if c == prev:
+                    counts[m - 1] += 1.0
+                else:
+                    keys[m] = base + c
+                    counts[m] = 1.0
+                    m += 1
+                    prev = c
+        a = b
+    return keys[:m].copy(), counts[:m].copy()
+
+
+@njit(cache=True, nogil=True)
 def keys_to_csr(keys, values, ncol, g, itmpl):
     """CSR arrays ``(indptr (g + 1,), columns, values)`` of the (g, ncol) matrix holding ``values`` (k,) at the
     flat positions ``keys`` (k,) = row x ncol + column, duplicates summed, columns sorted within each row.  Linear
@@ -304,7 +353,6 @@ class _ExchangeTracer:
         ncol = g + 3
         # destination column of an absorbing side: its group, or "blocked" when it is not a REF node
         side_col = np.where(self.groups >= 0, self.groups, g + 1)
-        end_col = np.array([g + 2, g + 1, g])  # indexed by END_CAPPED, END_BLOCKED, END_SPACE (-3, -2, -1)
 
         def job(b):
             lo_, hi_ = b * batch, min((b + 1) * batch, total)
@@ -324,22 +372,13 @@ class _ExchangeTracer:
             ends, segs = trace_paths(self.scene, self.optics, o, d, prim, rng, max_bounces,
                                      strata=grp if halton is not None else None,
                                      first_scatter=U[:, 4:6] if halton is not None else None)
-            dest = np.where(ends >= 0, side_col[np.maximum(ends, 0)], end_col[np.minimum(ends, -1) + 3])
-            g0 = int(grp[0])
-            span = int(grp[-1]) - g0 + 1
-            local = (grp - g0) * ncol + dest
             # w: relative ray energies of curved emitters (None: every ray counts 1)
-            wsum = None if w is None else (np.arange(g0, g0 + span), np.bincount(grp - g0, weights=w, minlength=span))
-            if span * ncol <= 8 * rho.size:
-                counts = np.bincount(local, weights=w, minlength=span * ncol)
-                keys = np.nonzero(counts)[0]
-                counts = counts[keys]
-            elif w is None:
-                keys, counts = np.unique(local, return_counts=True)
-            else:
-                keys, inv = np.unique(local, return_inverse=True)
-                counts = np.bincount(inv.ravel(), weights=w, minlength=keys.size)
-            return keys + g0 * ncol, counts, segs, wsum
+            wsum = None
+            if w is not None:
+                g0, span = int(grp[0]), int(grp[-1]) - int(grp[0]) + 1
+                wsum = (np.arange(g0, g0 + span), np.bincount(grp - g0, weights=w, minlength=span))
+            keys, counts = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w)
+            return keys, counts, segs, wsum
 
         parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
         keys = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
