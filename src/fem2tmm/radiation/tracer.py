@@ -74,30 +74,63 @@ def stratified_uniforms(keys: np.ndarray, rng: np.random.Generator, major: np.nd
     return u
 
 
+_HASH = np.int64(0x61C8864680B583EB)  # an odd 64-bit constant (golden-ratio hashing)
+
+
 @njit(cache=True, nogil=True)
 def _stratified_runs(major, keys, shuffle, phase):
-    """:func:`stratified_uniforms` for runs of equal ``major``: within each run, entries sorted by key with the
-    uniforms ``shuffle`` (r,) as random tie-breaks; key j of the run gets its phase from ``phase`` at its first
-    entry."""
+    """:func:`stratified_uniforms` for runs of equal ``major``, in linear time: within each run the entries are
+    visited in a random order (a Fisher-Yates permutation driven by ``shuffle`` (r,)), each gets the number of
+    entries of its key visited before it as its rank, and key j gets its phase from ``phase`` at its first entry
+    (keys of a run are found by open addressing in a table twice the run's length)."""
     n = keys.shape[0]
     u = np.empty(n)
+    order = np.empty(n, np.int64)
+    slot_of = np.empty(n, np.int64)
+    cap = 8
+    tkey = np.empty(cap, np.int64)
+    tcount = np.zeros(cap, np.int64)
+    tseen = np.zeros(cap, np.int64)
+    tphase = np.zeros(cap)
+    used = np.zeros(cap, np.bool_)
     a = 0
     while a < n:
         b = a + 1
         while b < n and major[b] == major[a]:
             b += 1
-        # keys are integers: the tie-breaks (< 1) stay within a key (offset by the run's smallest key, so exactly)
-        o = np.argsort((keys[a:b] - keys[a:b].min()) + shuffle[a:b]) + a
-        i = 0
-        while i < b - a:
-            j = i + 1
-            while j < b - a and keys[o[j]] == keys[o[i]]:
-                j += 1
-            m = j - i
-            ph = phase[o[i]]
-            for t in range(i, j):
-                u[o[t]] = (t - i + ph) / m
-            i = j
+        m = b - a
+        while cap < 2 * m:
+            cap *= 2
+            tkey = np.empty(cap, np.int64)
+            tcount = np.zeros(cap, np.int64)
+            tseen = np.zeros(cap, np.int64)
+            tphase = np.zeros(cap)
+            used = np.zeros(cap, np.bool_)
+        mask = cap - 1
+        for i in range(a, b):  # count the entries of each key
+            h = ((keys[i] * _HASH) >> 29) & mask  # multiplicative hashing (wrapping int64 product)
+            while used[h] and tkey[h] != keys[i]:
+                h = (h + 1) & mask
+            if not used[h]:
+                used[h] = True
+                tkey[h] = keys[i]
+                tcount[h] = 0
+                tseen[h] = 0
+                tphase[h] = phase[i]
+            tcount[h] += 1
+            slot_of[i] = h
+        for i in range(m):  # random visiting order of the run
+            order[a + i] = a + i
+        for i in range(m - 1, 0, -1):
+            j = int(shuffle[a + i] * (i + 1))
+            order[a + i], order[a + j] = order[a + j], order[a + i]
+        for t in range(a, b):
+            i = order[t]
+            h = slot_of[i]
+            u[i] = (tseen[h] + tphase[h]) / tcount[h]
+            tseen[h] += 1
+        for i in range(a, b):  # clear the table for the next run
+            used[slot_of[i]] = False
         a = b
     return u
 
