@@ -64,6 +64,48 @@ def _less(kd, ke, kc, a, b):
     return kc[a] < kc[b]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _swap(kd, ke, kc, a, b):
+    kd[a], kd[b] = kd[b], kd[a]
+    ke[a], ke[b] = ke[b], ke[a]
+    kc[a], kc[b] = kc[b], kc[a]
+
+
+@njit(cache=True, nogil=True)
+def _push(kd, ke, kc, size, d, e, c):
+    """Add (d, e, c) to the heap of ``size`` entries and sift it up; returns the new size."""
+    pos = size
+    kd[pos], ke[pos], kc[pos] = d, e, c
+    while pos > 0:
+        parent = (pos - 1) // 2
+        if not _less(kd, ke, kc, pos, parent):
+            break
+        _swap(kd, ke, kc, pos, parent)
+        pos = parent
+    return size + 1
+
+
+@njit(cache=True, nogil=True)
+def _pop(kd, ke, kc, size):
+    """Remove the root of the heap of ``size`` entries (the last entry moves to the root and sifts down);
+    returns ``(element, cluster, new size)`` of the root."""
+    e, c = ke[0], kc[0]
+    size -= 1
+    kd[0], ke[0], kc[0] = kd[size], ke[size], kc[size]
+    pos = 0
+    while True:
+        child = 2 * pos + 1
+        if child >= size:
+            break
+        if child + 1 < size and _less(kd, ke, kc, child + 1, child):
+            child += 1
+        if not _less(kd, ke, kc, child, pos):
+            break
+        _swap(kd, ke, kc, pos, child)
+        pos = child
+    return e, c, size
+
+
 @njit(cache=True, nogil=True)
 def _grow(indptr, indices, centroids, seeds):
     """The growing loop with an array-based binary heap of (key, element, cluster) (at most nnz + k entries)."""
@@ -76,42 +118,14 @@ def _grow(indptr, indices, centroids, seeds):
     label = np.full(n, -1, np.int64)
     best = np.full(n, np.inf)
     size = 0
-    for c in range(k):  # push the seeds
-        pos = size
-        kd[pos], ke[pos], kc[pos] = 0.0, seeds[c], c
-        size += 1
+    for c in range(k):
+        size = _push(kd, ke, kc, size, 0.0, seeds[c], c)
         best[seeds[c]] = 0.0
-        while pos > 0:
-            parent = (pos - 1) // 2
-            if _less(kd, ke, kc, pos, parent):
-                kd[pos], kd[parent] = kd[parent], kd[pos]
-                ke[pos], ke[parent] = ke[parent], ke[pos]
-                kc[pos], kc[parent] = kc[parent], kc[pos]
-                pos = parent
-            else:
-                break
     seed_xyz = np.empty((k, dim))
     for c in range(k):
         seed_xyz[c] = centroids[seeds[c]]
     while size > 0:
-        e, c = ke[0], kc[0]
-        size -= 1  # pop: the last entry moves to the root and sifts down
-        kd[0], ke[0], kc[0] = kd[size], ke[size], kc[size]
-        pos = 0
-        while True:
-            left = 2 * pos + 1
-            if left >= size:
-                break
-            child = left
-            if left + 1 < size and _less(kd, ke, kc, left + 1, left):
-                child = left + 1
-            if _less(kd, ke, kc, child, pos):
-                kd[pos], kd[child] = kd[child], kd[pos]
-                ke[pos], ke[child] = ke[child], ke[pos]
-                kc[pos], kc[child] = kc[child], kc[pos]
-                pos = child
-            else:
-                break
+        e, c, size = _pop(kd, ke, kc, size)
         if label[e] >= 0:
             continue
         label[e] = c
@@ -125,16 +139,5 @@ def _grow(indptr, indices, centroids, seeds):
                 d += t * t
             if d < best[j]:
                 best[j] = d
-                pos = size  # push
-                kd[pos], ke[pos], kc[pos] = d, j, c
-                size += 1
-                while pos > 0:
-                    parent = (pos - 1) // 2
-                    if _less(kd, ke, kc, pos, parent):
-                        kd[pos], kd[parent] = kd[parent], kd[pos]
-                        ke[pos], ke[parent] = ke[parent], ke[pos]
-                        kc[pos], kc[parent] = kc[parent], kc[pos]
-                        pos = parent
-                    else:
-                        break
+                size = _push(kd, ke, kc, size, d, j, c)
     return label
