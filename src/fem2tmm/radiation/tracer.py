@@ -35,7 +35,8 @@ from numba import njit
 from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
-from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, hit_sides  # noqa: F401 - ends re-exported with trace_paths
+# the END_* constants are part of trace_paths' contract and re-exported here
+from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, hit_sides  # noqa: F401
 from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, scale_rows, smooth
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
