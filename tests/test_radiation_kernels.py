@@ -8,23 +8,29 @@ import scipy.sparse as sp
 
 from fem2tmm.radiation.sampling import ScrambledHalton
 from fem2tmm.radiation.smoothing import enforce_reciprocity, smooth
-from fem2tmm.radiation.tracer import _batch_tally, keys_to_csr, stratified_uniforms
+from fem2tmm.radiation.tracer import _batch_tally, runs_to_csr, stratified_uniforms
 
 
-def test_keys_to_csr_sums_duplicates_of_nearly_sorted_batches():
-    # batch tallies: each batch sorted, consecutive batches overlapping in the row that straddles them
+def test_runs_to_csr_merges_the_runs_of_rows_that_straddle_batches():
+    # batch tallies: each batch gives sorted, distinct columns per row; consecutive batches share the row between
+    # them, and a long row may span several batches
     rng = np.random.default_rng(0)
     g, ncol = 50, 53
-    batches = []
-    for lo in range(0, g, 7):
-        rows = rng.integers(max(lo - 1, 0), min(lo + 8, g), 200)
-        keys = np.unique(rows * ncol + rng.integers(0, ncol, 200))
-        batches.append(keys)
-    keys = np.concatenate(batches)
-    vals = rng.random(keys.size)
-    indptr, cols, data = keys_to_csr(keys, vals, ncol, g, np.empty(0, np.int32))
-    got = sp.csr_matrix((data, cols, indptr), shape=(g, ncol))
-    ref = sp.coo_matrix((vals, np.divmod(keys, ncol)), shape=(g, ncol)).tocsr()  # scipy sums duplicates
+    groups, lengths, cols, vals = [], [], [], []
+    row_runs = [(r, 1) for r in range(0, 20)] + [(20, 3)] + [(r, 2 if r % 7 == 0 else 1) for r in range(23, 50, 2)]
+    for row, n_runs in row_runs:  # rows 21, 22 and the even rows above 22 stay empty
+        for _ in range(n_runs):
+            c = np.unique(rng.integers(0, ncol, rng.integers(1, 30)))
+            groups.append(row)
+            lengths.append(c.size)
+            cols.append(c)
+            vals.append(rng.random(c.size))
+    rows = np.repeat(groups, lengths)
+    cols, vals = np.concatenate(cols).astype(np.int32), np.concatenate(vals)
+    ref = sp.coo_matrix((vals, (rows, cols)), shape=(g, ncol)).tocsr()  # scipy sums duplicates
+    indptr, c, data = runs_to_csr(np.array(groups), np.array(lengths), cols.copy(), vals.copy(), g,
+                                  np.empty(0, np.int32))
+    got = sp.csr_matrix((data, c, indptr), shape=(g, ncol))
     assert got.has_sorted_indices
     np.testing.assert_allclose(got.toarray(), ref.toarray(), rtol=1e-15)
     assert got.nnz == ref.nnz
@@ -40,8 +46,10 @@ def test_batch_tally_matches_numpy_unique():
     dest = np.where(ends >= 0, side_col[np.maximum(ends, 0)], g - 1 - ends)
     ref_keys, inv = np.unique(grp * ncol + dest, return_inverse=True)
     for w in (None, rng.random(r)):
-        keys, counts = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w)
-        np.testing.assert_array_equal(keys, ref_keys)
+        groups, lengths, cols, counts = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w,
+                                                     np.empty(0, np.int32))
+        np.testing.assert_array_equal(groups, np.unique(grp))
+        np.testing.assert_array_equal(np.repeat(groups, lengths) * ncol + cols, ref_keys)
         np.testing.assert_allclose(counts, np.bincount(inv.ravel(), weights=w, minlength=ref_keys.size), rtol=1e-13)
 
 

@@ -11,7 +11,8 @@ Conventions (shared with :mod:`fem2tmm.radiation.surfaces`): a *side* index is `
 side of sign ``s`` (+1 front, -1 back) leaves along ``s`` times the face's front normal; cosine-law directions are
 built in the Duff et al. (2017) orthonormal frame of the *front* normal with the polar component multiplied by ``s``
 (Malley's method, thesis §2.2.1); origins are pushed ``eps`` along ``s`` times the normal and, on flat triangles,
-``eps`` towards the triangle's centroid (so an origin on a shared edge still starts inside its own face).
+moved a fixed fraction of the way towards the triangle's centroid, at most ``eps`` (so an origin on a shared edge
+still starts inside its own face).
 """
 
 from __future__ import annotations
@@ -21,20 +22,18 @@ import math
 import numpy as np
 from numba import njit
 
+from .engine import embree_intersect1, rayhit_buffer
+
 #: ends of a ray path besides "absorbed by side s >= 0" (see :func:`fem2tmm.radiation.tracer.trace_paths`)
 END_SPACE, END_BLOCKED, END_CAPPED = -1, -2, -3
 _TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _cosine_dir(nx, ny, nz, s, u, v):
-    """Cosine-law unit direction about ``s`` x (nx, ny, nz) from the unit-square sample (u, v) (Malley: disc point
-    at radius √u, angle 2πv, lifted onto the hemisphere) in the Duff et al. frame of the front normal."""
-    r = math.sqrt(u)
-    phi = _TWO_PI * v
-    x = r * math.cos(phi)
-    y = r * math.sin(phi)
-    z = s * math.sqrt(max(1.0 - u, 0.0))
+def _lift(nx, ny, nz, x, y, z):
+    """Malley's method: the unit-disc point (x, y) lifted onto the hemisphere, z = ±√(1 - x² - y²) along the front
+    normal (nx, ny, nz) (a uniform disc point gives a cosine-law direction), in the Duff et al. frame of that
+    normal."""
     sg = 1.0 if nz >= 0.0 else -1.0
     a = -1.0 / (sg + nz)
     b = nx * ny * a
@@ -46,18 +45,32 @@ def _cosine_dir(nx, ny, nz, s, u, v):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _offset_one(px, py, pz, nx, ny, nz, s, cx, cy, cz, curved, eps):
-    """Origin pushed ``eps`` along ``s`` x normal, and (flat triangles) ``eps`` towards the centroid (cx, cy, cz)."""
-    if not curved:
-        tx, ty, tz = cx - px, cy - py, cz - pz
-        L = math.sqrt(tx * tx + ty * ty + tz * tz)
-        if L > 1e-300:
-            k = eps / L
-            px += k * tx
-            py += k * ty
-            pz += k * tz
+def _cosine_dir(nx, ny, nz, s, u, v):
+    """Cosine-law unit direction about ``s`` x (nx, ny, nz) from the unit-square sample (u, v): disc point at radius
+    √u, angle 2πv (area preserving, so stratified or low-discrepancy samples stay so), lifted by :func:`_lift`."""
+    r = math.sqrt(u)
+    phi = _TWO_PI * v
+    return _lift(nx, ny, nz, r * math.cos(phi), r * math.sin(phi), s * math.sqrt(max(1.0 - u, 0.0)))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _random_cosine_dir(nx, ny, nz, s, rng):
+    """Cosine-law unit direction about ``s`` x (nx, ny, nz) from pseudo-random numbers of ``rng``: a uniform disc
+    point by rejection from the square (no trigonometry; 2.55 numbers on average), lifted by :func:`_lift`."""
+    while True:
+        x = 2.0 * rng.random() - 1.0
+        y = 2.0 * rng.random() - 1.0
+        if x * x + y * y < 1.0:
+            return _lift(nx, ny, nz, x, y, s * math.sqrt(1.0 - x * x - y * y))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _offset_one(px, py, pz, nx, ny, nz, s, cx, cy, cz, shrink, eps):
+    """Origin moved the fraction ``shrink`` of the way towards the triangle's centroid (cx, cy, cz) (at most
+    ``eps``; 0 on curved triangles, see :meth:`~fem2tmm.radiation.surfaces.TriangleScene.bounce_tables`), then
+    pushed ``eps`` along ``s`` x normal."""
     e = eps * s
-    return px + e * nx, py + e * ny, pz + e * nz
+    return (px + shrink * (cx - px) + e * nx, py + shrink * (cy - py) + e * ny, pz + shrink * (cz - pz) + e * nz)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -85,7 +98,7 @@ def sample_points(prim, u, v, geom):
 
 
 @njit(cache=True, nogil=True)
-def emit_rays(prim, sign, U, geom, centroid, curved, eps):
+def emit_rays(prim, sign, U, geom, centroid, shrink, eps):
     """Emitted rays from flat triangles ``prim`` (r,), sides ``sign`` (r,), driven by the unit-hypercube samples
     ``U`` (r, >= 4): origins by the area-preserving map of U[:, 0:2] (thesis eq. 2.18), offset off the side;
     cosine-law directions from U[:, 2:4].  ``geom`` (t, 12): per-triangle p0, p1 - p0, p2 - p0 and the unit front
@@ -99,7 +112,7 @@ def emit_rays(prim, sign, U, geom, centroid, curved, eps):
         nx, ny, nz = geom[j, 9], geom[j, 10], geom[j, 11]
         d[k, 0], d[k, 1], d[k, 2] = _cosine_dir(nx, ny, nz, sign[k], U[k, 2], U[k, 3])
         o[k, 0], o[k, 1], o[k, 2] = _offset_one(px, py, pz, nx, ny, nz, sign[k], centroid[j, 0], centroid[j, 1],
-                                                centroid[j, 2], curved[j], eps)
+                                                centroid[j, 2], shrink[j], eps)
     return o, d
 
 
@@ -142,15 +155,15 @@ def cosine_directions(normals, sign, u, v):
 
 
 @njit(cache=True, nogil=True)
-def offset_points(prim, points, sign, normals, centroid, curved, eps):
+def offset_points(prim, points, sign, normals, centroid, shrink, eps):
     """Ray origins (r, 3) for rays leaving ``points`` (r, 3) of primitives ``prim`` (r,) into side ``sign`` (r,):
-    pushed ``eps`` (m) along sign x ``normals`` (r, 3) and, unless ``curved[prim]``, ``eps`` towards
-    ``centroid[prim]`` (t, 3).  ``points`` is overwritten and returned."""
+    pushed ``eps`` (m) along sign x ``normals`` (r, 3) after moving the fraction ``shrink[prim]`` (t,) of the way
+    towards ``centroid[prim]`` (t, 3).  ``points`` is overwritten and returned."""
     for k in range(prim.shape[0]):
         j = prim[k]
         points[k, 0], points[k, 1], points[k, 2] = _offset_one(
             points[k, 0], points[k, 1], points[k, 2], normals[k, 0], normals[k, 1], normals[k, 2], sign[k],
-            centroid[j, 0], centroid[j, 1], centroid[j, 2], curved[j], eps)
+            centroid[j, 0], centroid[j, 1], centroid[j, 2], shrink[j], eps)
     return points
 
 
@@ -174,33 +187,35 @@ def hit_sides(prim, d, tri_face, tri_normal, ray_normal):
 
 
 @njit(cache=True, nogil=True)
-def bounce(prim, t, o, d, idx, ends, u, r2, tri_face, tri_normal, ray_normal, centroid, curved, stop_p, cum, active,
-           eps):
+def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_face, tri_normal, ray_normal, centroid, shrink, stop_p, cum,
+           active, eps):
     """One bounce of a batch of rays, after their intersection query (thesis l. 664, MCRT without branching).
 
     ``prim`` (r,) primitive hit (-1: miss), ``t`` (r,) distance (m; a miss with t <= 0 is a ray lost to an
     unresolvable self hit and stays ``END_CAPPED``), ``o``/``d`` (r, 3) origins (m) and unit directions, ``idx``
-    (r,) ray ids into ``ends`` (n,) (written for every ray that stops here), ``u`` (r,) the event numbers, ``r2``
-    (r, 2) the numbers of a diffuse direction.  Scene tables: ``tri_face`` (t,), ``tri_normal`` (t, 3) unit front
-    normals, ``ray_normal`` (r, 3) front normals at the hit points when it has r rows (curved hits; ignored
-    otherwise), ``centroid`` (t, 3), ``curved`` (t,) bool, ``eps`` origin offset (m).  Optics per side (2f):
-    ``stop_p`` (absorptance, or 2 on inactive sides so that they always stop the ray), ``cum`` (2f, 4) cumulative
-    (absorbed, specular reflection, specular transmission, diffuse transmission), ``active``.
+    (r,) ray ids into ``ends`` (n,) (written for every ray that stops here).  Random numbers: ``u`` (r,) the event
+    numbers and ``r2`` (r, 2) the numbers of a diffuse direction (:func:`_cosine_dir`), or, when ``u`` is empty,
+    drawn here from ``rng`` (a numpy Generator: the event number of each ray that hits, then a rejection-sampled
+    disc point if its event is diffuse, :func:`_random_cosine_dir`).  Scene
+    tables: ``tri_face`` (t,), ``tri_normal`` (t, 3) unit front normals, ``ray_normal`` (r, 3) front normals at the
+    hit points when it has r rows (curved hits; ignored otherwise), ``centroid`` (t, 3), ``shrink`` (t,),
+    ``eps`` origin offset (m).  Optics per side (2f): ``stop_p`` (absorptance, or 2 on inactive sides so that they
+    always stop the ray), ``cum`` (2f, 4) cumulative (absorbed, specular reflection, specular transmission, diffuse
+    transmission), ``active``.
 
     At the hit: the side is the front when the ray travels against the normal; u < stop_p[side] ends the ray
     (absorbed by an active side, ``END_BLOCKED`` by an inactive one); otherwise u picks specular reflection,
-    specular transmission, diffuse transmission or diffuse reflection against ``cum``; diffuse directions follow
-    the cosine law about the normal of the side the ray leaves; the new origin is offset off that side.
+    specular transmission, diffuse transmission or diffuse reflection against ``cum`` (thesis l. 664); diffuse
+    directions follow the cosine law about the normal of the side the ray leaves; the new origin is offset off
+    that side.
 
-    Returns ``(n_alive, idx, o, d, prim)``: the surviving rays compacted into the first n_alive rows of new arrays
-    (ids, offset origins, directions, primitive they leave).
+    The surviving rays are compacted, in place and in order, into the first n_alive rows of ``idx``, ``o``, ``d``
+    (offset origins, new directions) and ``prim`` (the primitive each one leaves); returns n_alive.  (Row m <= k is
+    written only after row k was read, so compacting in place is safe.)
     """
     r = prim.shape[0]
     own = ray_normal.shape[0] == r
-    new_idx = np.empty(r, np.int64)
-    new_o = np.empty((r, 3))
-    new_d = np.empty((r, 3))
-    new_prim = np.empty(r, np.int64)
+    given = u.shape[0] == r
     m = 0
     for k in range(r):
         j = prim[k]
@@ -216,7 +231,7 @@ def bounce(prim, t, o, d, idx, ends, u, r2, tri_face, tri_normal, ray_normal, ce
         cos_in = dx * nx + dy * ny + dz * nz
         back = cos_in > 0.0
         side = 2 * tri_face[j] + (1 if back else 0)
-        uk = u[k]
+        uk = u[k] if given else rng.random()
         if uk < stop_p[side]:
             ends[idx[k]] = side if active[side] else END_BLOCKED
             continue
@@ -224,16 +239,59 @@ def bounce(prim, t, o, d, idx, ends, u, r2, tri_face, tri_normal, ray_normal, ce
         trans = (not spec_r) and uk < cum[side, 3]
         s = -1.0 if back != trans else 1.0
         if uk >= cum[side, 2]:  # diffuse reflection or transmission
-            dx, dy, dz = _cosine_dir(nx, ny, nz, s, r2[k, 0], r2[k, 1])
+            if given:
+                ex, ey, ez = _cosine_dir(nx, ny, nz, s, r2[k, 0], r2[k, 1])
+            else:
+                ex, ey, ez = _random_cosine_dir(nx, ny, nz, s, rng)
         elif spec_r:
             c2 = 2.0 * cos_in
-            dx, dy, dz = dx - c2 * nx, dy - c2 * ny, dz - c2 * nz
+            ex, ey, ez = dx - c2 * nx, dy - c2 * ny, dz - c2 * nz
+        else:  # specular transmission
+            ex, ey, ez = dx, dy, dz
         tk = t[k]
-        px, py, pz = o[k, 0] + tk * d[k, 0], o[k, 1] + tk * d[k, 1], o[k, 2] + tk * d[k, 2]
-        new_o[m, 0], new_o[m, 1], new_o[m, 2] = _offset_one(px, py, pz, nx, ny, nz, s, centroid[j, 0],
-                                                            centroid[j, 1], centroid[j, 2], curved[j], eps)
-        new_d[m, 0], new_d[m, 1], new_d[m, 2] = dx, dy, dz
-        new_idx[m] = idx[k]
-        new_prim[m] = j
+        px, py, pz = o[k, 0] + tk * dx, o[k, 1] + tk * dy, o[k, 2] + tk * dz
+        o[m, 0], o[m, 1], o[m, 2] = _offset_one(px, py, pz, nx, ny, nz, s, centroid[j, 0], centroid[j, 1],
+                                                centroid[j, 2], shrink[j], eps)
+        d[m, 0], d[m, 1], d[m, 2] = ex, ey, ez
+        idx[m] = idx[k]
+        prim[m] = j
         m += 1
-    return m, new_idx, new_o, new_d, new_prim
+    return m
+
+
+#: retries with a 4x larger offset when a ray hits the triangle it leaves (float32 round-off)
+SELF_HIT_RETRIES = 4
+
+
+@njit(cache=True, nogil=True)
+def closest_hits(fn, scene, center, o, d, leaving, tri_normal, eps, prim, t):
+    """Closest hits of a batch of rays through the Embree C API (``fn`` = address of rtcIntersect1, ``scene`` its
+    handle, ``center`` (3,) the scene's float32 origin; see :mod:`fem2tmm.radiation.engine`): origins ``o`` (r, 3)
+    m, unit directions ``d`` (r, 3), ``leaving`` (r,) the triangle each ray leaves (-1: none).  A hit on the very
+    triangle a ray leaves (float32 round-off) is re-traced from its origin pushed 4, 16, 64, 256 x ``eps`` off that
+    triangle (``tri_normal`` (t, 3)) on the side it travels to, and ``o`` is updated to the origin used; a ray
+    still hitting itself is lost (prim -1, t = -1).  Fills ``prim`` (r,) int64 (-1 on a miss) and ``t`` (r,) m
+    (inf on a miss); ``prim`` may be the same array as ``leaving`` (each entry is read before it is written).
+    One pass over the batch: consecutive rays are independent, so the processor overlaps their traversals (a
+    depth-first loop that follows one ray to its end before the next measured 1.5-2x slower per segment)."""
+    buf, ib, base, addr = rayhit_buffer()
+    cx, cy, cz = center[0], center[1], center[2]
+    for k in range(o.shape[0]):
+        leave = leaving[k]
+        ox, oy, oz, dx, dy, dz = o[k, 0], o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2]
+        j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, ox, oy, oz, dx, dy, dz)
+        if j == leave and j >= 0:
+            nx, ny, nz = tri_normal[leave, 0], tri_normal[leave, 1], tri_normal[leave, 2]
+            push = eps if dx * nx + dy * ny + dz * nz >= 0.0 else -eps
+            tries = 0
+            while j == leave and tries < SELF_HIT_RETRIES:
+                push *= 4.0
+                qx, qy, qz = ox + push * nx, oy + push * ny, oz + push * nz
+                j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, qx, qy, qz, dx, dy, dz)
+                tries += 1
+            if j == leave:
+                j, tk = -1, -1.0
+            else:
+                o[k, 0], o[k, 1], o[k, 2] = qx, qy, qz
+        prim[k] = j
+        t[k] = tk

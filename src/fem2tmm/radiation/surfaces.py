@@ -26,13 +26,11 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import cosine_directions, emit_rays, locate_entries, offset_points, sample_points
+from .kernels import SELF_HIT_RETRIES, cosine_directions, emit_rays, locate_entries, offset_points, sample_points
 
 FRONT, BACK = 0, 1
 #: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
 ORIGIN_OFFSET = 2e-6
-#: retries with a 4x larger offset when a ray hits the triangle it leaves (float32 round-off)
-SELF_HIT_RETRIES = 4
 
 
 def _per_side(value, n_faces: int, name: str, dtype=float) -> np.ndarray:
@@ -206,12 +204,12 @@ class TriangleScene:
     """Ray-scene of a :class:`Surface`: robust closest-hit queries, emission and diffuse scattering on its
     triangles.  This is the only geometry object the bounce loop talks to; curved super faces (quadrics) subclass
     it and override :meth:`intersect`, :meth:`hit_geometry`, :meth:`hit_normals` (the curved normal at a hit),
-    :meth:`offset` and the ``curved`` column of :meth:`bounce_tables`, and the emission methods (:meth:`emit`,
+    :meth:`offset` and the curved triangles of :meth:`bounce_tables` (:meth:`_curved_triangles`), and the emission methods (:meth:`emit`,
     :meth:`emit_weighted`, :meth:`facing_areas`, :meth:`sample_facing`, for non-uniform sampling of their true
     area; see :class:`fem2tmm.radiation.quadric.QuadricScene`).  The per-ray work is done by the compiled kernels
     of :mod:`fem2tmm.radiation.kernels`.
 
-    ``backend``: "auto" (Embree when importable), "embree" or "numpy".  Origins are offset by
+    ``backend``: "auto" (Embree when importable), "embree", "embreex" or "numpy" (:func:`~.engine.make_engine`).  Origins are offset by
     ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray leaves; a hit on the very
     triangle the ray leaves (float32 round-off) is rejected and re-traced from a 4x larger offset.
     """
@@ -326,13 +324,27 @@ class TriangleScene:
 
     def bounce_tables(self):
         """Per-triangle tables of the compiled bounce kernels: ``(face (t,) int64, unit front normal (t, 3),
-        centroid (t, 3), curved (t,) bool)`` (curved triangles take their normals at the hit point and no centroid
-        push; none here)."""
+        centroid (t, 3), shrink (t,))``.  ``shrink`` is the fraction of the way towards the centroid that an origin
+        on the triangle moves before its push off the surface: eps / (largest centroid-vertex distance), so the move
+        is at most ``eps`` (at most half way on triangles smaller than ``eps``), and an origin on an edge moves
+        inwards by at least eps x (that edge's distance to the centroid) / (that largest distance); 0 on curved
+        triangles (their origins lie on the quadric, their hits take the quadric's normal) and degenerate ones."""
         if self._tables is None:
+            c = self.tri_vertices.mean(axis=1)
+            reach = np.linalg.norm(self.tri_vertices - c[:, None, :], axis=2).max(axis=1)
+            shrink = np.minimum(np.divide(self.eps, reach, out=np.zeros(len(reach)), where=reach > 0), 0.5)
+            shrink[self._curved_triangles()] = 0.0
             self._tables = (np.ascontiguousarray(self.tri_face, dtype=np.int64),
-                            np.ascontiguousarray(self.tri_normal, dtype=np.float64),
-                            np.ascontiguousarray(self.tri_vertices.mean(axis=1)), self._curved_triangles())
+                            np.ascontiguousarray(self.tri_normal, dtype=np.float64), np.ascontiguousarray(c), shrink)
         return self._tables
+
+    def direct_query(self):
+        """``(address of rtcIntersect1, scene handle, centre (3,))`` when every ray of this scene can be traced by
+        the compiled Embree kernels (:func:`fem2tmm.radiation.kernels.closest_hits`), else None (numpy engine,
+        embreex fallback, or a subclass with its own intersections)."""
+        if self.engine is None or getattr(self.engine, "direct", None) is None:
+            return None
+        return self.engine.direct + (self.engine.center,)
 
     def _curved_triangles(self) -> np.ndarray:
         return np.zeros(len(self.tri_face), bool)

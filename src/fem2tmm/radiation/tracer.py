@@ -36,7 +36,7 @@ from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
-from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, hit_sides  # noqa: F401
+from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, hit_sides  # noqa: F401
 from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, scale_rows, smooth
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
@@ -45,6 +45,7 @@ MAX_BOUNCES = 1000
 #: first diffuse reflection or transmission (2)
 HALTON_DIMS = 6
 BATCH = 1 << 17
+_NO_NUMBERS = (np.zeros(0), np.zeros((0, 2)))  # bounce draws its own
 #: random start offsets of the groups in the Halton sequence lie in [0, HALTON_SKIP)
 HALTON_SKIP = 1 << 20
 PILOT_RAYS = (100, 400)
@@ -152,61 +153,78 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     expectation instead of binomial, so the low-discrepancy emission is not drowned by absorption noise; each
     ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
     numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
-    coupled Halton point); later events use ``rng``.  The work between two intersection queries is one compiled
-    pass over the batch (:func:`fem2tmm.radiation.kernels.bounce`).
+    coupled Halton point); later events draw from ``rng`` inside the compiled bounce.  Each bounce is one
+    intersection query for the whole batch (compiled calls of Embree's C API when the scene allows it,
+    :meth:`TriangleScene.direct_query`, else ``scene.intersect``) and one compiled pass
+    (:func:`fem2tmm.radiation.kernels.bounce`) that compacts the surviving rays in place.
 
     Returns ``(ends (r,) int64, segments int)``: ends[k] = side index (2 face + back) that absorbed ray k, or
     ``END_SPACE`` / ``END_BLOCKED`` / ``END_CAPPED``; segments = number of intersection queries made.
     """
     n = len(origins)
     ends = np.full(n, END_CAPPED, np.int64)
-    idx = np.arange(n)
-    o = np.ascontiguousarray(origins, dtype=np.float64)
-    d = np.ascontiguousarray(directions, dtype=np.float64)
-    last = np.asarray(leaving)
+    o = np.array(origins, dtype=np.float64, order="C")  # own copies: the kernels update them in place
+    d = np.array(directions, dtype=np.float64, order="C")
+    last = np.ascontiguousarray(leaving, dtype=np.int64)
     # a side stops a ray when u < stop[side]: its absorptance, or always (2 > u) when the side is inactive
     stop_p = np.where(optics.active, optics.cum[:, 0], 2.0)
     cum = np.ascontiguousarray(optics.cum)
     active = np.ascontiguousarray(optics.active)
     tables = scene.bounce_tables()
+    direct = scene.direct_query()
+
+    idx = np.arange(n)
+    prim_buf, t_buf = np.empty(n, np.int64), np.empty(n)
     segments = 0
-    for _ in range(max_bounces):
+    for b in range(max_bounces):
         m = idx.size
         if m == 0:
             break
-        prim, t = scene.intersect(o, d, last)
+        if direct is not None:  # compiled Embree queries, self hits handled inside
+            prim, t = prim_buf[:m], t_buf[:m]
+            closest_hits(direct[0], direct[1], direct[2], o, d, last, tables[1], scene.eps, prim, t)
+        else:
+            prim, t = scene.intersect(o, d, last)
+            prim = np.asarray(prim, np.int64)  # own copy when the engine's type differs; compacted in place below
         segments += m
         nrm = scene.hit_normals(prim, o, d, t)
-        if strata is not None:  # first hit: stratified event numbers per (source, side)
+        u, r2 = _NO_NUMBERS
+        if b == 0 and strata is not None:  # first hit: stratified event numbers per (source, side)
             side = hit_sides(prim, d, tables[0], tables[1], nrm)
             hit = side >= 0
             u = np.zeros(m)
-            sh = strata[idx[hit]]
+            sh = strata[hit]
             u[hit] = stratified_uniforms(sh * len(stop_p) + side[hit], rng, major=sh)
-            strata = None
-        else:
+        elif b == 0 and first_scatter is not None:
             u = rng.random(m)
-        r2 = first_scatter[idx] if first_scatter is not None else rng.random((m, 2))
-        first_scatter = None
-        alive, idx, o, d, last = bounce(prim, t, o, d, idx, ends, u, r2, tables[0], tables[1], nrm, tables[2],
-                                        tables[3], stop_p, cum, active, scene.eps)
-        idx, o, d, last = idx[:alive], o[:alive], d[:alive], last[:alive]
+        if b == 0 and first_scatter is not None:
+            r2 = np.ascontiguousarray(first_scatter, dtype=np.float64)
+        elif u.size:
+            r2 = rng.random((m, 2))
+        alive = bounce(prim, t, o, d, idx, ends, u, r2, rng, tables[0], tables[1], nrm, tables[2], tables[3], stop_p,
+                       cum, active, scene.eps)
+        idx, o, d, last = idx[:alive], o[:alive], d[:alive], prim[:alive]
     return ends, segments
 
 
 @njit(cache=True, nogil=True)
-def _batch_tally(grp, ends, side_col, ncol, w):
-    """Sorted flat keys ``group x ncol + column`` and their (energy-weighted) counts for the rays of a batch:
-    ``grp`` (r,) non-decreasing source group, ``ends`` (r,) as returned by :func:`trace_paths`, ``side_col``
-    (2f,) the column of each absorbing side; columns g, g + 1, g + 2 (g = ncol - 3) are space, blocked and capped.
-    ``w`` (r,) ray energies, or empty for unit rays."""
+def _batch_tally(grp, ends, side_col, ncol, w, itmpl):
+    """The (energy-weighted) ray counts of a batch, row by row: returns ``(groups, lengths, cols, counts)``, the
+    distinct source groups of the batch in order (k,), the number of distinct destination columns of each (k,),
+    and for each group in turn its columns (sorted, dtype of ``itmpl``) and counts.  ``grp`` (r,) non-decreasing
+    source group, ``ends`` (r,) as returned by :func:`trace_paths`, ``side_col`` (2f,) the column of each absorbing
+    side; columns g, g + 1, g + 2 (g = ncol - 3) are space, blocked and capped.  ``w`` (r,) ray energies, or empty
+    for unit rays.  Each group's destinations are sorted in place (short runs, no global sort)."""
     r = grp.shape[0]
     g = ncol - 3
     weighted = w.shape[0] == r
-    keys = np.empty(r, np.int64)
+    groups = np.empty(r, np.int64)
+    lengths = np.empty(r, np.int64)
+    cols = np.empty(r, itmpl.dtype)
     counts = np.empty(r)
     dest = np.empty(r, np.int64)
     m = 0
+    n_groups = 0
     a = 0
     while a < r:
         b = a + 1
@@ -215,7 +233,7 @@ def _batch_tally(grp, ends, side_col, ncol, w):
         for i in range(a, b):
             e = ends[i]
             dest[i] = side_col[e] if e >= 0 else g - 1 - e  # -1 space, -2 blocked, -3 capped
-        base = grp[a] * ncol
+        first = m
         prev = -1
         if weighted:
             o = np.argsort(dest[a:b], kind="mergesort") + a
@@ -224,7 +242,7 @@ def _batch_tally(grp, ends, side_col, ncol, w):
                 if c == prev:
                     counts[m - 1] += w[i]
                 else:
-                    keys[m] = base + c
+                    cols[m] = c
                     counts[m] = w[i]
                     m += 1
                     prev = c
@@ -235,57 +253,61 @@ def _batch_tally(grp, ends, side_col, ncol, w):
                 if c == prev:
                     counts[m - 1] += 1.0
                 else:
-                    keys[m] = base + c
+                    cols[m] = c
                     counts[m] = 1.0
                     m += 1
                     prev = c
+        groups[n_groups] = grp[a]
+        lengths[n_groups] = m - first
+        n_groups += 1
         a = b
-    return keys[:m].copy(), counts[:m].copy()
+    return groups[:n_groups].copy(), lengths[:n_groups].copy(), cols[:m].copy(), counts[:m].copy()
 
 
 @njit(cache=True, nogil=True)
-def keys_to_csr(keys, values, ncol, g, itmpl):
-    """CSR arrays ``(indptr (g + 1,), columns, values)`` of the (g, ncol) matrix holding ``values`` (k,) at the
-    flat positions ``keys`` (k,) = row x ncol + column, duplicates summed, columns sorted within each row.  Linear
-    when the keys are nearly sorted (batch tallies: only the rows straddling two batches need a sort)."""
-    k = keys.shape[0]
-    count = np.zeros(g + 1, np.int64)
-    for i in range(k):
-        count[keys[i] // ncol + 1] += 1
-    for r in range(g):
-        count[r + 1] += count[r]
-    slot = count[:-1].copy()
-    kk = np.empty(k, np.int64)
-    vv = np.empty(k)
-    for i in range(k):  # stable counting sort by row
-        r = keys[i] // ncol
-        kk[slot[r]] = keys[i]
-        vv[slot[r]] = values[i]
-        slot[r] += 1
+def runs_to_csr(groups, lengths, cols, vals, g, itmpl):
+    """CSR arrays ``(indptr (g + 1,), columns, values)`` of the g-row matrix whose rows come as consecutive runs:
+    run k holds ``lengths[k]`` sorted, distinct columns of row ``groups[k]`` (k,), its entries next in ``cols`` and
+    ``vals``; the runs of a row are consecutive (batch tallies, where a group may straddle two batches).  Rows of
+    one run are taken as they are; the runs of a straddling row are merged (duplicates summed).  Works in place:
+    ``cols``/``vals`` are compacted and returned as their first indptr[g] entries (no copy when no row straddles)."""
     indptr = np.zeros(g + 1, itmpl.dtype)
-    cols = np.empty(k, itmpl.dtype)
-    vals = np.empty(k)
-    m = 0
-    for r in range(g):
-        a, b = count[r], count[r + 1]
-        ordered = True
-        for i in range(a + 1, b):
-            if kk[i] < kk[i - 1]:
-                ordered = False
-                break
-        if not ordered:
-            o = np.argsort(kk[a:b], kind="mergesort")
-            kk[a:b] = kk[a:b][o]
-            vv[a:b] = vv[a:b][o]
-        for i in range(a, b):
-            if m > indptr[r] and cols[m - 1] == kk[i] - r * ncol:
-                vals[m - 1] += vv[i]
-            else:
-                cols[m] = kk[i] - r * ncol
-                vals[m] = vv[i]
-                m += 1
-        indptr[r + 1] = m
-    return indptr, cols[:m].copy(), vals[:m].copy()
+    k_runs = groups.shape[0]
+    w = 0  # write position
+    rd = 0  # read position
+    k = 0
+    while k < k_runs:
+        row = groups[k]
+        e = k + 1
+        total = lengths[k]
+        while e < k_runs and groups[e] == row:
+            total += lengths[e]
+            e += 1
+        if e == k + 1:  # one run: already sorted and distinct
+            if w != rd:
+                for i in range(total):
+                    cols[w + i] = cols[rd + i]
+                    vals[w + i] = vals[rd + i]
+            w += total
+        else:  # several runs: merge them
+            seg_c = cols[rd:rd + total].copy()
+            seg_v = vals[rd:rd + total].copy()
+            o = np.argsort(seg_c, kind="mergesort")
+            start = w
+            for i in o:
+                if w > start and cols[w - 1] == seg_c[i]:
+                    vals[w - 1] += seg_v[i]
+                else:
+                    cols[w] = seg_c[i]
+                    vals[w] = seg_v[i]
+                    w += 1
+        rd += total
+        indptr[row + 1] = w
+        k = e
+    for r in range(g):  # rows without runs
+        if indptr[r + 1] < indptr[r]:
+            indptr[r + 1] = indptr[r]
+    return indptr, cols[:w], vals[:w]
 
 
 def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") -> list:
@@ -385,6 +407,8 @@ class _ExchangeTracer:
             halton = ScrambledHalton(setup, bases=HALTON_BASES[:HALTON_DIMS])
             offsets = setup.integers(0, HALTON_SKIP, size=g)
         ncol = g + 3
+        # column index type of the tally: int32 when it fits (scipy keeps such arrays without a copy)
+        itmpl = np.empty(0, np.int32 if total < 2**31 - 1 and ncol < 2**31 - 1 else np.int64)
         # destination column of an absorbing side: its group, or "blocked" when it is not a REF node
         side_col = np.where(self.groups >= 0, self.groups, g + 1)
 
@@ -411,22 +435,21 @@ class _ExchangeTracer:
             if w is not None:
                 g0, span = int(grp[0]), int(grp[-1]) - int(grp[0]) + 1
                 wsum = (np.arange(g0, g0 + span), np.bincount(grp - g0, weights=w, minlength=span))
-            keys, counts = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w)
-            return keys, counts, segs, wsum
+            runs = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w, itmpl)
+            return runs, segs, wsum
 
         parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
-        keys = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
-        counts = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
-        segments = int(sum(p[2] for p in parts))
-        # batches are in group order, so the keys are sorted except where a group straddles two batches
-        itmpl = np.empty(0, np.int32 if keys.size < 2**31 - 1 and ncol < 2**31 - 1 else np.int64)
-        indptr, c, v = keys_to_csr(keys, counts.astype(np.float64), ncol, g, itmpl)
+        cat = lambda k, dtype: np.concatenate([p[0][k] for p in parts]) if parts else np.zeros(0, dtype)  # noqa: E731
+        segments = int(sum(p[1] for p in parts))
+        # batches are in group order: each row's entries are consecutive runs (two when it straddles two batches)
+        indptr, c, v = runs_to_csr(cat(0, np.int64), cat(1, np.int64), cat(2, itmpl.dtype), cat(3, np.float64), g,
+                                   itmpl)
         tally = sp.csr_matrix((v, c, indptr), shape=(g, ncol))
-        if any(p[3] is not None for p in parts):
+        if any(p[2] is not None for p in parts):
             # weighted rays: scale each group's row so that it sums to its ray count (self-normalised estimator)
             wsum = np.zeros(g)
             for p in parts:  # loop over batches
-                np.add.at(wsum, p[3][0], p[3][1])
+                np.add.at(wsum, p[2][0], p[2][1])
             tally = scale_rows(tally, np.divide(rays, wsum, out=np.zeros(g), where=wsum > 0))
         return rays, tally, segments
 
