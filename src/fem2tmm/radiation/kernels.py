@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .engine import embree_intersect1, rayhit_buffer
+from .engine import embree_intersect1, prefetch_row, rayhit_buffer
 
 #: ends of a ray path besides "absorbed by side s >= 0" (see :func:`fem2tmm.radiation.tracer.trace_paths`)
 END_SPACE, END_BLOCKED, END_CAPPED = -1, -2, -3
@@ -186,9 +186,12 @@ def hit_sides(prim, d, tri_face, tri_normal, ray_normal):
     return out
 
 
+#: rays ahead whose scene rows :func:`bounce` prefetches (its table reads are random: one hit triangle per ray)
+PREFETCH_AHEAD = 16
+
+
 @njit(cache=True, nogil=True)
-def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_face, tri_normal, ray_normal, centroid, shrink, stop_p, cum,
-           active, eps):
+def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri, ray_normal, sides, eps):
     """One bounce of a batch of rays, after their intersection query (thesis l. 664, MCRT without branching).
 
     ``prim`` (r,) primitive hit (-1: miss), ``t`` (r,) distance (m; a miss with t <= 0 is a ray lost to an
@@ -196,28 +199,33 @@ def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_face, tri_normal, ray_norma
     (r,) ray ids into ``ends`` (n,) (written for every ray that stops here).  Random numbers: ``u`` (r,) the event
     numbers and ``r2`` (r, 2) the numbers of a diffuse direction (:func:`_cosine_dir`), or, when ``u`` is empty,
     drawn here from ``rng`` (a numpy Generator: the event number of each ray that hits, then a rejection-sampled
-    disc point if its event is diffuse, :func:`_random_cosine_dir`).  Scene
-    tables: ``tri_face`` (t,), ``tri_normal`` (t, 3) unit front normals, ``ray_normal`` (r, 3) front normals at the
-    hit points when it has r rows (curved hits; ignored otherwise), ``centroid`` (t, 3), ``shrink`` (t,),
-    ``eps`` origin offset (m).  Optics per side (2f): ``stop_p`` (absorptance, or 2 on inactive sides so that they
-    always stop the ray), ``cum`` (2f, 4) cumulative (absorbed, specular reflection, specular transmission, diffuse
-    transmission), ``active``.
+    disc point if its event is diffuse, :func:`_random_cosine_dir`).  Scene: ``tri`` (t, 8) one row per triangle
+    (:meth:`~fem2tmm.radiation.surfaces.TriangleScene.triangle_rows`: unit front normal, centroid, shrink, face),
+    ``ray_normal`` (r, 3) front normals at the hit points when it has r rows (curved hits; ignored otherwise),
+    ``sides`` (2f, 8) one row per side (:attr:`~fem2tmm.radiation.surfaces.SideOptics.rows`: stop probability,
+    cumulative specular reflection, specular transmission, diffuse transmission, active), ``eps`` origin offset (m).
 
-    At the hit: the side is the front when the ray travels against the normal; u < stop_p[side] ends the ray
-    (absorbed by an active side, ``END_BLOCKED`` by an inactive one); otherwise u picks specular reflection,
-    specular transmission, diffuse transmission or diffuse reflection against ``cum`` (thesis l. 664); diffuse
-    directions follow the cosine law about the normal of the side the ray leaves; the new origin is offset off
-    that side.
+    At the hit: the side is the front when the ray travels against the normal; u < stop[side] ends the ray
+    (absorbed by an active side, ``END_BLOCKED`` by an inactive one, whose stop probability is 2); otherwise u picks
+    specular reflection, specular transmission, diffuse transmission or diffuse reflection; diffuse directions
+    follow the cosine law about the normal of the side the ray leaves; the new origin is offset off that side.
 
     The surviving rays are compacted, in place and in order, into the first n_alive rows of ``idx``, ``o``, ``d``
     (offset origins, new directions) and ``prim`` (the primitive each one leaves); returns n_alive.  (Row m <= k is
-    written only after row k was read, so compacting in place is safe.)
+    written only after row k was read, so compacting in place is safe.)  The rows of the triangle and side hit
+    ``PREFETCH_AHEAD`` rays later are prefetched: with one random row per ray the loop otherwise waits on memory
+    (measured on a 20 k-triangle sphere: 247 -> 129 ns per ray with packed rows and prefetching).
     """
     r = prim.shape[0]
     own = ray_normal.shape[0] == r
     given = u.shape[0] == r
     m = 0
     for k in range(r):
+        if k + PREFETCH_AHEAD < r:
+            ahead = prim[k + PREFETCH_AHEAD]
+            if ahead >= 0:
+                prefetch_row(tri, ahead)
+                prefetch_row(sides, 2 * np.int64(tri[ahead, 7]))
         j = prim[k]
         if j < 0:
             if t[k] > 0.0:
@@ -226,19 +234,19 @@ def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_face, tri_normal, ray_norma
         if own:
             nx, ny, nz = ray_normal[k, 0], ray_normal[k, 1], ray_normal[k, 2]
         else:
-            nx, ny, nz = tri_normal[j, 0], tri_normal[j, 1], tri_normal[j, 2]
+            nx, ny, nz = tri[j, 0], tri[j, 1], tri[j, 2]
         dx, dy, dz = d[k, 0], d[k, 1], d[k, 2]
         cos_in = dx * nx + dy * ny + dz * nz
         back = cos_in > 0.0
-        side = 2 * tri_face[j] + (1 if back else 0)
+        side = 2 * np.int64(tri[j, 7]) + (1 if back else 0)
         uk = u[k] if given else rng.random()
-        if uk < stop_p[side]:
-            ends[idx[k]] = side if active[side] else END_BLOCKED
+        if uk < sides[side, 0]:
+            ends[idx[k]] = side if sides[side, 4] > 0.0 else END_BLOCKED
             continue
-        spec_r = uk < cum[side, 1]
-        trans = (not spec_r) and uk < cum[side, 3]
+        spec_r = uk < sides[side, 1]
+        trans = (not spec_r) and uk < sides[side, 3]
         s = -1.0 if back != trans else 1.0
-        if uk >= cum[side, 2]:  # diffuse reflection or transmission
+        if uk >= sides[side, 2]:  # diffuse reflection or transmission
             if given:
                 ex, ey, ez = _cosine_dir(nx, ny, nz, s, r2[k, 0], r2[k, 1])
             else:
@@ -249,9 +257,8 @@ def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_face, tri_normal, ray_norma
         else:  # specular transmission
             ex, ey, ez = dx, dy, dz
         tk = t[k]
-        px, py, pz = o[k, 0] + tk * dx, o[k, 1] + tk * dy, o[k, 2] + tk * dz
-        o[m, 0], o[m, 1], o[m, 2] = _offset_one(px, py, pz, nx, ny, nz, s, centroid[j, 0], centroid[j, 1],
-                                                centroid[j, 2], shrink[j], eps)
+        o[m, 0], o[m, 1], o[m, 2] = _offset_one(o[k, 0] + tk * dx, o[k, 1] + tk * dy, o[k, 2] + tk * dz, nx, ny, nz,
+                                                s, tri[j, 3], tri[j, 4], tri[j, 5], tri[j, 6], eps)
         d[m, 0], d[m, 1], d[m, 2] = ex, ey, ez
         idx[m] = idx[k]
         prim[m] = j
@@ -263,35 +270,37 @@ def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_face, tri_normal, ray_norma
 SELF_HIT_RETRIES = 4
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _closest(fn, scene, buf, ib, base, addr, cx, cy, cz, ox, oy, oz, dx, dy, dz, leave, tri_normal, eps):
+    """Closest hit of one ray leaving triangle ``leave`` (-1: none) through the Embree C API: a hit on ``leave``
+    itself (float32 round-off) is re-traced from the origin pushed 4, 16, 64, 256 x ``eps`` off that triangle on the
+    side the ray travels to.  Returns ``(prim, t, origin used)``: prim -1 with t = inf on a miss, with t = -1 when
+    the ray still hits itself (lost)."""
+    j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, ox, oy, oz, dx, dy, dz)
+    if j != leave or j < 0:
+        return j, tk, ox, oy, oz
+    nx, ny, nz = tri_normal[leave, 0], tri_normal[leave, 1], tri_normal[leave, 2]
+    push = eps if dx * nx + dy * ny + dz * nz >= 0.0 else -eps
+    for _ in range(SELF_HIT_RETRIES):
+        push *= 4.0
+        qx, qy, qz = ox + push * nx, oy + push * ny, oz + push * nz
+        j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, qx, qy, qz, dx, dy, dz)
+        if j != leave:
+            return j, tk, qx, qy, qz
+    return -1, -1.0, ox, oy, oz
+
+
 @njit(cache=True, nogil=True)
 def closest_hits(fn, scene, center, o, d, leaving, tri_normal, eps, prim, t):
     """Closest hits of a batch of rays through the Embree C API (``fn`` = address of rtcIntersect1, ``scene`` its
     handle, ``center`` (3,) the scene's float32 origin; see :mod:`fem2tmm.radiation.engine`): origins ``o`` (r, 3)
-    m, unit directions ``d`` (r, 3), ``leaving`` (r,) the triangle each ray leaves (-1: none).  A hit on the very
-    triangle a ray leaves (float32 round-off) is re-traced from its origin pushed 4, 16, 64, 256 x ``eps`` off that
-    triangle (``tri_normal`` (t, 3)) on the side it travels to, and ``o`` is updated to the origin used; a ray
-    still hitting itself is lost (prim -1, t = -1).  Fills ``prim`` (r,) int64 (-1 on a miss) and ``t`` (r,) m
-    (inf on a miss); ``prim`` may be the same array as ``leaving`` (each entry is read before it is written).
-    One pass over the batch: consecutive rays are independent, so the processor overlaps their traversals (a
-    depth-first loop that follows one ray to its end before the next measured 1.5-2x slower per segment)."""
+    m, unit directions ``d`` (r, 3), ``leaving`` (r,) the triangle each ray leaves (-1: none), self hits re-traced
+    (:func:`_closest`; ``o`` is updated to the origin used; ``tri_normal`` (t, 3)).  Fills ``prim`` (r,) int64
+    (-1 on a miss or a lost ray) and ``t`` (r,) m (inf on a miss, -1 when lost); ``prim`` may be the same array as
+    ``leaving`` (each entry is read before it is written)."""
     buf, ib, base, addr = rayhit_buffer()
     cx, cy, cz = center[0], center[1], center[2]
     for k in range(o.shape[0]):
-        leave = leaving[k]
-        ox, oy, oz, dx, dy, dz = o[k, 0], o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2]
-        j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, ox, oy, oz, dx, dy, dz)
-        if j == leave and j >= 0:
-            nx, ny, nz = tri_normal[leave, 0], tri_normal[leave, 1], tri_normal[leave, 2]
-            push = eps if dx * nx + dy * ny + dz * nz >= 0.0 else -eps
-            tries = 0
-            while j == leave and tries < SELF_HIT_RETRIES:
-                push *= 4.0
-                qx, qy, qz = ox + push * nx, oy + push * ny, oz + push * nz
-                j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, qx, qy, qz, dx, dy, dz)
-                tries += 1
-            if j == leave:
-                j, tk = -1, -1.0
-            else:
-                o[k, 0], o[k, 1], o[k, 2] = qx, qy, qz
-        prim[k] = j
-        t[k] = tk
+        prim[k], t[k], o[k, 0], o[k, 1], o[k, 2] = _closest(fn, scene, buf, ib, base, addr, cx, cy, cz, o[k, 0],
+                                                            o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2], leaving[k],
+                                                            tri_normal, eps)

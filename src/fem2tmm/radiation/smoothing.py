@@ -7,6 +7,7 @@ number of groups except through the non-zeros that ray tracing actually produced
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import scipy.sparse as sp
@@ -49,67 +50,202 @@ def _linear_weight(i, j, a, traced, exponent):
     return 0.5 + 0.5 * math.copysign(abs(X) ** exponent, X) if X != 0.0 else 0.5
 
 
+# ---------------------------------------------------------------------------------------------------------------
+# Linear reciprocity and closure in compiled passes over row ranges: column counts, weights + transposition, then
+# a counting and a writing merge that produce F and GR (space column included) directly.  Every pass reads whole
+# inputs but writes only what belongs to its rows r0..r1-1, so the rows are split over threads (the kernels
+# release the GIL); the results do not depend on the split.  Notation: S (g, g) m² the raw exchange, M = S∘W
+# (g, g) its weighted part, GR = M + Mᵀ.  M keeps the index arrays (indptr, indices) of its input with values mv;
+# Mᵀ is (tp, ti, tv) in CSR form (row j of Mᵀ = column j of M, sorted).
+
+
 @njit(cache=True, nogil=True)
-def _linear_gr(indptr, indices, data, row_scale, g, a, traced, exponent):
-    """CSR arrays of GR = M + Mᵀ (g x g), M_ij = w_ij S_ij, S_ij = row_scale_i x the entries of columns j < g of a
-    CSR matrix (sorted columns, no duplicates; later columns are ignored): Mᵀ by a counting sort on the columns,
-    then row i of M and of Mᵀ merged (both sorted), zeros dropped.  Every entry is M_ij + M_ji (one commutative
-    addition), so GR is symmetric to the last bit.  ``gi``, ``gv`` are returned with spare room at their end (the
-    first gp[g] entries are the matrix)."""
-    mp = np.zeros(g + 1, np.int64)
-    tp = np.zeros(g + 1, np.int64)
-    for i in range(g):
-        c = 0
-        for q in range(indptr[i], indptr[i + 1]):
-            if indices[q] < g:
-                c += 1
-                tp[indices[q] + 1] += 1
-        mp[i + 1] = mp[i] + c
-    for j in range(g):
-        tp[j + 1] += tp[j]
-    nnz = mp[g]
-    mi = np.empty(nnz, np.int64)
-    mv = np.empty(nnz)
-    ti = np.empty(nnz, np.int64)
-    tv = np.empty(nnz)
-    slot = tp[:-1].copy()
-    m = 0
-    for i in range(g):  # rows in order: each column of Mᵀ comes out sorted
-        for q in range(indptr[i], indptr[i + 1]):
+def _column_counts(indptr, indices, g, r0, r1, counts):
+    """counts (g,) int64 += number of stored entries of each column j < g in rows r0..r1-1 of a CSR matrix."""
+    for q in range(indptr[r0], indptr[r1]):
+        j = indices[q]
+        if j < g:
+            counts[j] += 1
+
+
+@njit(cache=True, nogil=True)
+def _weigh_transpose(indptr, indices, data, row_scale, g, a, traced, exponent, r0, r1, slot, mv, ti, tv,
+                     space_raw):
+    """Rows r0..r1-1 of M_ij = w_ij (row_scale_i x_ij) for the entries x_ij of columns j < g of a CSR matrix
+    (sorted columns, no duplicates), into ``mv`` (>= nnz,) at the positions of x, and scattered into Mᵀ: entry
+    (i, j) goes to ``ti``/``tv`` (>= nnz(Mᵀ),) at slot[j], which is then incremented (``slot`` (g,) int64: where
+    this row range starts in each row of Mᵀ; rows are visited in order, so every row of Mᵀ comes out sorted).  The entry of column
+    g, if any, goes to ``space_raw`` (g,) (0 when absent); later columns are ignored.  Per row, the weights are
+    computed in one loop and scattered in a second one (faster than one fused loop)."""
+    for i in range(r0, r1):
+        q0, q1 = indptr[i], indptr[i + 1]
+        space_raw[i] = 0.0
+        while q1 > q0 and indices[q1 - 1] >= g:  # columns sorted: g and beyond come last
+            if indices[q1 - 1] == g:
+                space_raw[i] = data[q1 - 1]
+            q1 -= 1
+        si = row_scale[i]
+        for q in range(q0, q1):
+            mv[q] = si * data[q] * _linear_weight(i, indices[q], a, traced, exponent)
+        for q in range(q0, q1):
             j = indices[q]
-            if j >= g:
-                continue
-            v = row_scale[i] * data[q] * _linear_weight(i, j, a, traced, exponent)
-            mi[m] = j
-            mv[m] = v
-            m += 1
-            ti[slot[j]] = i
-            tv[slot[j]] = v
-            slot[j] += 1
-    gp = np.zeros(g + 1, np.int64)
-    gi = np.empty(2 * nnz, np.int64)  # at most nnz(M) + nnz(Mᵀ) entries; the caller only reads gp[g] of them
-    gv = np.empty(2 * nnz)
-    k = 0
-    for i in range(g):
-        p, pe = mp[i], mp[i + 1]
+            s = slot[j]
+            ti[s] = i
+            tv[s] = mv[q]
+            slot[j] = s + 1
+
+
+@njit(cache=True, nogil=True)
+def _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv, blocked, space_raw, write,
+                gp, gi, gv, fp, fi, fv, lse):
+    """Rows r0..r1-1 of GR = M + Mᵀ (M: ``indptr``, ``indices`` with values ``mv``, entries of columns >= g
+    ignored; Mᵀ: ``tp``, ``ti``, ``tv``): row i of M and of Mᵀ (both sorted) merged, every entry M_ij + M_ji (one
+    commutative addition, so GR is symmetric to the last bit; M_ij + 0 or 0 + M_ji where only one side is
+    stored), zeros dropped.  ``mv`` and ``tv`` carry one extra last element 0.0 and ``ti`` one extra element: the
+    merge picks the value of the side that is not at the current column from there, and steps past the end of a
+    side, by index arithmetic rather than branches (which would be mispredicted about every other entry).
+
+    With ``closure`` the rows are closed through a space column g (thesis eq. 1.47): Σ_i = Σ_j GR_ij in column
+    order, LSE_i = 1 - blocked_i - inv_i Σ_i - space_raw_i and space_i = space_raw_i + LSE_i when εA_i > 0 (0
+    otherwise), ``lse`` (g,) receives LSE, GR (g, g + 1) gets εA_i space_i and F = diag(inv) GR (g, g + 1) gets
+    space_i in column g, each without its zeros (``inv`` (g,) = 1/εA, 0 where εA = 0).  Without ``closure`` only
+    the g x g GR is formed and F, ``lse`` are untouched.
+
+    Two modes: ``write`` False counts, storing the number of entries of row i at gp[i + 1] (and fp[i + 1]);
+    ``write`` True fills ``gi``, ``gv`` (``fi``, ``fv``) from the row pointers ``gp`` (``fp``).  Returns the number
+    of entries of the g x g block of GR in these rows."""
+    zm, zt = mv.shape[0] - 1, tv.shape[0] - 1  # where the 0.0 sentinels are
+    lastq = max(indices.shape[0] - 1, 0)  # indices is not padded: its reads are clamped
+    nblock = 0
+    for i in range(r0, r1):
+        p, pe = indptr[i], indptr[i + 1]
+        while pe > p and indices[pe - 1] >= g:
+            pe -= 1
         t, te = tp[i], tp[i + 1]
+        kg = gp[i] if write else 0
+        kf = fp[i] if write else 0
+        kg0 = kg
+        inv_i = inv[i]
+        s = 0.0
         while p < pe or t < te:
-            if t >= te or (p < pe and mi[p] < ti[t]):
-                col, val = mi[p], mv[p] + 0.0
-                p += 1
-            elif p >= pe or ti[t] < mi[p]:
-                col, val = ti[t], 0.0 + tv[t]
-                t += 1
-            else:
-                col, val = mi[p], mv[p] + tv[t]
-                p += 1
-                t += 1
+            cm = np.int64(indices[min(p, lastq)])  # column of each side, g past its end
+            ct = np.int64(ti[t])
+            cm += (g - cm) * np.int64(p >= pe)
+            ct += (g - ct) * np.int64(t >= te)
+            col = min(cm, ct)
+            on_m = np.int64(cm == col)
+            on_t = np.int64(ct == col)
+            val = mv[p * on_m + zm * (1 - on_m)] + tv[t * on_t + zt * (1 - on_t)]
+            p += on_m
+            t += on_t
             if val != 0.0:
-                gi[k] = col
-                gv[k] = val
-                k += 1
-        gp[i + 1] = k
-    return gp, gi, gv
+                s += val
+                if write:
+                    gi[kg] = col
+                    gv[kg] = val
+                kg += 1
+                if closure:
+                    fval = inv_i * val
+                    if fval != 0.0:
+                        if write:
+                            fi[kf] = col
+                            fv[kf] = fval
+                        kf += 1
+        nblock += kg - kg0
+        if closure:
+            lse_i = 1.0 - blocked[i] - inv_i * s - space_raw[i] if eps_area[i] > 0.0 else 0.0
+            space = space_raw[i] + lse_i if eps_area[i] > 0.0 else 0.0
+            lse[i] = lse_i
+            if space != 0.0:
+                if write:
+                    fi[kf] = g
+                    fv[kf] = space
+                kf += 1
+            gspace = eps_area[i] * space
+            if gspace != 0.0:
+                if write:
+                    gi[kg] = g
+                    gv[kg] = gspace
+                kg += 1
+        if not write:
+            gp[i + 1] = kg
+            fp[i + 1] = kf
+    return nblock
+
+
+def _split(cum: np.ndarray, parts: int) -> list[tuple[int, int]]:
+    """``parts`` contiguous row ranges of about equal work, ``cum`` (g + 1,) the cumulative work per row."""
+    g = len(cum) - 1
+    cuts = np.searchsorted(cum, np.linspace(0, cum[-1], parts + 1)[1:-1]).clip(0, g) if parts > 1 else []
+    b = [0, *(int(c) for c in cuts), g]
+    return [(b[k], b[k + 1]) for k in range(parts)]
+
+
+def _run(job, ranges: list[tuple[int, int]]) -> list:
+    """``[job(k, r0, r1) for each range]``, one Python thread per range (the kernels release the GIL)."""
+    if len(ranges) == 1:
+        return [job(0, *ranges[0])]
+    with ThreadPoolExecutor(max_workers=len(ranges)) as ex:
+        return list(ex.map(lambda k: job(k, *ranges[k]), range(len(ranges))))
+
+
+def _linear(A: sp.csr_matrix, row_scale, eps_area, rays, exponent, closure, blocked, threads):
+    """``(GR, F, lse)``: linear reciprocity of S = diag(``row_scale``) A[:, :g] (w_ij from ``eps_area``, ``rays``
+    (g,), ``exponent``), with ``closure`` also closed through the space column as in :func:`_merge_rows` (F, lse
+    None without closure).  ``A`` (g, >= g) csr with sorted columns and no duplicates; with ``closure`` its
+    column g is the raw space column (``blocked`` (g,)).  ``threads`` >= 1 Python threads; the result does not
+    depend on it.  Scratch: M (nnz(A) + 1,) and Mᵀ (nnz(S) + 1,) values, Mᵀ row indices (int32)."""
+    indptr, indices, data = A.indptr, A.indices, A.data
+    g = A.shape[0]
+    a, traced = eps_area / np.maximum(rays, 1), rays > 0
+    ranges = _split(indptr, max(1, min(int(threads), g)))
+    counts = np.zeros((len(ranges), g), np.int64)  # column counts of each range
+    _run(lambda k, r0, r1: _column_counts(indptr, indices, g, r0, r1, counts[k]), ranges)
+    tp = np.zeros(g + 1, np.int64)
+    np.cumsum(counts.sum(axis=0), out=tp[1:])
+    slots = tp[:-1] + np.cumsum(counts, axis=0) - counts  # where each range starts in each row of Mᵀ
+    nt = int(tp[g])
+    mv = np.empty(len(data) + 1)  # + the 0.0 sentinel of _merge_rows
+    mv[-1] = 0.0
+    ti = np.empty(nt + 1, np.int32 if g < 2**31 - 1 else np.int64)  # + a readable last element for _merge_rows
+    ti[-1] = 0
+    tv = np.empty(nt + 1)
+    tv[-1] = 0.0
+    space_raw = np.empty(g)
+    _run(lambda k, r0, r1: _weigh_transpose(indptr, indices, data, row_scale, g, a, traced, float(exponent), r0, r1,
+                                            slots[k], mv, ti, tv, space_raw), ranges)
+    del counts, slots
+    return _assemble(indptr, indices, mv, tp, ti, tv, g, A.shape[1], closure, eps_area, blocked, space_raw, threads)
+
+
+def _assemble(indptr, indices, mv, tp, ti, tv, g, ncol, closure, eps_area, blocked, space_raw, threads):
+    """``(GR, F, lse)`` from M and Mᵀ (arrays as :func:`_merge_rows` takes them) by a counting pass, then a
+    writing pass into arrays of the exact sizes, both row-parallel.  GR (g, ``ncol``) without closure; F and GR
+    (g, g + 1) with it.  Index arrays int32 when they fit."""
+    with np.errstate(divide="ignore"):
+        inv = np.where(eps_area > 0, 1.0 / np.where(eps_area > 0, eps_area, 1.0), 0.0)
+    ranges = _split(indptr + tp, max(1, min(int(threads), g)))
+    gp = np.zeros(g + 1, np.int64)
+    fp = np.zeros(g + 1, np.int64)
+    lse = np.zeros(g) if closure else np.empty(0)
+    empty_i, empty_v = np.empty(0, np.int32), np.empty(0)
+
+    def count(k, r0, r1):
+        return _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv, blocked, space_raw,
+                           False, gp, empty_i, empty_v, fp, empty_i, empty_v, lse)
+
+    nblock = sum(_run(count, ranges))
+    np.cumsum(gp, out=gp)
+    np.cumsum(fp, out=fp)
+    itype = np.int32 if nblock + g < 2**31 - 1 and g + 1 < 2**31 - 1 else np.int64
+    gi, gv = np.empty(gp[g], itype), np.empty(gp[g])
+    fi, fv = (np.empty(fp[g], itype), np.empty(fp[g])) if closure else (empty_i, empty_v)
+    _run(lambda k, r0, r1: _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv, blocked,
+                                       space_raw, True, gp, gi, gv, fp, fi, fv, lse), ranges)
+    shape = (g, g + 1) if closure else (g, ncol)
+    GR = sp.csr_matrix((gv, gi, gp.astype(itype)), shape=shape)
+    F = sp.csr_matrix((fv, fi, fp.astype(itype)), shape=shape) if closure else None
+    return GR, F, (lse if closure else None)
 
 
 @njit(cache=True, nogil=True)
@@ -140,14 +276,15 @@ def _scale_rows(indptr, data, x):
 
 
 def enforce_reciprocity(S: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, method: str = "linear",
-                        exponent: float = 0.4) -> sp.csr_matrix:
+                        exponent: float = 0.4, threads: int = 2) -> sp.csr_matrix:
     """Symmetric GR (g, g) m² from the raw exchange S_ij = (εA)_i F̃_ij (g, g) m² by linear averaging.
 
     GR_ij = w_ij S_ij + w_ji S_ji with w_ij + w_ji = 1; ``method`` "linear": w_ij = ½(1 + sign(X)|X|^exponent),
     X = (a_j - a_i)/(a_j + a_i), a = εA/n_rays (thesis eq. 2.45-2.46: the estimate carried by the less energetic
     rays weighs more), or "fractional_variance": w_ij = σ²_ji/(σ²_ij + σ²_ji) with binomial variances.
     ``eps_area`` (g,) m², ``rays`` (g,) rays traced per group (0 allowed: that group's estimates get no weight).
-    Written as GR = M + Mᵀ with M = S∘W, so the result is symmetric to the last bit.
+    Written as GR = M + Mᵀ with M = S∘W, so the result is symmetric to the last bit.  ``threads`` Python threads
+    for the linear method (the result does not depend on it).
     """
     S = sp.csr_matrix(S, dtype=float)
     S.sum_duplicates()
@@ -156,9 +293,8 @@ def enforce_reciprocity(S: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, 
     if method == "linear":
         S.sort_indices()
         g = S.shape[0]
-        gp, gi, gv = _linear_gr(S.indptr, S.indices, S.data, np.ones(g), g, eps_area / np.maximum(rays, 1), rays > 0,
-                                float(exponent))
-        return sp.csr_matrix((gv[:gp[g]].copy(), gi[:gp[g]].copy(), gp), shape=S.shape)
+        GR, _, _ = _linear(S, np.ones(g), eps_area, rays, exponent, False, np.empty(0), threads)
+        return GR
     if method != "fractional_variance":
         raise ValueError(f"unknown reciprocity method {method!r}: use one of {RECIPROCITY_METHODS}")
     U = (S + S.T).tocsr()  # pattern of S and S^T; data = S_ij + S_ji
@@ -172,14 +308,19 @@ def enforce_reciprocity(S: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, 
 
 
 def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: np.ndarray | None = None,
-           method: str = "linear", exponent: float = 0.4):
+           method: str = "linear", exponent: float = 0.4, threads: int = 2):
     """Reciprocity, then closure through the space column; returns ``(F, GR, lse)``.
 
     ``F_raw`` (g, g + 1) raw REFs (last column space), ``eps_area`` (g,) m², ``rays`` (g,), ``blocked`` (g,) the
     fraction of each group's rays stopped by sides that are not REF nodes (default 0).  The line-sum error is
     LSE_i = 1 - blocked_i - Σ_j F_ij after reciprocity and before the closure adjustment (thesis eq. 1.47); the
     space column then absorbs it so every row of ``F`` sums to 1 - blocked_i.  ``F`` (g, g + 1), ``GR``
-    (g, g + 1) m² with GR = diag(εA) F (symmetric g x g block), ``lse`` (g,).  Rows of groups with εA = 0 are 0.
+    (g, g + 1) m² with GR = diag(εA) F (symmetric g x g block), ``lse`` (g,).  The rows of F and lse of groups
+    with εA = 0 are 0 (their GR rows hold the other groups' share M_ji).  ``threads`` Python threads (the result
+    does not depend on it).
+
+    Linear method: S = diag(εA) F_raw[:, :g] is weighed and transposed in one pass, then F and GR (with their
+    space column) are written directly by a counting and a writing merge of M and Mᵀ (:func:`_merge_rows`).
     """
     F_raw = sp.csr_matrix(F_raw)
     F_raw.sum_duplicates()  # also sorts the columns
@@ -187,31 +328,15 @@ def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: 
     eps_area = np.asarray(eps_area, float)
     rays = np.asarray(rays, float)
     blocked = np.zeros(g) if blocked is None else np.asarray(blocked, float)
-    if method == "linear":  # S = diag(εA) F_raw[:, :g] is formed inside the compiled kernel
-        gp, gi, gv = _linear_gr(F_raw.indptr, F_raw.indices, F_raw.data, eps_area, g, eps_area / np.maximum(rays, 1),
-                                rays > 0, float(exponent))
-    else:
-        GRb = enforce_reciprocity(scale_rows(F_raw[:, :g], eps_area), eps_area, rays, method, exponent)
-        GRb.sort_indices()
-        gp, gi, gv = GRb.indptr, GRb.indices, GRb.data
-    with np.errstate(divide="ignore"):
-        inv = np.where(eps_area > 0, 1.0 / np.where(eps_area > 0, eps_area, 1.0), 0.0)
+    if method == "linear":
+        GR, F, lse = _linear(F_raw, eps_area, eps_area, rays, exponent, True, blocked, threads)
+        return F, GR, lse
+    GRb = enforce_reciprocity(scale_rows(F_raw[:, :g], eps_area), eps_area, rays, method, exponent)
+    GRb.sort_indices()  # merged with an empty transposed part
     space_raw = _column(F_raw.indptr, F_raw.indices, F_raw.data, g)
-    lse = np.where(eps_area > 0, 1.0 - blocked - inv * _row_sums(gp, gv) - space_raw, 0.0)
-    space = np.where(eps_area > 0, space_raw + lse, 0.0)
-    F = _append_arrays(gp, gi, gv, space, g, inv)
-    GR = _append_arrays(gp, gi, gv, eps_area * space, g, np.ones(g))
+    GR, F, lse = _assemble(GRb.indptr, GRb.indices, np.append(GRb.data, 0.0), np.zeros(g + 1, np.int64),
+                           np.zeros(1, np.int32), np.zeros(1), g, g, True, eps_area, blocked, space_raw, threads)
     return F, GR, lse
-
-
-@njit(cache=True, nogil=True)
-def _row_sums(indptr, data):
-    g = indptr.shape[0] - 1
-    out = np.zeros(g)
-    for i in range(g):
-        for q in range(indptr[i], indptr[i + 1]):
-            out[i] += data[q]
-    return out
 
 
 @njit(cache=True, nogil=True)
@@ -224,54 +349,6 @@ def _column(indptr, indices, data, j):
             if indices[q] == j:
                 out[i] = data[q]
     return out
-
-
-def append_column(A: sp.spmatrix, column: np.ndarray, row_scale: np.ndarray | None = None) -> sp.csr_matrix:
-    """csr (g, k + 1): diag(``row_scale``) ``A`` (g, k) (default: A) with ``column`` (g,) appended as its last
-    column, zeros dropped, in one pass over the non-zeros."""
-    A = sp.csr_matrix(A)
-    A.sort_indices()
-    g, k = A.shape
-    scale = np.ones(g) if row_scale is None else np.asarray(row_scale, np.float64)
-    return _append_arrays(A.indptr, A.indices, A.data, column, k, scale)
-
-
-def _append_arrays(indptr, indices, data, column, k, scale) -> sp.csr_matrix:
-    """:func:`append_column` on the CSR arrays of A (g, k); index arrays int32 when they fit (scipy keeps them)."""
-    g = len(indptr) - 1
-    itype = np.int32 if int(indptr[-1]) + g < 2**31 - 1 and k + 1 < 2**31 - 1 else np.int64
-    out_data, out_ind, out_ptr = _append_column(indptr, indices, data, np.asarray(column, np.float64), k, scale,
-                                                np.empty(0, itype))
-    return sp.csr_matrix((out_data, out_ind, out_ptr), shape=(g, k + 1))
-
-
-@njit(cache=True, nogil=True)
-def _append_column(indptr, indices, data, column, k, scale, itmpl):
-    """CSR arrays of [diag(scale) A | column] (column index k) without the zeros of either, in one pass."""
-    g = indptr.shape[0] - 1
-    n = 0
-    for r in range(g):
-        for j in range(indptr[r], indptr[r + 1]):
-            n += scale[r] * data[j] != 0.0
-        n += column[r] != 0.0
-    out_data = np.empty(n)
-    out_ind = np.empty(n, itmpl.dtype)
-    out_ptr = np.empty(g + 1, itmpl.dtype)
-    m = 0
-    out_ptr[0] = 0
-    for r in range(g):
-        for j in range(indptr[r], indptr[r + 1]):
-            v = scale[r] * data[j]
-            if v != 0.0:
-                out_data[m] = v
-                out_ind[m] = indices[j]
-                m += 1
-        if column[r] != 0.0:
-            out_data[m] = column[r]
-            out_ind[m] = k
-            m += 1
-        out_ptr[r + 1] = m
-    return out_data, out_ind, out_ptr
 
 
 def rms(values: np.ndarray, mask: np.ndarray | None = None) -> float:

@@ -93,6 +93,17 @@ class SideOptics:
     active: np.ndarray
 
     @cached_property
+    def rows(self) -> np.ndarray:
+        """(2f, 8) one row per side for the compiled bounce (a hit reads one cache line): stop probability (the
+        absorptance, or 2 on an inactive side, which stops every ray), cumulative probabilities of specular
+        reflection, specular transmission and diffuse transmission (``cum[:, 1:4]``), active (1 / 0), padding."""
+        out = np.zeros((len(self.active), 8))
+        out[:, 0] = np.where(self.active, self.cum[:, 0], 2.0)
+        out[:, 1:4] = self.cum[:, 1:4]
+        out[:, 4] = self.active
+        return out
+
+    @cached_property
     def all_diffuse_reflectors(self) -> bool:
         """True when no side reflects specularly or transmits (fast path of the bounce loop)."""
         return bool(np.all(self.cum[:, 3] == self.cum[:, 0]) and np.all(self.cum[:, 1] == self.cum[:, 0]))
@@ -233,6 +244,7 @@ class TriangleScene:
         self._geom = np.ascontiguousarray(np.concatenate([v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], tri.normal],
                                                          axis=1))
         self._tables = None
+        self._rows = None
 
     def sample(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points on primitives ``prim`` (r,) from unit-square samples ``u``, ``v`` (r,) by the area-preserving
@@ -337,6 +349,14 @@ class TriangleScene:
             self._tables = (np.ascontiguousarray(self.tri_face, dtype=np.int64),
                             np.ascontiguousarray(self.tri_normal, dtype=np.float64), np.ascontiguousarray(c), shrink)
         return self._tables
+
+    def triangle_rows(self) -> np.ndarray:
+        """(t, 8) one row per triangle for the compiled bounce (a hit reads one cache line): unit front normal (3),
+        centroid (3), shrink (see :meth:`bounce_tables`), owning face (as a float, exact below 2^53)."""
+        if self._rows is None:
+            face, normal, centroid, shrink = self.bounce_tables()
+            self._rows = np.ascontiguousarray(np.concatenate([normal, centroid, shrink[:, None], face[:, None]], 1))
+        return self._rows
 
     def direct_query(self):
         """``(address of rtcIntersect1, scene handle, centre (3,))`` when every ray of this scene can be traced by
