@@ -97,6 +97,18 @@ def sample_points(prim, u, v, geom):
     return p, n
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _emit_one(j, sign, u0, u1, u2, u3, geom, centroid, shrink, eps):
+    """One emitted ray from side ``sign`` of flat triangle ``j``: origin by the area-preserving map of (u0, u1)
+    (thesis eq. 2.18), offset off the side; cosine-law direction from (u2, u3).  Returns (origin, direction)."""
+    px, py, pz = _triangle_point(geom, j, u0, u1)
+    nx, ny, nz = geom[j, 9], geom[j, 10], geom[j, 11]
+    dx, dy, dz = _cosine_dir(nx, ny, nz, sign, u2, u3)
+    ox, oy, oz = _offset_one(px, py, pz, nx, ny, nz, sign, centroid[j, 0], centroid[j, 1], centroid[j, 2], shrink[j],
+                             eps)
+    return ox, oy, oz, dx, dy, dz
+
+
 @njit(cache=True, nogil=True)
 def emit_rays(prim, sign, U, geom, centroid, shrink, eps):
     """Emitted rays from flat triangles ``prim`` (r,), sides ``sign`` (r,), driven by the unit-hypercube samples
@@ -107,13 +119,29 @@ def emit_rays(prim, sign, U, geom, centroid, shrink, eps):
     o = np.empty((r, 3))
     d = np.empty((r, 3))
     for k in range(r):
-        j = prim[k]
-        px, py, pz = _triangle_point(geom, j, U[k, 0], U[k, 1])
-        nx, ny, nz = geom[j, 9], geom[j, 10], geom[j, 11]
-        d[k, 0], d[k, 1], d[k, 2] = _cosine_dir(nx, ny, nz, sign[k], U[k, 2], U[k, 3])
-        o[k, 0], o[k, 1], o[k, 2] = _offset_one(px, py, pz, nx, ny, nz, sign[k], centroid[j, 0], centroid[j, 1],
-                                                centroid[j, 2], shrink[j], eps)
+        o[k, 0], o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2] = _emit_one(prim[k], sign[k], U[k, 0], U[k, 1], U[k, 2],
+                                                                         U[k, 3], geom, centroid, shrink, eps)
     return o, d
+
+
+_ONE_MINUS = float(np.nextafter(1.0, 0.0))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _locate_one(g, u, start, lo, hi):
+    """Entry of group ``g`` whose keyed interval [lo[k], hi[k]) holds g + u (binary search within the group's
+    entries ``start[g]:start[g + 1]``), and u rescaled to [0, 1) within it."""
+    x = g + u
+    a, b = start[g], start[g + 1] - 1  # first entry with hi > x, at most the group's last
+    while a < b:
+        mid = (a + b) // 2
+        if hi[mid] > x:
+            b = mid
+        else:
+            a = mid + 1
+    w = hi[a] - lo[a]
+    v = (x - lo[a]) / w if w > 0.0 else 0.0
+    return a, min(max(v, 0.0), _ONE_MINUS)
 
 
 @njit(cache=True, nogil=True)
@@ -124,22 +152,29 @@ def locate_entries(group, u, start, lo, hi):
     r = group.shape[0]
     k_out = np.empty(r, np.int64)
     u_out = np.empty(r)
-    one_minus = np.nextafter(1.0, 0.0)
     for i in range(r):
-        g = group[i]
-        x = g + u[i]
-        a, b = start[g], start[g + 1] - 1  # first entry with hi > x, at most the group's last
-        while a < b:
-            mid = (a + b) // 2
-            if hi[mid] > x:
-                b = mid
-            else:
-                a = mid + 1
-        k_out[i] = a
-        w = hi[a] - lo[a]
-        v = (x - lo[a]) / w if w > 0.0 else 0.0
-        u_out[i] = min(max(v, 0.0), one_minus)
+        k_out[i], u_out[i] = _locate_one(group[i], u[i], start, lo, hi)
     return k_out, u_out
+
+
+@njit(cache=True, nogil=True)
+def emit_groups(group, U, start, lo, hi, entry_prim, entry_side, geom, centroid, shrink, eps):
+    """:func:`locate_entries` and :func:`emit_rays` in one pass: rays of super faces ``group`` (r,) from their
+    samples ``U`` (r, >= 4) (U[:, 0] picks the emitting triangle and side through the group's cumulative ε·A and is
+    rescaled within it, U[:, 1] the position, U[:, 2:4] the direction).  Returns ``(origins (r, 3), directions
+    (r, 3), triangles (r,))``."""
+    r = group.shape[0]
+    o = np.empty((r, 3))
+    d = np.empty((r, 3))
+    prim = np.empty(r, np.int64)
+    for k in range(r):
+        e, u0 = _locate_one(group[k], U[k, 0], start, lo, hi)
+        j = entry_prim[e]
+        prim[k] = j
+        o[k, 0], o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2] = _emit_one(j, 1.0 - 2.0 * entry_side[e], u0, U[k, 1],
+                                                                         U[k, 2], U[k, 3], geom, centroid, shrink,
+                                                                         eps)
+    return o, d, prim
 
 
 @njit(cache=True, nogil=True)

@@ -36,7 +36,7 @@ from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
-from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, hit_sides  # noqa: F401
+from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, emit_groups, hit_sides  # noqa: F401
 from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, scale_rows, smooth
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
@@ -137,9 +137,53 @@ def _stratified_runs(major, keys, shuffle, phase):
     return u
 
 
+@njit(cache=True, nogil=True)
+def _first_hit_numbers(side, strata, n_sides, rng):
+    """Event numbers (r,) of first hits stratified within each (source group, side hit) pair
+    (:func:`stratified_uniforms`, in run order): ``side`` (r,) the side each ray hit (-1: miss, number 0),
+    ``strata`` (r,) the non-decreasing source group of each ray, ``rng`` a numpy Generator."""
+    r = side.shape[0]
+    hit = np.flatnonzero(side >= 0)
+    m = hit.shape[0]
+    major = np.empty(m, np.int64)
+    keys = np.empty(m, np.int64)
+    shuffle = np.empty(m)
+    phase = np.empty(m)
+    for q in range(m):
+        k = hit[q]
+        major[q] = strata[k]
+        keys[q] = strata[k] * n_sides + side[k]
+        shuffle[q] = rng.random()
+        phase[q] = rng.random()
+    uh = _stratified_runs(major, keys, shuffle, phase)
+    u = np.zeros(r)
+    for q in range(m):
+        u[hit[q]] = uh[q]
+    return u
+
+
+@njit(cache=True, nogil=True)
+def _batch_rays(lo, hi, start, offsets):
+    """Rays lo..hi-1 of a run (rays of group g are start[g]..start[g + 1]-1): their group (r,) and their index in
+    the group's Halton sequence, offsets[g] + rank within the group (r,) (``offsets`` empty: zeros)."""
+    n = hi - lo
+    grp = np.empty(n, np.int64)
+    hidx = np.zeros(n, np.int64)
+    g = np.searchsorted(start, lo, side="right") - 1
+    with_offsets = offsets.shape[0] > 0
+    for k in range(n):
+        ray = lo + k
+        while start[g + 1] <= ray:
+            g += 1
+        grp[k] = g
+        if with_offsets:
+            hidx[k] = offsets[g] + (ray - start[g])
+    return grp, hidx
+
+
 def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, directions: np.ndarray,
                 leaving: np.ndarray, rng: np.random.Generator, max_bounces: int = MAX_BOUNCES,
-                strata: np.ndarray | None = None, first_scatter: np.ndarray | None = None):
+                strata: np.ndarray | None = None, first_scatter: np.ndarray | None = None, copy: bool = True):
     """Follow rays until they are absorbed, leave the model or reach ``max_bounces`` segments.
 
     ``origins`` (r, 3) m already offset off their surface, ``directions`` (r, 3) unit, ``leaving`` (r,) the
@@ -161,13 +205,17 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     segment: the processor then cannot overlap the long latency chains of consecutive rays.  Ordering the rays by
     hit triangle before the bounce cost more than it saved.)
 
+    ``copy`` False lets the kernels work in ``origins`` and ``directions`` themselves (C-contiguous float64 arrays
+    the caller gives up).
+
     Returns ``(ends (r,) int64, segments int)``: ends[k] = side index (2 face + back) that absorbed ray k, or
     ``END_SPACE`` / ``END_BLOCKED`` / ``END_CAPPED``; segments = number of intersection queries made.
     """
     n = len(origins)
     ends = np.full(n, END_CAPPED, np.int64)
-    o = np.array(origins, dtype=np.float64, order="C")  # own copies: the kernels update them in place
-    d = np.array(directions, dtype=np.float64, order="C")
+    own = np.array if copy else np.ascontiguousarray  # the kernels update them in place
+    o = own(origins, dtype=np.float64)
+    d = own(directions, dtype=np.float64)
     last = np.ascontiguousarray(leaving, dtype=np.int64)
     tables = scene.bounce_tables()
     direct = scene.direct_query()
@@ -191,14 +239,11 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
         u, r2 = _NO_NUMBERS
         if b == 0 and strata is not None:  # first hit: stratified event numbers per (source, side)
             side = hit_sides(prim, d, tables[0], tables[1], nrm)
-            hit = side >= 0
-            u = np.zeros(m)
-            sh = strata[hit]
-            u[hit] = stratified_uniforms(sh * len(side_rows) + side[hit], rng, major=sh)
+            u = _first_hit_numbers(side, np.ascontiguousarray(strata, dtype=np.int64), len(side_rows), rng)
         elif b == 0 and first_scatter is not None:
             u = rng.random(m)
         if b == 0 and first_scatter is not None:
-            r2 = np.ascontiguousarray(first_scatter, dtype=np.float64)
+            r2 = np.asarray(first_scatter, dtype=np.float64)
         elif u.size:
             r2 = rng.random((m, 2))
         alive = bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_rows, nrm, side_rows, scene.eps)
@@ -394,6 +439,20 @@ class _ExchangeTracer:
         self.groups = groups
         self.g = n_groups
 
+    def emit(self, grp: np.ndarray, U: np.ndarray):
+        """Emitted rays of groups ``grp`` (r,) from their samples ``U`` (r, >= 4): ``(origins, directions, triangles,
+        relative energies or None)``; one compiled pass on flat scenes, the scene's own emission otherwise."""
+        scene, em = self.scene, self.emitters
+        if type(scene).emit_weighted is TriangleScene.emit_weighted:  # flat triangles: uniform energies
+            face, normal, centroid, shrink = scene.bounce_tables()
+            o, d, prim = emit_groups(grp, U, em.start, em.lo, em.hi, em.entry_prim, em.entry_side, scene._geom,
+                                     centroid, shrink, scene.eps)
+            return o, d, prim, None
+        entry, U[:, 0] = em.locate(grp, U[:, 0])
+        prim = em.entry_prim[entry]
+        o, d, w = scene.emit_weighted(prim, 1.0 - 2.0 * em.entry_side[entry], U)
+        return o, d, prim, w
+
     def run(self, rays: np.ndarray, sampling: str, seed, stream: int, batch: int, threads: int, max_bounces: int):
         g = self.g
         rays = np.where(self.emitters.weight > 0, rays, 0).astype(np.int64)
@@ -411,24 +470,17 @@ class _ExchangeTracer:
         # destination column of an absorbing side: its group, or "blocked" when it is not a REF node
         side_col = np.where(self.groups >= 0, self.groups, g + 1)
 
+        no_offsets = np.zeros(0, np.int64)
+
         def job(b):
             lo_, hi_ = b * batch, min((b + 1) * batch, total)
-            rho = np.arange(lo_, hi_, dtype=np.int64)
-            g0, g1 = np.searchsorted(start, [lo_, hi_ - 1], side="right") - 1
-            # group of each ray of the batch: its group's rays clipped to the batch
-            cnt = np.minimum(start[g0 + 1 : g1 + 2], hi_) - np.maximum(start[g0 : g1 + 1], lo_)
-            grp = np.repeat(np.arange(g0, g1 + 1), cnt)
+            grp, hidx = _batch_rays(lo_, hi_, start, no_offsets if offsets is None else offsets)
             rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream, 1, b)))
-            if halton is not None:
-                U = halton.points(offsets[grp] + (rho - start[grp]))
-            else:
-                U = rng.random((rho.size, 4))
-            entry, U[:, 0] = self.emitters.locate(grp, U[:, 0])
-            prim = self.emitters.entry_prim[entry]
-            o, d, w = self.scene.emit_weighted(prim, 1.0 - 2.0 * self.emitters.entry_side[entry], U)
+            U = halton.points(hidx) if halton is not None else rng.random((grp.size, 4))
+            o, d, prim, w = self.emit(grp, U)
             ends, segs = trace_paths(self.scene, self.optics, o, d, prim, rng, max_bounces,
                                      strata=grp if halton is not None else None,
-                                     first_scatter=U[:, 4:6] if halton is not None else None)
+                                     first_scatter=U[:, 4:6] if halton is not None else None, copy=False)
             # w: relative ray energies of curved emitters (None: every ray counts 1)
             wsum = None
             if w is not None:
