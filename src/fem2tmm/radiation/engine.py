@@ -12,8 +12,10 @@ Embree is reached in one of two ways, both through the Embree 4 library that the
   no per-ray output arrays and self hits re-traced in the same loop
   (:func:`fem2tmm.radiation.kernels.closest_hits`).  The BVH is built at Embree's medium quality, as embreex's
   (the high quality with spatial splits measured 5 % faster queries on the baffle and 7 % slower on the sphere).
-* **embreex** (fallback, e.g. a wheel whose library is not where we look): embreex's ``EmbreeScene.run`` on
-  float32 copies of each batch.
+* **embreex** (fallback, e.g. a wheel whose library is not where we look, or an Embree other than 4):
+  embreex's ``EmbreeScene.run`` on float32 copies of each batch.  The environment variable
+  ``FEM2TMM_EMBREE_DIRECT=0`` forces it; ``FEM2TMM_EMBREE_LIBRARY`` names the Embree 4 library to load instead of
+  the one found next to embreex.
 
 Both use Embree's robust (watertight) traversal, so rays cannot slip through the shared edge of two triangles, and
 both translate the scene to its bounding-box centre before converting to float32, so the rounding is relative to
