@@ -8,7 +8,7 @@ import scipy.sparse as sp
 
 from fem2tmm.radiation.sampling import ScrambledHalton
 from fem2tmm.radiation.smoothing import enforce_reciprocity, smooth
-from fem2tmm.radiation.tracer import _batch_tally, runs_to_csr, stratified_uniforms
+from fem2tmm.radiation.tracer import _batch_tally, _first_hit_numbers, runs_to_csr
 
 
 def test_runs_to_csr_merges_the_runs_of_rows_that_straddle_batches():
@@ -92,19 +92,22 @@ def test_smooth_closes_rows_through_space():
     np.testing.assert_allclose(F[:, g].toarray().ravel(), space_raw + lse, atol=1e-15)
 
 
-def test_stratified_runs_are_stratified_within_each_key():
-    # per key with m entries: sorted u x m - rank is one phase in [0, 1) (systematic sampling), for the run-wise
-    # path (sorted major part) and the general one alike
+def test_first_hit_numbers_are_stratified_within_each_group_and_side():
+    # per (group, side) pair with m hits: sorted u x m - rank is one phase in [0, 1) (systematic sampling); misses
+    # (side -1) get 0
     rng = np.random.default_rng(6)
     major = np.sort(rng.integers(0, 200, 20_000))
-    keys = major * 7 + rng.integers(0, 7, major.size)
-    for m in (major, None):
-        u = stratified_uniforms(keys, np.random.default_rng(7), major=m)
-        assert u.min() >= 0 and u.max() < 1
-        for k in np.unique(keys)[:300]:
-            v = np.sort(u[keys == k]) * np.count_nonzero(keys == k)
-            phase = v - np.arange(v.size)
-            assert np.ptp(phase) < 1e-12 and 0 <= phase[0] < 1
+    side = rng.integers(-1, 7, major.size)
+    u = _first_hit_numbers(side, major, 7, np.random.default_rng(7))
+    assert np.all(u[side < 0] == 0.0)
+    hit = side >= 0
+    keys = major[hit] * 7 + side[hit]
+    uh = u[hit]
+    assert uh.min() >= 0 and uh.max() < 1
+    for k in np.unique(keys)[:300]:
+        v = np.sort(uh[keys == k]) * np.count_nonzero(keys == k)
+        phase = v - np.arange(v.size)
+        assert np.ptp(phase) < 1e-12 and 0 <= phase[0] < 1
 
 
 def test_halton_runs_of_consecutive_indices_equal_single_evaluations():

@@ -815,6 +815,14 @@ class QuadricScene(TriangleScene):
     def emit(self, prim, sign, U):
         return self.emit_weighted(prim, sign, U)[:2]
 
+    def emit_group_rays(self, emitters, group, U):
+        """:meth:`TriangleScene.emit_group_rays` through :meth:`emit_weighted` (projected origins, rotated
+        directions, Jacobian weights)."""
+        entry, U[:, 0] = emitters.locate(group, U[:, 0])
+        prim = emitters.entry_prim[entry]
+        o, d, w = self.emit_weighted(prim, 1.0 - 2.0 * emitters.entry_side[entry], U)
+        return o, d, prim, w
+
     def emit_weighted(self, prim, sign, U):
         """Rays as :meth:`TriangleScene.emit`; on quadric triangles the origin is projected onto the quadric along
         its normal, the direction rotated from the facet normal to the quadric normal and the weight (r,) is

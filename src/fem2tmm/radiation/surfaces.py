@@ -26,7 +26,8 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import SELF_HIT_RETRIES, cosine_directions, emit_rays, locate_entries, offset_points, sample_points
+from .kernels import (SELF_HIT_RETRIES, cosine_directions, emit_groups, emit_rays, locate_entries, offset_points,
+                      sample_points)
 
 FRONT, BACK = 0, 1
 #: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
@@ -215,14 +216,16 @@ class TriangleScene:
     """Ray-scene of a :class:`Surface`: robust closest-hit queries, emission and diffuse scattering on its
     triangles.  This is the only geometry object the bounce loop talks to; curved super faces (quadrics) subclass
     it and override :meth:`intersect`, :meth:`hit_geometry`, :meth:`hit_normals` (the curved normal at a hit),
-    :meth:`offset` and the curved triangles of :meth:`bounce_tables` (:meth:`_curved_triangles`), and the emission methods (:meth:`emit`,
-    :meth:`emit_weighted`, :meth:`facing_areas`, :meth:`sample_facing`, for non-uniform sampling of their true
+    :meth:`offset`, :meth:`direct_query` (None), the curved triangles of :meth:`bounce_tables`
+    (:meth:`_curved_triangles`), and the emission methods (:meth:`emit`, :meth:`emit_weighted`,
+    :meth:`emit_group_rays`, :meth:`facing_areas`, :meth:`sample_facing`, for non-uniform sampling of their true
     area; see :class:`fem2tmm.radiation.quadric.QuadricScene`).  The per-ray work is done by the compiled kernels
     of :mod:`fem2tmm.radiation.kernels`.
 
-    ``backend``: "auto" (Embree when importable), "embree", "embreex" or "numpy" (:func:`~.engine.make_engine`).  Origins are offset by
-    ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray leaves; a hit on the very
-    triangle the ray leaves (float32 round-off) is rejected and re-traced from a 4x larger offset.
+    ``backend``: "auto" (Embree when importable), "embree", "embreex" or "numpy" (:func:`~.engine.make_engine`).
+    Origins are offset by ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray
+    leaves; a hit on the very triangle the ray leaves (float32 round-off) is rejected and re-traced from a 4x larger
+    offset.
     """
 
     def __init__(self, surface: Surface, backend: str = "auto", *, engine: bool = True):
@@ -268,6 +271,18 @@ class TriangleScene:
         not uniform over their true area return importance weights here; the tracer normalises them per group."""
         o, d = self.emit(prim, sign, U)
         return o, d, None
+
+    def emit_group_rays(self, emitters: "GroupEmitters", group: np.ndarray, U: np.ndarray):
+        """Emitted rays of the super faces ``group`` (r,) of ``emitters`` from their samples ``U`` (r, >= 4): U[:, 0]
+        picks the emitting triangle and side through the group's cumulative ε·A (:meth:`GroupEmitters.locate`; it
+        is rescaled within the triangle), the rest as in :meth:`emit`.  Returns ``(origins (r, 3), directions
+        (r, 3), triangles (r,), relative energies (r,) or None)``; here one compiled pass
+        (:func:`~fem2tmm.radiation.kernels.emit_groups`), every ray with the same energy."""
+        _, _, centroid, shrink = self.bounce_tables()
+        o, d, prim = emit_groups(np.ascontiguousarray(group, dtype=np.int64), U, emitters.start, emitters.lo,
+                                 emitters.hi, emitters.entry_prim, emitters.entry_side, self._geom, centroid, shrink,
+                                 self.eps)
+        return o, d, prim, None
 
     def facing_areas(self, direction: np.ndarray) -> np.ndarray:
         """(t, 2) area (m²) of each triangle's front (column 0) and back (column 1) side projected onto a plane

@@ -36,7 +36,7 @@ from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
-from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, emit_groups, hit_sides  # noqa: F401
+from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, hit_sides  # noqa: F401
 from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, scale_rows, smooth
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
@@ -54,35 +54,16 @@ PILOT_RAYS = (100, 400)
 EXTRAPOLATIONS = 3
 
 
-def stratified_uniforms(keys: np.ndarray, rng: np.random.Generator, major: np.ndarray | None = None) -> np.ndarray:
-    """Uniform numbers (r,) stratified within each key: the m entries of a key get (rank + φ)/m, rank a random
-    permutation of 0..m-1 and φ one uniform phase per key (systematic sampling in random order).  Each entry is
-    marginally U[0, 1); the fraction of a key's entries below any threshold p is within 1/m of p.
-
-    ``major`` (r,) int, optional: a non-decreasing coarse part of the keys (entries of one major value are
-    contiguous and ``keys`` never mixes two major values): the entries are then ordered run by run, in linear
-    time for short runs, instead of by one global sort."""
-    n = keys.size
-    if major is not None and n and np.all(major[1:] >= major[:-1]):
-        return _stratified_runs(np.ascontiguousarray(major, dtype=np.int64), np.ascontiguousarray(keys, np.int64),
-                                rng.random(n), rng.random(n))
-    order = np.argsort(keys + rng.random(n))
-    ks = keys[order]
-    first = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]]) if n else np.zeros(0, np.int64)
-    counts = np.diff(np.r_[first, n])
-    rank = np.arange(n) - np.repeat(first, counts)
-    u = np.empty(n)
-    u[order] = (rank + np.repeat(rng.random(first.size), counts)) / np.repeat(counts, counts)
-    return u
-
-
 _HASH = np.int64(0x61C8864680B583EB)  # an odd 64-bit constant (golden-ratio hashing)
 
 
 @njit(cache=True, nogil=True)
 def _stratified_runs(major, keys, shuffle, phase):
-    """:func:`stratified_uniforms` for runs of equal ``major``, in linear time: within each run the entries are
-    visited in a random order (a Fisher-Yates permutation driven by ``shuffle`` (r,)), each gets the number of
+    """Uniform numbers (r,) stratified within each key: the m entries of a key get (rank + φ)/m, rank a random
+    permutation of 0..m-1 and φ one uniform phase per key (systematic sampling in random order), so each entry is
+    marginally U[0, 1) and the fraction of a key's entries below any threshold p is within 1/m of p.  ``major`` (r,)
+    a non-decreasing coarse part of the keys (a key never spans two major values), so the work goes run by run in
+    linear time (no global sort): within each run the entries are visited in a random order (a Fisher-Yates permutation driven by ``shuffle`` (r,)), each gets the number of
     entries of its key visited before it as its rank, and key j gets its phase from ``phase`` at its first entry
     (keys of a run are found by open addressing in a table twice the run's length)."""
     n = keys.shape[0]
@@ -140,7 +121,7 @@ def _stratified_runs(major, keys, shuffle, phase):
 @njit(cache=True, nogil=True)
 def _first_hit_numbers(side, strata, n_sides, rng):
     """Event numbers (r,) of first hits stratified within each (source group, side hit) pair
-    (:func:`stratified_uniforms`, in run order): ``side`` (r,) the side each ray hit (-1: miss, number 0),
+    (:func:`_stratified_runs`): ``side`` (r,) the side each ray hit (-1: miss, number 0),
     ``strata`` (r,) the non-decreasing source group of each ray, ``rng`` a numpy Generator."""
     r = side.shape[0]
     hit = np.flatnonzero(side >= 0)
@@ -193,7 +174,7 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     diffuse transmission or diffuse reflection in the proportions of that side's optics (thesis l. 664); diffuse
     directions follow the cosine law about the normal of the side the ray leaves.  With ``strata`` (r,) int (the
     source group of each ray), the uniform numbers of the *first* hit are stratified within each (source, side)
-    pair (:func:`stratified_uniforms`): the number of first-hit absorptions of a pair is then within one of its
+    pair (:func:`_first_hit_numbers`): the number of first-hit absorptions of a pair is then within one of its
     expectation instead of binomial, so the low-discrepancy emission is not drowned by absorption noise; each
     ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
     numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
@@ -439,20 +420,6 @@ class _ExchangeTracer:
         self.groups = groups
         self.g = n_groups
 
-    def emit(self, grp: np.ndarray, U: np.ndarray):
-        """Emitted rays of groups ``grp`` (r,) from their samples ``U`` (r, >= 4): ``(origins, directions, triangles,
-        relative energies or None)``; one compiled pass on flat scenes, the scene's own emission otherwise."""
-        scene, em = self.scene, self.emitters
-        if type(scene).emit_weighted is TriangleScene.emit_weighted:  # flat triangles: uniform energies
-            face, normal, centroid, shrink = scene.bounce_tables()
-            o, d, prim = emit_groups(grp, U, em.start, em.lo, em.hi, em.entry_prim, em.entry_side, scene._geom,
-                                     centroid, shrink, scene.eps)
-            return o, d, prim, None
-        entry, U[:, 0] = em.locate(grp, U[:, 0])
-        prim = em.entry_prim[entry]
-        o, d, w = scene.emit_weighted(prim, 1.0 - 2.0 * em.entry_side[entry], U)
-        return o, d, prim, w
-
     def run(self, rays: np.ndarray, sampling: str, seed, stream: int, batch: int, threads: int, max_bounces: int):
         g = self.g
         rays = np.where(self.emitters.weight > 0, rays, 0).astype(np.int64)
@@ -477,7 +444,7 @@ class _ExchangeTracer:
             grp, hidx = _batch_rays(lo_, hi_, start, no_offsets if offsets is None else offsets)
             rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream, 1, b)))
             U = halton.points(hidx) if halton is not None else rng.random((grp.size, 4))
-            o, d, prim, w = self.emit(grp, U)
+            o, d, prim, w = self.scene.emit_group_rays(self.emitters, grp, U)
             ends, segs = trace_paths(self.scene, self.optics, o, d, prim, rng, max_bounces,
                                      strata=grp if halton is not None else None,
                                      first_scatter=U[:, 4:6] if halton is not None else None, copy=False)
