@@ -153,34 +153,36 @@ def _emission_rays(scene: TriangleScene, groups: np.ndarray, n: int, seed: int =
     return scene.emit(em.entry_prim[k], 1.0 - 2.0 * em.entry_side[k], rng.random((n, 4)))
 
 
-def bench_throughput(repeat: int = 5, threads: int = 2, rays_per_face: int = 200) -> list[dict]:
+def bench_throughput(repeat: int = 7, threads: int = 2, rays_per_face: int = 200) -> list[dict]:
     """Segments per second of exchange-factor tracing vs bare embreex on the sphere and the baffle.
 
     The machine is shared and its speed drifts by tens of per cent within minutes, so the runs are interleaved
-    (baseline, tracer, direct baseline, baseline, tracer, ...; ``repeat`` rounds) and each ratio is taken per
-    round, between runs a few seconds apart; the median of the per-round ratios is reported along with the median
-    times.  The tracer's time is the whole ``trace_exchange`` call: scene build, emission, tracing, tally,
-    reciprocity and closure."""
+    (baseline, tracer, direct baseline, baseline, tracer, ...; one unrecorded round that warms every runner up,
+    then ``repeat`` rounds) and each ratio is taken per round, between runs a few seconds apart; the median of the per-round ratios is reported along with the median
+    times.  The tracer's time is the whole ``trace_exchange`` call and its REF matrix ℱ: scene build, emission,
+    tracing, tally, reciprocity and closure, then ``.F``."""
     out = []
     for name, (surf, groups) in (("sphere_20k", sphere_surface()), ("baffle_18k", baffle_surface()[:2])):
         scene = TriangleScene(surf)
         if scene.engine.name != "embree":
             return [{"bench": "rays.throughput", "skipped": "embreex not importable"}]
-        run = lambda: trace_exchange(surf, groups, rays_per_group=rays_per_face, threads=threads)  # noqa: E731
-        res = run()  # warm-up (compilation, caches), and the number of segments to give the baselines
+        # the REFs F included (they are derived from GR on first use)
+        run = lambda: trace_exchange(surf, groups, rays_per_group=rays_per_face, threads=threads).F  # noqa: E731
+        res = trace_exchange(surf, groups, rays_per_group=rays_per_face, threads=threads)  # the baselines' segments
         rays = _emission_rays(scene, groups, res.segments)
         runners = {"raw_embree": raw_embree_runner(scene, *rays, threads)}
         if scene.direct_query() is not None:  # the same queries through our own scene: bookkeeping overhead alone
             runners["raw_direct"] = raw_embree_runner(scene, *rays, threads, direct=True)
         wall = {k: [] for k in ["exchange", *runners]}
         cpu = {k: [] for k in wall}
-        for _ in range(repeat):
+        for r in range(repeat + 1):  # round 0 warms every runner up and is not recorded
             for key, fn in (("raw_embree", runners["raw_embree"]), ("exchange", run),
                             *((k, f) for k, f in runners.items() if k != "raw_embree")):
                 t, c = time.perf_counter(), time.process_time()
                 fn()
-                wall[key].append(time.perf_counter() - t)
-                cpu[key].append(time.process_time() - c)
+                if r:
+                    wall[key].append(time.perf_counter() - t)
+                    cpu[key].append(time.process_time() - c)
         med = {k: float(np.median(v)) for k, v in wall.items()}
         ratio = lambda k: float(np.median(np.array(wall[k]) / np.array(wall["exchange"])))  # noqa: E731
         row = {
@@ -286,5 +288,6 @@ def bench_super_faces(repeat: int = 3, ray_density: float = 1.0e7, threads: int 
 
 
 def bench_rays(repeat: int = 3) -> list[dict]:
-    """All ray-tracing measurements of ``fem2tmm bench rays`` (list of dicts, medians over ``repeat``)."""
-    return bench_throughput(repeat=repeat) + bench_convergence() + bench_super_faces(repeat=repeat)
+    """All ray-tracing measurements of ``fem2tmm bench rays`` (list of dicts, medians over ``repeat``; the
+    throughput ratios over 7 interleaved rounds)."""
+    return bench_throughput(repeat=7) + bench_convergence() + bench_super_faces(repeat=repeat)

@@ -131,10 +131,10 @@ def _prefetch_intrinsic_name() -> str:
 
 
 @intrinsic
-def prefetch_row(typingctx, arr, i):
-    """Prefetch (for reading, into all cache levels) row ``i`` of the C-contiguous array ``arr`` (its first
-    element): a hint to the processor, no effect on results."""
-    sig = types.void(arr, i)
+def prefetch(typingctx, arr, i, j):
+    """Prefetch (for reading, into all cache levels) the cache line holding element (i, j) of the C-contiguous 2-D
+    array ``arr``: a hint to the processor, no effect on results."""
+    sig = types.void(arr, i, j)
 
     def codegen(context, builder, signature, args):
         from llvmlite import ir
@@ -142,8 +142,8 @@ def prefetch_row(typingctx, arr, i):
 
         aryty = signature.args[0]
         ary = context.make_array(aryty)(context, builder, args[0])
-        zero = context.get_constant(types.intp, 0)
-        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [args[1]] + [zero] * (aryty.ndim - 1))
+        idx = [context.cast(builder, v, t, types.intp) for v, t in zip(args[1:], signature.args[1:])]
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, idx)
         i8p = ir.IntType(8).as_pointer()
         i32 = ir.IntType(32)
         fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),

@@ -22,11 +22,20 @@ import math
 import numpy as np
 from numba import njit
 
-from .engine import embree_intersect1, prefetch_row, rayhit_buffer
+from .engine import embree_intersect1, prefetch, rayhit_buffer
+
+@njit(cache=True, nogil=True)
+def empty_pages(n, template):
+    """An uninitialised (n,) array of ``template``'s dtype allocated by the compiled runtime (malloc), for the large
+    short-lived arrays of the tracer and of REF smoothing.  numpy advises arrays >= 4 MB into transparent huge
+    pages; a fresh 2 MB page must be zeroed (and, on a virtual machine, backed by the host) at its first touch,
+    which measured ~4 ms each on the reference machine (0.3-0.4 s of system time per 20 k-face REF smoothing),
+    against ~1 µs per 4 KB page, which the kernel recycles warm."""
+    return np.empty(n, template.dtype)
+
 
 #: ends of a ray path besides "absorbed by side s >= 0" (see :func:`fem2tmm.radiation.tracer.trace_paths`)
 END_SPACE, END_BLOCKED, END_CAPPED = -1, -2, -3
-_TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -44,22 +53,67 @@ def _lift(nx, ny, nz, x, y, z):
     return dx, dy, dz
 
 
+_OCTANT_COS = np.cos((np.arange(8) + 0.5) * math.pi / 4)
+_OCTANT_SIN = np.sin((np.arange(8) + 0.5) * math.pi / 4)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def cos_sin_turn(v):
+    """(cos 2πv, sin 2πv) for v in [0, 1): the octant's centre angle (q + ½)π/4 from a table, the remainder
+    |r| <= π/8 by its Taylor series to r^13 / r^14 (truncation < 1e-18), combined by the angle-sum formulas.
+    Within 1e-15 of libm's cos/sin of the rounded 2πv, at ~2 ns instead of ~25 ns."""
+    x = 8.0 * v
+    q = min(int(x), 7)
+    r = (x - q - 0.5) * (math.pi / 4)
+    r2 = r * r
+    sr = r * (1.0 + r2 * (-1.0 / 6 + r2 * (1.0 / 120 + r2 * (-1.0 / 5040 + r2 * (1.0 / 362880 + r2 * (
+        -1.0 / 39916800 + r2 * (1.0 / 6227020800)))))))
+    cr = 1.0 + r2 * (-0.5 + r2 * (1.0 / 24 + r2 * (-1.0 / 720 + r2 * (1.0 / 40320 + r2 * (-1.0 / 3628800 + r2 * (
+        1.0 / 479001600 + r2 * (-1.0 / 87178291200)))))))
+    return _OCTANT_COS[q] * cr - _OCTANT_SIN[q] * sr, _OCTANT_SIN[q] * cr + _OCTANT_COS[q] * sr
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _cosine_dir(nx, ny, nz, s, u, v):
     """Cosine-law unit direction about ``s`` x (nx, ny, nz) from the unit-square sample (u, v): disc point at radius
     √u, angle 2πv (area preserving, so stratified or low-discrepancy samples stay so), lifted by :func:`_lift`."""
     r = math.sqrt(u)
-    phi = _TWO_PI * v
-    return _lift(nx, ny, nz, r * math.cos(phi), r * math.sin(phi), s * math.sqrt(max(1.0 - u, 0.0)))
+    c, sn = cos_sin_turn(v)
+    return _lift(nx, ny, nz, r * c, r * sn, s * math.sqrt(max(1.0 - u, 0.0)))
+
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1, _MIX2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
+_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+
+
+def random_state(rng: np.random.Generator) -> np.ndarray:
+    """State (1,) uint64 of the kernels' generator (:func:`uniform`), seeded from the numpy Generator ``rng``."""
+    return np.array([rng.integers(0, 2**64, dtype=np.uint64)], np.uint64)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _random_cosine_dir(nx, ny, nz, s, rng):
-    """Cosine-law unit direction about ``s`` x (nx, ny, nz) from pseudo-random numbers of ``rng``: a uniform disc
-    point by rejection from the square (no trigonometry; 2.55 numbers on average), lifted by :func:`_lift`."""
+def uniform(st):
+    """Next uniform number in [0, 1) of the SplitMix64 generator whose state is ``st`` (1,) uint64 (Steele, Lea &
+    Flood 2014: a Weyl sequence through a 64-bit finaliser; period 2^64, passes BigCrush).  About 1 ns per number
+    inlined in a kernel, against ~6 ns for a numpy Generator called from compiled code, whose bit generator is
+    reached through a function pointer."""
+    z = st[0] + _GOLDEN
+    st[0] = z
+    z = (z ^ (z >> _S30)) * _MIX1
+    z = (z ^ (z >> _S27)) * _MIX2
+    z ^= z >> _S31
+    return np.float64(z >> _S11) * (1.0 / 9007199254740992.0)  # top 53 bits / 2^53
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _random_cosine_dir(nx, ny, nz, s, st):
+    """Cosine-law unit direction about ``s`` x (nx, ny, nz) from the generator state ``st`` (:func:`uniform`): a
+    uniform disc point by rejection from the square (no trigonometry; 2.55 numbers on average), lifted by
+    :func:`_lift`."""
     while True:
-        x = 2.0 * rng.random() - 1.0
-        y = 2.0 * rng.random() - 1.0
+        x = 2.0 * uniform(st) - 1.0
+        y = 2.0 * uniform(st) - 1.0
         if x * x + y * y < 1.0:
             return _lift(nx, ny, nz, x, y, s * math.sqrt(1.0 - x * x - y * y))
 
@@ -202,43 +256,60 @@ def offset_points(prim, points, sign, normals, centroid, shrink, eps):
     return points
 
 
+#: one row per triangle for the compiled bounce (:meth:`~fem2tmm.radiation.surfaces.TriangleScene.hit_rows`), 16
+#: floats (128 bytes, aligned: two cache lines): unit front normal (0:3), owning face (3), the front side's optics
+#: (4:8) and the back side's (8:12), each (stop probability, cumulative probabilities of specular reflection,
+#: specular transmission, diffuse transmission) (:attr:`~fem2tmm.radiation.surfaces.SideOptics.rows`), centroid
+#: (12:15), shrink (15).  An inactive side's stop probability is 2: it stops every ray.
+HIT_ROW = 16
+_FACE, _OPTICS, _CENTROID, _SHRINK = 3, 4, 12, 15
+#: rays ahead whose hit rows :func:`bounce` and :func:`hit_sides` prefetch (one random row per ray)
+PREFETCH_AHEAD = 16
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _prefetch_hit(rows, prim, k):
+    """Prefetch both cache lines of the hit row of ray k + PREFETCH_AHEAD."""
+    if k + PREFETCH_AHEAD < prim.shape[0]:
+        ahead = prim[k + PREFETCH_AHEAD]
+        if ahead >= 0:
+            prefetch(rows, ahead, 0)
+            prefetch(rows, ahead, 8)
+
+
 @njit(cache=True, nogil=True)
-def hit_sides(prim, d, tri_face, tri_normal, ray_normal):
+def hit_sides(prim, d, rows, ray_normal):
     """Side index (r,) hit by each ray (2 face + 1 when it arrives on the back, i.e. along the front normal), -1 on
-    a miss; ``ray_normal`` (r, 3) overrides the triangle normals when it has r rows (curved hits)."""
+    a miss; ``rows`` the scene's hit rows (t, 16), ``ray_normal`` (r, 3) overrides the triangle normals when it has
+    r rows (curved hits)."""
     r = prim.shape[0]
     own = ray_normal.shape[0] == r
     out = np.full(r, -1, np.int64)
     for k in range(r):
+        _prefetch_hit(rows, prim, k)
         j = prim[k]
         if j < 0:
             continue
         if own:
             c = d[k, 0] * ray_normal[k, 0] + d[k, 1] * ray_normal[k, 1] + d[k, 2] * ray_normal[k, 2]
         else:
-            c = d[k, 0] * tri_normal[j, 0] + d[k, 1] * tri_normal[j, 1] + d[k, 2] * tri_normal[j, 2]
-        out[k] = 2 * tri_face[j] + (1 if c > 0.0 else 0)
+            c = d[k, 0] * rows[j, 0] + d[k, 1] * rows[j, 1] + d[k, 2] * rows[j, 2]
+        out[k] = 2 * np.int64(rows[j, _FACE]) + (1 if c > 0.0 else 0)
     return out
 
 
-#: rays ahead whose scene rows :func:`bounce` prefetches (its table reads are random: one hit triangle per ray)
-PREFETCH_AHEAD = 16
-
-
 @njit(cache=True, nogil=True)
-def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri, ray_normal, sides, eps):
+def bounce(prim, t, o, d, idx, ends, u, r2, st, rows, ray_normal, eps):
     """One bounce of a batch of rays, after their intersection query (thesis l. 664, MCRT without branching).
 
     ``prim`` (r,) primitive hit (-1: miss), ``t`` (r,) distance (m; a miss with t <= 0 is a ray lost to an
     unresolvable self hit and stays ``END_CAPPED``), ``o``/``d`` (r, 3) origins (m) and unit directions, ``idx``
     (r,) ray ids into ``ends`` (n,) (written for every ray that stops here).  Random numbers: ``u`` (r,) the event
-    numbers and ``r2`` (r, 2) the numbers of a diffuse direction (:func:`_cosine_dir`), or, when ``u`` is empty,
-    drawn here from ``rng`` (a numpy Generator: the event number of each ray that hits, then a rejection-sampled
-    disc point if its event is diffuse, :func:`_random_cosine_dir`).  Scene: ``tri`` (t, 8) one row per triangle
-    (:meth:`~fem2tmm.radiation.surfaces.TriangleScene.triangle_rows`: unit front normal, centroid, shrink, face),
-    ``ray_normal`` (r, 3) front normals at the hit points when it has r rows (curved hits; ignored otherwise),
-    ``sides`` (2f, 8) one row per side (:attr:`~fem2tmm.radiation.surfaces.SideOptics.rows`: stop probability,
-    cumulative specular reflection, specular transmission, diffuse transmission, active), ``eps`` origin offset (m).
+    numbers and ``r2`` (r, 2) the numbers of a diffuse direction (:func:`_cosine_dir`); either, when empty, is
+    drawn here from the generator state ``st`` (:func:`uniform`: the event number of each ray that hits, a
+    rejection-sampled disc point for a diffuse event, :func:`_random_cosine_dir`).  Scene and optics: ``rows`` (t, 16) one hit
+    row per triangle (:data:`HIT_ROW`), ``ray_normal`` (r, 3) front normals at the hit points when it has r rows
+    (curved hits; ignored otherwise), ``eps`` origin offset (m).
 
     At the hit: the side is the front when the ray travels against the normal; u < stop[side] ends the ray
     (absorbed by an active side, ``END_BLOCKED`` by an inactive one, whose stop probability is 2); otherwise u picks
@@ -247,20 +318,18 @@ def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri, ray_normal, sides, eps):
 
     The surviving rays are compacted, in place and in order, into the first n_alive rows of ``idx``, ``o``, ``d``
     (offset origins, new directions) and ``prim`` (the primitive each one leaves); returns n_alive.  (Row m <= k is
-    written only after row k was read, so compacting in place is safe.)  The rows of the triangle and side hit
-    ``PREFETCH_AHEAD`` rays later are prefetched: with one random row per ray the loop otherwise waits on memory
-    (measured on a 20 k-triangle sphere: 247 -> 129 ns per ray with packed rows and prefetching).
+    written only after row k was read, so compacting in place is safe.)  The hit row of the ray ``PREFETCH_AHEAD``
+    places later is prefetched: with one random row per ray the loop otherwise waits on memory (measured on a
+    20 k-triangle sphere: 71 -> 50 ns per ray with one 128-byte row instead of a triangle row and a side row, the
+    side row's address depending on the triangle row's content).
     """
     r = prim.shape[0]
     own = ray_normal.shape[0] == r
     given = u.shape[0] == r
+    given_dir = r2.shape[0] == r
     m = 0
     for k in range(r):
-        if k + PREFETCH_AHEAD < r:
-            ahead = prim[k + PREFETCH_AHEAD]
-            if ahead >= 0:
-                prefetch_row(tri, ahead)
-                prefetch_row(sides, 2 * np.int64(tri[ahead, 7]))
+        _prefetch_hit(rows, prim, k)
         j = prim[k]
         if j < 0:
             if t[k] > 0.0:
@@ -269,23 +338,24 @@ def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri, ray_normal, sides, eps):
         if own:
             nx, ny, nz = ray_normal[k, 0], ray_normal[k, 1], ray_normal[k, 2]
         else:
-            nx, ny, nz = tri[j, 0], tri[j, 1], tri[j, 2]
+            nx, ny, nz = rows[j, 0], rows[j, 1], rows[j, 2]
         dx, dy, dz = d[k, 0], d[k, 1], d[k, 2]
         cos_in = dx * nx + dy * ny + dz * nz
         back = cos_in > 0.0
-        side = 2 * np.int64(tri[j, 7]) + (1 if back else 0)
-        uk = u[k] if given else rng.random()
-        if uk < sides[side, 0]:
-            ends[idx[k]] = side if sides[side, 4] > 0.0 else END_BLOCKED
+        c = _OPTICS + 4 if back else _OPTICS
+        uk = u[k] if given else uniform(st)
+        stop = rows[j, c]
+        if uk < stop:
+            ends[idx[k]] = 2 * np.int64(rows[j, _FACE]) + (1 if back else 0) if stop <= 1.0 else END_BLOCKED
             continue
-        spec_r = uk < sides[side, 1]
-        trans = (not spec_r) and uk < sides[side, 3]
+        spec_r = uk < rows[j, c + 1]
+        trans = (not spec_r) and uk < rows[j, c + 3]
         s = -1.0 if back != trans else 1.0
-        if uk >= sides[side, 2]:  # diffuse reflection or transmission
-            if given:
+        if uk >= rows[j, c + 2]:  # diffuse reflection or transmission
+            if given_dir:
                 ex, ey, ez = _cosine_dir(nx, ny, nz, s, r2[k, 0], r2[k, 1])
             else:
-                ex, ey, ez = _random_cosine_dir(nx, ny, nz, s, rng)
+                ex, ey, ez = _random_cosine_dir(nx, ny, nz, s, st)
         elif spec_r:
             c2 = 2.0 * cos_in
             ex, ey, ez = dx - c2 * nx, dy - c2 * ny, dz - c2 * nz
@@ -293,7 +363,8 @@ def bounce(prim, t, o, d, idx, ends, u, r2, rng, tri, ray_normal, sides, eps):
             ex, ey, ez = dx, dy, dz
         tk = t[k]
         o[m, 0], o[m, 1], o[m, 2] = _offset_one(o[k, 0] + tk * dx, o[k, 1] + tk * dy, o[k, 2] + tk * dz, nx, ny, nz,
-                                                s, tri[j, 3], tri[j, 4], tri[j, 5], tri[j, 6], eps)
+                                                s, rows[j, _CENTROID], rows[j, _CENTROID + 1],
+                                                rows[j, _CENTROID + 2], rows[j, _SHRINK], eps)
         d[m, 0], d[m, 1], d[m, 2] = ex, ey, ez
         idx[m] = idx[k]
         prim[m] = j

@@ -65,14 +65,18 @@ class ScrambledHalton:
     def dim(self) -> int:
         return len(self.bases)
 
-    def points(self, index: np.ndarray) -> np.ndarray:
-        """Points of the sequence at ``index`` (r,) non-negative int: returns (r, dim) floats in [0, 1)."""
+    def points(self, index: np.ndarray, dims: int | None = None) -> np.ndarray:
+        """Points of the sequence at ``index`` (r,) non-negative int: returns (r, dims) floats in [0, 1), the first
+        ``dims`` coordinates (default all ``dim``)."""
         index = np.ascontiguousarray(index, dtype=np.int64)
-        out = np.empty((index.size, self.dim))
+        dims = self.dim if dims is None else int(dims)
+        if not 0 < dims <= self.dim:
+            raise ValueError(f"dims must be in 1..{self.dim}, got {dims}")
+        out = np.empty((index.size, dims))
         top = int(index.max()) if index.size else 0
         if index.size and int(index.min()) < 0:
             raise ValueError("Halton indices must be non-negative")
-        for c, (B, tables, tails) in enumerate(self._tables):
+        for c, (B, tables, tails) in enumerate(self._tables[:dims]):
             nb = 1
             while B**nb <= top and nb < len(tables):
                 nb += 1

@@ -13,6 +13,8 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from .kernels import empty_pages
+
 RECIPROCITY_METHODS = ("linear", "fractional_variance")
 
 
@@ -52,7 +54,7 @@ def _linear_weight(i, j, a, traced, exponent):
 
 # ---------------------------------------------------------------------------------------------------------------
 # Linear reciprocity and closure in compiled passes over row ranges: column counts, weights + transposition, then
-# a counting and a writing merge that produce F and GR (space column included) directly.  Every pass reads whole
+# one merge that writes GR (space column included) directly.  Every pass reads whole
 # inputs but writes only what belongs to its rows r0..r1-1, so the rows are split over threads (the kernels
 # release the GIL); the results do not depend on the split.  Notation: S (g, g) m² the raw exchange, M = S∘W
 # (g, g) its weighted part, GR = M + Mᵀ.  M keeps the index arrays (indptr, indices) of its input with values mv;
@@ -69,20 +71,20 @@ def _column_counts(indptr, indices, g, r0, r1, counts):
 
 
 @njit(cache=True, nogil=True)
-def _weigh_transpose(indptr, indices, data, row_scale, g, a, traced, exponent, r0, r1, slot, mv, ti, tv,
-                     space_raw):
+def _weigh_transpose(indptr, indices, data, row_scale, space_scale, g, a, traced, exponent, r0, r1, slot, mv, ti,
+                     tv, space_raw):
     """Rows r0..r1-1 of M_ij = w_ij (row_scale_i x_ij) for the entries x_ij of columns j < g of a CSR matrix
     (sorted columns, no duplicates), into ``mv`` (>= nnz,) at the positions of x, and scattered into Mᵀ: entry
     (i, j) goes to ``ti``/``tv`` (>= nnz(Mᵀ),) at slot[j], which is then incremented (``slot`` (g,) int64: where
     this row range starts in each row of Mᵀ; rows are visited in order, so every row of Mᵀ comes out sorted).  The entry of column
-    g, if any, goes to ``space_raw`` (g,) (0 when absent); later columns are ignored.  Per row, the weights are
+    g, if any, times ``space_scale[i]`` goes to ``space_raw`` (g,) (0 when absent); later columns are ignored.  Per row, the weights are
     computed in one loop and scattered in a second one (faster than one fused loop)."""
     for i in range(r0, r1):
         q0, q1 = indptr[i], indptr[i + 1]
         space_raw[i] = 0.0
         while q1 > q0 and indices[q1 - 1] >= g:  # columns sorted: g and beyond come last
             if indices[q1 - 1] == g:
-                space_raw[i] = data[q1 - 1]
+                space_raw[i] = space_scale[i] * data[q1 - 1]
             q1 -= 1
         si = row_scale[i]
         for q in range(q0, q1):
@@ -96,8 +98,8 @@ def _weigh_transpose(indptr, indices, data, row_scale, g, a, traced, exponent, r
 
 
 @njit(cache=True, nogil=True)
-def _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv, blocked, space_raw, write,
-                gp, gi, gv, fp, fi, fv, lse):
+def _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv, blocked, space_raw, start, gp,
+                gi, gv, space, lse):
     """Rows r0..r1-1 of GR = M + Mᵀ (M: ``indptr``, ``indices`` with values ``mv``, entries of columns >= g
     ignored; Mᵀ: ``tp``, ``ti``, ``tv``): row i of M and of Mᵀ (both sorted) merged, every entry M_ij + M_ji (one
     commutative addition, so GR is symmetric to the last bit; M_ij + 0 or 0 + M_ji where only one side is
@@ -107,25 +109,21 @@ def _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, i
 
     With ``closure`` the rows are closed through a space column g (thesis eq. 1.47): Σ_i = Σ_j GR_ij in column
     order, LSE_i = 1 - blocked_i - inv_i Σ_i - space_raw_i and space_i = space_raw_i + LSE_i when εA_i > 0 (0
-    otherwise), ``lse`` (g,) receives LSE, GR (g, g + 1) gets εA_i space_i and F = diag(inv) GR (g, g + 1) gets
-    space_i in column g, each without its zeros (``inv`` (g,) = 1/εA, 0 where εA = 0).  Without ``closure`` only
-    the g x g GR is formed and F, ``lse`` are untouched.
+    otherwise); ``lse`` (g,) and ``space`` (g,) receive them and GR (g, g + 1) gets εA_i space_i in column g
+    (``inv`` (g,) = 1/εA, 0 where εA = 0).  Without ``closure`` only the g x g GR is formed.
 
-    Two modes: ``write`` False counts, storing the number of entries of row i at gp[i + 1] (and fp[i + 1]);
-    ``write`` True fills ``gi``, ``gv`` (``fi``, ``fv``) from the row pointers ``gp`` (``fp``).  Returns the number
-    of entries of the g x g block of GR in these rows."""
+    The rows are written one after the other into ``gi``, ``gv`` from position ``start`` (room for at most
+    nnz(M rows) + nnz(Mᵀ rows) + one space entry per row must be there), row i from gp[i]; returns the position
+    after the last entry written."""
     zm, zt = mv.shape[0] - 1, tv.shape[0] - 1  # where the 0.0 sentinels are
     lastq = max(indices.shape[0] - 1, 0)  # indices is not padded: its reads are clamped
-    nblock = 0
+    kg = start
     for i in range(r0, r1):
+        gp[i] = kg
         p, pe = indptr[i], indptr[i + 1]
         while pe > p and indices[pe - 1] >= g:
             pe -= 1
         t, te = tp[i], tp[i + 1]
-        kg = gp[i] if write else 0
-        kf = fp[i] if write else 0
-        kg0 = kg
-        inv_i = inv[i]
         s = 0.0
         while p < pe or t < te:
             cm = np.int64(indices[min(p, lastq)])  # column of each side, g past its end
@@ -140,37 +138,21 @@ def _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, i
             t += on_t
             if val != 0.0:
                 s += val
-                if write:
-                    gi[kg] = col
-                    gv[kg] = val
+                gi[kg] = col
+                gv[kg] = val
                 kg += 1
-                if closure:
-                    fval = inv_i * val
-                    if fval != 0.0:
-                        if write:
-                            fi[kf] = col
-                            fv[kf] = fval
-                        kf += 1
-        nblock += kg - kg0
         if closure:
-            lse_i = 1.0 - blocked[i] - inv_i * s - space_raw[i] if eps_area[i] > 0.0 else 0.0
-            space = space_raw[i] + lse_i if eps_area[i] > 0.0 else 0.0
-            lse[i] = lse_i
-            if space != 0.0:
-                if write:
-                    fi[kf] = g
-                    fv[kf] = space
-                kf += 1
-            gspace = eps_area[i] * space
+            pos = eps_area[i] > 0.0
+            lse_i = 1.0 - blocked[i] - inv[i] * s - space_raw[i] if pos else 0.0
+            sp_i = space_raw[i] + lse_i if pos else 0.0
+            gspace = eps_area[i] * sp_i
             if gspace != 0.0:
-                if write:
-                    gi[kg] = g
-                    gv[kg] = gspace
+                gi[kg] = g
+                gv[kg] = gspace
                 kg += 1
-        if not write:
-            gp[i + 1] = kg
-            fp[i + 1] = kf
-    return nblock
+            lse[i] = lse_i
+            space[i] = sp_i
+    return kg
 
 
 def _split(cum: np.ndarray, parts: int) -> list[tuple[int, int]]:
@@ -189,12 +171,13 @@ def _run(job, ranges: list[tuple[int, int]]) -> list:
         return list(ex.map(lambda k: job(k, *ranges[k]), range(len(ranges))))
 
 
-def _linear(A: sp.csr_matrix, row_scale, eps_area, rays, exponent, closure, blocked, threads):
-    """``(GR, F, lse)``: linear reciprocity of S = diag(``row_scale``) A[:, :g] (w_ij from ``eps_area``, ``rays``
-    (g,), ``exponent``), with ``closure`` also closed through the space column as in :func:`_merge_rows` (F, lse
-    None without closure).  ``A`` (g, >= g) csr with sorted columns and no duplicates; with ``closure`` its
-    column g is the raw space column (``blocked`` (g,)).  ``threads`` >= 1 Python threads; the result does not
-    depend on it.  Scratch: M (nnz(A) + 1,) and Mᵀ (nnz(S) + 1,) values, Mᵀ row indices (int32)."""
+def _linear(A: sp.csr_matrix, row_scale, space_scale, eps_area, rays, exponent, closure, blocked, threads):
+    """``(GR, space, lse)``: linear reciprocity of S = diag(``row_scale``) A[:, :g] (w_ij from ``eps_area``,
+    ``rays`` (g,), ``exponent``), with ``closure`` also closed through the space column as in :func:`_merge_rows`
+    (space, lse None without closure).  ``A`` (g, >= g) csr with sorted columns and no duplicates; with ``closure``
+    its column g times ``space_scale`` (g,) is the raw space fraction (``blocked`` (g,)); later columns are
+    ignored.  ``threads`` >= 1 Python threads; the result does not depend on it.  Scratch: M (nnz(A) + 1,) and Mᵀ
+    (nnz(S) + 1,) values, Mᵀ row indices (int32)."""
     indptr, indices, data = A.indptr, A.indices, A.data
     g = A.shape[0]
     a, traced = eps_area / np.maximum(rays, 1), rays > 0
@@ -205,47 +188,132 @@ def _linear(A: sp.csr_matrix, row_scale, eps_area, rays, exponent, closure, bloc
     np.cumsum(counts.sum(axis=0), out=tp[1:])
     slots = tp[:-1] + np.cumsum(counts, axis=0) - counts  # where each range starts in each row of Mᵀ
     nt = int(tp[g])
-    mv = np.empty(len(data) + 1)  # + the 0.0 sentinel of _merge_rows
+    f8 = np.empty(0)
+    mv = empty_pages(len(data) + 1, f8)  # + the 0.0 sentinel of _merge_rows
     mv[-1] = 0.0
-    ti = np.empty(nt + 1, np.int32 if g < 2**31 - 1 else np.int64)  # + a readable last element for _merge_rows
+    ti = empty_pages(nt + 1, np.empty(0, np.int32 if g < 2**31 - 1 else np.int64))  # + a readable last element
     ti[-1] = 0
-    tv = np.empty(nt + 1)
+    tv = empty_pages(nt + 1, f8)
     tv[-1] = 0.0
     space_raw = np.empty(g)
-    _run(lambda k, r0, r1: _weigh_transpose(indptr, indices, data, row_scale, g, a, traced, float(exponent), r0, r1,
-                                            slots[k], mv, ti, tv, space_raw), ranges)
+    _run(lambda k, r0, r1: _weigh_transpose(indptr, indices, data, row_scale, space_scale, g, a, traced,
+                                            float(exponent), r0, r1, slots[k], mv, ti, tv, space_raw), ranges)
     del counts, slots
     return _assemble(indptr, indices, mv, tp, ti, tv, g, A.shape[1], closure, eps_area, blocked, space_raw, threads)
 
 
-def _assemble(indptr, indices, mv, tp, ti, tv, g, ncol, closure, eps_area, blocked, space_raw, threads):
-    """``(GR, F, lse)`` from M and Mᵀ (arrays as :func:`_merge_rows` takes them) by a counting pass, then a
-    writing pass into arrays of the exact sizes, both row-parallel.  GR (g, ``ncol``) without closure; F and GR
-    (g, g + 1) with it.  Index arrays int32 when they fit."""
+def _inverse(eps_area: np.ndarray) -> np.ndarray:
+    """1/εA (g,), 0 where εA = 0."""
     with np.errstate(divide="ignore"):
-        inv = np.where(eps_area > 0, 1.0 / np.where(eps_area > 0, eps_area, 1.0), 0.0)
-    ranges = _split(indptr + tp, max(1, min(int(threads), g)))
+        return np.where(eps_area > 0, 1.0 / np.where(eps_area > 0, eps_area, 1.0), 0.0)
+
+
+def _assemble(indptr, indices, mv, tp, ti, tv, g, ncol, closure, eps_area, blocked, space_raw, threads):
+    """``(GR, space, lse)`` from M and Mᵀ (arrays as :func:`_merge_rows` takes them) in one row-parallel merge
+    pass: each row range writes into its own part of arrays sized for the most it can produce (nnz(M rows) +
+    nnz(Mᵀ rows) + one space entry per row; pages never written are never touched), then the parts are moved
+    together.  GR (g, ``ncol``) without closure (space, lse None); (g, g + 1) with it.  Index arrays int32 when
+    they fit."""
+    inv = _inverse(eps_area)
+    m_rows = np.diff(indptr).astype(np.int64)  # an upper bound on each row's entries of M (columns >= g included)
+    work = np.zeros(g + 1, np.int64)
+    np.cumsum(m_rows + np.diff(tp) + (1 if closure else 0), out=work[1:])
+    ranges = _split(work, max(1, min(int(threads), g)))
     gp = np.zeros(g + 1, np.int64)
+    space, lse = (np.zeros(g), np.zeros(g)) if closure else (np.empty(0), np.empty(0))
+    bound = int(work[g])
+    itype = np.int32 if bound < 2**31 - 1 and g + 1 < 2**31 - 1 else np.int64
+    gi, gv = empty_pages(bound, np.empty(0, itype)), empty_pages(bound, np.empty(0))
+    ends = _run(lambda k, r0, r1: _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv,
+                                              blocked, space_raw, int(work[r0]), gp, gi, gv, space, lse), ranges)
+    n = ends[0] - int(work[ranges[0][0]])
+    for (r0, r1), end in zip(ranges[1:], ends[1:]):  # move each part down behind the previous one
+        first = int(work[r0])
+        if first != n:
+            gi[n:n + end - first] = gi[first:end]
+            gv[n:n + end - first] = gv[first:end]
+            gp[r0:r1] -= first - n
+        n += end - first
+    gp[g] = n
+    if n < 0.9 * bound:  # release the unused room (it is small when few pairs are seen from both sides)
+        gi, gv = gi[:n].copy(), gv[:n].copy()
+    else:
+        gi, gv = gi[:n], gv[:n]
+    GR = sp.csr_matrix((gv, gi, gp.astype(itype)), shape=(g, g + 1) if closure else (g, ncol))
+    return (GR, space, lse) if closure else (GR, None, None)
+
+
+@njit(cache=True, nogil=True)
+def _refs_rows(indptr, indices, data, inv, space, g, write, fp, fi, fv):
+    """Rows of F = diag(``inv``) GR[:, :g] with ``space`` (g,) as column g, zeros dropped: ``write`` False counts
+    the entries of row i into fp[i + 1]; ``write`` True fills ``fi``, ``fv`` from the row pointers ``fp``."""
+    for i in range(g):
+        k = fp[i] if write else 0
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            if j < g:
+                v = inv[i] * data[q]
+                if v != 0.0:
+                    if write:
+                        fi[k] = j
+                        fv[k] = v
+                    k += 1
+        if space[i] != 0.0:
+            if write:
+                fi[k] = g
+                fv[k] = space[i]
+            k += 1
+        if not write:
+            fp[i + 1] = k
+
+
+@njit(cache=True, nogil=True)
+def _refs_on_pattern(indptr, indices, data, inv, space, g, fv):
+    """F on GR's own pattern when it is the same: fv[q] = inv_i GR_ij (j < g) or space_i (j = g).  Returns False
+    (fv incomplete) as soon as an entry of F would be zero (a row with εA = 0, an underflow) or a row's space
+    entry is missing from GR."""
+    for i in range(g):
+        has_space = False
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            if j < g:
+                v = inv[i] * data[q]
+                if v == 0.0:
+                    return False
+                fv[q] = v
+            elif j == g:
+                if space[i] == 0.0:
+                    return False
+                fv[q] = space[i]
+                has_space = True
+        if space[i] != 0.0 and not has_space:
+            return False
+    return True
+
+
+def refs_from_gr(GR: sp.csr_matrix, eps_area: np.ndarray, space: np.ndarray) -> sp.csr_matrix:
+    """The REFs F (g, g + 1) of a closed exchange: F_ij = GR_ij / εA_i for j < g and F_ig = ``space`` (g,), rows
+    with εA = 0 empty, zeros dropped (sorted columns; index arrays of GR's type).  ``GR`` (g, >= g) csr with sorted
+    columns.  When F has GR's pattern (every row with entries has εA > 0, the usual case) F shares GR's index
+    arrays, as read-only views, and only its values are new."""
+    g = GR.shape[0]
+    inv = _inverse(np.asarray(eps_area, float))
+    space = np.asarray(space, float)
+    itype = GR.indices.dtype
+    if GR.shape == (g, g + 1):
+        fv = empty_pages(GR.nnz, np.empty(0))
+        if _refs_on_pattern(GR.indptr, GR.indices, GR.data, inv, space, g, fv):
+            ind, ptr = GR.indices.view(), GR.indptr.view()
+            ind.flags.writeable = False
+            ptr.flags.writeable = False
+            return sp.csr_matrix((fv, ind, ptr), shape=(g, g + 1))
     fp = np.zeros(g + 1, np.int64)
-    lse = np.zeros(g) if closure else np.empty(0)
-    empty_i, empty_v = np.empty(0, np.int32), np.empty(0)
-
-    def count(k, r0, r1):
-        return _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv, blocked, space_raw,
-                           False, gp, empty_i, empty_v, fp, empty_i, empty_v, lse)
-
-    nblock = sum(_run(count, ranges))
-    np.cumsum(gp, out=gp)
+    empty_i, empty_v = np.empty(0, itype), np.empty(0)
+    _refs_rows(GR.indptr, GR.indices, GR.data, inv, space, g, False, fp, empty_i, empty_v)
     np.cumsum(fp, out=fp)
-    itype = np.int32 if nblock + g < 2**31 - 1 and g + 1 < 2**31 - 1 else np.int64
-    gi, gv = np.empty(gp[g], itype), np.empty(gp[g])
-    fi, fv = (np.empty(fp[g], itype), np.empty(fp[g])) if closure else (empty_i, empty_v)
-    _run(lambda k, r0, r1: _merge_rows(indptr, indices, mv, tp, ti, tv, g, r0, r1, closure, eps_area, inv, blocked,
-                                       space_raw, True, gp, gi, gv, fp, fi, fv, lse), ranges)
-    shape = (g, g + 1) if closure else (g, ncol)
-    GR = sp.csr_matrix((gv, gi, gp.astype(itype)), shape=shape)
-    F = sp.csr_matrix((fv, fi, fp.astype(itype)), shape=shape) if closure else None
-    return GR, F, (lse if closure else None)
+    fi, fv = empty_pages(fp[g], empty_i), empty_pages(fp[g], empty_v)
+    _refs_rows(GR.indptr, GR.indices, GR.data, inv, space, g, True, fp, fi, fv)
+    return sp.csr_matrix((fv, fi, fp.astype(itype)), shape=(g, g + 1))
 
 
 @njit(cache=True, nogil=True)
@@ -293,7 +361,7 @@ def enforce_reciprocity(S: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, 
     if method == "linear":
         S.sort_indices()
         g = S.shape[0]
-        GR, _, _ = _linear(S, np.ones(g), eps_area, rays, exponent, False, np.empty(0), threads)
+        GR, _, _ = _linear(S, np.ones(g), np.ones(g), eps_area, rays, exponent, False, np.empty(0), threads)
         return GR
     if method != "fractional_variance":
         raise ValueError(f"unknown reciprocity method {method!r}: use one of {RECIPROCITY_METHODS}")
@@ -307,36 +375,59 @@ def enforce_reciprocity(S: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, 
     return GR
 
 
-def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: np.ndarray | None = None,
-           method: str = "linear", exponent: float = 0.4, threads: int = 2):
-    """Reciprocity, then closure through the space column; returns ``(F, GR, lse)``.
+def close_exchange(A: sp.spmatrix, row_scale: np.ndarray, space_scale: np.ndarray, eps_area: np.ndarray,
+                   rays: np.ndarray, blocked: np.ndarray | None = None, method: str = "linear",
+                   exponent: float = 0.4, threads: int = 2):
+    """Reciprocity, then closure through the space column, from raw exchange data; returns ``(GR, space, lse)``.
 
-    ``F_raw`` (g, g + 1) raw REFs (last column space), ``eps_area`` (g,) m², ``rays`` (g,), ``blocked`` (g,) the
-    fraction of each group's rays stopped by sides that are not REF nodes (default 0).  The line-sum error is
-    LSE_i = 1 - blocked_i - Σ_j F_ij after reciprocity and before the closure adjustment (thesis eq. 1.47); the
-    space column then absorbs it so every row of ``F`` sums to 1 - blocked_i.  ``F`` (g, g + 1), ``GR``
-    (g, g + 1) m² with GR = diag(εA) F (symmetric g x g block), ``lse`` (g,).  The rows of F and lse of groups
-    with εA = 0 are 0 (their GR rows hold the other groups' share M_ji).  ``threads`` Python threads (the result
-    does not depend on it).
+    ``A`` (g, >= g + 1) csr: raw data whose row i scaled by ``row_scale[i]`` is the raw exchange S_i· (m²) in its
+    first g columns, and whose column g scaled by ``space_scale[i]`` is the raw fraction of group i's emission
+    that left to space; later columns are ignored.  (The raw REFs F_raw with row_scale = εA and space_scale = 1,
+    or the ray tally with row_scale = εA/n and space_scale = 1/n.)  ``eps_area`` (g,) m², ``rays`` (g,),
+    ``blocked`` (g,) the fraction of each group's rays stopped by sides that are not REF nodes (default 0).
 
-    Linear method: S = diag(εA) F_raw[:, :g] is weighed and transposed in one pass, then F and GR (with their
-    space column) are written directly by a counting and a writing merge of M and Mᵀ (:func:`_merge_rows`).
+    GR_ij = w_ij S_ij + w_ji S_ji (:func:`enforce_reciprocity`, ``method`` and ``exponent``); the line-sum error
+    LSE_i = 1 - blocked_i - Σ_j GR_ij/εA_i - space_raw_i after reciprocity and before the closure adjustment
+    (thesis eq. 1.47); space_i = space_raw_i + LSE_i, so that Σ_j GR_ij/εA_i + space_i = 1 - blocked_i.  Returns
+    ``GR`` (g, g + 1) m² (symmetric g x g block, column g = εA_i space_i), ``space`` (g,) and ``lse`` (g,) (both 0
+    for groups with εA = 0, whose GR rows hold the other groups' share M_ji).  The REFs themselves are
+    :func:`refs_from_gr`.  ``threads`` Python threads (the result does not depend on it).
+
+    Linear method: S is weighed and transposed in one pass, then GR (with its space column) is written directly by
+    one merge of M and Mᵀ (:func:`_merge_rows`).
     """
-    F_raw = sp.csr_matrix(F_raw)
-    F_raw.sum_duplicates()  # also sorts the columns
-    g = F_raw.shape[0]
+    A = sp.csr_matrix(A)
+    A.sum_duplicates()  # also sorts the columns (a no-op check on canonical input)
+    g = A.shape[0]
     eps_area = np.asarray(eps_area, float)
     rays = np.asarray(rays, float)
+    row_scale = np.ascontiguousarray(row_scale, dtype=float)
+    space_scale = np.ascontiguousarray(space_scale, dtype=float)
     blocked = np.zeros(g) if blocked is None else np.asarray(blocked, float)
     if method == "linear":
-        GR, F, lse = _linear(F_raw, eps_area, eps_area, rays, exponent, True, blocked, threads)
-        return F, GR, lse
-    GRb = enforce_reciprocity(scale_rows(F_raw[:, :g], eps_area), eps_area, rays, method, exponent)
+        return _linear(A, row_scale, space_scale, eps_area, rays, exponent, True, blocked, threads)
+    GRb = enforce_reciprocity(scale_rows(A[:, :g], row_scale), eps_area, rays, method, exponent)
     GRb.sort_indices()  # merged with an empty transposed part
-    space_raw = _column(F_raw.indptr, F_raw.indices, F_raw.data, g)
-    GR, F, lse = _assemble(GRb.indptr, GRb.indices, np.append(GRb.data, 0.0), np.zeros(g + 1, np.int64),
-                           np.zeros(1, np.int32), np.zeros(1), g, g, True, eps_area, blocked, space_raw, threads)
-    return F, GR, lse
+    space_raw = space_scale * _column(A.indptr, A.indices, A.data, g)
+    return _assemble(GRb.indptr, GRb.indices, np.append(GRb.data, 0.0), np.zeros(g + 1, np.int64),
+                     np.zeros(1, np.int32), np.zeros(1), g, g, True, eps_area, blocked, space_raw, threads)
+
+
+def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: np.ndarray | None = None,
+           method: str = "linear", exponent: float = 0.4, threads: int = 2):
+    """Reciprocity, then closure through the space column, of raw REFs; returns ``(F, GR, lse)``.
+
+    ``F_raw`` (g, g + 1) raw REFs (last column space), ``eps_area`` (g,) m², ``rays`` (g,), ``blocked`` (g,) as
+    in :func:`close_exchange`.  Every row of ``F`` (g, g + 1) sums to 1 - blocked_i; ``GR`` (g, g + 1) m² =
+    diag(εA) F (symmetric g x g block); ``lse`` (g,) is the line-sum error before the closure adjustment.  The rows
+    of F and lse of groups with εA = 0 are 0.
+    """
+    F_raw = sp.csr_matrix(F_raw)
+    g = F_raw.shape[0]
+    eps_area = np.asarray(eps_area, float)
+    GR, space, lse = close_exchange(F_raw, eps_area, np.ones(g), eps_area, rays, blocked, method, exponent,
+                                    threads)
+    return refs_from_gr(GR, eps_area, space), GR, lse
 
 
 @njit(cache=True, nogil=True)

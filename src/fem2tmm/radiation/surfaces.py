@@ -95,19 +95,19 @@ class SideOptics:
 
     @cached_property
     def rows(self) -> np.ndarray:
-        """(2f, 8) one row per side for the compiled bounce (a hit reads one cache line): stop probability (the
-        absorptance, or 2 on an inactive side, which stops every ray), cumulative probabilities of specular
-        reflection, specular transmission and diffuse transmission (``cum[:, 1:4]``), active (1 / 0), padding."""
-        out = np.zeros((len(self.active), 8))
+        """(2f, 4) per side, as the compiled bounce reads it: stop probability (the absorptance, or 2 on an inactive
+        side, which stops every ray), then the cumulative probabilities of specular reflection, specular
+        transmission and diffuse transmission (``cum[:, 1:4]``)."""
+        out = np.empty((len(self.active), 4))
         out[:, 0] = np.where(self.active, self.cum[:, 0], 2.0)
         out[:, 1:4] = self.cum[:, 1:4]
-        out[:, 4] = self.active
         return out
 
     @cached_property
-    def all_diffuse_reflectors(self) -> bool:
-        """True when no side reflects specularly or transmits (fast path of the bounce loop)."""
-        return bool(np.all(self.cum[:, 3] == self.cum[:, 0]) and np.all(self.cum[:, 1] == self.cum[:, 0]))
+    def scatters_diffusely(self) -> bool:
+        """True when some active side reflects or transmits part of what it does not absorb diffusely (the
+        tracer's Halton points then carry the two coordinates of a first diffuse direction)."""
+        return bool(np.any(self.active & (self.cum[:, 2] < 1.0)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -365,13 +365,26 @@ class TriangleScene:
                             np.ascontiguousarray(self.tri_normal, dtype=np.float64), np.ascontiguousarray(c), shrink)
         return self._tables
 
-    def triangle_rows(self) -> np.ndarray:
-        """(t, 8) one row per triangle for the compiled bounce (a hit reads one cache line): unit front normal (3),
-        centroid (3), shrink (see :meth:`bounce_tables`), owning face (as a float, exact below 2^53)."""
-        if self._rows is None:
-            face, normal, centroid, shrink = self.bounce_tables()
-            self._rows = np.ascontiguousarray(np.concatenate([normal, centroid, shrink[:, None], face[:, None]], 1))
-        return self._rows
+    def hit_rows(self, optics: SideOptics) -> np.ndarray:
+        """(t, 16) one row per triangle for the compiled bounce (:data:`~fem2tmm.radiation.kernels.HIT_ROW`): unit
+        front normal, owning face, the optics rows of its front and back sides (``optics`` of the band traced,
+        :attr:`SideOptics.rows`), centroid, shrink (see :meth:`bounce_tables`).  A hit reads one 128-byte row, which
+        starts on a 128-byte boundary (two cache lines).  The last table built is kept for the same ``optics``."""
+        if self._rows is not None and self._rows[0] is optics:
+            return self._rows[1]
+        face, normal, centroid, shrink = self.bounce_tables()
+        t = len(face)
+        buf = np.empty(t * 16 + 16)
+        start = (-buf.ctypes.data % 128) // 8  # first float on a 128-byte boundary
+        rows = buf[start:start + t * 16].reshape(t, 16)
+        rows[:, 0:3] = normal
+        rows[:, 3] = face
+        rows[:, 4:8] = optics.rows[2 * face]
+        rows[:, 8:12] = optics.rows[2 * face + 1]
+        rows[:, 12:15] = centroid
+        rows[:, 15] = shrink
+        self._rows = (optics, rows)
+        return rows
 
     def direct_query(self):
         """``(address of rtcIntersect1, scene handle, centre (3,))`` when every ray of this scene can be traced by

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -36,8 +37,9 @@ from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
-from .kernels import END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, hit_sides  # noqa: F401
-from .smoothing import RECIPROCITY_METHODS, convergence_rate, rms, scale_rows, smooth
+from .kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, empty_pages,  # noqa: F401
+                      hit_sides, random_state, uniform)
+from .smoothing import RECIPROCITY_METHODS, close_exchange, convergence_rate, refs_from_gr, rms, scale_rows
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
 MAX_BOUNCES = 1000
@@ -58,16 +60,17 @@ _HASH = np.int64(0x61C8864680B583EB)  # an odd 64-bit constant (golden-ratio has
 
 
 @njit(cache=True, nogil=True)
-def _stratified_runs(major, keys, shuffle, phase):
-    """Uniform numbers (r,) stratified within each key: the m entries of a key get (rank + φ)/m, rank a random
-    permutation of 0..m-1 and φ one uniform phase per key (systematic sampling in random order), so each entry is
-    marginally U[0, 1) and the fraction of a key's entries below any threshold p is within 1/m of p.  ``major`` (r,)
-    a non-decreasing coarse part of the keys (a key never spans two major values), so the work goes run by run in
-    linear time (no global sort): within each run the entries are visited in a random order (a Fisher-Yates permutation driven by ``shuffle`` (r,)), each gets the number of
-    entries of its key visited before it as its rank, and key j gets its phase from ``phase`` at its first entry
-    (keys of a run are found by open addressing in a table twice the run's length)."""
-    n = keys.shape[0]
-    u = np.empty(n)
+def _first_hit_numbers(side, strata, st):
+    """Event numbers (r,) of first hits stratified within each (source group, side hit) pair: the m rays of a pair
+    get (rank + φ)/m, rank a random permutation of 0..m-1 and φ one uniform phase per pair (systematic sampling in
+    random order), so each number is marginally U[0, 1) and the fraction of a pair's rays below any threshold p is
+    within 1/m of p.  ``side`` (r,) the side each ray hit (-1: a miss, number 0), ``strata`` (r,) the
+    non-decreasing source group of each ray, ``st`` the state of the kernels' generator
+    (:func:`~fem2tmm.radiation.kernels.uniform`).  Linear time, run by run of equal source group (no global sort):
+    the sides of a run are counted in an open-addressing table twice the run's length, the run is visited in a
+    random (Fisher-Yates) order, and each ray gets the number of rays of its pair visited before it as its rank."""
+    n = side.shape[0]
+    u = np.zeros(n)
     order = np.empty(n, np.int64)
     slot_of = np.empty(n, np.int64)
     cap = 8
@@ -79,7 +82,7 @@ def _stratified_runs(major, keys, shuffle, phase):
     a = 0
     while a < n:
         b = a + 1
-        while b < n and major[b] == major[a]:
+        while b < n and strata[b] == strata[a]:
             b += 1
         m = b - a
         while cap < 2 * m:
@@ -90,56 +93,37 @@ def _stratified_runs(major, keys, shuffle, phase):
             tphase = np.zeros(cap)
             used = np.zeros(cap, np.bool_)
         mask = cap - 1
-        for i in range(a, b):  # count the entries of each key
-            h = ((keys[i] * _HASH) >> 29) & mask  # multiplicative hashing (wrapping int64 product)
-            while used[h] and tkey[h] != keys[i]:
+        for i in range(a, b):  # count the rays of each side hit
+            key = side[i]
+            if key < 0:
+                slot_of[i] = -1
+                continue
+            h = ((key * _HASH) >> 29) & mask  # multiplicative hashing (wrapping int64 product)
+            while used[h] and tkey[h] != key:
                 h = (h + 1) & mask
             if not used[h]:
                 used[h] = True
-                tkey[h] = keys[i]
+                tkey[h] = key
                 tcount[h] = 0
                 tseen[h] = 0
-                tphase[h] = phase[i]
+                tphase[h] = uniform(st)
             tcount[h] += 1
             slot_of[i] = h
         for i in range(m):  # random visiting order of the run
             order[a + i] = a + i
         for i in range(m - 1, 0, -1):
-            j = int(shuffle[a + i] * (i + 1))
+            j = int(uniform(st) * (i + 1))
             order[a + i], order[a + j] = order[a + j], order[a + i]
         for t in range(a, b):
             i = order[t]
             h = slot_of[i]
-            u[i] = (tseen[h] + tphase[h]) / tcount[h]
-            tseen[h] += 1
+            if h >= 0:
+                u[i] = (tseen[h] + tphase[h]) / tcount[h]
+                tseen[h] += 1
         for i in range(a, b):  # clear the table for the next run
-            used[slot_of[i]] = False
+            if slot_of[i] >= 0:
+                used[slot_of[i]] = False
         a = b
-    return u
-
-
-@njit(cache=True, nogil=True)
-def _first_hit_numbers(side, strata, n_sides, rng):
-    """Event numbers (r,) of first hits stratified within each (source group, side hit) pair
-    (:func:`_stratified_runs`): ``side`` (r,) the side each ray hit (-1: miss, number 0),
-    ``strata`` (r,) the non-decreasing source group of each ray, ``rng`` a numpy Generator."""
-    r = side.shape[0]
-    hit = np.flatnonzero(side >= 0)
-    m = hit.shape[0]
-    major = np.empty(m, np.int64)
-    keys = np.empty(m, np.int64)
-    shuffle = np.empty(m)
-    phase = np.empty(m)
-    for q in range(m):
-        k = hit[q]
-        major[q] = strata[k]
-        keys[q] = strata[k] * n_sides + side[k]
-        shuffle[q] = rng.random()
-        phase[q] = rng.random()
-    uh = _stratified_runs(major, keys, shuffle, phase)
-    u = np.zeros(r)
-    for q in range(m):
-        u[hit[q]] = uh[q]
     return u
 
 
@@ -178,7 +162,8 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     expectation instead of binomial, so the low-discrepancy emission is not drowned by absorption noise; each
     ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
     numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
-    coupled Halton point); later events draw from ``rng`` inside the compiled bounce.  Each bounce is one
+    coupled Halton point); later events draw from a generator seeded from ``rng`` inside the compiled bounce
+    (:func:`~fem2tmm.radiation.kernels.uniform`).  Each bounce is one
     intersection query for the whole batch (compiled calls of Embree's C API when the scene allows it,
     :meth:`TriangleScene.direct_query`, else ``scene.intersect``) and one compiled pass
     (:func:`fem2tmm.radiation.kernels.bounce`) that compacts the surviving rays in place.  (Fusing the query and
@@ -200,7 +185,8 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     last = np.ascontiguousarray(leaving, dtype=np.int64)
     tables = scene.bounce_tables()
     direct = scene.direct_query()
-    tri_rows, side_rows = scene.triangle_rows(), optics.rows
+    rows = scene.hit_rows(optics)
+    st = random_state(rng)  # the compiled kernels' own generator, seeded from rng
 
     idx = np.arange(n)
     prim_buf, t_buf = np.empty(n, np.int64), np.empty(n)
@@ -217,36 +203,31 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
             prim, t = scene.intersect(o, d, last)
             prim = np.asarray(prim, np.int64)  # own copy when the engine's type differs; compacted in place below
         nrm = scene.hit_normals(prim, o, d, t)
-        u, r2 = _NO_NUMBERS
+        u, r2 = _NO_NUMBERS  # empty: bounce draws its own
         if b == 0 and strata is not None:  # first hit: stratified event numbers per (source, side)
-            side = hit_sides(prim, d, tables[0], tables[1], nrm)
-            u = _first_hit_numbers(side, np.ascontiguousarray(strata, dtype=np.int64), len(side_rows), rng)
-        elif b == 0 and first_scatter is not None:
-            u = rng.random(m)
+            side = hit_sides(prim, d, rows, nrm)
+            u = _first_hit_numbers(side, np.ascontiguousarray(strata, dtype=np.int64), st)
         if b == 0 and first_scatter is not None:
             r2 = np.asarray(first_scatter, dtype=np.float64)
-        elif u.size:
-            r2 = rng.random((m, 2))
-        alive = bounce(prim, t, o, d, idx, ends, u, r2, rng, tri_rows, nrm, side_rows, scene.eps)
+        alive = bounce(prim, t, o, d, idx, ends, u, r2, st, rows, nrm, scene.eps)
         idx, o, d, last = idx[:alive], o[:alive], d[:alive], prim[:alive]
     return ends, segments
 
 
 @njit(cache=True, nogil=True)
-def _batch_tally(grp, ends, side_col, ncol, w, itmpl):
-    """The (energy-weighted) ray counts of a batch, row by row: returns ``(groups, lengths, cols, counts)``, the
-    distinct source groups of the batch in order (k,), the number of distinct destination columns of each (k,),
-    and for each group in turn its columns (sorted, dtype of ``itmpl``) and counts.  ``grp`` (r,) non-decreasing
-    source group, ``ends`` (r,) as returned by :func:`trace_paths`, ``side_col`` (2f,) the column of each absorbing
-    side; columns g, g + 1, g + 2 (g = ncol - 3) are space, blocked and capped.  ``w`` (r,) ray energies, or empty
-    for unit rays.  Each group's destinations are sorted in place (short runs, no global sort)."""
+def _batch_tally(grp, ends, side_col, ncol, w, cols, counts):
+    """The (energy-weighted) ray counts of a batch, row by row: for each distinct source group of the batch in turn,
+    its destination columns (sorted) and counts, written to the start of ``cols`` and ``counts`` (>= r,); returns
+    ``(groups, lengths)``, the distinct source groups in order (k,) and the number of distinct columns of each
+    (k,).  ``grp`` (r,) non-decreasing source group, ``ends`` (r,) as returned by :func:`trace_paths`,
+    ``side_col`` (2f,) the column of each absorbing side; columns g, g + 1, g + 2 (g = ncol - 3) are space,
+    blocked and capped.  ``w`` (r,) ray energies, or empty for unit rays.  Each group's destinations are sorted in
+    place (short runs, no global sort)."""
     r = grp.shape[0]
     g = ncol - 3
     weighted = w.shape[0] == r
     groups = np.empty(r, np.int64)
     lengths = np.empty(r, np.int64)
-    cols = np.empty(r, itmpl.dtype)
-    counts = np.empty(r)
     dest = np.empty(r, np.int64)
     m = 0
     n_groups = 0
@@ -286,20 +267,20 @@ def _batch_tally(grp, ends, side_col, ncol, w, itmpl):
         lengths[n_groups] = m - first
         n_groups += 1
         a = b
-    return groups[:n_groups].copy(), lengths[:n_groups].copy(), cols[:m].copy(), counts[:m].copy()
+    return groups[:n_groups].copy(), lengths[:n_groups].copy()
 
 
 @njit(cache=True, nogil=True)
-def runs_to_csr(groups, lengths, cols, vals, g, itmpl):
-    """CSR arrays ``(indptr (g + 1,), columns, values)`` of the g-row matrix whose rows come as consecutive runs:
-    run k holds ``lengths[k]`` sorted, distinct columns of row ``groups[k]`` (k,), its entries next in ``cols`` and
-    ``vals``; the runs of a row are consecutive (batch tallies, where a group may straddle two batches).  Rows of
+def runs_to_csr(groups, lengths, starts, cols, vals, g, itmpl):
+    """CSR arrays ``(indptr (g + 1,), columns, values)`` of the g-row matrix whose rows come as runs in row order:
+    run k holds ``lengths[k]`` sorted, distinct columns of row ``groups[k]`` (k,) at ``cols[starts[k]:]`` with
+    their values in ``vals`` (runs in increasing, non-overlapping positions, gaps allowed: the batch tallies, each
+    written at its batch's first ray); the runs of a row are consecutive (a group may straddle batches).  Rows of
     one run are taken as they are; the runs of a straddling row are merged (duplicates summed).  Works in place:
-    ``cols``/``vals`` are compacted and returned as their first indptr[g] entries (no copy when no row straddles)."""
+    ``cols``/``vals`` are compacted and returned as their first indptr[g] entries (views, no copy)."""
     indptr = np.zeros(g + 1, itmpl.dtype)
     k_runs = groups.shape[0]
-    w = 0  # write position
-    rd = 0  # read position
+    w = 0  # write position (never past the read position: runs are in order and do not overlap)
     k = 0
     while k < k_runs:
         row = groups[k]
@@ -309,14 +290,21 @@ def runs_to_csr(groups, lengths, cols, vals, g, itmpl):
             total += lengths[e]
             e += 1
         if e == k + 1:  # one run: already sorted and distinct
+            rd = starts[k]
             if w != rd:
                 for i in range(total):
                     cols[w + i] = cols[rd + i]
                     vals[w + i] = vals[rd + i]
             w += total
         else:  # several runs: merge them
-            seg_c = cols[rd:rd + total].copy()
-            seg_v = vals[rd:rd + total].copy()
+            seg_c = np.empty(total, cols.dtype)
+            seg_v = np.empty(total)
+            n = 0
+            for q in range(k, e):
+                for i in range(lengths[q]):
+                    seg_c[n] = cols[starts[q] + i]
+                    seg_v[n] = vals[starts[q] + i]
+                    n += 1
             o = np.argsort(seg_c, kind="mergesort")
             start = w
             for i in o:
@@ -326,7 +314,6 @@ def runs_to_csr(groups, lengths, cols, vals, g, itmpl):
                     cols[w] = seg_c[i]
                     vals[w] = seg_v[i]
                     w += 1
-        rd += total
         indptr[row + 1] = w
         k = e
     for r in range(g):  # rows without runs
@@ -356,20 +343,23 @@ def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") ->
 class ExchangeResult:
     """Radiative exchange factors between g groups of sides (super faces) plus space.
 
-    ``F`` (g, g + 1) csr: REFs after reciprocity and closure, last column space.  ``F_raw`` (g, g + 1): ray
-    counts / rays traced.  ``GR`` (g, g + 1) m² = diag(εA) F, symmetric g x g block.  ``tally`` (g, g + 3) raw ray
-    counts (columns: groups, space, blocked, capped; each row sums to ``rays``).  ``eps_area`` (g,) m² emissive
-    area εA, ``area`` (g,) m² emitting area, ``rays`` (g,) rays traced (last run), ``lse`` (g,) line-sum error
-    after reciprocity and before closure, ``lse_rms`` over the groups that traced rays, ``kappa`` convergence rate
-    from accuracy control (None without ``target_lse``), ``pilot`` ((rays, lse_rms), ...) of the pilot runs,
-    ``capped_energy_fraction`` / ``blocked_fraction`` (fractions of the emitted energy), ``escaped`` (g,) raw
-    fraction of each group's rays that left to space, ``blocked`` (g,) raw blocked fraction, ``segments`` number
-    of intersection queries, ``engine`` "embree" or "numpy", ``sampling``.
+    ``GR`` (g, g + 1) csr m²: εA_i ℱ_ij after reciprocity and closure, symmetric g x g block, last column space.
+    ``space`` (g,) ℱ to space after closure.  ``tally`` (g, g + 3) raw ray counts (columns: groups, space,
+    blocked, capped; each row sums to ``rays``).  ``eps_area`` (g,) m² emissive area εA, ``area`` (g,) m² emitting
+    area, ``rays`` (g,) rays traced (last run), ``lse`` (g,) line-sum error after reciprocity and before closure,
+    ``lse_rms`` over the groups that traced rays, ``kappa`` convergence rate from accuracy control (None without
+    ``target_lse``), ``pilot`` ((rays, lse_rms), ...) of the pilot runs, ``capped_energy_fraction`` /
+    ``blocked_fraction`` (fractions of the emitted energy), ``escaped`` (g,) raw fraction of each group's rays
+    that left to space, ``blocked`` (g,) raw blocked fraction, ``segments`` number of intersection queries,
+    ``engine`` "embree" or "numpy", ``sampling``.
+
+    ``F`` and ``F_raw`` are computed on first use (the pipeline needs GR only, and at 10^6 faces each REF matrix
+    holds 10^8 non-zeros): ``F`` (g, g + 1) the REFs after reciprocity and closure (GR_ij / εA_i, space column
+    ``space``; rows of groups with εA = 0 empty), ``F_raw`` (g, g + 1) ray counts / rays traced.
     """
 
-    F: sp.csr_matrix
-    F_raw: sp.csr_matrix
     GR: sp.csr_matrix
+    space: np.ndarray
     tally: sp.csr_matrix
     eps_area: np.ndarray
     area: np.ndarray
@@ -388,7 +378,20 @@ class ExchangeResult:
 
     @property
     def n_groups(self) -> int:
-        return self.F.shape[0]
+        return self.GR.shape[0]
+
+    @cached_property
+    def F(self) -> sp.csr_matrix:
+        return refs_from_gr(self.GR, self.eps_area, self.space)
+
+    @cached_property
+    def F_raw(self) -> sp.csr_matrix:
+        g = self.n_groups
+        t = self.tally
+        inv_n = np.where(self.rays > 0, 1.0 / np.maximum(self.rays, 1), 0.0)
+        fp, fi, fv = _raw_refs(t.indptr, t.indices, t.data, g, inv_n,
+                               np.empty(0, np.int32 if t.nnz < 2**31 - 1 else np.int64))
+        return sp.csr_matrix((fv, fi, fp), shape=(g, g + 1))
 
 
 def _check_groups(surface: Surface, groups) -> tuple[np.ndarray, int]:
@@ -415,6 +418,7 @@ class _ExchangeTracer:
             raise Fem2TmmError("trace_exchange: `scene` was built for another surface; pass the scene of this surface")
         self.scene = scene
         self.optics = surface.optics("ir")
+        scene.hit_rows(self.optics)  # built once here, not by the first batch of every worker thread
         emit = np.where(surface.active, surface.emissivity, 0.0)
         self.emitters = GroupEmitters.build(self.scene, groups, emit, n_groups)
         self.groups = groups
@@ -428,14 +432,20 @@ class _ExchangeTracer:
         ss = np.random.SeedSequence(seed, spawn_key=(stream,))
         setup = np.random.default_rng(ss.spawn(1)[0])
         halton = offsets = None
+        dims = 4
         if sampling == "halton":
             halton = ScrambledHalton(setup, bases=HALTON_BASES[:HALTON_DIMS])
             offsets = setup.integers(0, HALTON_SKIP, size=g)
+            # coordinates 5-6 (a first diffuse direction) only when some side scatters diffusely
+            dims = HALTON_DIMS if self.optics.scatters_diffusely else 4
         ncol = g + 3
         # column index type of the tally: int32 when it fits (scipy keeps such arrays without a copy)
         itmpl = np.empty(0, np.int32 if total < 2**31 - 1 and ncol < 2**31 - 1 else np.int64)
         # destination column of an absorbing side: its group, or "blocked" when it is not a REF node
         side_col = np.where(self.groups >= 0, self.groups, g + 1)
+        # the batch tallies go straight into one buffer, each at its batch's first ray (a batch has at most one
+        # distinct entry per ray); allocated by the compiled code: 4 KB pages, see empty_pages
+        cols_buf, vals_buf = empty_pages(total, itmpl), empty_pages(total, np.empty(0))
 
         no_offsets = np.zeros(0, np.int64)
 
@@ -443,25 +453,29 @@ class _ExchangeTracer:
             lo_, hi_ = b * batch, min((b + 1) * batch, total)
             grp, hidx = _batch_rays(lo_, hi_, start, no_offsets if offsets is None else offsets)
             rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream, 1, b)))
-            U = halton.points(hidx) if halton is not None else rng.random((grp.size, 4))
+            U = halton.points(hidx, dims) if halton is not None else rng.random((grp.size, 4))
             o, d, prim, w = self.scene.emit_group_rays(self.emitters, grp, U)
             ends, segs = trace_paths(self.scene, self.optics, o, d, prim, rng, max_bounces,
                                      strata=grp if halton is not None else None,
-                                     first_scatter=U[:, 4:6] if halton is not None else None, copy=False)
+                                     first_scatter=U[:, 4:6] if dims > 4 else None, copy=False)
             # w: relative ray energies of curved emitters (None: every ray counts 1)
             wsum = None
             if w is not None:
                 g0, span = int(grp[0]), int(grp[-1]) - int(grp[0]) + 1
                 wsum = (np.arange(g0, g0 + span), np.bincount(grp - g0, weights=w, minlength=span))
-            runs = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w, itmpl)
-            return runs, segs, wsum
+            groups, lengths = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w,
+                                           cols_buf[lo_:hi_], vals_buf[lo_:hi_])
+            starts = lo_ + np.cumsum(lengths) - lengths
+            return (groups, lengths, starts), segs, wsum
 
         parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
-        cat = lambda k, dtype: np.concatenate([p[0][k] for p in parts]) if parts else np.zeros(0, dtype)  # noqa: E731
+        cat = lambda k: np.concatenate([p[0][k] for p in parts]) if parts else np.zeros(0, np.int64)  # noqa: E731
         segments = int(sum(p[1] for p in parts))
-        # batches are in group order: each row's entries are consecutive runs (two when it straddles two batches)
-        indptr, c, v = runs_to_csr(cat(0, np.int64), cat(1, np.int64), cat(2, itmpl.dtype), cat(3, np.float64), g,
-                                   itmpl)
+        # batches are in group order: each row's entries are consecutive runs (several when it straddles batches)
+        indptr, c, v = runs_to_csr(cat(0), cat(1), cat(2), cols_buf, vals_buf, g, itmpl)
+        if c.size < 0.9 * total:  # release the unused room
+            c, v = c.copy(), v.copy()
+        del cols_buf, vals_buf
         tally = sp.csr_matrix((v, c, indptr), shape=(g, ncol))
         if any(p[2] is not None for p in parts):
             # weighted rays: scale each group's row so that it sums to its ray count (self-normalised estimator)
@@ -488,19 +502,27 @@ def _budget(emitters: GroupEmitters, g: int, rays_per_group, ray_density) -> np.
 
 
 @njit(cache=True, nogil=True)
+def _end_counts(indptr, indices, data, g):
+    """Ray counts (3, g) of the space, blocked and capped columns (g, g + 1, g + 2) of the tally (CSR)."""
+    ends = np.zeros((3, g))
+    for i in range(g):
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            if j >= g:
+                ends[j - g, i] += data[q]
+    return ends
+
+
+@njit(cache=True, nogil=True)
 def _raw_refs(indptr, indices, data, g, inv_n, itmpl):
     """From the ray tally (CSR, g x (g + 3), sorted columns): the raw REFs F_raw = diag(inv_n) tally[:, :g + 1]
-    as CSR arrays (zeros dropped) and the counts (3, g) of the space, blocked and capped columns."""
+    as CSR arrays ``(indptr, indices, values)``, zeros dropped."""
     fp = np.zeros(g + 1, itmpl.dtype)
-    ends = np.zeros((3, g))
     for i in range(g):
         c = 0
         for q in range(indptr[i], indptr[i + 1]):
-            j = indices[q]
-            if j <= g and data[q] != 0.0:
+            if indices[q] <= g and data[q] != 0.0:
                 c += 1
-            if j >= g:
-                ends[j - g, i] += data[q]
         fp[i + 1] = fp[i] + c
     fi = np.empty(fp[g], itmpl.dtype)
     fv = np.empty(fp[g])
@@ -512,28 +534,26 @@ def _raw_refs(indptr, indices, data, g, inv_n, itmpl):
                 fi[m] = j
                 fv[m] = inv_n[i] * data[q]
                 m += 1
-    return fp, fi, fv, ends
+    return fp, fi, fv
 
 
 def _result(tracer, rays, tally, segments, method, exponent, kappa, pilot, engine, sampling) -> ExchangeResult:
+    """The smoothed result of one run: reciprocity and closure straight from the ray ``tally`` (S = diag(εA/n)
+    counts); the REFs F and F_raw are derived on first use (:class:`ExchangeResult`)."""
     g = tracer.g
     w = tracer.emitters.weight
-    n = np.maximum(rays, 1).astype(float)
-    fp, fi, fv, ends_n = _raw_refs(tally.indptr, tally.indices, tally.data, g, np.where(rays > 0, 1.0 / n, 0.0),
-                                   np.empty(0, np.int32 if tally.nnz < 2**31 - 1 else np.int64))
-    F_raw = sp.csr_matrix((fv, fi, fp), shape=(g, g + 1))
-    escaped_n, blocked_n, capped_n = ends_n
-    blocked = np.where(rays > 0, blocked_n / n, 0.0)
-    capped = np.where(rays > 0, capped_n / n, 0.0)
-    F, GR, lse = smooth(F_raw, w, rays, blocked, method, exponent)
+    inv_n = np.where(rays > 0, 1.0 / np.maximum(rays, 1), 0.0)
+    escaped_n, blocked_n, capped_n = _end_counts(tally.indptr, tally.indices, tally.data, g)
+    blocked, capped = blocked_n * inv_n, capped_n * inv_n
+    GR, space, lse = close_exchange(tally, w * inv_n, inv_n, w, rays, blocked, method, exponent)
     traced = (rays > 0) & (w > 0)
     wt = w[traced].sum()
     frac = lambda x: float((w[traced] * x[traced]).sum() / wt) if wt > 0 else 0.0  # noqa: E731
     return ExchangeResult(
-        F=F, F_raw=F_raw, GR=GR, tally=tally, eps_area=w, area=tracer.emitters.area, rays=rays, lse=lse,
+        GR=GR, space=space, tally=tally, eps_area=w, area=tracer.emitters.area, rays=rays, lse=lse,
         lse_rms=rms(lse, traced), kappa=kappa, pilot=tuple(pilot), capped_energy_fraction=frac(capped),
-        blocked_fraction=frac(blocked), escaped=np.where(rays > 0, escaped_n / n, 0.0), blocked=blocked,
-        segments=segments, engine=engine, sampling=sampling,
+        blocked_fraction=frac(blocked), escaped=escaped_n * inv_n, blocked=blocked, segments=segments,
+        engine=engine, sampling=sampling,
     )
 
 
