@@ -144,3 +144,56 @@ def test_embreex_fallback_gives_the_same_exchange_factors_statistically():
     fa, fb = a.F_raw.toarray()[:, :f], b.F_raw.toarray()[:, :f]
     se = np.sqrt(np.maximum(fa * (1 - fa), 1e-4) / 2000)
     assert np.all(np.abs(fa - fb) < 4 * np.sqrt(2) * se)
+
+
+class _SelfHittingEngine:
+    """A numpy engine that, like float32 round-off, reports a hit on triangle ``own`` for rays starting closer than
+    ``depth`` to its plane (``always``: for every ray), and the true closest hit otherwise."""
+
+    name = "stub"
+
+    def __init__(self, vertices, own, depth, always=False):
+        self.inner = NumpyEngine(vertices)
+        v = np.asarray(vertices)[own]
+        n = np.cross(v[1] - v[0], v[2] - v[0])
+        self.p0, self.n, self.own, self.depth, self.always = v[0], n / np.linalg.norm(n), own, depth, always
+        self.queries = 0
+
+    def intersect(self, origins, directions, out=None):
+        self.queries += 1
+        prim, t = self.inner.intersect(origins, directions)
+        near = np.abs((origins - self.p0) @ self.n) < self.depth
+        fake = near | self.always
+        prim[fake], t[fake] = self.own, 1e-7
+        return prim, t
+
+
+def test_self_hits_are_retraced_from_pushed_origins_written_back():
+    # a floor (two triangles) and a ceiling at z = 1: rays leaving floor triangle 0 upwards from 1e-12 above it
+    # "hit" it until their origin is >= 10 eps off the plane; the scene re-traces them from 4, 16, ... eps, so the
+    # second retry (16 eps) succeeds: prim = the ceiling, origin + t d on the ceiling, the origin moved to 16 eps
+    pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [0, 1, 1], [1, 1, 1], [1, 0, 1]], float)
+    surf = Surface(pts, [[0, 1, 2, 3], [4, 5, 6, 7]])
+    scene = TriangleScene(surf, backend="numpy")
+    stub = _SelfHittingEngine(scene.tri_vertices, own=0, depth=10 * scene.eps)
+    scene.engine = stub
+    rng = np.random.default_rng(3)
+    r = 50
+    o = np.column_stack([rng.random(r) * 0.2 + 0.5, rng.random(r) * 0.4 + 0.05, np.full(r, 1e-12)])  # on triangle 0
+    d = np.column_stack([0.2 * rng.random(r), 0.2 * rng.random(r), np.ones(r)])
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    o_in = o.copy()
+    prim, t = scene.intersect(o, d, np.zeros(r, np.int64))
+    assert np.all(prim >= 0) and np.all(surf.triangles.face[prim] == 1)  # the ceiling
+    np.testing.assert_allclose((o + t[:, None] * d)[:, 2], 1.0, atol=1e-12)
+    np.testing.assert_allclose(o - o_in, np.tile([0, 0, 16 * scene.eps], (r, 1)), rtol=1e-9, atol=1e-18)
+    assert stub.queries == 3  # the query, then two retries of the same rays
+    # a ray that hits itself whatever the push is lost: prim -1, t = -1, its origin untouched
+    scene.engine = _SelfHittingEngine(scene.tri_vertices, own=0, depth=0.0, always=True)
+    o = o_in.copy()
+    prim, t = scene.intersect(o, d, np.zeros(r, np.int64))
+    assert np.all(prim == -1) and np.all(t == -1.0)
+    np.testing.assert_array_equal(o, o_in)
+    # rays leaving another triangle keep the engine's answer (a hit on 0 is then not a self hit)
+    prim, t = scene.intersect(o_in.copy(), d, np.ones(r, np.int64))
+    assert np.all(prim == 0)

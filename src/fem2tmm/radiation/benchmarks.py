@@ -22,7 +22,6 @@ import numpy as np
 from .smoothing import convergence_rate
 from .surfaces import GroupEmitters, Surface, TriangleScene
 from .engine import make_engine
-from .kernels import closest_hits
 from .tracer import exchange_factors, map_batches, trace_exchange
 
 TWO_QUADS = (
@@ -117,21 +116,17 @@ def raw_embree_runner(scene: TriangleScene, origins: np.ndarray, directions: np.
     """A callable running bare closest-hit queries on the rays (origins (r, 3) m, directions (r, 3)) of ``scene``,
     split over ``threads`` Python threads: with ``direct`` False, embreex's own ``EmbreeScene.run`` on float32
     arrays prepared beforehand, over a scene that embreex builds (the issue's baseline); with ``direct`` True, the
-    tracer's compiled C-API query loop (:func:`~fem2tmm.radiation.kernels.closest_hits`) over ``scene``'s own
-    Embree scene (so the ratio to it is the tracer's bookkeeping alone)."""
+    tracer's compiled C-API query loop (:func:`~fem2tmm.radiation.engine.EmbreeEngine.intersect`) over ``scene``'s
+    own Embree scene (so the ratio to it is the tracer's bookkeeping alone)."""
     chunks = np.array_split(np.arange(len(origins)), max(threads, 1) * 8)
     if direct:
-        fn, handle, center = scene.direct_query()
         o64 = np.ascontiguousarray(origins, np.float64)
         d64 = np.ascontiguousarray(directions, np.float64)
-        normals = scene.bounce_tables()[1]
-        none = np.full(len(o64), -1, np.int64)
         prim, t = np.empty(len(o64), np.int64), np.empty(len(o64))
 
         def query(b):
             a, e = chunks[b][0], chunks[b][-1] + 1
-            closest_hits(fn, handle, center, o64[a:e].copy(), d64[a:e], none[a:e], normals, scene.eps, prim[a:e],
-                         t[a:e])
+            scene.engine.intersect(o64[a:e], d64[a:e], out=(prim[a:e], t[a:e]))
     else:
         ex = make_engine(scene.tri_vertices, "embreex")
         o32 = np.ascontiguousarray(origins - ex.center, np.float32)

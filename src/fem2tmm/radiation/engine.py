@@ -7,10 +7,9 @@ distance.  Robustness (origin offsets, self-hit rejection) lives one level up, i
 Embree is reached in one of two ways, both through the Embree 4 library that the ``embreex`` wheel ships:
 
 * **direct** (the default where the library file is found): the scene is built through Embree's C API (ctypes)
-  and queried by compiled kernels that call ``rtcIntersect1`` themselves (an indirect call through the function's
-  address, :func:`embree_intersect1`): the tracer's batches go from float64 rays to hits with no float32 copies,
-  no per-ray output arrays and self hits re-traced in the same loop
-  (:func:`fem2tmm.radiation.kernels.closest_hits`).  The BVH is built at Embree's medium quality, as embreex's
+  and queried by a compiled kernel that calls ``rtcIntersect1`` itself (an indirect call through the function's
+  address, :func:`embree_intersect1`): the tracer's batches go from float64 rays to hits with no float32 copies
+  and no per-ray output arrays.  The BVH is built at Embree's medium quality, as embreex's
   (the high quality with spatial splits measured 5 % faster queries on the baffle and 7 % slower on the sphere).
 * **embreex** (fallback, e.g. a wheel whose library is not where we look, or an Embree other than 4):
   embreex's ``EmbreeScene.run`` on float32 copies of each batch.  The environment variable
@@ -285,15 +284,15 @@ class EmbreeEngine:
                                              np.ascontiguousarray(vertices - self.center, dtype=np.float32))
             self._scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32))  # commit now
 
-    def intersect(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def intersect(self, origins: np.ndarray, directions: np.ndarray, out=None) -> tuple[np.ndarray, np.ndarray]:
         """Closest hit of each ray: ``(prim (r,) int, -1 = miss; t (r,) float distance in m, huge on a miss)``.
 
-        ``origins`` (r, 3) m and ``directions`` (r, 3) unit vectors, any float dtype.
+        ``origins`` (r, 3) m and ``directions`` (r, 3) unit vectors, any float dtype.  ``out``: optional
+        ``(prim (r,) int64, t (r,) float64)`` arrays that the C-API path fills and returns.
         """
         if self.direct is not None:
             r = len(origins)
-            prim = np.empty(r, np.int64)
-            t = np.empty(r)
+            prim, t = (np.empty(r, np.int64), np.empty(r)) if out is None else out
             _intersect_batch(self.direct[0], self.direct[1], self.center,
                              np.ascontiguousarray(origins, dtype=np.float64),
                              np.ascontiguousarray(directions, dtype=np.float64), prim, t)
@@ -327,8 +326,8 @@ class NumpyEngine:
         self._e2 = vertices[:, 2] - vertices[:, 0]
         self._chunk = int(chunk)
 
-    def intersect(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Same contract as :meth:`EmbreeEngine.intersect`."""
+    def intersect(self, origins: np.ndarray, directions: np.ndarray, out=None) -> tuple[np.ndarray, np.ndarray]:
+        """Same contract as :meth:`EmbreeEngine.intersect` (``out`` is not used)."""
         origins = np.asarray(origins, dtype=np.float64)
         directions = np.asarray(directions, dtype=np.float64)
         r = len(origins)

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .engine import embree_intersect1, prefetch, rayhit_buffer
+from .engine import prefetch
 
 @njit(cache=True, nogil=True)
 def empty_pages(n, template):
@@ -319,9 +319,10 @@ def bounce(prim, t, o, d, idx, ends, u, r2, st, rows, ray_normal, eps):
     The surviving rays are compacted, in place and in order, into the first n_alive rows of ``idx``, ``o``, ``d``
     (offset origins, new directions) and ``prim`` (the primitive each one leaves); returns n_alive.  (Row m <= k is
     written only after row k was read, so compacting in place is safe.)  The hit row of the ray ``PREFETCH_AHEAD``
-    places later is prefetched: with one random row per ray the loop otherwise waits on memory (measured on a
-    20 k-triangle sphere: 71 -> 50 ns per ray with one 128-byte row instead of a triangle row and a side row, the
-    side row's address depending on the triangle row's content).
+    places later is prefetched: with one random row per ray the loop otherwise waits on memory.  (Measured on a
+    20 k-triangle sphere, second bounce: 71 ns per ray with a triangle row and a side row, whose address depended
+    on the triangle row's content, so its prefetch waited on a load; 30 ns with this one row, as fast as with the
+    rays sorted by triangle.)
     """
     r = prim.shape[0]
     own = ray_normal.shape[0] == r
@@ -370,43 +371,3 @@ def bounce(prim, t, o, d, idx, ends, u, r2, st, rows, ray_normal, eps):
         prim[m] = j
         m += 1
     return m
-
-
-#: retries with a 4x larger offset when a ray hits the triangle it leaves (float32 round-off)
-SELF_HIT_RETRIES = 4
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _closest(fn, scene, buf, ib, base, addr, cx, cy, cz, ox, oy, oz, dx, dy, dz, leave, tri_normal, eps):
-    """Closest hit of one ray leaving triangle ``leave`` (-1: none) through the Embree C API: a hit on ``leave``
-    itself (float32 round-off) is re-traced from the origin pushed 4, 16, 64, 256 x ``eps`` off that triangle on the
-    side the ray travels to.  Returns ``(prim, t, origin used)``: prim -1 with t = inf on a miss, with t = -1 when
-    the ray still hits itself (lost)."""
-    j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, ox, oy, oz, dx, dy, dz)
-    if j != leave or j < 0:
-        return j, tk, ox, oy, oz
-    nx, ny, nz = tri_normal[leave, 0], tri_normal[leave, 1], tri_normal[leave, 2]
-    push = eps if dx * nx + dy * ny + dz * nz >= 0.0 else -eps
-    for _ in range(SELF_HIT_RETRIES):
-        push *= 4.0
-        qx, qy, qz = ox + push * nx, oy + push * ny, oz + push * nz
-        j, tk = embree_intersect1(fn, scene, buf, ib, base, addr, cx, cy, cz, qx, qy, qz, dx, dy, dz)
-        if j != leave:
-            return j, tk, qx, qy, qz
-    return -1, -1.0, ox, oy, oz
-
-
-@njit(cache=True, nogil=True)
-def closest_hits(fn, scene, center, o, d, leaving, tri_normal, eps, prim, t):
-    """Closest hits of a batch of rays through the Embree C API (``fn`` = address of rtcIntersect1, ``scene`` its
-    handle, ``center`` (3,) the scene's float32 origin; see :mod:`fem2tmm.radiation.engine`): origins ``o`` (r, 3)
-    m, unit directions ``d`` (r, 3), ``leaving`` (r,) the triangle each ray leaves (-1: none), self hits re-traced
-    (:func:`_closest`; ``o`` is updated to the origin used; ``tri_normal`` (t, 3)).  Fills ``prim`` (r,) int64
-    (-1 on a miss or a lost ray) and ``t`` (r,) m (inf on a miss, -1 when lost); ``prim`` may be the same array as
-    ``leaving`` (each entry is read before it is written)."""
-    buf, ib, base, addr = rayhit_buffer()
-    cx, cy, cz = center[0], center[1], center[2]
-    for k in range(o.shape[0]):
-        prim[k], t[k], o[k, 0], o[k, 1], o[k, 2] = _closest(fn, scene, buf, ib, base, addr, cx, cy, cz, o[k, 0],
-                                                            o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2], leaving[k],
-                                                            tri_normal, eps)

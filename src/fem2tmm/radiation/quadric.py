@@ -720,10 +720,11 @@ class QuadricScene(TriangleScene):
         out[np.flatnonzero(ok)[mine]] = g[mine]
         return out
 
-    def intersect(self, origins: np.ndarray, directions: np.ndarray, leaving: np.ndarray):
+    def intersect(self, origins: np.ndarray, directions: np.ndarray, leaving: np.ndarray, out=None):
         """Closest hit over flat faces (Embree) and quadric patches (exact roots): ``(prim (r,), t (r,))`` with
-        the same conventions as :meth:`TriangleScene.intersect` (prim -1 on a miss, t = -1 for a lost ray); t is
-        float64 and exact on quadric hits."""
+        the same conventions as :meth:`TriangleScene.intersect` (prim -1 on a miss, t = -1 for a lost ray; origins of
+        flat rays re-traced after a self hit are updated in place); t is float64 and exact on quadric hits.  ``out``
+        is not used."""
         r = len(origins)
         prim = np.full(r, -1, np.int64)
         best = np.full(r, np.inf)

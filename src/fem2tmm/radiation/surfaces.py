@@ -26,10 +26,12 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import (SELF_HIT_RETRIES, cosine_directions, emit_groups, emit_rays, locate_entries, offset_points,
+from .kernels import (cosine_directions, emit_groups, emit_rays, locate_entries, offset_points,
                       sample_points)
 
 FRONT, BACK = 0, 1
+#: retries with a 4x larger offset when a ray hits the triangle it leaves (float32 round-off)
+SELF_HIT_RETRIES = 4
 #: relative size (to the scene's bounding-box diagonal) of the offset of ray origins off their surface
 ORIGIN_OFFSET = 2e-6
 
@@ -314,25 +316,35 @@ class TriangleScene:
         The point o + t d carries the float32 error of t (~1e-7 of the scene size), far below the origin offset."""
         return self.tri_face[prim], origins + t[:, None] * directions, self.tri_normal[prim]
 
-    def intersect(self, origins: np.ndarray, directions: np.ndarray, leaving: np.ndarray):
+    def intersect(self, origins: np.ndarray, directions: np.ndarray, leaving: np.ndarray, out=None):
         """Closest hit of rays leaving primitives ``leaving`` (r,) (-1: none): ``(prim (r,), t (r,))``, prim -1 on a
-        miss.  Self hits (prim == leaving) are re-traced from an origin pushed 4x further off the surface; a ray
-        still hitting itself after SELF_HIT_RETRIES pushes is returned as prim -1 with t = -1 (lost)."""
-        prim, t = self.engine.intersect(origins, directions)
+        miss.  A hit on the primitive a ray leaves (float32 round-off) is re-traced from its origin pushed 4, 16, 64,
+        256 x ``eps`` off that triangle, on the side the ray travels to, and that origin is written back into
+        ``origins`` (so origin + t x direction is the hit point); a ray still hitting itself after
+        ``SELF_HIT_RETRIES`` pushes keeps its origin and is returned as prim -1 with t = -1 (lost).  The one
+        self-hit rule of the package, for every engine.  ``out``: optional ``(prim, t)`` arrays for the engine
+        (:meth:`~fem2tmm.radiation.engine.EmbreeEngine.intersect`)."""
+        prim, t = self.engine.intersect(origins, directions, out)
         bad = np.flatnonzero((prim == leaving) & (prim >= 0))
-        push = self.eps
-        for _ in range(SELF_HIT_RETRIES):
-            if bad.size == 0:
-                break
+        if bad.size == 0:
+            return prim, t
+        o0, d = origins[bad], directions[bad]
+        n = self.tri_normal[leaving[bad]]
+        side = np.where(np.einsum("ij,ij->i", d, n) >= 0.0, 1.0, -1.0)
+        push, todo = self.eps, np.arange(bad.size)
+        for _ in range(SELF_HIT_RETRIES):  # loop over the retries of the (few) rays that hit themselves
             push *= 4.0
-            n = self.tri_normal[leaving[bad]]
-            side = np.where(np.einsum("ij,ij->i", directions[bad], n) >= 0.0, 1.0, -1.0)
-            o2 = origins[bad] + (push * side)[:, None] * n
-            p2, t2 = self.engine.intersect(o2, directions[bad])
-            prim[bad], t[bad] = p2, t2
-            bad = bad[(p2 == leaving[bad]) & (p2 >= 0)]
-        if bad.size:
-            prim[bad], t[bad] = MISS, -1.0
+            o2 = o0[todo] + (push * side[todo])[:, None] * n[todo]
+            p2, t2 = self.engine.intersect(o2, d[todo])
+            k = bad[todo]
+            prim[k], t[k] = p2, t2
+            done = (p2 != leaving[k]) | (p2 < 0)
+            origins[k[done]] = o2[done]
+            todo = todo[~done]
+            if todo.size == 0:
+                break
+        if todo.size:
+            prim[bad[todo]], t[bad[todo]] = MISS, -1.0
         return prim, t
 
     def offset(self, prim: np.ndarray, points: np.ndarray, sign: np.ndarray, normals: np.ndarray | None = None
@@ -387,8 +399,8 @@ class TriangleScene:
         return rows
 
     def direct_query(self):
-        """``(address of rtcIntersect1, scene handle, centre (3,))`` when every ray of this scene can be traced by
-        the compiled Embree kernels (:func:`fem2tmm.radiation.kernels.closest_hits`), else None (numpy engine,
+        """``(address of rtcIntersect1, scene handle, centre (3,))`` when this scene's Embree scene is queried through
+        its C API by compiled code (:func:`~fem2tmm.radiation.engine.embree_intersect1`), else None (numpy engine,
         embreex fallback, or a subclass with its own intersections)."""
         if self.engine is None or getattr(self.engine, "direct", None) is None:
             return None

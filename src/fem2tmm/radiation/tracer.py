@@ -37,8 +37,8 @@ from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
-from .kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, closest_hits, empty_pages,  # noqa: F401
-                      hit_sides, random_state, uniform)
+from .kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, empty_pages, hit_sides,  # noqa: F401
+                      random_state, uniform)
 from .smoothing import RECIPROCITY_METHODS, close_exchange, convergence_rate, refs_from_gr, rms, scale_rows
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
@@ -163,13 +163,12 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
     numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
     coupled Halton point); later events draw from a generator seeded from ``rng`` inside the compiled bounce
-    (:func:`~fem2tmm.radiation.kernels.uniform`).  Each bounce is one
-    intersection query for the whole batch (compiled calls of Embree's C API when the scene allows it,
-    :meth:`TriangleScene.direct_query`, else ``scene.intersect``) and one compiled pass
-    (:func:`fem2tmm.radiation.kernels.bounce`) that compacts the surviving rays in place.  (Fusing the query and
-    the event of each ray in one loop, or following each ray to its end before the next, measured 1.5-2x slower per
-    segment: the processor then cannot overlap the long latency chains of consecutive rays.  Ordering the rays by
-    hit triangle before the bounce cost more than it saved.)
+    (:func:`~fem2tmm.radiation.kernels.uniform`).  Each bounce is one intersection query for the whole batch
+    (:meth:`TriangleScene.intersect`: compiled calls of Embree's C API where available, self hits re-traced) and
+    one compiled pass (:func:`fem2tmm.radiation.kernels.bounce`) that compacts the surviving rays in place.
+    (Fusing the query and the event of each ray in one loop, or following each ray to its end before the next,
+    measured 1.5-2x slower per segment: the processor then cannot overlap the long latency chains of consecutive
+    rays.  Sorting the surviving rays by triangle made the next query ~8 % faster, about what the sort costs.)
 
     ``copy`` False lets the kernels work in ``origins`` and ``directions`` themselves (C-contiguous float64 arrays
     the caller gives up).
@@ -183,25 +182,20 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     o = own(origins, dtype=np.float64)
     d = own(directions, dtype=np.float64)
     last = np.ascontiguousarray(leaving, dtype=np.int64)
-    tables = scene.bounce_tables()
-    direct = scene.direct_query()
     rows = scene.hit_rows(optics)
     st = random_state(rng)  # the compiled kernels' own generator, seeded from rng
 
     idx = np.arange(n)
-    prim_buf, t_buf = np.empty(n, np.int64), np.empty(n)
+    # query outputs: two prim buffers in turn, as each query reads the previous one's (compacted) hits as `last`
+    prim_bufs, t_buf = (np.empty(n, np.int64), np.empty(n, np.int64)), np.empty(n)
     segments = 0
     for b in range(max_bounces):
         m = idx.size
         if m == 0:
             break
         segments += m
-        if direct is not None:  # compiled Embree queries, self hits handled inside
-            prim, t = prim_buf[:m], t_buf[:m]
-            closest_hits(direct[0], direct[1], direct[2], o, d, last, tables[1], scene.eps, prim, t)
-        else:
-            prim, t = scene.intersect(o, d, last)
-            prim = np.asarray(prim, np.int64)  # own copy when the engine's type differs; compacted in place below
+        prim, t = scene.intersect(o, d, last, out=(prim_bufs[b % 2][:m], t_buf[:m]))
+        prim = np.asarray(prim, np.int64)  # own copy when the engine's type differs; compacted in place below
         nrm = scene.hit_normals(prim, o, d, t)
         u, r2 = _NO_NUMBERS  # empty: bounce draws its own
         if b == 0 and strata is not None:  # first hit: stratified event numbers per (source, side)
