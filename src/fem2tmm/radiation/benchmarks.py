@@ -153,8 +153,8 @@ def bench_throughput(repeat: int = 7, threads: int = 2, rays_per_face: int = 200
 
     The machine is shared and its speed drifts by tens of per cent within minutes, so the runs are interleaved
     (baseline, tracer, direct baseline, baseline, tracer, ...; one unrecorded round that warms every runner up,
-    then ``repeat`` rounds) and each ratio is taken per round, between runs a few seconds apart; the median of the per-round ratios is reported along with the median
-    times.  The tracer's time is the whole ``trace_exchange`` call and its REF matrix ℱ: scene build, emission,
+    then ``repeat`` rounds) and each ratio is taken per round, between runs a few seconds apart; the median of the
+    per-round ratios is reported along with the median times.  The tracer's time is the whole ``trace_exchange`` call and its REF matrix ℱ: scene build, emission,
     tracing, tally, reciprocity and closure, then ``.F``."""
     out = []
     for name, (surf, groups) in (("sphere_20k", sphere_surface()), ("baffle_18k", baffle_surface()[:2])):

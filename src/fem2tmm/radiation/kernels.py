@@ -24,13 +24,14 @@ from numba import njit
 
 from .engine import prefetch
 
+
 @njit(cache=True, nogil=True)
 def empty_pages(n, template):
     """An uninitialised (n,) array of ``template``'s dtype allocated by the compiled runtime (malloc), for the large
-    short-lived arrays of the tracer and of REF smoothing.  numpy advises arrays >= 4 MB into transparent huge
+    short-lived arrays of the tracer and of REF smoothing.  numpy advises its arrays >= 4 MB into transparent huge
     pages; a fresh 2 MB page must be zeroed (and, on a virtual machine, backed by the host) at its first touch,
     which measured ~4 ms each on the reference machine (0.3-0.4 s of system time per 20 k-face REF smoothing),
-    against ~1 µs per 4 KB page, which the kernel recycles warm."""
+    against 1-3 µs per 4 KB page, which the kernel recycles warm."""
     return np.empty(n, template.dtype)
 
 
@@ -307,9 +308,9 @@ def bounce(prim, t, o, d, idx, ends, u, r2, st, rows, ray_normal, eps):
     (r,) ray ids into ``ends`` (n,) (written for every ray that stops here).  Random numbers: ``u`` (r,) the event
     numbers and ``r2`` (r, 2) the numbers of a diffuse direction (:func:`_cosine_dir`); either, when empty, is
     drawn here from the generator state ``st`` (:func:`uniform`: the event number of each ray that hits, a
-    rejection-sampled disc point for a diffuse event, :func:`_random_cosine_dir`).  Scene and optics: ``rows`` (t, 16) one hit
-    row per triangle (:data:`HIT_ROW`), ``ray_normal`` (r, 3) front normals at the hit points when it has r rows
-    (curved hits; ignored otherwise), ``eps`` origin offset (m).
+    rejection-sampled disc point for a diffuse event, :func:`_random_cosine_dir`).  Scene and optics: ``rows``
+    (t, 16) one hit row per triangle (:data:`HIT_ROW`), ``ray_normal`` (r, 3) front normals at the hit points when
+    it has r rows (curved hits; ignored otherwise), ``eps`` origin offset (m).
 
     At the hit: the side is the front when the ray travels against the normal; u < stop[side] ends the ray
     (absorbed by an active side, ``END_BLOCKED`` by an inactive one, whose stop probability is 2); otherwise u picks

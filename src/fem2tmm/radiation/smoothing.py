@@ -54,9 +54,9 @@ def _linear_weight(i, j, a, traced, exponent):
 
 # ---------------------------------------------------------------------------------------------------------------
 # Linear reciprocity and closure in compiled passes over row ranges: column counts, weights + transposition, then
-# one merge that writes GR (space column included) directly.  Every pass reads whole
-# inputs but writes only what belongs to its rows r0..r1-1, so the rows are split over threads (the kernels
-# release the GIL); the results do not depend on the split.  Notation: S (g, g) m² the raw exchange, M = S∘W
+# one merge that writes GR (space column included) directly.  Every pass reads whole inputs but writes only what
+# belongs to its rows r0..r1-1, so the rows are split over threads (the kernels release the GIL); the results do
+# not depend on the split.  Notation: S (g, g) m² the raw exchange, M = S∘W
 # (g, g) its weighted part, GR = M + Mᵀ.  M keeps the index arrays (indptr, indices) of its input with values mv;
 # Mᵀ is (tp, ti, tv) in CSR form (row j of Mᵀ = column j of M, sorted).
 
@@ -76,9 +76,10 @@ def _weigh_transpose(indptr, indices, data, row_scale, space_scale, g, a, traced
     """Rows r0..r1-1 of M_ij = w_ij (row_scale_i x_ij) for the entries x_ij of columns j < g of a CSR matrix
     (sorted columns, no duplicates), into ``mv`` (>= nnz,) at the positions of x, and scattered into Mᵀ: entry
     (i, j) goes to ``ti``/``tv`` (>= nnz(Mᵀ),) at slot[j], which is then incremented (``slot`` (g,) int64: where
-    this row range starts in each row of Mᵀ; rows are visited in order, so every row of Mᵀ comes out sorted).  The entry of column
-    g, if any, times ``space_scale[i]`` goes to ``space_raw`` (g,) (0 when absent); later columns are ignored.  Per row, the weights are
-    computed in one loop and scattered in a second one (faster than one fused loop)."""
+    this row range starts in each row of Mᵀ; rows are visited in order, so every row of Mᵀ comes out sorted).
+    The entry of column g, if any, times ``space_scale[i]`` goes to ``space_raw`` (g,) (0 when absent); later
+    columns are ignored.  Per row, the weights are computed in one loop and scattered in a second one (faster than
+    one fused loop)."""
     for i in range(r0, r1):
         q0, q1 = indptr[i], indptr[i + 1]
         space_raw[i] = 0.0
