@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fem2tmm.radiation.reference import (TWO_QUADS, gebhart_polygons, jittered_view_factor_errors,
-                                         parallel_rectangles_view_factor, perpendicular_rectangles_view_factor,
-                                         point_polygon_view_factor, point_rectangle_view_factor, polygon_view_factor,
+from fem2tmm.radiation.reference import (TWO_QUADS, ball_indicator_errors, gebhart_polygons,
+                                         jittered_view_factor_errors, parallel_rectangles_view_factor,
+                                         perpendicular_rectangles_view_factor, point_polygon_view_factor, point_rectangle_view_factor, polygon_view_factor,
                                          two_quads_ref, view_factor_estimates)
 
 
@@ -145,3 +145,19 @@ def test_kappa_slopes():
     assert 0.57 < jittered_view_factor_errors()["kappa"] < 0.69
     assert 0.45 < jittered_view_factor_errors(sampling="random")["kappa"] < 0.58
     assert 0.70 < jittered_view_factor_errors(emitter="point")["kappa"] < 0.84
+
+
+def test_halton_sampler_on_ball_indicators_converges_at_the_rate_of_smooth_boundaries():
+    # the tracer's scrambled Halton points with no ray tracing, on the indicator of a ball of known volume (a smooth
+    # curved boundary like a ray's hit/miss): mean error ∝ n^-(1/2 + 1/(2d)) at best, 0.625 in 4-D and 0.75 in 2-D
+    # (jittered-sampling variance O(n^-(1 + 1/d))); iid points 0.5.  40 seeds, n = 250 ... 64 000: over six sets of
+    # 40 seeds the fitted slopes were 0.618 ± 0.028 (4-D) and 0.760 ± 0.034 (2-D); bounds at 3 σ
+    r4 = ball_indicator_errors(4, ns=(250, 1000, 4000, 16000, 64000), seeds=range(40))
+    r2 = ball_indicator_errors(2, ns=(250, 1000, 4000, 16000, 64000), seeds=range(40))
+    assert r4["exact"] == pytest.approx(np.pi**2 * 0.4**4 / 2, rel=1e-15)
+    assert 0.53 < r4["halton"]["kappa"] < 0.71
+    assert 0.65 < r2["halton"]["kappa"] < 0.86
+    assert 0.38 < r4["random"]["kappa"] < 0.62 and 0.38 < r2["random"]["kappa"] < 0.62
+    # and the Halton errors are well below the iid ones at every n past the first (measured 0.52x at 1000, 0.28x at
+    # 64 000 in 4-D)
+    assert all(h < 0.7 * m for h, m in zip(r4["halton"]["mean_rel_error"][1:], r4["random"]["mean_rel_error"][1:]))

@@ -220,8 +220,10 @@ def bench_convergence(seeds: int = 100, rays=(250, 1000, 4000, 16000, 64000, 256
     * ``pointwise_F``: the 1e-4 m emitter under a rectangle of §2.2.5 (the origin hardly matters: a 2-D
       discontinuous integrand, the case of the thesis' "κ approaching 0.75", l. 1083);
 
-    and, as the bound no sampling of these integrands can beat, the jittered (one uniform point per cell of an m^d
-    grid) estimator of the two quadrangles' direct view factor in 4-D and from a point emitter in 2-D
+    the same scrambled Halton points (and iid ones) with no ray tracer, on the indicator of a 4-D and a 2-D ball of
+    known volume (:func:`fem2tmm.radiation.reference.ball_indicator_errors`); and, as the bound no sampling of these
+    integrands can beat, the jittered (one uniform point per cell of an m^d grid) estimator of the two quadrangles'
+    direct view factor in 4-D and from a point emitter in 2-D
     (:func:`fem2tmm.radiation.reference.jittered_view_factor_errors`, an independent numpy implementation).  For
     the indicator of a set with a smooth boundary in d dimensions, randomised QMC and stratified sampling converge
     at best as n^-(1/2 + 1/(2d)) (mean error; the variance of jittered sampling is O(n^-(1 + 1/d))): 0.625 for
@@ -249,6 +251,18 @@ def bench_convergence(seeds: int = 100, rays=(250, 1000, 4000, 16000, 64000, 256
             out.append({"bench": "rays.convergence", "case": case, "sampling": sampling, "reference": ref,
                         "rays_per_face": list(rays), "mean_rel_error": errs, "kappa": float(slope),
                         "kappa_local": local, "seeds": seeds, "goal_kappa_halton": 0.75,
+                        "best_rate_for_a_discontinuous_integrand": 0.5 + 0.5 / dim,
+                        "seconds": time.perf_counter() - t})
+    from .reference import ball_indicator_errors
+
+    for dim in (4, 2):  # the sampler alone, no ray tracer: the indicator of a ball of known volume
+        t = time.perf_counter()
+        r = ball_indicator_errors(dim, ns=rays, seeds=range(seeds))
+        for sampling in ("halton", "random"):
+            out.append({"bench": "rays.convergence", "case": f"ball_{dim}d_indicator", "sampling": sampling,
+                        "reference": r["exact"], "rays_per_face": list(rays),
+                        "mean_rel_error": r[sampling]["mean_rel_error"], "kappa": r[sampling]["kappa"],
+                        "kappa_local": r[sampling]["kappa_local"], "seeds": seeds,
                         "best_rate_for_a_discontinuous_integrand": 0.5 + 0.5 / dim,
                         "seconds": time.perf_counter() - t})
     for case, emitter, dim in (("two_quads_view_factor_jittered_4d", "face", 4),
