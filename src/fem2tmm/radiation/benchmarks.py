@@ -1,13 +1,14 @@
 """Ray-tracing benchmarks (``fem2tmm bench rays``): one dict per measurement, medians of repeated timings.
 
-* ``throughput``: exchange-factor tracing on a closed 20 k-triangle sphere (inner sides, diffuse ε = 0.5) and on an
-  ~18 k-element baffle-like cone shell with vanes (ε = 0.1, specular reflectance 0.9), in intersection queries
-  (ray segments) per second, against bare embreex closest-hit queries on as many rays of the same model, run in
-  the same number of threads (goal: ratio >= 0.7).
+* ``throughput``: exchange-factor tracing (the REF matrix ℱ included) on a closed 20 k-triangle sphere (inner
+  sides, diffuse ε = 0.5) and on an ~18 k-element baffle-like cone shell with vanes (ε = 0.1, specular reflectance
+  0.9), in intersection queries (ray segments) per second, against bare embreex closest-hit queries on as many rays
+  of the same model, run in the same number of threads (goal: ratio >= 0.7).
 * ``convergence``: mean relative error of ℱ₁₂ between the two quadrangles of thesis §2.3.5 (ε = 0.8, diffuse
-  reflectance 0.2, reference 0.0868) and of the point-wise view factor of §2.2.5 against rays per face, Halton and
-  crude Monte Carlo, and the log-log slope κ (goal: κ >= 0.75 for Halton, thesis Fig. 2.18; see
-  :func:`bench_convergence` for the best rate any sampling can reach on these integrands).
+  reflectance 0.2, against the exact value) and of the point-wise view factor of §2.2.5 against rays per face,
+  Halton and crude Monte Carlo, and the log-log slope κ (goal: κ >= 0.75 for Halton, thesis Fig. 2.18); the
+  sampler alone on ball indicators and a jittered oracle show the best rate any sampling can reach on such
+  integrands (:func:`bench_convergence`).
 * ``super_faces``: REF time on the baffle with its FE faces as groups against ~100 super faces (angular/axial
   strips) at equal ray density (thesis Table 5.1 reports a 29x gain with its own per-face tracer), and the super
   faces at 1/30 of that density (still a lower line-sum error than the FE faces).
