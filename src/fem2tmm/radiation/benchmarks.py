@@ -167,7 +167,7 @@ def bench_throughput(repeat: int = 7, threads: int = 2, rays_per_face: int = 200
         res = trace_exchange(surf, groups, rays_per_group=rays_per_face, threads=threads)  # the baselines' segments
         rays = _emission_rays(scene, groups, res.segments)
         runners = {"raw_embree": raw_embree_runner(scene, *rays, threads)}
-        if scene.direct_query() is not None:  # the same queries through our own scene: bookkeeping overhead alone
+        if scene.engine.direct is not None:  # the same queries through our own C-API scene: bookkeeping alone
             runners["raw_direct"] = raw_embree_runner(scene, *rays, threads, direct=True)
         wall = {k: [] for k in ["exchange", *runners]}
         cpu = {k: [] for k in wall}

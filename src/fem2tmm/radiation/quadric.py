@@ -774,10 +774,6 @@ class QuadricScene(TriangleScene):
             nrm[m] = self._front_normals(prim[m], p[m])
         return face, p, nrm
 
-    def direct_query(self):
-        """None: quadric hits are not Embree's closest hits, so rays go through the batch bounce loop."""
-        return None
-
     def hit_normals(self, prim, origins, directions, t):
         """Quadric front normals at the hit points of rays hitting quadric patches (the triangles' own elsewhere)."""
         hit = prim >= 0

@@ -409,7 +409,7 @@ def close_exchange(A: sp.spmatrix, row_scale: np.ndarray, space_scale: np.ndarra
         return _linear(A, row_scale, space_scale, eps_area, rays, exponent, True, blocked, threads)
     GRb = enforce_reciprocity(scale_rows(A[:, :g], row_scale), eps_area, rays, method, exponent)
     GRb.sort_indices()  # merged with an empty transposed part
-    space_raw = space_scale * _column(A.indptr, A.indices, A.data, g)
+    space_raw = space_scale * dense_columns(A.indptr, A.indices, A.data, g, 1)[0]
     return _assemble(GRb.indptr, GRb.indices, np.append(GRb.data, 0.0), np.zeros(g + 1, np.int64),
                      np.zeros(1, np.int32), np.zeros(1), g, g, True, eps_area, blocked, space_raw, threads)
 
@@ -432,14 +432,16 @@ def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: 
 
 
 @njit(cache=True, nogil=True)
-def _column(indptr, indices, data, j):
-    """Column ``j`` (g,) of a CSR matrix (sorted columns, no duplicates) as a dense vector."""
+def dense_columns(indptr, indices, data, first, count):
+    """Columns ``first`` .. ``first + count - 1`` of a CSR matrix (g rows) as a dense (count, g) array (duplicate
+    entries summed)."""
     g = indptr.shape[0] - 1
-    out = np.zeros(g)
+    out = np.zeros((count, g))
     for i in range(g):
         for q in range(indptr[i], indptr[i + 1]):
-            if indices[q] == j:
-                out[i] = data[q]
+            k = indices[q] - first
+            if 0 <= k < count:
+                out[k, i] += data[q]
     return out
 
 

@@ -218,7 +218,7 @@ class TriangleScene:
     """Ray-scene of a :class:`Surface`: robust closest-hit queries, emission and diffuse scattering on its
     triangles.  This is the only geometry object the bounce loop talks to; curved super faces (quadrics) subclass
     it and override :meth:`intersect`, :meth:`hit_geometry`, :meth:`hit_normals` (the curved normal at a hit),
-    :meth:`offset`, :meth:`direct_query` (None), the curved triangles of :meth:`bounce_tables`
+    :meth:`offset`, the curved triangles of :meth:`bounce_tables`
     (:meth:`_curved_triangles`), and the emission methods (:meth:`emit`, :meth:`emit_weighted`,
     :meth:`emit_group_rays`, :meth:`facing_areas`, :meth:`sample_facing`, for non-uniform sampling of their true
     area; see :class:`fem2tmm.radiation.quadric.QuadricScene`).  The per-ray work is done by the compiled kernels
@@ -397,14 +397,6 @@ class TriangleScene:
         rows[:, 15] = shrink
         self._rows = (optics, rows)
         return rows
-
-    def direct_query(self):
-        """``(address of rtcIntersect1, scene handle, centre (3,))`` when this scene's Embree scene is queried through
-        its C API by compiled code (:func:`~fem2tmm.radiation.engine.embree_intersect1`), else None (numpy engine,
-        embreex fallback, or a subclass with its own intersections)."""
-        if self.engine is None or getattr(self.engine, "direct", None) is None:
-            return None
-        return self.engine.direct + (self.engine.center,)
 
     def _curved_triangles(self) -> np.ndarray:
         return np.zeros(len(self.tri_face), bool)

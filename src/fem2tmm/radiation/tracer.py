@@ -39,7 +39,8 @@ from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
 from .kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, empty_pages, hit_sides,  # noqa: F401
                       random_state, uniform)
-from .smoothing import RECIPROCITY_METHODS, close_exchange, convergence_rate, refs_from_gr, rms, scale_rows
+from .smoothing import (RECIPROCITY_METHODS, close_exchange, convergence_rate, dense_columns, refs_from_gr, rms,
+                        scale_rows)
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
 MAX_BOUNCES = 1000
@@ -496,18 +497,6 @@ def _budget(emitters: GroupEmitters, g: int, rays_per_group, ray_density) -> np.
 
 
 @njit(cache=True, nogil=True)
-def _end_counts(indptr, indices, data, g):
-    """Ray counts (3, g) of the space, blocked and capped columns (g, g + 1, g + 2) of the tally (CSR)."""
-    ends = np.zeros((3, g))
-    for i in range(g):
-        for q in range(indptr[i], indptr[i + 1]):
-            j = indices[q]
-            if j >= g:
-                ends[j - g, i] += data[q]
-    return ends
-
-
-@njit(cache=True, nogil=True)
 def _raw_refs(indptr, indices, data, g, inv_n, itmpl):
     """From the ray tally (CSR, g x (g + 3), sorted columns): the raw REFs F_raw = diag(inv_n) tally[:, :g + 1]
     as CSR arrays ``(indptr, indices, values)``, zeros dropped."""
@@ -537,7 +526,8 @@ def _result(tracer, rays, tally, segments, method, exponent, kappa, pilot, engin
     g = tracer.g
     w = tracer.emitters.weight
     inv_n = np.where(rays > 0, 1.0 / np.maximum(rays, 1), 0.0)
-    escaped_n, blocked_n, capped_n = _end_counts(tally.indptr, tally.indices, tally.data, g)
+    # ray counts of the space, blocked and capped columns
+    escaped_n, blocked_n, capped_n = dense_columns(tally.indptr, tally.indices, tally.data, g, 3)
     blocked, capped = blocked_n * inv_n, capped_n * inv_n
     GR, space, lse = close_exchange(tally, w * inv_n, inv_n, w, rays, blocked, method, exponent)
     traced = (rays > 0) & (w > 0)
