@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from .smoothing import convergence_rate
+from .smoothing import fitted_rate
 from .surfaces import GroupEmitters, Surface, TriangleScene
 from .engine import make_engine
 from .tracer import exchange_factors, map_batches, trace_exchange
@@ -247,8 +247,7 @@ def bench_convergence(seeds: int = 100, rays=(250, 1000, 4000, 16000, 64000, 256
         for sampling in ("halton", "random"):
             t = time.perf_counter()
             errs = [float(np.mean([abs(estimate(n, sampling, s) / ref - 1.0) for s in range(seeds)])) for n in rays]
-            slope = -np.polyfit(np.log(rays), np.log(errs), 1)[0]
-            local = [convergence_rate(rays[k], errs[k], rays[k + 1], errs[k + 1]) for k in range(len(rays) - 1)]
+            slope, local = fitted_rate(rays, errs)
             out.append({"bench": "rays.convergence", "case": case, "sampling": sampling, "reference": ref,
                         "rays_per_face": list(rays), "mean_rel_error": errs, "kappa": float(slope),
                         "kappa_local": local, "seeds": seeds, "goal_kappa_halton": 0.75,

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .benchmarks import _median_time, baffle_surface, raw_embree_runner
+from .smoothing import fitted_rate
 from .solar import sun_origins, sunlit_emitters, trace_solar
 from .surfaces import GroupEmitters, Surface, TriangleScene
 
@@ -117,7 +118,7 @@ def bench_solar_convergence(rays=(100, 1000, 10000), seeds: int = 3, reference_f
             errs.append(float(np.mean(e)))
         out.append({"bench": "solar.convergence", "model": "eui_cone", "faces": surf.n_faces, "sampling": sampling,
                     "rays_per_face": list(rays), "rms_flux_error_W_m2": errs, "reference_rays_per_face": n_ref,
-                    "slope": float(-np.polyfit(np.log(rays), np.log(errs), 1)[0]), "seeds": seeds,
+                    "slope": fitted_rate(rays, errs)[0], "seeds": seeds,
                     "max_flux_W_m2": float(q_ref.max())})
     return out
 

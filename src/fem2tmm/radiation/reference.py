@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .smoothing import fitted_rate
+
 __all__ = ["TWO_QUADS", "GebhartResult", "parallel_rectangles_view_factor", "perpendicular_rectangles_view_factor",
            "point_rectangle_view_factor", "point_polygon_view_factor", "polygon_quadrature", "polygon_view_factor",
            "gebhart_polygons", "gebhart_convergence", "two_quads_ref", "view_factor_estimates",
@@ -458,16 +460,14 @@ def jittered_view_factor_errors(ms=(4, 6, 8, 11, 16), seeds=range(200), sampling
         errs.append(float(per_seed[-1].mean()))
         means.append(float(est.mean()))
         sems.append(float(est.std(ddof=1) / np.sqrt(len(est))))
-    le, ln = np.log(errs), np.log(ns)
+    kappa, local = fitted_rate(ns, errs)
     # bootstrap over the seeds (independently per n) for the standard error of the fitted slope
     boot = np.random.default_rng(12345)
-    kb = [-np.polyfit(ln, np.log([e[boot.integers(0, len(e), len(e))].mean() for e in per_seed]), 1)[0]
-          for _ in range(200)]
+    kb = [fitted_rate(ns, [e[boot.integers(0, len(e), len(e))].mean() for e in per_seed])[0] for _ in range(200)]
     return {"sampling": sampling, "emitter": emitter, "dim": 4 if emitter == "face" else 2, "exact": exact,
             "m": list(ms), "n": [int(x) for x in ns], "seeds": len(seeds), "mean_rel_error": errs,
-            "mean_estimate": means, "sem_estimate": sems, "kappa": float(-np.polyfit(ln, le, 1)[0]),
-            "kappa_se": float(np.std(kb, ddof=1)),
-            "kappa_local": [float(-(le[k + 1] - le[k]) / (ln[k + 1] - ln[k])) for k in range(len(ms) - 1)]}
+            "mean_estimate": means, "sem_estimate": sems, "kappa": kappa, "kappa_se": float(np.std(kb, ddof=1)),
+            "kappa_local": local}
 
 
 def ball_indicator_errors(dim: int, ns=(250, 1000, 4000, 16000, 64000, 256000), seeds=range(100),
@@ -501,7 +501,6 @@ def ball_indicator_errors(dim: int, ns=(250, 1000, 4000, 16000, 64000, 256000), 
                 inside = np.count_nonzero(((U - 0.5) ** 2).sum(axis=1) < radius**2)
                 e.append(abs(inside / n / exact - 1))
             errs.append(float(np.mean(e)))
-        le, ln = np.log(errs), np.log(ns)
-        out[sampling] = {"mean_rel_error": errs, "kappa": float(-np.polyfit(ln, le, 1)[0]),
-                         "kappa_local": [float(-(le[k + 1] - le[k]) / (ln[k + 1] - ln[k])) for k in range(len(ns) - 1)]}
+        kappa, local = fitted_rate(ns, errs)
+        out[sampling] = {"mean_rel_error": errs, "kappa": kappa, "kappa_local": local}
     return {"dim": dim, "radius": radius, "exact": exact, "n": ns, "seeds": len(list(seeds)), **out}

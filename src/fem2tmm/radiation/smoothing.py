@@ -453,6 +453,14 @@ def rms(values: np.ndarray, mask: np.ndarray | None = None) -> float:
     return float(np.sqrt(np.mean(v**2))) if v.size else 0.0
 
 
+def fitted_rate(n, errors) -> tuple[float, list[float]]:
+    """κ in e ∝ n^-κ fitted by least squares to (rays ``n``, ``errors``) in log-log scale, and the local rates
+    between consecutive points (:func:`convergence_rate`)."""
+    n, e = np.asarray(n, float), np.asarray(errors, float)
+    kappa = float(-np.polyfit(np.log(n), np.log(e), 1)[0])
+    return kappa, [convergence_rate(n[k], e[k], n[k + 1], e[k + 1]) for k in range(len(n) - 1)]
+
+
 def convergence_rate(n1: float, e1: float, n2: float, e2: float) -> float:
     """κ in e ∝ n^-κ from two (rays, error) points (log-log slope, thesis §2.5.1); nan if undefined."""
     if not (n1 > 0 and n2 > 0 and e1 > 0 and e2 > 0 and n1 != n2):
