@@ -1,8 +1,8 @@
-"""The reduced thermal network: clustering -> super nodes -> reduced conduction -> radiation -> solve.
+"""The reduced thermal network: super nodes, exact reduced conduction, capacitance, loads, space radiation.
 
-Pipeline-level glue (it knows the stage order, like :mod:`fem2tmm.pipeline`): it turns an
-:class:`~fem2tmm.fem.model.FEModel` and a clustering into a :class:`ReducedModel` of plain arrays that
-the steady solver, the recovery and the exporters consume.
+It turns an :class:`~fem2tmm.fem.model.FEModel` and a :class:`~fem2tmm.cluster.Clustering` into a
+:class:`ReducedModel` of plain arrays that the radiation stage, the steady solver, the recovery and the
+exporters consume.
 
 Super-node order: the clusters (part by part), then one boundary node per fixed-temperature group, then
 the nodes the user keeps.  The space node is not a super node; it is the sink of ``g_space`` and the
@@ -15,13 +15,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cluster import Clustering, PartInput, cluster_parts
-from .errors import Fem2TmmError, format_ids
-from .fem.model import FEModel
-from .reduce import (ConductiveReduction, SuperNodes, build_supernodes, equivalent_capacitance, filter_links,
-                     negative_links, reduce_conduction, supernode_capacitance)
-from .solve.steady import FacedRadiation, SteadyProblem
-
+from ..case import Case
+from ..cluster import Clustering
+from ..errors import Fem2TmmError, format_ids
+from ..fem.model import FEModel
+from .capacitance import equivalent_capacitance, supernode_capacitance
+from .conduction import ConductiveReduction, reduce_conduction
+from .filters import filter_links, negative_links
+from .supernodes import SuperNodes, build_supernodes
 
 @dataclass(frozen=True)
 class ReducedModel:
@@ -53,10 +54,6 @@ class ReducedModel:
     def n(self) -> int:
         return len(self.names)
 
-    def problem(self) -> SteadyProblem:
-        return SteadyProblem(K=self.K, Q=self.Q, fixed=self.fixed, T_fixed=self.T_fixed, g_space=self.g_space,
-                             T_sink=self.T_sink, GR=self.GR, names=tuple(self.names))
-
 
 def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.ndarray:
     """(m,) bool: model elements whose nodes are all fixed-temperature (or kept) DOFs — no unknown inside."""
@@ -67,31 +64,7 @@ def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.nd
     ed = model.element_dofs
     return np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
 
-
-def cluster_model(model: FEModel, case, progress=None, flux: np.ndarray | None = None) -> Clustering:
-    """Cluster every part of ``model`` with its requested number of super nodes.
-
-    Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
-    clustered: every requested super node goes to elements with unknowns.  They get the label -1.
-    ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
-    """
-    determined = determined_elements(model, kept_dofs(model, case))
-    parts = []
-    for p, info in enumerate(model.parts):
-        rows = np.flatnonzero((model.element_part == p) & ~determined)
-        if not len(rows):
-            continue  # the whole part is held at fixed temperatures
-        parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
-                               cells=model.element_cells[rows], types=model.element_types[rows],
-                               n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
-                               ids=model.mesh.element_ids[model.elements[rows]],
-                               flux=None if flux is None else np.nan_to_num(flux[model.elements[rows]])))
-    cs = case.clustering
-    return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
-                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress)
-
-
-def kept_dofs(model: FEModel, case) -> np.ndarray:
+def kept_dofs(model: FEModel, case: Case) -> np.ndarray:
     """DOFs of ``[reduction] keep_nodes`` (original node ids)."""
     ids = np.asarray(case.reduction.keep_nodes, np.int64)
     if not len(ids):
@@ -108,7 +81,7 @@ def kept_dofs(model: FEModel, case) -> np.ndarray:
     return np.unique(dofs)
 
 
-def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
+def build_reduced(model: FEModel, clustering: Clustering, case: Case) -> ReducedModel:
     """Super nodes, exact reduced conduction, capacitance, loads and (space-only) radiation."""
     labels_all = clustering.labels[model.elements]
     boundary = np.array([g.dof for g in model.fixed], np.int64)
@@ -190,52 +163,6 @@ def conductive_links(K: np.ndarray, rtol: float = 0.0) -> int:
     iu = np.triu_indices(len(K), 1)
     return int(np.count_nonzero(np.abs(K[iu]) > rtol * np.abs(np.diag(K)).max(initial=0.0)))
 
-
-# ------------------------------------------------------------------------------------------------ radiation
-def radiation_surface(model: FEModel):
-    """The model's radiating faces as a ray-tracing :class:`~fem2tmm.radiation.Surface` (sides 2i front, 2i+1 back)."""
-    from .radiation import Surface
-
-    f = model.faces
-    return Surface(points=model.mesh.points, faces=f.nodes, emissivity=f.emissivity, absorptivity=f.absorptivity,
-                   specular=f.specular, transmissivity=f.transmissivity,
-                   transmission_specular=f.transmission_specular, active=f.active)
-
-
-def _budget(settings, n_groups: int):
-    """(rays_per_group, ray_density) from a settings object with rays_per_face / ray_density."""
-    if getattr(settings, "ray_density", None):
-        return None, float(settings.ray_density)
-    return int(settings.rays_per_face or 1000), None
-
-
-def detailed_radiation(model: FEModel, case, surface=None, rays_per_face=None, ray_density=None, scene=None):
-    """Face-to-face REFs of the detailed model: every active side is a REF node.
-
-    Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
-    ``g_space`` (n_dof,) m² to the sink, and the :class:`~fem2tmm.radiation.ExchangeResult`.
-    """
-    from .radiation import trace_exchange
-
-    surface = radiation_surface(model) if surface is None else surface
-    f = model.faces
-    active = np.flatnonzero(f.active)
-    groups = np.full(2 * f.n, -1, np.int64)
-    groups[active] = np.arange(len(active))
-    rs = case.radiation
-    if rays_per_face is None and ray_density is None:
-        rays_per_face, ray_density = _budget(rs, len(active))
-    res = trace_exchange(surface, groups, rays_per_group=rays_per_face, ray_density=ray_density,
-                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse,
-                         scene=scene)
-    Ws = f.W[active // 2]  # each side takes its face's nodal weights
-    g = len(active)
-    GR = sp_csr(res.GR)
-    faced = FacedRadiation(W=Ws.tocsr(), G=GR[:, :g].tocsr())
-    g_space = np.asarray(Ws.T @ np.asarray(GR[:, g].todense()).ravel()).ravel()
-    return faced, g_space, res
-
-
 def _row_of_dof(sn: SuperNodes, n_dof: int) -> np.ndarray:
     """(n_dof,) the super-node row of each one-node (boundary/kept) DOF, -1 elsewhere."""
     row = np.full(n_dof, -1, np.int64)
@@ -276,164 +203,3 @@ def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarra
     groups = np.full(2 * f.n, -1, np.int64)
     groups[key >= 0] = inv.ravel()
     return groups, uniq // 2
-
-
-def reduced_radiation(model: FEModel, rm: ReducedModel, case, surface=None, scene=None, sf=None):
-    """REFs between super faces summed into GR between super nodes.
-
-    Returns ``(GR, g_space, result, n_super_faces)``: GR (n, n) m² (zero diagonal), g_space (n,) m².
-    ``sf``: the :func:`super_faces` of ``rm`` if already computed.
-    """
-    import scipy.sparse as sp
-
-    from .radiation import trace_exchange
-
-    surface = radiation_surface(model) if surface is None else surface
-    groups, owner = super_faces(model, rm) if sf is None else sf
-    n_sf = len(owner)
-    rays_per_group, ray_density = _budget(case.radiation, n_sf)
-    rs = case.radiation
-    res = trace_exchange(surface, groups, rays_per_group=rays_per_group, ray_density=ray_density,
-                         sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, target_lse=rs.target_lse,
-                         scene=scene)
-    S = sp.csr_matrix((np.ones(n_sf), (np.arange(n_sf), owner)), shape=(n_sf, rm.n))
-    GRsf = sp_csr(res.GR)
-    GR = np.asarray((S.T @ GRsf[:, :n_sf] @ S).todense())
-    np.fill_diagonal(GR, 0.0)
-    GR = 0.5 * (GR + GR.T)
-    g_space = np.asarray(S.T @ np.asarray(GRsf[:, n_sf].todense()).ravel()).ravel()
-    return GR, g_space, res, n_sf
-
-
-def sp_csr(M):
-    import scipy.sparse as sp
-
-    return sp.csr_matrix(M)
-
-
-# ---------------------------------------------------------------------------------------------------- solar
-def has_sun(case) -> bool:
-    env = case.environment
-    return env.sun_direction is not None and env.solar_flux > 0
-
-
-def detailed_solar(model: FEModel, case, surface=None, scene=None):
-    """Solar power absorbed by every FE face side, traced on the detailed mesh.
-
-    Returns ``(q, result)``: nodal loads q (n_dof,) W (face power spread by the face's area shares) and the
-    :class:`~fem2tmm.radiation.solar.SolarResult`.
-    """
-    from .radiation.solar import trace_solar
-
-    surface = radiation_surface(model) if surface is None else surface
-    env, rs = case.environment, case.radiation
-    res = trace_solar(surface, env.sun_direction, env.solar_flux, rays_per_group=env.solar_rays_per_face,
-                      sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, scene=scene)
-    q = np.asarray(model.faces.W.T @ res.absorbed_face).ravel()
-    return q, res
-
-
-PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
-
-
-def solar_aware(case) -> bool:
-    """Whether the clustering follows a solar pre-pass: ``[clustering] solar_aware``, by default on when the
-    super faces carry lumped solar loads (``solar_on = "super_faces"``) and there is a Sun."""
-    flag = case.clustering.solar_aware
-    if flag is None:
-        flag = case.environment.solar_on == "super_faces"
-    return bool(flag) and has_sun(case)
-
-
-def solar_prepass(model: FEModel, case, surface=None, scene=None) -> np.ndarray:
-    """A cheap solar map for the clustering: absorbed flux (n_elements,) W/m² of every mesh element (NaN outside
-    the model), traced on the flat FE faces with :data:`PREPASS_RAYS_PER_FACE` rays per face on average (one
-    emitting group, origins uniform over the Sun's cross-section), shadowing and reflections included.  ``scene``:
-    a flat :class:`~fem2tmm.radiation.surfaces.TriangleScene` of ``surface`` to reuse."""
-    from .radiation.solar import trace_solar
-
-    surface = radiation_surface(model) if surface is None else surface
-    env, rs = case.environment, case.radiation
-    f = model.faces
-    res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=np.zeros(2 * f.n, np.int64),
-                      rays_per_group=PREPASS_RAYS_PER_FACE * f.n, sampling=rs.sampling, seed=rs.seed,
-                      max_bounces=rs.max_bounces, scene=scene)
-    return face_flux_per_element(model, res.absorbed_face)
-
-
-def super_face_solar(model: FEModel, rm: ReducedModel, case, surface=None, scene=None, sf=None):
-    """The thesis' super-face solar loads: origins sampled over each super face as a whole (equal ray
-    density to the detailed tracing), absorbed power summed per super node (uniform over it).
-
-    Returns ``(q_sn, result, groups)``: q_sn (n,) W per super node.  ``sf``: the :func:`super_faces` of ``rm``
-    if already computed.
-    """
-    from .radiation.solar import trace_solar
-
-    surface = radiation_surface(model) if surface is None else surface
-    groups, owner = super_faces(model, rm) if sf is None else sf
-    n_sf = len(owner)
-    faces_per_group = np.bincount(groups[groups >= 0], minlength=n_sf)
-    env, rs = case.environment, case.radiation
-    res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=groups,
-                      rays_per_group=np.maximum(faces_per_group * env.solar_rays_per_face, 1),
-                      sampling=rs.sampling, seed=rs.seed, max_bounces=rs.max_bounces, scene=scene)
-    # the power absorbed by each side, wherever its origin was, belongs to the super face of that side
-    side_power = res.absorbed_side
-    q_sn = np.zeros(rm.n)
-    ok = groups >= 0
-    np.add.at(q_sn, owner[groups[ok]], side_power[ok])
-    lost = side_power[~ok].sum()  # power absorbed by inactive sides is impossible (they block): keep the books
-    if lost > 1e-12 * max(side_power.sum(), 1e-300):
-        raise Fem2TmmError("internal: solar power absorbed by a side outside every super face")
-    return q_sn, res, groups
-
-
-def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:
-    """Absorbed flux (n_elements,) W/m² of every mesh element from per-face powers (W); NaN outside the model."""
-    f = model.faces
-    n = model.mesh.n_elements
-    p = np.bincount(f.element, weights=face_power, minlength=n)
-    a = np.bincount(f.element, weights=f.area, minlength=n)
-    return np.divide(p, a, out=np.full(n, np.nan), where=a > 0)
-
-
-# ------------------------------------------------------------------------------------------------- quadrics
-def quadric_scene(model: FEModel, case, surface, clustering: Clustering | None = None):
-    """The ray scene with fitted quadrics for the parts tagged ``quadric = true`` (or the groups listed in
-    ``quadric = [...]``), or None.
-
-    One quadric is fitted per region of the tagged faces (regions: the clustering's, i.e. split at sharp edges
-    and junctions, restricted to the tagged groups; without a clustering, one per part).  A region that is not a quadric is refused with a
-    clear error (see :func:`fem2tmm.radiation.quadric.fit_quadric`).  Returns ``(scene, report)``.
-    """
-    if not any(p.quadric for p in case.parts):
-        return None, None
-    from .radiation.quadric import QuadricScene, fit_regions
-
-    f = model.faces
-    mesh = model.mesh
-    tagged_el = np.zeros(mesh.n_elements, bool)
-    for p, info in zip(case.parts, model.parts):
-        if p.quadric is True:
-            tagged_el[info.elements] = True
-        elif p.quadric:
-            for g in p.quadric:
-                tagged_el[np.intersect1d(mesh.group(g).elements, info.elements)] = True
-    in_tagged = tagged_el[f.element]
-    if clustering is not None:
-        region = clustering.regions[f.element]
-        region_of_face = np.where(in_tagged & (region >= 0), region, -1)
-        # determined elements carry no cluster/region: give them their part's id beyond the region ids
-        rest = in_tagged & (region < 0)
-        region_of_face[rest] = int(clustering.regions.max(initial=-1)) + 1 + f.part[rest]
-    else:
-        region_of_face = np.where(in_tagged, f.part, -1)
-    names = {}
-    for r in np.unique(region_of_face[region_of_face >= 0]):
-        part = case.parts[int(f.part[np.flatnonzero(region_of_face == r)[0]])].name
-        names[int(r)] = f"part {part!r} region {int(r)}"
-    quadrics, qof = fit_regions(model.mesh.points, f.nodes, region_of_face, names=names)
-    report = [{"region": names[int(r)], "max_distance_m": float(q.max_distance), "rms_distance_m": float(q.rms_distance),
-               "size_m": float(q.size)} for r, q in zip(sorted(names), quadrics)]
-    return QuadricScene(surface, qof, quadrics), report
