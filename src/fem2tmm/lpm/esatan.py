@@ -25,9 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import KELVIN, SIGMA
 from ..errors import Fem2TmmError
-from ..export.esatan import KELVIN
-from ..solve.steady import SIGMA
 from .expressions import ExpressionError, evaluate, resolve, split_top
 from .network import Network, couplings_from_lists
 

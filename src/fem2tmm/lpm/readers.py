@@ -12,8 +12,9 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from ..constants import KELVIN
 from ..errors import Fem2TmmError
-from ..export.esatan import KELVIN, node_numbers
+from ..export.esatan import node_numbers
 from .esatan import read_esatan
 from .network import Network
 from .sinda import read_sinda

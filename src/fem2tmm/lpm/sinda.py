@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import SIGMA
 from ..errors import Fem2TmmError
-from ..solve.steady import SIGMA
 from .expressions import ExpressionError, evaluate, resolve, split_top
 from .network import Network, couplings_from_lists
 

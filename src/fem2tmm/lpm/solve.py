@@ -15,8 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..constants import SIGMA
 from ..errors import Fem2TmmError
-from ..solve.steady import SIGMA, FacedRadiation, SteadyProblem, check_solvable, solve_steady
+from ..solve.steady import FacedRadiation, SteadyProblem, check_solvable, solve_steady
 from .network import LoadCase, Network
 
 #: GR with more than this many non-zeros per node goes through the factored (Newton-Krylov) path
