@@ -152,17 +152,17 @@ def reduction_ratio(n_d: int, n_c: int, n_b: int) -> float:
 
 # ------------------------------------------------------------------------------------------------- compaction
 def restriction(labels: np.ndarray, n_c: int | None = None) -> sp.csr_matrix:
-    """Restriction matrix P (n_d, n_c): P_ij = 1 when detailed node i belongs to reduced node j."""
+    """Restriction matrix P (n_d, n_c): P_ij = 1 when detailed node i belongs to reduced node j (labels < 0: the
+    node belongs to none, an empty row)."""
     labels = np.asarray(labels, np.int64)
     n_c = int(labels.max(initial=-1)) + 1 if n_c is None else n_c
-    return sp.csr_matrix((np.ones(len(labels)), (np.arange(len(labels)), labels)), shape=(len(labels), n_c))
+    rows = np.flatnonzero(labels >= 0)
+    return sp.csr_matrix((np.ones(len(rows)), (rows, labels[rows])), shape=(len(labels), n_c))
 
 
 def weighted_mean(values: np.ndarray, C: np.ndarray, labels: np.ndarray, n_c: int | None = None) -> np.ndarray:
     """Capacitance-weighted mean per reduced node (eq. 43): zero-capacitance nodes ignored; arithmetic mean when a
-    group has no capacitance.  ``values`` (..., n_d) → (..., n_c)."""
-    labels = np.asarray(labels, np.int64)
-    n_c = int(labels.max(initial=-1)) + 1 if n_c is None else n_c
+    group has no capacitance; nodes with label < 0 ignored.  ``values`` (..., n_d) → (..., n_c)."""
     P = restriction(labels, n_c)
     C = np.clip(np.asarray(C, float), 0.0, None)
     V = np.atleast_2d(np.asarray(values, float))
@@ -284,11 +284,15 @@ class CaseCheck:
 
 
 def check_case(net: Network, labels: np.ndarray, reduced: Network, case: LoadCase, detailed: NetworkSolution,
-               crit: Criteria, solution: NetworkSolution | None = None) -> tuple[CaseCheck, NetworkSolution]:
-    """Solve the reduced network in ``case`` and compare with the detailed solution (eq. 48–51)."""
-    rcase = compact_case(case, labels, net.C)
-    T0 = weighted_mean(detailed.T, net.C, labels)
-    sol = solution if solution is not None else solve_network(reduced, rcase, T0=T0)
+               crit: Criteria, rcase: LoadCase | None = None) -> tuple[CaseCheck, NetworkSolution]:
+    """Solve the reduced network in ``case`` and compare with the detailed solution (eq. 48–51).
+
+    ``labels`` (n_d,) reduced node of each detailed node (-1: none, e.g. a TMRT-suppressed node); ``rcase`` the load
+    case on the reduced network (default: :func:`compact_case`).
+    """
+    rcase = compact_case(case, labels, net.C) if rcase is None else rcase
+    T0 = weighted_mean(detailed.T, net.C, labels, reduced.n)
+    sol = solve_network(reduced, rcase, T0=T0)
     target = T0
     b = reduced.boundary
     delta = np.where(b, 0.0, np.abs(target - sol.T))
