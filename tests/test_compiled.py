@@ -21,3 +21,20 @@ def test_cached_after_a_trace_and_cold_with_an_empty_cache(tmp_path):
                             "PYTHONPATH": ":".join(sys.path)})
     c, t, est = r.stdout.split()
     assert int(c) == 0 and int(t) == total and float(est) == COMPILE_SECONDS
+
+
+def test_the_pipeline_says_when_it_compiles(monkeypatch, capsys):
+    from conftest import make_case
+
+    import fem2tmm.pipeline as pipeline
+    from fem2tmm import meshes
+
+    case = make_case([{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+                       "back": "black", "super_nodes": 2}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
+                     radiation={"rays_per_face": 20}, reference={"detailed": False})
+    for estimate, said in ((12.4, True), (0.0, False)):
+        monkeypatch.setattr(pipeline, "compile_estimate", lambda: estimate)
+        pipeline.run(case, mesh=meshes.plate(1.0, 1.0, 4, 4), quiet=False)
+        err = capsys.readouterr().err
+        assert ("[fem2tmm] compiling the ray tracer's kernels (first run after an install, ~12 s)" in err) == said
