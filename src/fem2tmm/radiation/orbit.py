@@ -23,10 +23,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
+from ..constants import SIGMA
 from ..errors import Fem2TmmError
 
-#: W/(m² K⁴), CODATA 2018
-SIGMA = 5.670374419e-8
 #: m, IAU 2012
 ASTRONOMICAL_UNIT = 149_597_870_700.0
 #: m, IAU 2015 nominal solar radius
@@ -348,7 +347,7 @@ class Orbit:
                 r = self.state(nu)[0]
                 along = r @ self.sun
                 across = np.linalg.norm(r - along[:, None] * self.sun, axis=1)
-                return np.where(along < 0, across - R, across)
+                return np.where(along < 0, across - R, np.linalg.norm(r, axis=1))  # > 0 on the day side
             return [("", cyl)]
 
         def cone(sign):

@@ -158,6 +158,8 @@ def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, 
     escaped = blocked = capped = 0.0
     segments = 0
     for bounce in range(max_bounces + 1):
+        if side.size == 0:  # nothing (left) to follow
+            break
         a = absorb[side]
         taken = a * w
         got_s.append(side)
