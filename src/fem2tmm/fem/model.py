@@ -24,8 +24,8 @@ import scipy.sparse as sp
 
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
-from .assembly import (ElementCOO, area_shares, block_geometry, conduction_matrices, scatter_shares, to_coo,
-                       volume_shares)
+from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices,
+                       scatter_shares, to_coo, volume_shares)
 from .elements import MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
 from .geometry import cross, solid_jacobian
 
@@ -139,6 +139,29 @@ class FEModel:
         ok = self.node_dof >= 0
         out[ok] = T_dof[self.node_dof[ok]]
         return out
+
+
+def consistent_capacity(model: FEModel) -> sp.csr_matrix:
+    """Consistent capacitance matrix (n_dof, n_dof) J/K: ``∫ ρ c NᵢNⱼ dV`` (shells: x thickness).
+
+    Symmetric; its row sums are the lumped capacitance ``model.capacity``.  Each element's ρ·c (·thickness) is
+    its capacity over its measure, so no property is read twice.  Raises if the model has no capacity.
+    """
+    if model.capacity_shares is None:
+        raise Fem2TmmError("the consistent capacitance needs density and specific_heat for every part's material")
+    pts = model.mesh.points
+    coos = []
+    for code in np.unique(model.element_types):
+        t = _CODE_TYPE[int(code)]
+        sel = np.flatnonzero(model.element_types == code)
+        nk = RULES[t].N.shape[1]
+        Me = capacity_matrices(pts, model.element_cells[sel, :nk], t)
+        measure = Me.sum(axis=(1, 2))
+        Me *= (model.capacity_shares[sel, :nk].sum(axis=1) / measure)[:, None, None]
+        coos.append(to_coo(model.element_dofs[sel, :nk], Me, sel))
+    C = ElementCOO.concatenate(coos).tocsr(model.n_dof)
+    C.sum_duplicates()
+    return C
 
 
 # ------------------------------------------------------------------------------------------ helpers
