@@ -9,15 +9,15 @@ import scipy.sparse as sp
 
 from conftest import make_case
 from fem2tmm import meshes
+from fem2tmm.constants import KELVIN, SIGMA
 from fem2tmm.fem.model import build_model, consistent_capacity
-from fem2tmm.network import build_reduced, cluster_model
-from fem2tmm.solve.steady import SIGMA, solve_steady
+from fem2tmm.reduce.network import build_reduced
+from fem2tmm.solve.steady import solve_steady
+from fem2tmm.solve.transient import TransientProblem, TransientSettings, recover_series, solve_transient
+from fem2tmm.stages import cluster_model, reduced_problem
 from fem2tmm.timefunc import Series, Table
-from fem2tmm.solve.transient import (METHODS, TransientProblem, TransientSettings, recover_series,
-                                     solve_transient)
 from test_detailed import square_tube_beam
 
-KELVIN = 273.15
 #: every transient run balances its discrete energy books to this (issue 17)
 ENERGY_RTOL = 1e-9
 
@@ -208,7 +208,7 @@ def test_long_time_reduced_transient_equals_the_steady_reduced_solution():
     case = beam_case(2, radiating=True)
     model = build_model(mesh, case)
     rm = build_reduced(model, cluster_model(model, case), case)
-    steady = solve_steady(rm.problem(), tol=1e-12)
+    steady = solve_steady(reduced_problem(rm), tol=1e-12)
     sol = balanced(solve_transient(problem_of(rm, rm.C), TransientSettings(end=3e5, tolerance=1e-3,
                                                                             method="bdf2"), 293.15))
     assert np.abs(sol.T[-1] - steady.T).max() < 1e-6

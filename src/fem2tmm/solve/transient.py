@@ -50,7 +50,8 @@ import scipy.sparse as sp
 from ..errors import Fem2TmmError
 from ..linalg import factorize
 from ..progress import report
-from .steady import SIGMA, FacedRadiation, SteadyProblem, _Operators, solve_steady
+from ..constants import SIGMA
+from .steady import FacedRadiation, SteadyProblem, _Operators, solve_steady
 from ..timefunc import Series, Table
 
 METHODS = ("crank-nicolson", "backward-euler", "bdf2")
