@@ -25,9 +25,8 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
-from .assembly import (ElementCOO, area_shares, block_geometry, conduction_matrices, line_matrices, scatter_shares,
-                       to_coo,
-                       volume_shares)
+from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices, line_matrices,
+                       scatter_shares, to_coo, volume_shares)
 from .elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
 from .geometry import cross, solid_jacobian
 
@@ -157,6 +156,32 @@ class FEModel:
         if ms is not None and len(ms):  # mid-side nodes of quadratic elements: mean of the edge ends
             out[ms[:, 0]] = 0.5 * (out[ms[:, 1]] + out[ms[:, 2]])
         return out
+
+
+def consistent_capacity(model: FEModel) -> sp.csr_matrix:
+    """Consistent capacitance matrix (n_dof, n_dof) J/K: ``∫ ρ c NᵢNⱼ dV`` (shells: x thickness).
+
+    Symmetric; its row sums are the lumped capacitance ``model.capacity``.  Each element's ρ·c (·thickness) is
+    its capacity over its measure, so no property is read twice.  Raises if the model has no capacity.
+    """
+    if model.capacity_shares is None:
+        raise Fem2TmmError("the consistent capacitance needs density and specific_heat for every part's material")
+    pts = model.mesh.points
+    coos = []
+    for code in np.unique(model.element_types):
+        t = _CODE_TYPE[int(code)]
+        sel = np.flatnonzero(model.element_types == code)
+        nk = RULES[t].N.shape[1]
+        if t in LINE_TYPES:  # ∫ NᵢNⱼ dL = L/6 [[2, 1], [1, 2]]; the length is scaled out below
+            Me = np.broadcast_to(np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0, (len(sel), 2, 2)).copy()
+        else:
+            Me = capacity_matrices(pts, model.element_cells[sel, :nk], t)
+        measure = Me.sum(axis=(1, 2))
+        Me *= (model.capacity_shares[sel, :nk].sum(axis=1) / measure)[:, None, None]
+        coos.append(to_coo(model.element_dofs[sel, :nk], Me, sel))
+    C = ElementCOO.concatenate(coos).tocsr(model.n_dof)
+    C.sum_duplicates()
+    return C
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -561,6 +586,9 @@ def _deck_fixed(mesh: Mesh, case_fixed: np.ndarray, in_model: np.ndarray) -> lis
     nodes, vals = dl.fixed_nodes, dl.fixed_values
     keep = ~case_fixed[nodes] & in_model[nodes]
     nodes, vals = nodes[keep], vals[keep]
+    if np.isnan(vals).any():
+        raise Fem2TmmError(f"{mesh.source}: SPC1 GRIDs {format_ids(mesh.node_ids[nodes[np.isnan(vals)]])} have no TEMP "
+                           "(or TEMPD) value to be held at; add TEMP cards, or fix them in the case file")
     out = []
     for v in np.unique(vals):
         out.append((f"SPC {v - 273.15:g} C", float(v), np.unique(nodes[vals == v])))
