@@ -15,6 +15,7 @@ from .radiation import ExchangeResult
 from .radiation.solar import SolarResult
 from .reduce.network import ReducedModel
 from .solve.steady import SteadySolution
+from .solve.transient import TransientRun
 
 
 @dataclass
@@ -44,6 +45,8 @@ class Result:
     absorbed_solar_faces: np.ndarray | None = None
     absorbed_solar_elements: np.ndarray | None = None
     quadrics: list[dict] | None = None  # one fit report per quadric region (summary.json "quadrics")
+    q_recover: np.ndarray | None = None  # (n_dof,) W detailed loads the recovery uses (applied + detailed solar)
+    transient: TransientRun | None = None  # [transient]: both models in time, recovered temperatures
 
     @property
     def T_detailed_nodes(self) -> np.ndarray | None:
