@@ -132,6 +132,7 @@ class ReductionSettings:
     capacitance: str = "cluster"  # cluster | equivalent
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
+    network: str = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
 
 
 @dataclass(frozen=True)
@@ -586,13 +587,14 @@ class _Parser:
 
     def reduction(self, d) -> ReductionSettings:
         w = "[reduction]"
-        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes"})
+        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network"})
         return ReductionSettings(
             enabled=self.boolean(d, "enabled", w, True),
             method=self.string(d, "method", w, default="local", choices=("local", "global")),
             capacitance=self.string(d, "capacitance", w, default="cluster", choices=("cluster", "equivalent")),
             filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
+            network=self.string(d, "network", w, default="exact", choices=("exact", "positive")),
         )
 
     def clustering(self, d) -> ClusteringSettings:

@@ -23,9 +23,15 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
+<<<<<<< HEAD
 from .stages import (absorbed_solar_maps, check_transient, cluster_model, describe_nodes, detailed_problem,
                      detailed_radiation, detailed_solar, quadric_scene, radiation_surface, reduced_problem,
                      reduced_radiation, run_transient, solar_prepass, super_face_solar)
+=======
+from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_problem, detailed_radiation,
+                     detailed_solar, positive_reduced, quadric_scene, radiation_surface, reduced_problem,
+                     reduced_radiation, solar_prepass, super_face_solar)
+>>>>>>> main
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
@@ -133,6 +139,12 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
         with prog.stage("solve_reduced", "solving the reduced model"):
             result.reduced_solution = solve_steady(reduced_problem(rm), tol=case.solver.tolerance,
                                                    max_iter=case.solver.max_iterations)
+        if case.reduction.network == "positive":
+            exact = result.reduced_solution
+            with prog.stage("positive", "fitting a positive sparse network"):
+                rm, result.reduced_solution, result.positive = positive_reduced(model, rm, exact, case)
+            result.reduced = rm
+            result.T_recovered_exact = rm.reduction.recover(exact.T, q_recover)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
 

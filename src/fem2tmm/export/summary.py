@@ -31,7 +31,10 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         "mesh": {"file": str(case.mesh.file) if case.mesh.file else mesh.source, "nodes": int(mesh.n_nodes),
                  "elements": int(mesh.n_elements), "model_nodes": int(np.sum(model.node_dof >= 0)),
                  "dofs": int(model.n_dof), "thermal_elements": int(len(model.elements)),
-                 "radiating_faces": int(model.faces.n)},
+                 "radiating_faces": int(model.faces.n),
+                 "ignored_cards": dict((mesh.cards or {}).get("ignored", {})),
+                 "modelled_cards": dict((mesh.cards or {}).get("modelled", {})),
+                 "joints": dict(model.joints)},
         "reduced": None,
         "radiation": _radiation_summary(result),
         "accuracy": {"rms_K": None, "max_K": None},
@@ -78,6 +81,16 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             err = (model.node_temperatures(result.T_recovered) - T)[ok]
             s["accuracy"] = {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
                              "nodes": int(ok.sum())}
+    if result.positive is not None:
+        s["positive_network"] = dict(result.positive)
+        if detailed is not None and result.T_recovered_exact is not None:
+            ok = model.node_dof >= 0
+            e = (model.node_temperatures(result.T_recovered_exact) - T)[ok]
+            exact = {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.abs(e).max())}
+            pos = {"rms": s["accuracy"]["rms_K"], "max": s["accuracy"]["max_K"]}
+            s["positive_network"]["recovered_error_K"] = {
+                "positive": pos, "exact": exact,
+                "ratio_rms": pos["rms"] / exact["rms"] if exact["rms"] > 0 else None}
     return s
 
 
