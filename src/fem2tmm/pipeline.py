@@ -23,15 +23,9 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
-<<<<<<< HEAD
 from .stages import (absorbed_solar_maps, check_transient, cluster_model, describe_nodes, detailed_problem,
-                     detailed_radiation, detailed_solar, quadric_scene, radiation_surface, reduced_problem,
-                     reduced_radiation, run_transient, solar_prepass, super_face_solar)
-=======
-from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_problem, detailed_radiation,
-                     detailed_solar, positive_reduced, quadric_scene, radiation_surface, reduced_problem,
-                     reduced_radiation, solar_prepass, super_face_solar)
->>>>>>> main
+                     detailed_radiation, detailed_solar, positive_reduced, quadric_scene, radiation_surface,
+                     reduced_problem, reduced_radiation, run_transient, solar_prepass, super_face_solar)
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
