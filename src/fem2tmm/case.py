@@ -100,6 +100,9 @@ class ReductionSettings:
     capacitance: str = "cluster"  # cluster | equivalent
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
+    # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve
+    radiation_aware: bool = False
+    outer_iterations: int = 3  # updates of T_ref (each: correction load, network solve, recovery)
 
 
 @dataclass(frozen=True)
@@ -107,6 +110,8 @@ class ClusteringSettings:
     feature_angle: float = 30.0
     seed: int = 0
     smoothing_layers: int = 2
+    balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
+    method: str = "growing"  # growing | metis (pymetis on each region)
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun
     solar_aware: bool | None = None
@@ -423,24 +428,29 @@ class _Parser:
 
     def reduction(self, d) -> ReductionSettings:
         w = "[reduction]"
-        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes"})
+        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "radiation_aware",
+                              "outer_iterations"})
         return ReductionSettings(
             enabled=self.boolean(d, "enabled", w, True),
             method=self.string(d, "method", w, default="local", choices=("local", "global")),
             capacitance=self.string(d, "capacitance", w, default="cluster", choices=("cluster", "equivalent")),
             filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
+            radiation_aware=self.boolean(d, "radiation_aware", w, False),
+            outer_iterations=self.number(d, "outer_iterations", w, default=3, lo=0, integer=True),
         )
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"
-        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware"})
+        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method"})
         aware = d.get("solar_aware")
         return ClusteringSettings(
             solar_aware=None if aware is None else self.boolean(d, "solar_aware", w, None),
             feature_angle=self.number(d, "feature_angle", w, default=30.0, lo=0, hi=180),
             seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
             smoothing_layers=self.number(d, "smoothing_layers", w, default=2, lo=0, integer=True),
+            balance=self.boolean(d, "balance", w, True),
+            method=self.string(d, "method", w, default="growing", choices=("growing", "metis")),
         )
 
     def reference(self, d) -> ReferenceSettings:

@@ -18,8 +18,9 @@ import numpy as np
 from .cluster import Clustering, PartInput, cluster_parts
 from .errors import Fem2TmmError, format_ids
 from .fem.model import FEModel
-from .reduce import (ConductiveReduction, SuperNodes, build_supernodes, equivalent_capacitance, filter_links,
-                     negative_links, reduce_conduction, supernode_capacitance)
+from .reduce import (ConductiveReduction, RadiationAware, SuperNodes, build_supernodes, emission_entries,
+                     emission_weights, equivalent_capacitance, filter_links, negative_links, reduce_conduction,
+                     split_radiative, supernode_capacitance)
 from .solve.steady import FacedRadiation, SteadyProblem
 
 
@@ -48,6 +49,7 @@ class ReducedModel:
     GR: np.ndarray | None = None
     area: np.ndarray | None = None  # (n,) m² radiating area of each super node (both sides, active)
     report: dict = field(default_factory=dict)
+    radiative: RadiationAware | None = None  # radiation-aware reduction (K is then K̃ = K'_SN − diag(H_SN))
 
     @property
     def n(self) -> int:
@@ -88,7 +90,8 @@ def cluster_model(model: FEModel, case, progress=None, flux: np.ndarray | None =
                                flux=None if flux is None else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
     return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
-                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress)
+                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress,
+                         balance=cs.balance, method=cs.method)
 
 
 def kept_dofs(model: FEModel, case) -> np.ndarray:
@@ -108,8 +111,13 @@ def kept_dofs(model: FEModel, case) -> np.ndarray:
     return np.unique(dofs)
 
 
-def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
-    """Super nodes, exact reduced conduction, capacitance, loads and (space-only) radiation."""
+def build_reduced(model: FEModel, clustering: Clustering, case, T_ref: np.ndarray | None = None) -> ReducedModel:
+    """Super nodes, exact reduced conduction, capacitance, loads and (space-only) radiation.
+
+    ``T_ref`` (n_dof,) K: reduce ``K + diag(h)`` with the emission linearised about it (radiation-aware
+    reduction, :mod:`fem2tmm.reduce.radiative`): ``K`` is then K̃ (zero row sums) and ``radiative`` holds
+    H_SN, h and the reduction of K' for the correction load and the recovery.
+    """
     labels_all = clustering.labels[model.elements]
     boundary = np.array([g.dof for g in model.fixed], np.int64)
     kept = kept_dofs(model, case)
@@ -128,12 +136,28 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     sn = build_supernodes(model.n_dof, ed[rows], shares[rows], labels, boundary=boundary, kept=kept,
                           n_clusters=n_cl)
     keep_entry = ~determined[model.coo.elem]
-    red = reduce_conduction(model.coo.select(keep_entry), sn, labels, elements=rows, method=case.reduction.method)
+    coo = model.coo.select(keep_entry)
+    h = None
+    if T_ref is not None:
+        elem_row = np.full(model.mesh.n_elements, -1, np.int64)
+        elem_row[model.elements] = np.arange(len(model.elements))
+        f = model.faces
+        face_row = elem_row[f.element]  # conduction entries are numbered by model element row
+        emis = emission_entries(f.W, face_row, f.eps_area, T_ref, keep_face=~determined[face_row])
+        h = np.bincount(emis.rows, emis.vals, minlength=model.n_dof)
+        coo = type(coo).concatenate([coo, emis])
+    red = reduce_conduction(coo, sn, labels, elements=rows, method=case.reduction.method,
+                            zero_row_sums=T_ref is None)
     K = red.K.copy()
     row_of_dof = _row_of_dof(sn, model.n_dof)
     if determined.any():
         direct = model.coo.select(~keep_entry)
         np.add.at(K, (row_of_dof[direct.rows], row_of_dof[direct.cols]), direct.vals)
+    radiative = None
+    if T_ref is not None:
+        K, H = split_radiative(K)
+        radiative = RadiationAware(reduction=red, K=K, H=H, e=emission_weights(model.faces.W, model.faces.eps_area),
+                                   h=h, T_sink=model.T_sink)
     report = {"method": red.method, "diagnostics": dict(red.diagnostics),
               "determined_elements": int(determined.sum()), "dropped_clusters": int(len(clustering.cluster_part) - n_cl)}
     if case.reduction.filter > 0:
@@ -182,7 +206,51 @@ def build_reduced(model: FEModel, clustering: Clustering, case) -> ReducedModel:
     report["negative_GL_W_per_K"] = float(gl.sum()) if len(gl) else 0.0
     return ReducedModel(names=np.array(names), kind=np.asarray(sn.kind), part=part, K=K, C=C, Q=Q,
                         g_space=g_space, fixed=fixed, T_fixed=T_fixed, T_sink=model.T_sink, supernodes=sn,
-                        reduction=red, element_cluster=element_cluster, GR=None, area=area, report=report)
+                        reduction=red, element_cluster=element_cluster, GR=None, area=area, report=report,
+                        radiative=radiative)
+
+
+def radiation_aware_network(model: FEModel, clustering: Clustering, case, rm: ReducedModel, q_detailed: np.ndarray,
+                            q_lumped: np.ndarray, T_ref: np.ndarray, solve):
+    """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
+
+    Parameters
+    ----------
+    model, clustering, case : as for :func:`build_reduced`
+    rm : the thesis' reduced model with its radiation (``GR``, ``g_space``), used for the couplings
+    q_detailed : (n_dof,) W loads known on the detailed mesh (heaters, detailed solar): distributed by Y'
+    q_lumped : (n,) W loads already lumped per super node (super-face solar)
+    T_ref : (n_dof,) K the pre-solve's recovered field (the emission is linearised about it once)
+    solve : ``solve(problem) -> SteadySolution`` (the steady solver with the case's settings)
+
+    Returns
+    -------
+    ``(rm', solution, T, history)``: the network (``K`` = K̃, ``Q`` = Y'q + q_lumped + Q_corr at the last
+    reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
+    (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
+    """
+    import dataclasses
+
+    n_iter = max(int(case.reduction.outer_iterations), 1)
+    ra_rm = dataclasses.replace(build_reduced(model, clustering, case, T_ref=T_ref), GR=rm.GR, g_space=rm.g_space)
+    ra = ra_rm.radiative
+    e_sn = rm.g_space + (0.0 if rm.GR is None else np.asarray(rm.GR).sum(axis=1))
+    base = ra.reduction.distribute(q_detailed) + q_lumped
+    A = ra_rm.supernodes.A
+    history = []
+    for it in range(n_iter):
+        T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, A @ T_ref)
+        corr = ra.correction(T_ref, T_sn_ref, e_sn)
+        ra_rm = dataclasses.replace(ra_rm, Q=base + corr)
+        sol = solve(ra_rm.problem())
+        T = ra.recover(sol.T, q_detailed, T_ref)
+        d = T - T_ref
+        history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
+                        "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
+                        "correction_W": float(np.abs(corr).sum())})
+        T_ref = T
+    ra.history = history
+    return ra_rm, sol, T, history
 
 
 def conductive_links(K: np.ndarray, rtol: float = 0.0) -> int:

@@ -159,8 +159,8 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
 
 def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) -> "Result":
     from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
-                          has_sun, quadric_scene, radiation_surface, reduced_radiation, solar_aware, solar_prepass,
-                          super_face_solar, super_faces)
+                          has_sun, quadric_scene, radiation_aware_network, radiation_surface, reduced_radiation,
+                          solar_aware, solar_prepass, super_face_solar, super_faces)
     from .radiation.surfaces import TriangleScene
 
     with prog.stage("read", "reading the mesh"):
@@ -210,6 +210,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                 result.radiation = res
                 result.extras["super_faces"] = n_sf
         q_recover = model.Q
+        q_lumped = np.zeros(result.reduced.n)  # loads lumped per super node (super-face solar)
         if sun:
             rm = result.reduced
             if case.environment.solar_on == "detailed":
@@ -223,6 +224,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                 if "absorbed_solar_elements" not in result.extras:
                     result.extras["absorbed_solar_elements"] = face_flux_per_element(model, sres_sf.absorbed_face)
                     result.extras["absorbed_solar_faces"] = sres_sf.absorbed_face / model.faces.area
+                q_lumped = q_sn
             result.reduced = dataclasses.replace(rm, Q=rm.Q + q_sn)
             result.extras["solar_on"] = case.environment.solar_on
         with prog.stage("solve_reduced", "solving the reduced model"):
@@ -230,6 +232,14 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                                                    max_iter=case.solver.max_iterations)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = result.reduced.reduction.recover(result.reduced_solution.T, q_recover)
+        if case.reduction.radiation_aware:
+            with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
+                result.extras["thesis_T_recovered"] = result.T_recovered
+                result.extras["thesis_reduced"] = result.reduced
+                result.reduced, result.reduced_solution, result.T_recovered, hist = radiation_aware_network(
+                    model, result.clustering, case, result.reduced, q_recover, q_lumped, result.T_recovered,
+                    lambda p: solve_steady(p, tol=case.solver.tolerance, max_iter=case.solver.max_iterations))
+                result.extras["radiation_aware"] = hist
     if do_ref or not case.reduction.enabled:
         if trace:
             with prog.stage("radiation_detailed", "tracing FE-face exchange factors (detailed model)"):
@@ -295,13 +305,23 @@ def _summary(result: "Result", timings) -> dict:
             "iterations": rs.iterations,
             "heat_into_fixed_W": {str(rm.names[i]): float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
             "to_space_W": float(rs.to_space.sum()),
+            "radiation_aware": None if rm.radiative is None else {
+                "outer_iterations": result.extras.get("radiation_aware"),
+                "H_W_per_K": float(rm.radiative.H[~rm.fixed].sum()),
+                "note": "K is K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the "
+                        "correction load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
         if detailed is not None:
             ok = model.node_dof >= 0
-            err = (model.node_temperatures(result.T_recovered) - T)[ok]
-            s["accuracy"] = {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
-                             "nodes": int(ok.sum())}
+
+            def acc(T_rec):
+                err = (model.node_temperatures(T_rec) - T)[ok]
+                return {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()), "nodes": int(ok.sum())}
+
+            s["accuracy"] = acc(result.T_recovered)
+            if "thesis_T_recovered" in result.extras:
+                s["accuracy"]["thesis_method"] = acc(result.extras["thesis_T_recovered"])
     return s
 
 
