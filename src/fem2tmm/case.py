@@ -102,7 +102,7 @@ class ReductionSettings:
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
     # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve
     radiation_aware: bool = False
-    outer_iterations: int = 3  # updates of T_ref (each: correction load, network solve, recovery)
+    outer_iterations: int = 4  # re-linearisations about T_ref (each: reduction, network solve, recovery)
 
 
 @dataclass(frozen=True)
@@ -437,7 +437,7 @@ class _Parser:
             filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
             radiation_aware=self.boolean(d, "radiation_aware", w, False),
-            outer_iterations=self.number(d, "outer_iterations", w, default=3, lo=0, integer=True),
+            outer_iterations=self.number(d, "outer_iterations", w, default=4, lo=1, integer=True),
         )
 
     def clustering(self, d) -> ClusteringSettings:

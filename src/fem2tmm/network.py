@@ -210,6 +210,9 @@ def build_reduced(model: FEModel, clustering: Clustering, case, T_ref: np.ndarra
                         radiative=radiative)
 
 
+OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this
+
+
 def radiation_aware_network(model: FEModel, clustering: Clustering, case, rm: ReducedModel, q_detailed: np.ndarray,
                             q_lumped: np.ndarray, T_ref: np.ndarray, solve):
     """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
@@ -220,7 +223,9 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case, rm: Re
     rm : the thesis' reduced model with its radiation (``GR``, ``g_space``), used for the couplings
     q_detailed : (n_dof,) W loads known on the detailed mesh (heaters, detailed solar): distributed by Y'
     q_lumped : (n,) W loads already lumped per super node (super-face solar)
-    T_ref : (n_dof,) K the pre-solve's recovered field (the emission is linearised about it once)
+    T_ref : (n_dof,) K the pre-solve's recovered field (the emission is linearised about it, then about each
+        outer iteration's field: ``[reduction] outer_iterations`` reductions and network solves at most, fewer
+        once the field moves less than :data:`OUTER_TOLERANCE`)
     solve : ``solve(problem) -> SteadySolution`` (the steady solver with the case's settings)
 
     Returns
@@ -238,17 +243,27 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case, rm: Re
     base = ra.reduction.distribute(q_detailed) + q_lumped
     A = ra_rm.supernodes.A
     history = []
+    from .reduce.conduction import blas_threads
+
     for it in range(n_iter):
+        if it > 0:  # re-linearise about the latest field (Newton-like: the steps shrink quadratically)
+            ra_rm = dataclasses.replace(build_reduced(model, clustering, case, T_ref=T_ref), GR=rm.GR,
+                                        g_space=rm.g_space)
+            ra = ra_rm.radiative
+            base = ra.reduction.distribute(q_detailed) + q_lumped
         T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, A @ T_ref)
         corr = ra.correction(T_ref, T_sn_ref, e_sn)
         ra_rm = dataclasses.replace(ra_rm, Q=base + corr)
-        sol = solve(ra_rm.problem())
+        with blas_threads(1):  # a ~100-node dense Newton: threads only contend on a shared machine
+            sol = solve(ra_rm.problem())
         T = ra.recover(sol.T, q_detailed, T_ref)
         d = T - T_ref
         history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
                         "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
                         "correction_W": float(np.abs(corr).sum())})
         T_ref = T
+        if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
+            break
     ra.history = history
     return ra_rm, sol, T, history
 

@@ -41,10 +41,13 @@ depends on T_ref only to second order; at ``T_ref = T*`` (the detailed solution)
 Nothing is counted twice: the linear emission sits in K'_SN only through H_SN, which K̃ removes again, and
 R_SN is the only radiation term of the network.
 
-The outer iteration (:func:`outer_iterations` in the pipeline) starts from a cheap pre-solve (the thesis'
-reduced model, solved and recovered), keeps h and K'_SN fixed (one reduction), and repeats a fixed number of
-times: Q_corr at T_ref -> solve the network -> recover -> T_ref.  It converges to the exact fixed point of the
-detailed equations restricted to the thesis' radiation lumping; the step sizes are reported.
+The outer iteration (``radiation_aware_network`` in the pipeline glue) starts from a cheap pre-solve (the
+thesis' reduced model, solved and recovered) and repeats at most ``[reduction] outer_iterations`` times:
+linearise about T_ref and reduce K' -> Q_corr at T_ref -> solve the network -> recover -> T_ref.  Its fixed
+point is the detailed solution up to the thesis' lumping of the absorbed radiation per super node (exactly the
+detailed solution when every face sees only space).  Keeping h fixed also converges, but linearly (measured
+on examples/composite at 100 super nodes: max step 141, 41, 20, 11, 7 K) where re-linearising converges like
+Newton's method (141, 68, 16, 0.7, 0.02 K), so each outer iteration re-reduces; the steps are reported.
 """
 
 from __future__ import annotations
