@@ -468,3 +468,44 @@ def test_bad_input_gives_clear_errors():
     q = shell_part(p, 2)
     with pytest.raises(Fem2TmmError, match="more than one part"):
         cluster_parts(p.points, [q, q], 9)
+
+
+# ------------------------------------------------------------------------------------------ user labels
+
+
+def test_user_labels_route_into_run_validated_and_equal_to_the_same_partition_computed():
+    import warnings
+
+    from conftest import make_case
+    from fem2tmm.pipeline import run
+
+    plate = meshes.plate(0.4, 0.2, 20, 10)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+                       "back": "black", "super_nodes": 6}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
+                     environment={"sink_temperature": -100.0}, radiation={"enabled": False},
+                     reference={"detailed": False})
+    ours = run(case, mesh=plate)
+    lab = ours.clustering.labels.copy()
+    # the same partition fed back: identical reduced model
+    again = run(case, mesh=plate, labels=lab)
+    assert np.array_equal(again.clustering.labels, lab)
+    assert np.allclose(again.reduced_solution.T, ours.reduced_solution.T, rtol=0, atol=1e-9)
+    # a user partition with another count: 4 vertical strips of 5 columns (METIS-like input)
+    col = (plate.element_centroids()[:, 0] // 0.1).astype(np.int64)
+    strips = run(case, mesh=plate, labels=col)
+    assert strips.summary["reduced"]["super_nodes"] == 4
+    assert strips.summary["reduced"]["clustering"]["parts"][0]["contiguous"] is True
+    with pytest.raises(Fem2TmmError, match="200 integer cluster labels"):
+        run(case, mesh=plate, labels=col[:-1])
+    with pytest.raises(Fem2TmmError, match="not used"):
+        run(case, mesh=plate, labels=np.where(col == 1, 7, col))  # 1 unused, 7 used
+    with pytest.raises(Fem2TmmError, match="without a cluster label"):
+        run(case, mesh=plate, labels=np.where(col == 1, -1, col))
+    # a non-contiguous cluster: the two outer strips share a label -> a warning, the reduction still runs
+    split = np.array([0, 1, 2, 0])[col]
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = run(case, mesh=plate, labels=split)
+    assert any("not connected" in str(x.message) for x in w)
+    assert res.summary["reduced"]["clustering"]["parts"][0]["contiguous"] is False

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cluster import Clustering, PartInput, cluster_parts
+from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import Fem2TmmError, format_ids
 from .fem.model import FEModel
 from .reduce import (ConductiveReduction, RadiationAware, SuperNodes, build_supernodes, emission_entries,
@@ -70,9 +70,12 @@ def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.nd
     return np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
 
 
-def cluster_model(model: FEModel, case, progress=None, flux: np.ndarray | None = None) -> Clustering:
+def cluster_model(model: FEModel, case, progress=None, flux: np.ndarray | None = None,
+                  labels: np.ndarray | None = None) -> Clustering:
     """Cluster every part of ``model`` with its requested number of super nodes.
 
+    ``labels`` (n_elements,) int: a user partition instead (:func:`fem2tmm.cluster.from_labels`; the parts'
+    ``super_nodes`` are then ignored).
     Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
@@ -89,6 +92,9 @@ def cluster_model(model: FEModel, case, progress=None, flux: np.ndarray | None =
                                ids=model.mesh.element_ids[model.elements[rows]],
                                flux=None if flux is None else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
+    if labels is not None:
+        return from_labels(model.mesh.points, parts, model.mesh.n_elements, labels, feature_angle=cs.feature_angle,
+                           where="run(labels=...)")
     return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
                          seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress,
                          balance=cs.balance, method=cs.method)

@@ -143,26 +143,34 @@ def _describe_nodes(model: FEModel):
 
 
 def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, quiet: bool = True,
-        reference: bool | None = None) -> Result:
+        reference: bool | None = None, labels: np.ndarray | None = None) -> Result:
     """Run ``case``; write the output folder ``out`` (if given) only once everything succeeded.
 
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
-    overrides ``[reference] detailed``.
+    overrides ``[reference] detailed``.  ``labels`` (n_elements,) int: your own partition into super nodes
+    (e.g. from METIS or another tool), one cluster per mesh element (-1 outside the parts), numbered 0 … K−1
+    with every number used and each cluster within one part; it replaces the clustering (and the parts'
+    ``super_nodes``).  Non-contiguous clusters are accepted with a warning.
     """
     prog = Progress(quiet=quiet)
     with reporting(prog.callback()):
-        result = _run(case, prog, mesh, reference)
+        result = _run(case, prog, mesh, reference, labels)
     if out is not None:
         result.out = write_outputs(result, Path(out))
     return result
 
 
-def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) -> "Result":
+def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
+         labels: np.ndarray | None = None) -> "Result":
     from .network import (build_reduced, cluster_model, detailed_radiation, detailed_solar, face_flux_per_element,
                           has_sun, quadric_scene, radiation_aware_network, radiation_surface, reduced_radiation,
                           solar_aware, solar_prepass, super_face_solar, super_faces)
     from .radiation.surfaces import TriangleScene
 
+    if case.clustering.method == "metis" and labels is None:
+        from .cluster.metis import require
+
+        require()  # the optional dependency, before any long computation
     with prog.stage("read", "reading the mesh"):
         mesh = load_mesh(case) if mesh is None else mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
@@ -185,7 +193,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                 flux = solar_prepass(model, case, surface, scene=scene)
         with prog.stage("cluster", "clustering"):
             result.clustering = cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"),
-                                              flux=flux)
+                                              flux=flux, labels=labels)
     if surface is not None and any(p.quadric for p in case.parts):
         with prog.stage("quadrics", "fitting quadrics"):
             scene, result.extras["quadrics"] = quadric_scene(model, case, surface, result.clustering)

@@ -9,6 +9,7 @@ Public entry points (re-exported by :mod:`fem2tmm.cluster`):
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
@@ -502,3 +503,95 @@ def partition(points: np.ndarray, cells: np.ndarray, n_clusters: int, kind: str 
                      types=np.full(m, TYPE_CODE[by_width[cells.shape[1]]], np.int8), n_clusters=n_clusters)
     res = _run(points, [part], m, [weights], feature_angle, seed, 2, None, balance, method)
     return (res.labels, res.regions) if return_regions else res.labels
+
+
+def from_labels(points: np.ndarray, parts: Sequence[PartInput], n_elements: int, labels: np.ndarray,
+                feature_angle: float = 30.0, where: str = "labels") -> Clustering:
+    """A :class:`Clustering` from a user partition (the ``labels=`` route of :func:`fem2tmm.run`).
+
+    Parameters
+    ----------
+    points : (n, 3) float node coordinates, m
+    parts : the parts to cluster (their ``n_clusters`` is ignored: the labels decide)
+    n_elements : number of elements of the mesh
+    labels : (n_elements,) int cluster of every mesh element; elements of the parts need a label >= 0, the
+        labels used by the parts must be exactly 0 … K−1 and each must stay within one part; other elements
+        are ignored
+    feature_angle : degrees; regions are still computed (report, quadric fitting)
+    where : what to call the labels in messages
+
+    Returns
+    -------
+    :class:`Clustering` with the given clusters, numbered as given.  A cluster that is not connected through
+    shared edges (faces), or that crosses a sharp edge or junction, is allowed (the reduction stays exact) but
+    reported and warned about.
+
+    Raises
+    ------
+    Fem2TmmError
+        wrong length or type, elements of a part without a label, unused label numbers, a label in two parts.
+    """
+    labels = np.asarray(labels)
+    if labels.shape != (n_elements,) or not np.issubdtype(labels.dtype, np.integer):
+        raise Fem2TmmError(f"{where}: expected {n_elements} integer cluster labels, one per mesh element "
+                           f"(-1 for elements outside the parts), got shape {labels.shape} and dtype {labels.dtype}")
+    labels = labels.astype(np.int64)
+    points = np.asarray(points, float)
+    parts = [PartInput(p.name, p.kind, np.asarray(p.elements, np.int64), np.asarray(p.cells, np.int64),
+                       np.asarray(p.types, np.int8), 1, p.attribute, p.ids, None) for p in parts]
+    for p in parts:
+        _check_part(points, p, n_elements)
+        bad = labels[p.elements] < 0
+        if bad.any():
+            raise Fem2TmmError(f"{where}: part {p.name!r} has elements without a cluster label (-1): "
+                               f"{_ids(p, np.flatnonzero(bad))}; give every element of the parts a label >= 0")
+    used = np.concatenate([labels[p.elements] for p in parts]) if parts else np.zeros(0, np.int64)
+    k = int(used.max()) + 1 if used.size else 0
+    missing = np.setdiff1d(np.arange(k), used)
+    if missing.size:
+        raise Fem2TmmError(f"{where}: labels must be 0 … K-1 with every number used; {format_ids(missing)} are not "
+                           "used by any element of the parts (renumber them consecutively)")
+    part_of = np.full(k, -1, np.int64)
+    for pi, p in enumerate(parts):
+        lab = np.unique(labels[p.elements])
+        clash = lab[part_of[lab] >= 0]
+        if clash.size:
+            raise Fem2TmmError(f"{where}: clusters {format_ids(clash)} span part {p.name!r} and another part; a "
+                               "super node belongs to one part")
+        part_of[lab] = pi
+    region_out = np.full(n_elements, -1, np.int64)
+    cluster_region = np.zeros(k, np.int64)
+    reports, r_off = [], 0
+    for pi, p in enumerate(parts):
+        prep = _prepare(points, p, None, feature_angle, balance=False) if len(p.elements) else None
+        local = labels[p.elements]
+        region_out[p.elements] = prep.region + r_off
+        cluster_region[local] = prep.region + r_off  # (one of) the region(s) each cluster covers
+        offset = int(local.min())
+        lab_p = np.unique(local)
+        renum = np.searchsorted(lab_p, local)
+        part = PartInput(p.name, p.kind, p.elements, p.cells, p.types, int(lab_p.size), p.attribute, p.ids)
+        prep = _Prepared(part, prep.weights, prep.measure, prep.centroids, prep.graph, prep.keep, prep.region,
+                         prep.alloc, prep.times)
+        rep = _part_report(prep, renum, 0, [])
+        # contiguity through every shared edge (face), not only inside regions, and region crossings
+        g = prep.graph
+        same = renum[g.a] == renum[g.b]
+        m = len(renum)
+        n_comp = connected_components(sp.csr_matrix((np.ones(int(same.sum()), np.int8), (g.a[same], g.b[same])),
+                                                    shape=(m, m)), directed=False)[0]
+        n_reg = int(prep.region.max()) + 1
+        spans = np.bincount(np.unique(renum * n_reg + prep.region) // n_reg, minlength=lab_p.size)
+        crossing = int(np.count_nonzero(spans > 1))
+        rep.update(contiguous=bool(n_comp == lab_p.size), clusters_crossing_regions=crossing, user_labels=True,
+                   first_label=offset)
+        if n_comp != lab_p.size:
+            warnings.warn(f"{where}: part {p.name!r}: {n_comp - lab_p.size} cluster piece(s) not connected to the "
+                          "rest of their cluster; the reduction stays exact, but such super nodes are not compact",
+                          stacklevel=2)
+        reports.append(rep)
+        r_off += int(prep.region.max()) + 1
+    report = {"parts": reports, "total": _total_report(reports), "source": where}
+    return Clustering(labels=np.where(np.isin(np.arange(n_elements), np.concatenate([p.elements for p in parts])),
+                                      labels, -1) if parts else np.full(n_elements, -1, np.int64),
+                      regions=region_out, cluster_part=part_of, cluster_region=cluster_region, report=report)
