@@ -9,8 +9,10 @@ from scipy.integrate import solve_bvp
 
 from conftest import make_case
 from fem2tmm import meshes
-from fem2tmm.network import build_reduced, cluster_model
-from fem2tmm.pipeline import build_model, detailed_problem, run
+from fem2tmm.fem.model import build_model
+from fem2tmm.pipeline import run
+from fem2tmm.reduce.network import build_reduced
+from fem2tmm.stages import cluster_model, detailed_problem
 from fem2tmm.solve.steady import SIGMA, SteadyProblem, solve_steady
 
 K_LOW, T_THICK = 5.0, 1e-3  # W/(m K), m: composite-like panel
