@@ -100,3 +100,39 @@ def test_fin_with_large_biot_number_radiation_aware_converges_and_beats_the_thes
     assert slope >= 0.8, (ra, fe)
     assert ra[20] * 5 <= thesis[20]  # issue 21: >= 5x lower at 20 SN; measured 0.0049 vs 0.69 K (140x)
     assert fe < 0.02  # the FE model itself: measured 0.0073 K
+
+
+def test_reference_and_reduced_model_draw_independent_random_numbers():
+    # Two facing plates, one element per super node and one active side per face: the super faces are exactly the
+    # reference's REF nodes, so with shared random numbers the two tracings would be identical.  They must not be:
+    # the reference has its own streams (stages.SEED_ROLES), and its errors are uncorrelated with the reduced ones.
+    from fem2tmm.stages import detailed_radiation, reduced_radiation, tracer_settings
+
+    a = meshes.plate(1.0, 1.0, 4, 4)
+    b = meshes.transform(meshes.plate(1.0, 1.0, 4, 4), rotation=meshes.rotation("x", 180.0), translation=(0, 1.0, 0.5))
+    mesh = meshes.merge(a, b)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
+                       "back": "none", "super_nodes": 32}], [{"kind": "power", "groups": ["plate"], "value": 1.0}],
+                     materials=MAT, environment={"sink_temperature": -270.0}, radiation={"rays_per_face": 400})
+    assert tracer_settings(case)["seed"] != tracer_settings(case, role="reference")["seed"]
+    model = build_model(mesh, case)
+    rm = build_reduced(model, cluster_model(model, case), case)
+    _, _, red, _ = reduced_radiation(model, rm, case)
+    _, _, ref = detailed_radiation(model, case, rays_per_face=400)
+    _, _, ref2 = detailed_radiation(model, case, rays_per_face=400)
+    _, _, truth = detailed_radiation(model, case, rays_per_face=20_000, role="reference_b")
+    # map both to (side, side): the reduced groups are (super node, side) = one FE side each here
+    from fem2tmm.reduce.network import super_faces
+
+    groups_red, _ = super_faces(model, rm)
+    active = np.flatnonzero(model.faces.active)
+    order = groups_red[active]  # super face of each reference group
+    F_red = red.F_raw.toarray()[:, :-1][np.ix_(order, order)]
+    F_ref, F_ref2, F_true = (r.F_raw.toarray()[:, :-1] for r in (ref, ref2, truth))
+    assert np.array_equal(F_ref, F_ref2)  # same case, same streams: reproducible
+    assert not np.array_equal(F_ref, F_red)  # not the reduced model's random numbers
+    da, db = (F_red - F_true).ravel(), (F_ref - F_true).ravel()
+    corr = np.dot(da, db) / np.sqrt(np.dot(da, da) * np.dot(db, db))
+    # 1024 entries: independent errors give |corr| ~ 1/sqrt(n_eff) (n_eff ~ 300 non-zero pairs) -> < 0.2 at 3σ;
+    # shared random numbers gave corr = 1 (identical tallies)
+    assert abs(corr) < 0.2, corr

@@ -123,6 +123,9 @@ class ReferenceSettings:
     detailed: bool = True
     rays_per_face: int | None = None
     ray_density: float | None = None
+    # estimate the reference's own ray noise: two independent half-budget references (REFs; detailed solar in
+    # "super_faces" mode), the reference is their mean and its noise RMS(T_a - T_b)/2
+    noise: bool = True
 
 
 @dataclass(frozen=True)
@@ -468,12 +471,13 @@ class _Parser:
 
     def reference(self, d) -> ReferenceSettings:
         w = "[reference]"
-        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density"})
+        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density", "noise"})
         rpf = self.number(d, "rays_per_face", w, lo=1, integer=True)
         dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
-        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, True), rays_per_face=rpf, ray_density=dens)
+        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, True), rays_per_face=rpf, ray_density=dens,
+                                 noise=self.boolean(d, "noise", w, True))
 
     def solver(self, d) -> SolverSettings:
         w = "[solver]"

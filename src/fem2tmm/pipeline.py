@@ -25,8 +25,8 @@ from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
 from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_problem, detailed_radiation,
-                     detailed_solar, quadric_scene, radiation_aware_network, radiation_surface, reduced_problem,
-                     reduced_radiation, solar_prepass, super_face_solar)
+                     detailed_solar, mean_faced, quadric_scene, radiation_aware_network, radiation_surface,
+                     reduced_problem, reduced_radiation, reference_noise, solar_prepass, super_face_solar)
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
@@ -144,18 +144,45 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
                                             result.T_recovered))
 
-    # detailed reference model
+    # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:
+        noise = do_ref and case.reduction.enabled and case.reference.noise
+        halves = []  # the problems of the two half references, when the reference is noisy
         if trace:
             with prog.stage("radiation_detailed", "tracing FE-face exchange factors (detailed model)"):
-                faced, g_space, result.radiation_detailed = detailed_radiation(
-                    model, case, surface, rays_per_face=case.reference.rays_per_face,
-                    ray_density=case.reference.ray_density, scene=scene)
+                ref = case.reference
+                if noise:
+                    parts = [detailed_radiation(model, case, surface, rays_per_face=ref.rays_per_face,
+                                                ray_density=ref.ray_density, scene=scene, role=role, fraction=0.5)
+                             for role in ("reference", "reference_b")]
+                    halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
+                    faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
+                    result.radiation_detailed = parts[0][2]
+                    result.reference_halves = 2
+                else:
+                    faced, g_space, result.radiation_detailed = detailed_radiation(
+                        model, case, surface, rays_per_face=ref.rays_per_face, ray_density=ref.ray_density,
+                        scene=scene)
                 problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
-        if q_solar is not None:
-            problem = dataclasses.replace(problem, Q=problem.Q + q_solar)
+        q_ref = q_solar
+        if q_solar is not None and noise and case.reduction.enabled and case.environment.solar_on != "detailed":
+            # the reference's own solar loads are noisy too: a second independent tracing
+            with prog.stage("solar_detailed_b", "tracing a second, independent detailed solar map (reference noise)"):
+                q_b, _ = detailed_solar(model, case, surface, scene=scene, role="reference_b")
+            halves = halves or [problem, problem]
+            halves = [dataclasses.replace(h, Q=h.Q + q) for h, q in zip(halves, (q_solar, q_b))]
+            q_ref = 0.5 * (q_solar + q_b)
+        elif q_solar is not None:
+            halves = [dataclasses.replace(h, Q=h.Q + q_solar) for h in halves]
+        if q_ref is not None:
+            problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+        if halves:
+            with prog.stage("reference_noise", "solving the two half references (reference noise)"):
+                Ta, Tb = (solve_steady(h, tol=case.solver.tolerance, max_iter=case.solver.max_iterations).T
+                          for h in halves)
+            result.reference_noise = reference_noise(model, Ta, Tb)
 
     result.summary = build_summary(result, prog.timings)
     return result

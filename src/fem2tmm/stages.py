@@ -91,16 +91,30 @@ def radiation_surface(model: FEModel) -> Surface:
                    transmission_specular=f.transmission_specular, active=f.active)
 
 
+#: Random streams of a run, all derived from ``[radiation] seed``: the reduced model's tracings use the seed
+#: itself; every other role gets its own ``numpy.random.SeedSequence`` entropy ``(seed, role)``, so the reference
+#: never draws the reduced model's random numbers (issue 21: otherwise their ray noise is correlated and the
+#: error metric does not see it).
+SEED_ROLES = {"reduced": None, "reference": 1, "reference_b": 2, "prepass": 3, "absorption": 4}
+
+
+def role_seed(seed: int, role: str):
+    """The seed (an int, or SeedSequence entropy ``[seed, k]``) of one random-number role of a run."""
+    k = SEED_ROLES[role]
+    return int(seed) if k is None else [int(seed), k]
+
+
 def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: float | None = None,
-                    exchange: bool = True) -> dict:
+                    exchange: bool = True, role: str = "reduced", fraction: float = 1.0) -> dict:
     """Keyword arguments of :func:`~fem2tmm.radiation.trace_exchange` (``exchange``) or of
     :func:`~fem2tmm.radiation.solar.trace_solar` (not ``exchange``: no budget, no target) from the case's
     ``[radiation]`` section.
 
     The exchange budget is ``rays_per_face`` per group or ``ray_density`` rays/m² when one is given, else the
-    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``)."""
+    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``).  ``role`` picks the random stream
+    (:data:`SEED_ROLES`); ``fraction`` scales the exchange budget (two half-budget references)."""
     rs = case.radiation
-    kw = {"sampling": rs.sampling, "seed": rs.seed, "max_bounces": rs.max_bounces}
+    kw = {"sampling": rs.sampling, "seed": role_seed(rs.seed, role), "max_bounces": rs.max_bounces}
     if not exchange:
         return kw
     if rays_per_face is None and ray_density is None:
@@ -108,13 +122,18 @@ def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: f
             ray_density = float(rs.ray_density)
         else:
             rays_per_face = int(rs.rays_per_face or 1000)
+    if fraction != 1.0:
+        rays_per_face = None if rays_per_face is None else max(1, int(np.ceil(rays_per_face * fraction)))
+        ray_density = None if ray_density is None else ray_density * fraction
     return {**kw, "rays_per_group": rays_per_face, "ray_density": ray_density, "target_lse": rs.target_lse}
 
 
 def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = None, rays_per_face: int | None = None,
-                       ray_density: float | None = None, scene=None
+                       ray_density: float | None = None, scene=None, role: str = "reference", fraction: float = 1.0
                        ) -> tuple[FacedRadiation, np.ndarray, ExchangeResult]:
     """Face-to-face REFs of the detailed model: every active side is a REF node.
+
+    ``role``, ``fraction``: random stream and budget fraction (:func:`tracer_settings`).
 
     Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
     ``g_space`` (n_dof,) m² to the sink, and the :class:`~fem2tmm.radiation.ExchangeResult`.
@@ -124,13 +143,28 @@ def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = Non
     active = np.flatnonzero(f.active)
     groups = np.full(2 * f.n, -1, np.int64)
     groups[active] = np.arange(len(active))
-    res = trace_exchange(surface, groups, scene=scene, **tracer_settings(case, rays_per_face, ray_density))
+    res = trace_exchange(surface, groups, scene=scene,
+                         **tracer_settings(case, rays_per_face, ray_density, role=role, fraction=fraction))
     Ws = f.W[active // 2]  # each side takes its face's nodal weights
     g = len(active)
     GR = sp.csr_matrix(res.GR)
     faced = FacedRadiation(W=Ws.tocsr(), G=GR[:, :g].tocsr())
     g_space = np.asarray(Ws.T @ np.asarray(GR[:, g].todense()).ravel()).ravel()
     return faced, g_space, res
+
+
+def mean_faced(parts: list[FacedRadiation]) -> FacedRadiation:
+    """The mean of independent face-to-face radiation estimates of one model (same ``W``)."""
+    return FacedRadiation(W=parts[0].W, G=(sum(p.G for p in parts) / len(parts)).tocsr())
+
+
+def reference_noise(model: FEModel, Ta: np.ndarray, Tb: np.ndarray) -> dict:
+    """Noise of a reference that is the mean of two independent half references with solutions ``Ta``, ``Tb``
+    (n_dof,) K: the difference of two independent estimates has twice the variance of one, the mean half of
+    one, so the mean's error is estimated by ``(Ta − Tb)/2`` node by node (over the mesh nodes of the model).
+    Returns ``{"rms_K", "max_K"}``."""
+    d = 0.5 * (model.node_temperatures(Ta) - model.node_temperatures(Tb))[model.node_dof >= 0]
+    return {"rms_K": float(np.sqrt(np.mean(d**2))), "max_K": float(np.abs(d).max(initial=0.0))}
 
 
 def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
@@ -155,9 +189,10 @@ def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Sur
 
 
 # ------------------------------------------------------------------------------------------------ solar
-def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, scene=None
+def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, scene=None, role: str = "reference"
                    ) -> tuple[np.ndarray, SolarResult]:
-    """Solar power absorbed by every FE face side, traced on the detailed mesh.
+    """Solar power absorbed by every FE face side, traced on the detailed mesh (the reference's; with
+    ``solar_on = "detailed"`` the reduced model takes the same loads).  ``role``: random stream.
 
     Returns ``(q, result)``: nodal loads q (n_dof,) W (face power spread by the face's area shares) and the
     :class:`~fem2tmm.radiation.solar.SolarResult`.
@@ -165,7 +200,7 @@ def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, s
     surface = radiation_surface(model) if surface is None else surface
     env = case.environment
     res = trace_solar(surface, env.sun_direction, env.solar_flux, rays_per_group=env.solar_rays_per_face,
-                      scene=scene, **tracer_settings(case, exchange=False))
+                      scene=scene, **tracer_settings(case, exchange=False, role=role))
     q = np.asarray(model.faces.W.T @ res.absorbed_face).ravel()
     return q, res
 
@@ -180,7 +215,7 @@ def solar_prepass(model: FEModel, case: Case, surface: Surface | None = None, sc
     f = model.faces
     res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=np.zeros(2 * f.n, np.int64),
                       rays_per_group=PREPASS_RAYS_PER_FACE * f.n, scene=scene,
-                      **tracer_settings(case, exchange=False))
+                      **tracer_settings(case, exchange=False, role="prepass"))
     return face_flux_per_element(model, res.absorbed_face)
 
 

@@ -82,6 +82,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             s["accuracy"] = accuracy(result.T_recovered)
             if result.thesis_T_recovered is not None:
                 s["accuracy"]["thesis_method"] = accuracy(result.thesis_T_recovered)
+            s["accuracy"].update(_honesty(result))
     return s
 
 
@@ -104,6 +105,29 @@ def _radiation_summary(result: Result) -> dict:
     if d is not None:
         out["detailed"] = one(d)
     return out
+
+
+def _honesty(result: Result) -> dict:
+    """What the accuracy figures mean: the reference's own noise, the share of the heat radiation carries, and
+    the error sources the metric cannot see."""
+    det = result.detailed
+    out_fixed = float(np.clip(-det.heat_fixed, 0, None).sum())  # heat leaving through fixed-temperature nodes
+    space = float(det.to_space.sum())
+    noise = result.reference_noise
+    excludes = []
+    if result.solar_on == "detailed":
+        excludes.append("solar ray noise and shadow resolution: with solar_on = \"detailed\" the reduced model and "
+                        "the reference use the same detailed solar loads")
+    if noise is None and (result.radiation_detailed is not None or result.solar_detailed is not None):
+        excludes.append("the reference's own ray noise (not estimated: [reference] noise = false)")
+    return {
+        "reference_noise_rms_K": None if noise is None else noise["rms_K"],
+        "reference_noise_max_K": None if noise is None else noise["max_K"],
+        "reference_noise_method": None if noise is None else
+        "two independent half-budget references (own random streams); reference = their mean, noise = (Ta - Tb)/2",
+        "radiation_share": space / (space + out_fixed) if space + out_fixed > 0 else None,
+        "excludes": excludes,
+    }
 
 
 def _solar_summary(result: Result) -> dict | None:
@@ -137,7 +161,16 @@ def summary_table(s: dict) -> str:
         rows.append(("detailed T", f"{det['T_min_C']:.3f} .. {det['T_max_C']:.3f} °C"))
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
-        rows.append(("reduced vs detailed", f"RMS {acc['rms_K']:.4f} K, max {acc['max_K']:.4f} K"))
+        noise = acc.get("reference_noise_rms_K")
+        beside = "" if noise is None else f" (reference noise RMS {noise:.2g} K)"
+        rows.append(("reduced vs detailed", f"RMS {acc['rms_K']:.4f} K, max {acc['max_K']:.4f} K{beside}"))
+        if acc.get("thesis_method"):
+            th = acc["thesis_method"]
+            rows.append(("thesis' reduction", f"RMS {th['rms_K']:.4f} K, max {th['max_K']:.4f} K (the pre-solve)"))
+        if acc.get("radiation_share") is not None:
+            rows.append(("heat out by radiation", f"{100 * acc['radiation_share']:.1f} % (detailed model)"))
+        for e in acc.get("excludes") or ():
+            rows.append(("not in the error", e))
     eb = s.get("energy_balance_W") or {}
     for k in ("detailed", "reduced"):
         if eb.get(k):
