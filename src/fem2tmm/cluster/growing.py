@@ -166,7 +166,7 @@ def grow_balanced(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray
     Each cluster c gets an offset o_c (m²) and the growing key of an element is ``d² − o_c`` (see
     :func:`grow`).  Raising o_c moves the cluster's boundary outwards by about ``Δo/(2 h)`` (h the distance
     between neighbouring seeds), i.e. its area by about ``Δo`` in 2-D (``Δo·h`` in 3-D), so the update
-    ``o_c += η (W̄ − W_c) / W̄ · h²`` (h² = W̄ in 2-D and W̄^(2/3) in 3-D, W̄ the mean weight) drives every
+    ``o_c += η (W̄ − W_c) / W̄ · h²`` (h² = W̄^(2/dim): W̄² on lines, W̄ in 2-D, W̄^(2/3) in 3-D, W̄ the mean weight) drives every
     cluster's weight towards the mean, as in capacity-constrained Voronoi tessellations (Balzer, Schlömer &
     Deussen 2009).  During the first ``lloyd_steps`` updates each seed also moves to the element of its
     cluster nearest the cluster's weighted centroid (one Lloyd step on the mesh graph), which keeps the
@@ -183,7 +183,7 @@ def grow_balanced(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray
     centroids : (n, d) element centroids (m), d = 3 (or 4 with a feature coordinate)
     weights : (n,) element weights > 0 (m² or m³)
     seeds : (k,) distinct seed elements
-    dim : 2 for shells (weights are areas), 3 for solids (volumes)
+    dim : 1 for lines (weights are lengths), 2 for shells (areas), 3 for solids (volumes)
     tol : target coefficient of variation of the cluster weights
     max_iter : most growings
     lloyd_steps : growings during which the seeds move to their clusters' centroids
@@ -202,7 +202,7 @@ def grow_balanced(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray
     if k < 2:
         return labels, seeds, 1
     mean = float(weights.sum()) / k
-    h2 = mean if dim == 2 else mean ** (2.0 / 3.0)
+    h2 = mean ** (2.0 / dim)
     off = np.zeros(k)
     best = (np.inf, labels, seeds.copy())
     X = centroids[:, :3]

@@ -67,10 +67,12 @@ def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.nd
     return np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
 
 def kept_dofs(model: FEModel, case: Case) -> np.ndarray:
-    """DOFs of ``[reduction] keep_nodes`` (original node ids)."""
+    """DOFs of ``[reduction] keep_nodes`` (original node ids) and of the conductance joints' ends (a joint
+    stays its own link between one-node super nodes; fixed-temperature ends are boundary nodes already)."""
     ids = np.asarray(case.reduction.keep_nodes, np.int64)
+    joint = np.setdiff1d(model.link_dofs, [g.dof for g in model.fixed])
     if not len(ids):
-        return np.zeros(0, np.int64)
+        return joint
     idx = model.mesh.node_index(ids, where=f"{case.source}: [reduction] keep_nodes")
     dofs = model.node_dof[idx]
     outside = ids[dofs < 0]
@@ -80,7 +82,7 @@ def kept_dofs(model: FEModel, case: Case) -> np.ndarray:
     if fixed.any():
         raise Fem2TmmError(f"{case.source}: [reduction] keep_nodes: nodes {format_ids(ids[fixed])} are in a "
                            "fixed-temperature boundary (already a boundary node)")
-    return np.unique(dofs)
+    return np.union1d(dofs, joint)
 
 
 def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.ndarray | None = None) -> ReducedModel:
@@ -125,6 +127,9 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
     if determined.any():
         direct = model.coo.select(~keep_entry)
         np.add.at(K, (row_of_dof[direct.rows], row_of_dof[direct.cols]), direct.vals)
+    if model.links is not None:  # joints: their own conductances between one-node super nodes
+        L = model.links
+        np.add.at(K, (row_of_dof[L.rows], row_of_dof[L.cols]), L.vals)
     radiative = None
     if T_ref is not None:
         K, H = split_radiative(K)
