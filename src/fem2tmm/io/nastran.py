@@ -1463,8 +1463,8 @@ def _pid_groups(blocks, pids, dims, n_nodes: int, source: str):
     mixed = np.flatnonzero(dmin != dmax)
     if len(mixed):
         raise Fem2TmmError(
-            f"{source}: property ids {format_ids(upid[mixed])} are used by both shell and solid elements; "
-            "give shells and solids different PIDs"
+            f"{source}: property ids {format_ids(upid[mixed])} are used by elements of different kinds (bars, "
+            "shells, solids); give each kind its own PIDs"
         )
     # node lists: unique (PID rank, node) pairs over every element corner
     offs = np.cumsum([0] + [len(b.cells) for b in blocks])
