@@ -93,6 +93,8 @@ def test_plates_joined_by_a_cbar(tmp_path):
 def test_plates_joined_by_an_rbe2(tmp_path, treatment):
     # RBE2 from GRID 6 (plate A) to GRIDs 104 and 101 (plate B): two connections
     deck = write(tmp_path, two_plates([card("RBE2", 900, 6, 123456, 104, 101)]))
+    assert quiet(read_mesh, write(tmp_path, two_plates([card("RBE2", 900, 6, 123456, 101, "THRU", 104, 0.1)]),
+                                  name="thru.bdf")).joints[0].pairs.shape == (4, 2)  # 101 THRU 104, ALPHA 0.1
     joint = {"cards": ["RBE2"], "treatment": treatment}
     if treatment == "conductance":
         joint["conductance"] = 0.5

@@ -1200,14 +1200,21 @@ def _joints(deck: _Deck, grids: _Grids) -> tuple[list[JointBlock], Counter]:
             if eid is None:
                 raise Fem2TmmError(f"{where}: {card} EID {f[0].decode('latin-1')!r} is not an integer")
             if card == "RBE2":
-                a, pid, deps = _scalar_int(f[1]), 0, []
+                a, pid, deps, thru = _scalar_int(f[1]), 0, [], False
                 for x in f[3:]:
                     if not x.strip():
+                        continue
+                    if x.strip().upper() == b"THRU" and deps:
+                        thru = True
                         continue
                     v = _scalar_int(x)
                     if v is None:
                         break  # ALPHA / TREF (reals) end the node list
-                    deps.append(v)
+                    if thru:
+                        deps.extend(range(deps[-1] + 1, v + 1))
+                        thru = False
+                    else:
+                        deps.append(v)
             elif card == "RBE3":
                 a, pid, deps = _scalar_int(f[2]), 0, []
                 j, state = 4, "w"
