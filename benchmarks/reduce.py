@@ -1,4 +1,4 @@
-"""Benchmarks of the conductive reduction (wired into ``fem2tmm bench reduce`` by the CLI).
+"""Benchmarks of the conductive reduction (``fem2tmm bench reduce``).
 
 Each public ``bench_*`` function returns a list of dicts, one per measurement, with medians of repeated
 timings in seconds.  Problems: structured quad shells from :mod:`fem2tmm.meshes`, Voronoi clusters around
@@ -15,7 +15,6 @@ seeded random elements (contiguous, irregular, deterministic for a seed).
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import time
@@ -24,11 +23,12 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.spatial import cKDTree
 
-from .. import meshes
-from ..bench import reset_peak, vm
-from ..fem.assembly import conduction_matrices, to_coo, volume_shares
-from .conduction import reduce_conduction
-from .supernodes import build_supernodes
+from fem2tmm import meshes
+from fem2tmm.fem.assembly import conduction_matrices, to_coo, volume_shares
+from fem2tmm.reduce.conduction import reduce_conduction
+from fem2tmm.reduce.supernodes import build_supernodes
+
+from .run import child_env, reset_peak, vm
 
 ALUMINIUM_K = 170.0  # W/(m K)
 THICKNESS = 1e-3  # m
@@ -133,8 +133,8 @@ def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
 
 def _in_subprocess(call: str) -> dict:
     """Run ``call`` (an expression on this module returning a JSON-able dict) in a fresh Python process."""
-    code = f"import json; from fem2tmm.reduce import benchmarks as b; print(json.dumps(b.{call}))"
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env={**os.environ})
+    code = f"import json; from benchmarks import reduce as b; print(json.dumps(b.{call}))"
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=child_env())
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 

@@ -15,7 +15,7 @@ import pytest
 from fem2tmm import meshes
 from fem2tmm.errors import Fem2TmmError
 from fem2tmm.radiation import HAS_EMBREE, Surface, exchange_factors, trace_exchange
-from fem2tmm.radiation.benchmarks_quadric import cylinder_super_faces, cylinder_surface, read_cylinders
+from scenarios import cylinder_super_faces, cylinder_surface, read_cylinders
 from fem2tmm.radiation.quadric import (RULE7, Quadric, QuadricScene, face_frames, fit_quadric, fit_regions,
                                        subdivided_rule)
 from fem2tmm.radiation.smoothing import convergence_rate

@@ -10,7 +10,7 @@ import pytest
 from scipy.integrate import quad
 
 from fem2tmm import Fem2TmmError, meshes
-from fem2tmm.radiation.benchmarks_solar import PERIHELION_FLUX, SUN_10DEG, eui_cone
+from scenarios import PERIHELION_FLUX, SUN_10DEG, eui_cone
 from fem2tmm.radiation.solar import solar_fluxes, sun_origins, sunlit_emitters, trace_solar
 from fem2tmm.radiation.surfaces import Surface, TriangleScene
 from fem2tmm.radiation.tracer import trace_paths

@@ -1,0 +1,141 @@
+"""Whole-pipeline and FE benchmarks (``fem2tmm bench assemble | solve | pipeline``): assembly and one solve of
+a 10⁶-element plate, the baffle and truss examples, a generated 10⁶-element structure."""
+
+from __future__ import annotations
+
+import time
+
+from .cases import REPO, big_shell_structure, plate_case
+from .run import median_time, reset_peak, vm
+
+
+def bench_assemble(n: int = 1000, repeats: int = 3) -> list[dict]:
+    """Assembly of an n x n quad plate (default 10⁶ elements): FE model build (K, capacity, faces, loads).
+
+    Baseline: scipy's COO -> CSR conversion of the same element-matrix entries (the irreducible part).
+    """
+    import numpy as np
+
+    from fem2tmm.fem.model import build_model
+
+    mesh, case = plate_case(n)
+    rss_mesh = vm("VmRSS")
+    reset_peak()
+    model = build_model(mesh, case)  # peak of one build, mesh included (the repeats below free it first)
+    peak = vm("VmHWM")
+    coo = model.coo
+    t_base, _ = median_time(lambda: coo.tocsr(model.n_dof), repeats)
+    trace = float(np.sum(model.K.diagonal()))
+    del model, coo
+
+    def once():
+        build_model(mesh, case)
+
+    t_build, times = median_time(once, repeats)
+    return [{"bench": "assemble", "elements": int(mesh.n_elements), "nodes": int(mesh.n_nodes),
+             "median_s": round(t_build, 3), "times_s": [round(t, 3) for t in times],
+             "build_peak_rss_GB": round(peak * 2**20 / 1e9, 3), "mesh_rss_GB": round(rss_mesh * 2**20 / 1e9, 3),
+             "baseline": "scipy coo->csr of the same 16 entries/element", "baseline_median_s": round(t_base, 3),
+             "ratio_to_baseline": round(t_build / t_base, 2), "nnz_entries": 16 * int(mesh.n_elements),
+             "goal": "< 15 s and < 4 GB (issue 2)", "checksum_K_trace": trace}]
+
+
+def bench_solve(n: int = 1000, repeats: int = 3) -> list[dict]:
+    """One linear conduction solve of an n x n quad plate (10⁶ elements), Newton included.
+
+    Baseline: ``scipy.sparse.linalg.spsolve`` with its default (COLAMD) ordering on the same matrix.
+    """
+    import dataclasses
+
+    import numpy as np
+    import scipy.sparse.linalg as spla
+
+    from fem2tmm.fem.model import build_model
+    from fem2tmm.pipeline import detailed_problem
+    from fem2tmm.solve.steady import solve_steady
+
+    mesh, case = plate_case(n)
+    model = build_model(mesh, case)
+    prob = dataclasses.replace(detailed_problem(model), g_space=np.zeros(model.n_dof))
+    t_solve, times = median_time(lambda: solve_steady(prob), repeats)
+    free = ~model.fixed_mask
+    K = model.K[free][:, free].tocsc()
+    t_base, _ = median_time(lambda: spla.spsolve(K, model.Q[free]), 1)
+    return [{"bench": "solve", "unknowns": int(free.sum()), "median_s": round(t_solve, 3),
+             "times_s": [round(t, 3) for t in times], "baseline": "scipy spsolve (default COLAMD), 1 run",
+             "baseline_s": round(t_base, 3), "ratio_to_baseline": round(t_solve / t_base, 2),
+             "goal": "< 30 s (issue 2)"}]
+
+
+def _repo_file(*parts) -> str:
+    return str(REPO.joinpath(*parts))
+
+
+def _pipeline_row(name: str, result, wall: float) -> dict:
+    s = result.summary
+    return {"bench": name, "wall_s": round(wall, 2), "timings_s": {k: round(v, 3) for k, v in s["timings_s"].items()},
+            "elements": s["mesh"]["elements"], "nodes": s["mesh"]["nodes"],
+            "super_nodes": (s["reduced"] or {}).get("super_nodes"), "rays": (s["radiation"] or {}).get("rays"),
+            "accuracy": s["accuracy"]}
+
+
+def _run_case(name: str, case_file: str, super_nodes: int | None = None) -> list[dict]:
+    """Run an example case (optionally with every part at ``super_nodes``) into a temporary folder."""
+    import dataclasses
+    import tempfile
+
+    from fem2tmm.case import Case
+    from fem2tmm.pipeline import run
+
+    case = Case.from_toml(_repo_file(*case_file.split("/")))
+    if super_nodes is not None:
+        case = dataclasses.replace(case, parts=tuple(dataclasses.replace(p, super_nodes=super_nodes)
+                                                     for p in case.parts))
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        res = run(case, out=f"{tmp}/out")
+        wall = time.perf_counter() - t0
+    return [_pipeline_row(name, res, wall)]
+
+
+def bench_pipeline_baffle() -> list[dict]:
+    """The baffle example (18 404 quads) at 10 and 100 super nodes, detailed reference included
+    (goal: under 60 s each, issue 8)."""
+    return _run_case("pipeline_baffle_10sn", "examples/baffle/case.toml") + \
+        _run_case("pipeline_baffle_100sn", "examples/baffle/case.toml", super_nodes=100)
+
+
+def bench_pipeline_truss() -> list[dict]:
+    """The truss example (121 693 tets, 35 603 nodes) at 10 and 100 super nodes, reference included."""
+    return _run_case("pipeline_truss_10sn", "examples/truss/case.toml") + \
+        _run_case("pipeline_truss_100sn", "examples/truss/case.toml", super_nodes=100)
+
+
+def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7) -> list[dict]:
+    """A generated ≈10⁶-element shell structure (closed box with two shelves, conformal), 1000 super nodes
+    and ≈10⁷ rays between super faces, without the detailed reference (goal < 120 s and < 8 GB, issue 8)."""
+    from fem2tmm.case import Case
+    from fem2tmm.pipeline import run
+
+    mesh = big_shell_structure(n)
+    n_sf = 2 * super_nodes
+    case = Case.from_dict({
+        "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
+        "optics": {"white": {"emissivity": 0.85, "absorptivity": 0.2}},
+        "parts": [{"name": "box", "groups": ["box"], "material": "al", "thickness": 1.5e-3, "front": "white",
+                   "back": "white", "super_nodes": int(super_nodes * 0.6)},
+                  {"name": "shelves", "groups": ["shelf_0", "shelf_1"], "material": "al", "thickness": 1e-3,
+                   "front": "white", "back": "white", "super_nodes": super_nodes - int(super_nodes * 0.6)}],
+        "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "base"},
+                     {"kind": "power", "groups": ["shelf_1"], "value": 200.0, "name": "electronics"}],
+        "environment": {"sink_temperature": -100.0, "sun_direction": [0.3, 0.2, 1.0], "solar_flux": 1366.0,
+                        "solar_on": "super_faces", "solar_rays_per_face": 4},
+        "radiation": {"rays_per_face": int(rays / n_sf)},
+        "reference": {"detailed": False},
+    })
+    t0 = time.perf_counter()
+    res = run(case, mesh=mesh, reference=False)
+    wall = time.perf_counter() - t0
+    row = _pipeline_row("pipeline_1m", res, wall)
+    row["goal"] = "< 120 s and < 8 GB (issue 8)"
+    return [row]
