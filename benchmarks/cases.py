@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fem2tmm import meshes as shapes
+from fem2tmm.mesh import shapes
 from fem2tmm.case import Case
 from fem2tmm.radiation.surfaces import Surface
 

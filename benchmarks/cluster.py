@@ -29,13 +29,13 @@ CASES = {
 _CHILD = r"""
 import json, resource, sys, time
 import numpy as np
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.cluster import PartInput, cluster_parts
 kind, n, k = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 if kind == "shell":
-    mesh = meshes.plate(1.0, 1.0, n, n)
+    mesh = shapes.plate(1.0, 1.0, n, n)
 else:
-    mesh = meshes.box(1.0, 1.0, 1.0, n, n, n, kind="solid", element="tet4")
+    mesh = shapes.box(1.0, 1.0, 1.0, n, n, n, kind="solid", element="tet4")
 rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 part = PartInput("bench", kind, np.arange(mesh.n_elements), mesh.padded_cells, mesh.element_types, k)
 t = time.perf_counter()

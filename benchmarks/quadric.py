@@ -4,7 +4,7 @@ against the planar FE facets, one dict per measurement, medians of repeated timi
 * ``cylinders``: the perpendicular cylinders of thesis §3.2/§5.4 (``meshes/cylinders.msh``, 2 x 240 shells), 16
   super faces per cylinder (4 around x 4 along), each fitted on its own vertices; IR exchange factors (ε = 0.5,
   reflected 50 % specular, inner sides inactive).
-* ``baffle``: the EUI-like baffle of :func:`fem2tmm.meshes.baffle` (5 184 quads) with its two cones (``main_cone``,
+* ``baffle``: the EUI-like baffle of :func:`fem2tmm.mesh.shapes.baffle` (5 184 quads) with its two cones (``main_cone``,
   ``front_cone``) fitted, one quadric per cone; 96 super faces (8 angular sectors per surface and side), both sides
   active, ε = 0.1 and the reflected 90 % all specular (a polished baffle: ~10 bounces per ray); IR exchange factors
   and solar fluxes with the Sun 10° off the axis.
@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.radiation.quadric import QuadricScene, face_frames
 from fem2tmm.radiation.solar import trace_solar
 from fem2tmm.radiation.surfaces import Surface, TriangleScene
@@ -38,9 +38,9 @@ def cylinders_model():
 
 
 def baffle_model(sectors: int = 8):
-    """``(surface, groups (2f,), region_of_face (f,), n_super_faces)``: :func:`fem2tmm.meshes.baffle` with both
+    """``(surface, groups (2f,), region_of_face (f,), n_super_faces)``: :func:`fem2tmm.mesh.shapes.baffle` with both
     sides active (ε = 0.1, specular), super faces = (surface, side, angular sector), the two cones as regions."""
-    m = meshes.baffle()
+    m = shapes.baffle()
     faces = m.blocks[0].cells
     f = len(faces)
     cen, _ = face_frames(m.points, faces)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fem2tmm import meshes as shapes
+from fem2tmm.mesh import shapes
 from fem2tmm.io import read_mesh
 from fem2tmm.radiation.quadric import face_frames
 from fem2tmm.radiation.surfaces import Surface

@@ -42,7 +42,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
         reference: bool | None = None) -> Result:
     """Run ``case``; write the output folder ``out`` (if given) only once everything succeeded.
 
-    ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
+    ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.mesh.shapes`); ``reference``
     overrides ``[reference] detailed``.
     """
     prog = Progress(quiet=quiet)
@@ -55,7 +55,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
 
 def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) -> Result:
     with prog.stage("read", "reading the mesh"):
-        mesh = load_mesh(case) if mesh is None else mesh.validate()
+        mesh = load_mesh(case) if mesh is None else mesh
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
     do_ref = case.reference.detailed if reference is None else reference

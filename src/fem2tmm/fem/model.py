@@ -26,8 +26,8 @@ from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
 from .assembly import (ElementCOO, area_shares, block_geometry, conduction_matrices, scatter_shares, to_coo,
                        volume_shares)
-from .elements import MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
-from .geometry import cross, solid_jacobian
+from ..mesh.elements import MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
+from ..mesh.geometry import cross, solid_jacobian
 
 _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
 
@@ -290,7 +290,6 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
 # ------------------------------------------------------------------------------------------ builder
 def build_model(mesh: Mesh, case) -> FEModel:
     """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring)."""
-    mesh.validate()
     parts, owner = _part_elements(mesh, case)
     props = _properties(mesh, case, parts, owner)
     elements = np.flatnonzero(owner >= 0)

@@ -27,7 +27,7 @@ def read_mesh(path: str | Path, unit: str = "m") -> Mesh:
     if suffix in NASTRAN_SUFFIXES:
         from .nastran import read_nastran
 
-        return read_nastran(path, unit=unit).validate()
+        return read_nastran(path, unit=unit)
     raise Fem2TmmError(
         f"{path}: unknown mesh format {suffix!r}; use a Gmsh .msh file or Nastran bulk data "
         f"({', '.join(NASTRAN_SUFFIXES)})"

@@ -14,7 +14,7 @@ CORD2R, CORD2C, CORD2S     rectangular, cylindrical (r, theta deg, z), spherical
 CTRIA3, CQUAD4             -> ``tri3``, ``quad4``; THETA/MCID, ZOFFS, TFLAG and T1-T4 are tolerated and
                            ignored; a blank PID means PID = EID (Nastran's default)
 CTETRA, CHEXA, CPENTA      -> ``tet4``, ``hex8``, ``wedge6`` (4, 8, 6 nodes; Nastran's node order is the
-                           VTK order of :mod:`fem2tmm.fem.elements`); quadratic variants are an error
+                           VTK order of :mod:`fem2tmm.mesh.elements`); quadratic variants are an error
 PSHELL                     PID, MID1 (the membrane material, the one heat transfer uses), T
 PSOLID                     PID, MID
 MAT4                       MID, K, CP, RHO
@@ -57,7 +57,7 @@ Output
 ------
 Points are kept in file order (GRIDs that no element uses are kept; the model builder ignores them),
 ``Mesh.node_ids`` holds the GRID ids, each block's ``ids`` the element ids, blocks follow
-:data:`fem2tmm.fem.elements.ELEMENT_TYPES` order with elements in file order.  Each property id becomes a
+:data:`fem2tmm.mesh.elements.ELEMENT_TYPES` order with elements in file order.  Each property id becomes a
 group ``"PID <n>"`` (dim 2 for shells, 3 for solids) with its elements and their nodes.
 
 Implementation: one pass over the lines does only classification and slicing (a fixed-format card is
@@ -78,7 +78,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
-from ..fem.elements import DIM, ELEMENT_TYPES
+from ..mesh.elements import DIM, ELEMENT_TYPES
 from ..mesh import ElementBlock, Group, Mesh, PropertyData, unique_ints
 from .units import length_scale
 
@@ -848,7 +848,7 @@ def read_nastran(path, unit: str = "m") -> Mesh:
         source=source,
         properties=properties,
     )
-    return mesh.validate()
+    return mesh
 
 
 def _pid_groups(blocks, pids, dims, n_nodes: int, source: str):

@@ -13,9 +13,9 @@ from typing import Mapping
 
 import numpy as np
 
-from .errors import Fem2TmmError, format_ids
-from .fem import geometry
-from .fem.elements import DIM, ELEMENT_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
+from ..errors import Fem2TmmError, format_ids
+from . import geometry
+from .elements import DIM, ELEMENT_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 
 
 @dataclass(frozen=True)
@@ -89,6 +89,7 @@ class Mesh:
         if self.node_ids is None:
             object.__setattr__(self, "node_ids", np.arange(1, len(pts) + 1, dtype=np.int64))
         object.__setattr__(self, "blocks", tuple(self.blocks))
+        self._check()
 
     # ------------------------------------------------------------------ sizes and indexing
     @property
@@ -106,7 +107,7 @@ class Mesh:
 
     @cached_property
     def element_types(self) -> np.ndarray:
-        """(m,) int8 type code of each element (see :data:`fem2tmm.fem.elements.TYPE_CODE`)."""
+        """(m,) int8 type code of each element (see :data:`fem2tmm.mesh.elements.TYPE_CODE`)."""
         return np.concatenate(
             [np.full(len(b.cells), TYPE_CODE[b.type], np.int8) for b in self.blocks] or [np.zeros(0, np.int8)]
         )
@@ -233,6 +234,10 @@ class Mesh:
         return used
 
     def validate(self) -> "Mesh":
+        """The mesh itself: it was checked when it was built (kept for callers of the former API)."""
+        return self
+
+    def _check(self) -> None:
         """Check what every stage relies on; raises :class:`Fem2TmmError` naming the culprits."""
         if self.n_elements == 0:
             raise Fem2TmmError(f"{self.source}: the mesh has no supported elements ({', '.join(ELEMENT_TYPES)})")
@@ -249,7 +254,6 @@ class Mesh:
                 raise Fem2TmmError(
                     f"{self.source}: {b.type} elements {format_ids(badel)} reference nodes that do not exist"
                 )
-        return self
 
 
 def pad_cells(blocks) -> np.ndarray:

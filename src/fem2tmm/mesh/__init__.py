@@ -1,0 +1,12 @@
+"""The mesh: the data type every stage reads (:class:`Mesh`, :class:`ElementBlock`, :class:`Group`), its element
+tables and geometry (:mod:`.elements`, :mod:`.geometry`), and parametric generators (:mod:`.shapes`).
+
+This package imports no later stage (the FE model in :mod:`fem2tmm.fem` imports it, never the reverse).  A mesh
+is validated once, when it is built.
+"""
+
+from __future__ import annotations
+
+from .core import ElementBlock, Group, Mesh, PropertyData, make_group, pad_cells, unique_ints
+
+__all__ = ["ElementBlock", "Group", "Mesh", "PropertyData", "make_group", "pad_cells", "unique_ints"]
