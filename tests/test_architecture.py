@@ -31,7 +31,7 @@ RANK = {
     "solve": 8,
     "result": 9,
     "export": 10,
-    "stages": 11,
+    "stages": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
     "pipeline": 12,
     "demo": 13, "cli": 14,
 }
