@@ -130,3 +130,29 @@ def test_package_holds_no_benchmark_and_no_path_out_of_it():
                 for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
                 if re.search(r"parents\[\d\]|\.\./\.\.|__file__.*\bparent\.parent", line)]
     assert not climbing, f"paths that leave the package: {climbing}"
+
+
+def test_internal_error_exits_1_and_asks_for_a_report(monkeypatch, capsys):
+    from fem2tmm import cli
+    from fem2tmm.errors import InternalError
+
+    def broken(args):
+        raise InternalError("an invariant")
+
+    monkeypatch.setattr(cli, "_run", broken)
+    assert cli.main(["run", "case.toml"]) == 1
+    err = capsys.readouterr().err
+    assert "internal error: an invariant" in err and "please report" in err
+
+
+def test_bench_outside_a_checkout_is_a_clear_user_error(tmp_path, monkeypatch, capsys):
+    # an installed wheel: neither the working directory nor the package lies in a checkout with benchmarks/run.py
+    from fem2tmm import cli
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(cli, "__file__", str(tmp_path / "site-packages" / "fem2tmm" / "cli.py"))
+    assert cli.main(["bench", "list"]) == 2
+    assert "run it from a source checkout" in capsys.readouterr().err
+    (tmp_path / "benchmarks").mkdir()
+    (tmp_path / "benchmarks" / "run.py").write_text("")
+    assert cli._checkout() == tmp_path  # found from the working directory

@@ -11,13 +11,20 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Literal, Mapping, get_args
 
 from .constants import ABSOLUTE_ZERO_C, KELVIN
 from .errors import Fem2TmmError
 from .io.units import LENGTH_UNITS, TEMPERATURE_UNITS, UNIT_SYSTEMS, unit_system_name
+
+
+BoundaryKind = Literal["temperature", "power", "flux"]
+SolarOn = Literal["detailed", "super_faces"]
+Sampling = Literal["halton", "random"]
+ReductionMethod = Literal["local", "global"]
+CapacitanceMethod = Literal["cluster", "equivalent"]
 
 
 @dataclass(frozen=True)
@@ -56,13 +63,14 @@ class Part:
     thickness: float | None  # m, shells; None: from the mesh (PSHELL)
     front: str  # optics name or "none"
     back: str
-    super_nodes: int
+    super_nodes: int = 1
     quadric: bool | tuple[str, ...] = False  # True: the whole part; a tuple: only these groups of the part
     index: int = 0
     area: float | None = None  # m², line parts (bars); overrides the mesh's PBAR/PROD/... area
 
 
-JOINT_TREATMENTS = ("conductance", "isothermal", "ignore")
+JointTreatment = Literal["conductance", "isothermal", "ignore"]
+JOINT_TREATMENTS = get_args(JointTreatment)
 JOINT_CARDS = ("RBE2", "RBE3", "CBUSH", "CELAS1", "CELAS2", "CGAP")
 
 
@@ -77,7 +85,7 @@ class Joint:
     over card types.
     """
 
-    treatment: str
+    treatment: JointTreatment
     cards: tuple[str, ...] = ()
     pids: tuple[int, ...] = ()
     elements: tuple[int, ...] = ()
@@ -90,7 +98,7 @@ class Joint:
 
 @dataclass(frozen=True)
 class Boundary:
-    kind: str  # temperature | power | flux
+    kind: BoundaryKind
     value: float  # K for temperature, W for power, W/m² for flux
     groups: tuple[str, ...] = ()
     nodes: tuple[int, ...] = ()  # original node (GRID) ids
@@ -103,7 +111,7 @@ class Environment:
     sink_temperature: float = 3.0  # K
     sun_direction: tuple[float, float, float] | None = None  # unit vector from the model towards the Sun
     solar_flux: float = 0.0  # W/m²
-    solar_on: str = "detailed"  # detailed | super_faces
+    solar_on: SolarOn = "detailed"
     solar_rays_per_face: int = 100  # per FE face side (super_faces: per FE face of each super face)
 
 
@@ -112,7 +120,7 @@ class RadiationSettings:
     enabled: bool = True  # face-to-face REFs; False: every active side sees only space
     rays_per_face: int | None = 1000
     ray_density: float | None = None  # rays per m²
-    sampling: str = "halton"
+    sampling: Sampling = "halton"
     seed: int = 0
     max_bounces: int = 1000
     target_lse: float | None = None
@@ -121,8 +129,8 @@ class RadiationSettings:
 @dataclass(frozen=True)
 class ReductionSettings:
     enabled: bool = True
-    method: str = "local"
-    capacitance: str = "cluster"  # cluster | equivalent
+    method: ReductionMethod = "local"
+    capacitance: CapacitanceMethod = "cluster"
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
 
@@ -230,6 +238,14 @@ class Case:
 
 
 # ---------------------------------------------------------------------------------------------- parser
+def _default(cls, name: str):
+    """The default of field ``name`` of the settings dataclass ``cls`` (the one place it is written)."""
+    for f in fields(cls):
+        if f.name == name:
+            return f.default if f.default is not MISSING else f.default_factory()
+    raise KeyError(name)
+
+
 class _Parser:
     def __init__(self, source: str, base: Path):
         self.src = source
@@ -353,7 +369,7 @@ class _Parser:
         d = self.table(d, w, {"file", "unit", "unit_system", "temperature_unit", "nastran_loads", "ignore_cards",
                               "load_set", "spc_set"})
         f = self.string(d, "file", w)
-        unit = self.string(d, "unit", w, default="m")
+        unit = self.string(d, "unit", w, default=_default(MeshSpec, "unit"))
         if unit.lower() not in LENGTH_UNITS:
             raise self.err("[mesh].unit", f"unknown length unit {unit!r}; expected one of {', '.join(LENGTH_UNITS)}")
         system = self.string(d, "unit_system", w)
@@ -424,7 +440,7 @@ class _Parser:
                        {"emissivity"})
         eps = self.number(d, "emissivity", w, lo=0, hi=1)
         alpha = self.number(d, "absorptivity", w, default=eps, lo=0, hi=1)
-        tau = self.number(d, "transmissivity", w, default=0.0, lo=0, hi=1)
+        tau = self.number(d, "transmissivity", w, default=_default(Optics, "transmissivity"), lo=0, hi=1)
         if eps + tau > 1 + 1e-12:
             raise self.err(w, f"emissivity + transmissivity = {eps + tau} exceeds 1")
         if alpha + tau > 1 + 1e-12:
@@ -433,9 +449,10 @@ class _Parser:
             name=name,
             emissivity=eps,
             absorptivity=alpha,
-            specular=self.number(d, "specular", w, default=0.0, lo=0, hi=1),
+            specular=self.number(d, "specular", w, default=_default(Optics, "specular"), lo=0, hi=1),
             transmissivity=tau,
-            transmission_specular=self.number(d, "transmission_specular", w, default=1.0, lo=0, hi=1),
+            transmission_specular=self.number(d, "transmission_specular", w, lo=0, hi=1,
+                                              default=_default(Optics, "transmission_specular")),
         )
 
     def part(self, i, d, materials, optics) -> Part:
@@ -463,7 +480,7 @@ class _Parser:
             thickness=self.number(d, "thickness", w, lo=0, lo_open=True),
             front=sides["front"],
             back=sides["back"],
-            super_nodes=self.number(d, "super_nodes", w, default=1, lo=1, integer=True),
+            super_nodes=self.number(d, "super_nodes", w, default=_default(Part, "super_nodes"), lo=1, integer=True),
             quadric=self.quadric(d, w, groups),
             index=i,
             area=self.number(d, "area", w, lo=0, lo_open=True),
@@ -483,7 +500,7 @@ class _Parser:
     def boundary(self, i, d) -> Boundary:
         w = f"[[boundary]][{i}]"
         d = self.table(d, w, {"kind", "groups", "nodes", "value", "name"}, {"kind", "value"})
-        kind = self.string(d, "kind", w, choices=("temperature", "power", "flux"))
+        kind = self.string(d, "kind", w, choices=get_args(BoundaryKind))
         groups, nodes = self.strings(d, "groups", w), self.ints(d, "nodes", w)
         if not groups and not nodes:
             raise self.err(w, "give 'groups' (mesh group names) and/or 'nodes' (original node ids)")
@@ -496,7 +513,8 @@ class _Parser:
     def environment(self, d) -> Environment:
         w = "[environment]"
         d = self.table(d, w, {"sink_temperature", "sun_direction", "solar_flux", "solar_on", "solar_rays_per_face"})
-        sink = self.number(d, "sink_temperature", w, default=3.0 - KELVIN, lo=ABSOLUTE_ZERO_C) + KELVIN
+        sink = self.number(d, "sink_temperature", w, default=_default(Environment, "sink_temperature") - KELVIN,
+                           lo=ABSOLUTE_ZERO_C) + KELVIN
         sun = d.get("sun_direction")
         if sun is not None:
             if (not isinstance(sun, list) or len(sun) != 3
@@ -506,12 +524,14 @@ class _Parser:
             if not norm > 0:
                 raise self.err(f"{w}.sun_direction", "must not be the zero vector")
             sun = tuple(float(x) / norm for x in sun)
-        flux = self.number(d, "solar_flux", w, default=0.0, lo=0)
+        flux = self.number(d, "solar_flux", w, default=_default(Environment, "solar_flux"), lo=0)
         if flux > 0 and sun is None:
             raise self.err(w, "solar_flux is given but sun_direction is not")
         return Environment(sink_temperature=sink, sun_direction=sun, solar_flux=flux,
-                           solar_on=self.string(d, "solar_on", w, default="detailed", choices=("detailed", "super_faces")),
-                           solar_rays_per_face=self.number(d, "solar_rays_per_face", w, default=100, lo=1, integer=True))
+                           solar_on=self.string(d, "solar_on", w, default=_default(Environment, "solar_on"),
+                                                choices=get_args(SolarOn)),
+                           solar_rays_per_face=self.number(d, "solar_rays_per_face", w, lo=1, integer=True,
+                                                           default=_default(Environment, "solar_rays_per_face")))
 
     def radiation(self, d) -> RadiationSettings:
         w = "[radiation]"
@@ -521,25 +541,27 @@ class _Parser:
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
         if rpf is None and dens is None:
-            rpf = 1000
+            rpf = _default(RadiationSettings, "rays_per_face")
+        D = lambda name: _default(RadiationSettings, name)  # noqa: E731
         return RadiationSettings(
-            enabled=self.boolean(d, "enabled", w, True),
+            enabled=self.boolean(d, "enabled", w, D("enabled")),
             rays_per_face=rpf,
             ray_density=dens,
-            sampling=self.string(d, "sampling", w, default="halton", choices=("halton", "random")),
-            seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
-            max_bounces=self.number(d, "max_bounces", w, default=1000, lo=1, integer=True),
+            sampling=self.string(d, "sampling", w, default=D("sampling"), choices=get_args(Sampling)),
+            seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
+            max_bounces=self.number(d, "max_bounces", w, default=D("max_bounces"), lo=1, integer=True),
             target_lse=self.number(d, "target_lse", w, lo=0, lo_open=True),
         )
 
     def reduction(self, d) -> ReductionSettings:
         w = "[reduction]"
         d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes"})
+        D = lambda name: _default(ReductionSettings, name)  # noqa: E731
         return ReductionSettings(
-            enabled=self.boolean(d, "enabled", w, True),
-            method=self.string(d, "method", w, default="local", choices=("local", "global")),
-            capacitance=self.string(d, "capacitance", w, default="cluster", choices=("cluster", "equivalent")),
-            filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
+            enabled=self.boolean(d, "enabled", w, D("enabled")),
+            method=self.string(d, "method", w, default=D("method"), choices=get_args(ReductionMethod)),
+            capacitance=self.string(d, "capacitance", w, default=D("capacitance"), choices=get_args(CapacitanceMethod)),
+            filter=self.number(d, "filter", w, default=D("filter"), lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
         )
 
@@ -547,11 +569,12 @@ class _Parser:
         w = "[clustering]"
         d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware"})
         aware = d.get("solar_aware")
+        D = lambda name: _default(ClusteringSettings, name)  # noqa: E731
         return ClusteringSettings(
             solar_aware=None if aware is None else self.boolean(d, "solar_aware", w, None),
-            feature_angle=self.number(d, "feature_angle", w, default=30.0, lo=0, hi=180),
-            seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
-            smoothing_layers=self.number(d, "smoothing_layers", w, default=2, lo=0, integer=True),
+            feature_angle=self.number(d, "feature_angle", w, default=D("feature_angle"), lo=0, hi=180),
+            seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
+            smoothing_layers=self.number(d, "smoothing_layers", w, default=D("smoothing_layers"), lo=0, integer=True),
         )
 
     def reference(self, d) -> ReferenceSettings:
@@ -561,10 +584,13 @@ class _Parser:
         dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
-        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, True), rays_per_face=rpf, ray_density=dens)
+        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")),
+                                 rays_per_face=rpf, ray_density=dens)
 
     def solver(self, d) -> SolverSettings:
         w = "[solver]"
         d = self.table(d, w, {"tolerance", "max_iterations"})
-        return SolverSettings(tolerance=self.number(d, "tolerance", w, default=1e-9, lo=0, lo_open=True),
-                              max_iterations=self.number(d, "max_iterations", w, default=200, lo=1, integer=True))
+        D = lambda name: _default(SolverSettings, name)  # noqa: E731
+        return SolverSettings(tolerance=self.number(d, "tolerance", w, default=D("tolerance"), lo=0, lo_open=True),
+                              max_iterations=self.number(d, "max_iterations", w, default=D("max_iterations"), lo=1,
+                                                         integer=True))

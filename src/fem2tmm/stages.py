@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .case import Case
+from .case import Case, RadiationSettings
 from .cluster import Clustering, PartInput, cluster_parts
 from .errors import InternalError
 from .fem.model import FEModel
@@ -101,7 +101,7 @@ def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: f
         if rs.ray_density:
             ray_density = float(rs.ray_density)
         else:
-            rays_per_face = int(rs.rays_per_face or 1000)
+            rays_per_face = int(rs.rays_per_face or RadiationSettings.rays_per_face)
     return {**kw, "rays_per_group": rays_per_face, "ray_density": ray_density, "target_lse": rs.target_lse}
 
 

@@ -13,7 +13,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import Fem2TmmError, format_ids
+from ..errors import Fem2TmmError, InternalError, format_ids
 from . import geometry
 from .elements import DIM, ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 
@@ -346,7 +346,7 @@ def make_group(name: str, dim: int, elements=None, nodes=None, mesh_cells: np.nd
     el = unique_ints(elements if elements is not None else [])
     if nodes is None:
         if mesh_cells is None:
-            raise ValueError("nodes or mesh_cells is needed")
+            raise InternalError("make_group: nodes or mesh_cells is needed")
         pc = mesh_cells[el]
         nodes = pc[pc >= 0]
     nd = unique_ints(nodes)

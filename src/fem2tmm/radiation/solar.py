@@ -30,14 +30,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from types import SimpleNamespace
+from typing import NamedTuple
 
 import numpy as np
 
+from .. import _validation as check
 from ..errors import Fem2TmmError
 from .sampling import HALTON_BASES, ScrambledHalton
-from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene, pad_faces
-from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, _budget, _check_groups, _per_face, map_batches
+from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene, TriangleWeights, pad_faces
+from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
 #: coordinates of the Halton point of a solar ray: origin (2), first event (1), first diffuse direction (2)
 SOLAR_DIMS = 5
@@ -106,7 +107,7 @@ def sunlit_emitters(scene: TriangleScene, groups: np.ndarray, n_groups: int, sun
     t = len(scene.tri_face)
     facing = scene.facing_areas(sun)
     total = facing.sum(axis=1)
-    view = SimpleNamespace(tri_face=np.arange(t), tri_area=total)
+    view = TriangleWeights(tri_face=np.arange(t), tri_area=total)
     sid = 2 * np.repeat(scene.tri_face, 2) + np.tile([0, 1], t)  # side of the real face, per (triangle, side)
     share = np.divide(facing, total[:, None], out=np.zeros_like(facing), where=total[:, None] > 0).ravel()
     em = GroupEmitters.build(view, groups[sid], share, n_groups)
@@ -207,6 +208,19 @@ def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, 
     return sides, powers, escaped, blocked, capped, segments
 
 
+class _BatchTally(NamedTuple):
+    """What one batch of solar rays delivered: absorbed power per side (2f,) W, the incident, shadowed, escaped,
+    blocked and capped powers (W) and the intersection queries."""
+
+    absorbed: np.ndarray
+    incident: float
+    shadowed: float
+    escaped: float
+    blocked: float
+    capped: float
+    segments: int
+
+
 def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None, rays_per_group=None,
                 ray_density: float | None = None, sampling: str = "halton", seed: int = 0,
                 max_bounces: int = MAX_BOUNCES, min_weight: float = 1e-12, scene: TriangleScene | None = None,
@@ -228,10 +242,8 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     ``batch`` rays per batch, ``threads`` batches in parallel; the result depends only on the inputs, ``seed`` and
     ``batch``.  Returns a :class:`SolarResult`.
     """
-    if sampling not in ("halton", "random"):
-        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
-    if not (isinstance(max_bounces, int | np.integer) and max_bounces >= 1):
-        raise Fem2TmmError(f"max_bounces must be a positive integer, got {max_bounces!r}")
+    check.choice("sampling", sampling, SAMPLINGS)
+    check.positive_int("max_bounces", max_bounces)
     if not 0.0 <= float(min_weight) < 1.0:
         raise Fem2TmmError(f"min_weight must lie in [0, 1), got {min_weight}")
     flux = float(solar_flux)
@@ -242,14 +254,14 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     if groups is None:
         groups, g = np.arange(2 * f, dtype=np.int64), 2 * f
     else:
-        groups, g = _check_groups(surface, groups)
+        groups, g = check.side_groups(groups, f)
     if scene is None:
         scene = TriangleScene(surface)
     elif scene.surface is not surface:
         raise Fem2TmmError("trace_solar: `scene` was built for another surface; pass the scene of this surface")
     optics = surface.optics("solar")
     em = sunlit_emitters(scene, groups, g, sun)
-    rays = _budget(em, g, rays_per_group, ray_density)
+    rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     power = flux * em.weight
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
     start = np.concatenate([[0], np.cumsum(rays)])
@@ -280,16 +292,16 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
                       min_weight * w0[k], rng, U[k, 2:] if halton is not None else None, max_bounces)
         sides, powers, escaped, blocked2, capped, segs = out
         absorbed = np.bincount(sides, weights=powers, minlength=2 * f)
-        return absorbed, incident, shadowed, escaped, blocked + blocked2, capped, segs + ray.size
+        return _BatchTally(absorbed, incident, shadowed, escaped, blocked + blocked2, capped, segs + ray.size)
 
     parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
     absorbed = np.zeros(2 * f)
-    totals = np.zeros(5)
+    totals = np.zeros(5)  # incident, shadowed, escaped, blocked, capped (W)
     segments = 0
     for part in parts:  # loop over batches, in batch order (deterministic sums)
-        absorbed += part[0]
-        totals += part[1:6]
-        segments += part[6]
+        absorbed += part.absorbed
+        totals += (part.incident, part.shadowed, part.escaped, part.blocked, part.capped)
+        segments += part.segments
     mine = groups >= 0
     return SolarResult(
         absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1),
@@ -315,7 +327,7 @@ def solar_fluxes(points, faces, sun_direction, solar_flux, absorptivity=0.2, spe
     faces = pad_faces(faces)
     m = len(faces)
     zero = np.zeros(m)
-    front = lambda v, name: np.stack([_per_face(v, m, name), zero], axis=1)  # noqa: E731
+    front = lambda v, name: np.stack([check.per_face(name, v, m), zero], axis=1)  # noqa: E731
     surface = Surface(points, faces, emissivity=0.0, absorptivity=front(absorptivity, "absorptivity"),
                       specular=front(specular, "specular"),
                       solar_transmissivity=front(transmissivity, "transmissivity"),

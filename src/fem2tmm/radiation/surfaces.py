@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
@@ -410,6 +411,14 @@ class TriangleScene:
 _NO_NORMALS = np.zeros((0, 3))
 
 
+class TriangleWeights(NamedTuple):
+    """Triangles as :meth:`GroupEmitters.build` reads them from a scene: ``tri_face`` (t,) the face of each triangle
+    and ``tri_area`` (t,) its area (m²) or weight."""
+
+    tri_face: np.ndarray
+    tri_area: np.ndarray
+
+
 @dataclass(frozen=True)
 class GroupEmitters:
     """Emission tables of groups of sides (super faces), sampled as a whole through their cumulative ε·A.
@@ -430,7 +439,8 @@ class GroupEmitters:
     start: np.ndarray
 
     @classmethod
-    def build(cls, scene: TriangleScene, groups: np.ndarray, emit: np.ndarray, n_groups: int) -> "GroupEmitters":
+    def build(cls, scene: TriangleScene | TriangleWeights, groups: np.ndarray, emit: np.ndarray,
+              n_groups: int) -> "GroupEmitters":
         """Tables for ``groups`` (2f,) int group per side (-1: none) with emissive power weights ``emit`` (2f,)
         (ε for IR, 0 on inactive sides)."""
         t = len(scene.tri_face)

@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from .. import _validation as check
 from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
@@ -44,6 +45,7 @@ from .smoothing import (RECIPROCITY_METHODS, close_exchange, convergence_rate, d
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
 MAX_BOUNCES = 1000
+SAMPLINGS = ("halton", "random")
 #: coordinates of the coupled Halton point of an emitted ray: origin (2), direction (2), and the direction of its
 #: first diffuse reflection or transmission (2)
 HALTON_DIMS = 6
@@ -389,19 +391,6 @@ class ExchangeResult:
         return sp.csr_matrix((fv, fi, fp), shape=(g, g + 1))
 
 
-def _check_groups(surface: Surface, groups) -> tuple[np.ndarray, int]:
-    groups = np.asarray(groups)
-    if groups.shape != (2 * surface.n_faces,) or not np.issubdtype(groups.dtype, np.integer):
-        raise Fem2TmmError(
-            f"groups must be an int array with one entry per side ({2 * surface.n_faces},), got "
-            f"{groups.shape} {groups.dtype}"
-        )
-    groups = groups.astype(np.int64)
-    if groups.size and groups.min() < -1:
-        raise Fem2TmmError("group ids must be >= 0, or -1 for sides that are not REF nodes")
-    return groups, int(groups.max()) + 1 if groups.size else 0
-
-
 class _ExchangeTracer:
     """Everything one exchange-factor run needs, shared read-only by the batch workers."""
 
@@ -481,21 +470,6 @@ class _ExchangeTracer:
         return rays, tally, segments
 
 
-def _budget(emitters: GroupEmitters, g: int, rays_per_group, ray_density) -> np.ndarray:
-    if rays_per_group is not None and ray_density is not None:
-        raise Fem2TmmError("give either rays_per_group (rays_per_face) or ray_density, not both")
-    if ray_density is not None:
-        if not ray_density > 0:
-            raise Fem2TmmError(f"ray_density must be > 0 rays per m², got {ray_density}")
-        rays = np.ceil(ray_density * emitters.area).astype(np.int64)
-    else:
-        rays = np.broadcast_to(np.asarray(1000 if rays_per_group is None else rays_per_group), (g,))
-        if np.any(rays < 0) or not np.issubdtype(rays.dtype, np.integer) and np.any(rays != np.round(rays)):
-            raise Fem2TmmError("rays per group must be non-negative integers")
-        rays = rays.astype(np.int64)
-    return np.where(emitters.weight > 0, rays, 0)
-
-
 @njit(cache=True, nogil=True)
 def _raw_refs(indptr, indices, data, g, inv_n, itmpl):
     """From the ray tally (CSR, g x (g + 3), sorted columns): the raw REFs F_raw = diag(inv_n) tally[:, :g + 1]
@@ -570,16 +544,14 @@ def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: f
     scaled so that the row still sums to the rays traced).
     Returns an :class:`ExchangeResult`.
     """
-    if sampling not in ("halton", "random"):
-        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
-    if reciprocity not in RECIPROCITY_METHODS:
-        raise Fem2TmmError(f"reciprocity must be one of {RECIPROCITY_METHODS}, got {reciprocity!r}")
-    if not (isinstance(max_bounces, int | np.integer) and max_bounces >= 1):
-        raise Fem2TmmError(f"max_bounces must be a positive integer, got {max_bounces!r}")
-    groups, g = _check_groups(surface, groups)
+    check.choice("sampling", sampling, SAMPLINGS)
+    check.choice("reciprocity", reciprocity, RECIPROCITY_METHODS)
+    check.positive_int("max_bounces", max_bounces)
+    groups, g = check.side_groups(groups, surface.n_faces)
     tracer = _ExchangeTracer(surface, groups, g, backend, scene)
     engine = tracer.scene.engine.name
-    base = _budget(tracer.emitters, g, rays_per_group, ray_density)
+    em = tracer.emitters
+    base = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     run = lambda rays, stream: tracer.run(rays, sampling, seed, stream, int(batch), int(threads), max_bounces)  # noqa: E731
     kappa, pilot = None, []
     if target_lse is None:
@@ -611,15 +583,6 @@ def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: f
                    sampling)
 
 
-def _per_face(value, m: int, name: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.ndim == 0:
-        return np.full(m, float(a))
-    if a.shape != (m,):
-        raise Fem2TmmError(f"{name} must be a scalar or one value per face ({m},), got shape {a.shape}")
-    return a
-
-
 def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity=0.0, super_faces=None,
                      rays_per_face=10_000, ray_density=None, sampling="halton", seed=0, *,
                      target_lse=None, threads=2, max_bounces=MAX_BOUNCES, quadric=None) -> ExchangeResult:
@@ -640,13 +603,13 @@ def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity
 
     faces = pad_faces(faces)
     m = len(faces)
-    eps = _per_face(emissivity, m, "emissivity")
+    eps = check.per_face("emissivity", emissivity, m)
     zero = np.zeros(m)
     surface = Surface(
         points, faces,
         emissivity=np.stack([eps, zero], axis=1),
-        specular=np.stack([_per_face(specular, m, "specular"), zero], axis=1),
-        transmissivity=np.stack([_per_face(transmissivity, m, "transmissivity"), zero], axis=1),
+        specular=np.stack([check.per_face("specular", specular, m), zero], axis=1),
+        transmissivity=np.stack([check.per_face("transmissivity", transmissivity, m), zero], axis=1),
         active=np.stack([np.ones(m, bool), np.zeros(m, bool)], axis=1),
     )
     if super_faces is None:
