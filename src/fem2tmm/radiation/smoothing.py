@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-from .kernels import empty_pages
+from ._tracer_kernels import empty_pages
 
 RECIPROCITY_METHODS = ("linear", "fractional_variance")
 

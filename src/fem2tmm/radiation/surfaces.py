@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import (cosine_directions, emit_groups, emit_rays, locate_entries, offset_points,
+from ._tracer_kernels import (cosine_directions, emit_groups, emit_rays, locate_entries, offset_points,
                       sample_points)
 
 FRONT, BACK = 0, 1
@@ -223,7 +223,7 @@ class TriangleScene:
     (:meth:`_curved_triangles`), and the emission methods (:meth:`emit`, :meth:`emit_weighted`,
     :meth:`emit_group_rays`, :meth:`facing_areas`, :meth:`sample_facing`, for non-uniform sampling of their true
     area; see :class:`fem2tmm.radiation.quadric.QuadricScene`).  The per-ray work is done by the compiled kernels
-    of :mod:`fem2tmm.radiation.kernels`.
+    of :mod:`fem2tmm.radiation._tracer_kernels`.
 
     ``backend``: "auto" (Embree when importable), "embree", "embreex" or "numpy" (:func:`~.engine.make_engine`).
     Origins are offset by ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray
@@ -280,7 +280,7 @@ class TriangleScene:
         picks the emitting triangle and side through the group's cumulative ε·A (:meth:`GroupEmitters.locate`; it
         is rescaled within the triangle), the rest as in :meth:`emit`.  Returns ``(origins (r, 3), directions
         (r, 3), triangles (r,), relative energies (r,) or None)``; here one compiled pass
-        (:func:`~fem2tmm.radiation.kernels.emit_groups`), every ray with the same energy."""
+        (:func:`~fem2tmm.radiation._tracer_kernels.emit_groups`), every ray with the same energy."""
         _, _, centroid, shrink = self.bounce_tables()
         o, d, prim = emit_groups(np.ascontiguousarray(group, dtype=np.int64), U, emitters.start, emitters.lo,
                                  emitters.hi, emitters.entry_prim, emitters.entry_side, self._geom, centroid, shrink,
@@ -305,7 +305,7 @@ class TriangleScene:
     def scatter(self, prim: np.ndarray, normals: np.ndarray, sign: np.ndarray, u: np.ndarray, v: np.ndarray):
         """Cosine-law directions (r, 3) about ``sign`` (r,) x the front normal of the hit primitives ``prim`` (r,)
         (diffuse reflection or transmission); ``normals`` (r, 3) are the unit front normals at the hit points, as
-        returned by :meth:`hit_geometry` (:func:`fem2tmm.radiation.kernels.cosine_directions`)."""
+        returned by :meth:`hit_geometry` (:func:`fem2tmm.radiation._tracer_kernels.cosine_directions`)."""
         r = len(prim)
         return cosine_directions(np.ascontiguousarray(normals, dtype=np.float64),
                                  np.ascontiguousarray(np.broadcast_to(np.asarray(sign, float), (r,))),
@@ -379,7 +379,7 @@ class TriangleScene:
         return self._tables
 
     def hit_rows(self, optics: SideOptics) -> np.ndarray:
-        """(t, 16) one row per triangle for the compiled bounce (:data:`~fem2tmm.radiation.kernels.HIT_ROW`): unit
+        """(t, 16) one row per triangle for the compiled bounce (:data:`~fem2tmm.radiation._tracer_kernels.HIT_ROW`): unit
         front normal, owning face, the optics rows of its front and back sides (``optics`` of the band traced,
         :attr:`SideOptics.rows`), centroid, shrink (see :meth:`bounce_tables`).  A hit reads one 128-byte row, which
         starts on a 128-byte boundary (two cache lines).  The last table built is kept for the same ``optics``."""

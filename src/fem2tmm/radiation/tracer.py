@@ -38,7 +38,7 @@ from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
-from .kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, empty_pages, hit_sides,  # noqa: F401
+from ._tracer_kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, empty_pages, hit_sides,  # noqa: F401
                       random_state, uniform)
 from .smoothing import (RECIPROCITY_METHODS, close_exchange, convergence_rate, dense_columns, refs_from_gr, rms,
                         scale_rows)
@@ -69,7 +69,7 @@ def _first_hit_numbers(side, strata, st):
     random order), so each number is marginally U[0, 1) and the fraction of a pair's rays below any threshold p is
     within 1/m of p.  ``side`` (r,) the side each ray hit (-1: a miss, number 0), ``strata`` (r,) the
     non-decreasing source group of each ray, ``st`` the state of the kernels' generator
-    (:func:`~fem2tmm.radiation.kernels.uniform`).  Linear time, run by run of equal source group (no global sort):
+    (:func:`~fem2tmm.radiation._tracer_kernels.uniform`).  Linear time, run by run of equal source group (no global sort):
     the sides of a run are counted in an open-addressing table twice the run's length, the run is visited in a
     random (Fisher-Yates) order, and each ray gets the number of rays of its pair visited before it as its rank."""
     n = side.shape[0]
@@ -166,9 +166,9 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
     numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
     coupled Halton point); later events draw from a generator seeded from ``rng`` inside the compiled bounce
-    (:func:`~fem2tmm.radiation.kernels.uniform`).  Each bounce is one intersection query for the whole batch
+    (:func:`~fem2tmm.radiation._tracer_kernels.uniform`).  Each bounce is one intersection query for the whole batch
     (:meth:`TriangleScene.intersect`: compiled calls of Embree's C API where available, self hits re-traced) and
-    one compiled pass (:func:`fem2tmm.radiation.kernels.bounce`) that compacts the surviving rays in place.
+    one compiled pass (:func:`fem2tmm.radiation._tracer_kernels.bounce`) that compacts the surviving rays in place.
     (Fusing the query and the event of each ray in one loop, or following each ray to its end before the next,
     measured 1.5-2x slower per segment: the processor then cannot overlap the long latency chains of consecutive
     rays.  Sorting the surviving rays by triangle made the next query ~8 % faster, about what the sort costs.)
