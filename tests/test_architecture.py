@@ -20,7 +20,7 @@ PKG = SRC / "fem2tmm"
 #: rank of each top-level module or sub-package: a module may import only modules of a lower or equal rank
 #: (equal: inside its own package).  ``case`` (the TOML schema) sits above ``io`` because it checks the mesh unit.
 RANK = {
-    "_version": 0, "errors": 0, "constants": 0, "progress": 0, "linalg": 0, "_validation": 0,
+    "_version": 0, "errors": 0, "constants": 0, "progress": 0, "linalg": 0, "_validation": 0, "timefunc": 0,
     "mesh": 1,
     "io": 2,
     "case": 3,
@@ -31,7 +31,7 @@ RANK = {
     "solve": 8,
     "result": 9,
     "export": 10,
-    "stages": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
+    "stages": 11, "inspection": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
     "pipeline": 12,
     "demo": 13, "cli": 14,
 }

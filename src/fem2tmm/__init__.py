@@ -21,11 +21,15 @@ from .mesh import ElementBlock, Group, Mesh, shapes
 from .pipeline import run
 from .result import Result
 from .radiation import exchange_factors
+from .radiation.orbit import Attitude, Orbit, Planet
+from .radiation.orbital import orbital_fluxes
+from .radiation.planet import planet_fluxes
 from .radiation.solar import solar_fluxes
 
 meshes = shapes  # the former name of fem2tmm.mesh.shapes (``ft.meshes.plate(...)`` keeps working)
 
 __all__ = [
+    "Attitude",
     "Case",
     "ElementBlock",
     "Fem2TmmError",
@@ -35,6 +39,10 @@ __all__ = [
     "__version__",
     "meshes",
     "shapes",
+    "Orbit",
+    "orbital_fluxes",
+    "Planet",
+    "planet_fluxes",
     "exchange_factors",
     "partition",
     "solar_fluxes",

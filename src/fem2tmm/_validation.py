@@ -6,6 +6,7 @@ naming the argument and what was expected; private functions assume valid input.
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
@@ -26,6 +27,14 @@ def positive_int(name: str, value) -> int:
     if not (isinstance(value, int | np.integer) and not isinstance(value, bool) and value >= 1):
         raise Fem2TmmError(f"{name} must be a positive integer, got {value!r}")
     return int(value)
+
+
+def nonnegative(name: str, value, unit: str) -> float:
+    """``value`` as a float if it is finite and >= 0 (``unit`` names what it measures in the message)."""
+    v = float(value)
+    if not (math.isfinite(v) and v >= 0.0):
+        raise Fem2TmmError(f"{name} must be a finite {unit} >= 0, got {value}")
+    return v
 
 
 def per_face(name: str, value, m: int) -> np.ndarray:
