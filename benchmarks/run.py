@@ -35,6 +35,7 @@ REGISTRY: dict[str, str] = {
     "rays": "benchmarks.radiation:bench_rays",
     "solar": "benchmarks.solar:bench_solar",
     "quadric": "benchmarks.quadric:bench_quadric",
+    "network": "benchmarks.network:bench_network",
 }
 
 

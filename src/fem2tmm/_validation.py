@@ -48,7 +48,10 @@ def per_face(name: str, value, m: int) -> np.ndarray:
 
 
 def side_groups(groups, n_faces: int) -> tuple[np.ndarray, int]:
-    """``(groups (2 n_faces,) int64, number of groups)`` of a per-side group array (-1: no group)."""
+    """``(groups (2 n_faces,) int64, number of groups)`` of a per-side group array (-1: no group); None: every side
+    its own group."""
+    if groups is None:
+        return np.arange(2 * n_faces, dtype=np.int64), 2 * n_faces
     groups = np.asarray(groups)
     if groups.shape != (2 * n_faces,) or not np.issubdtype(groups.dtype, np.integer):
         raise Fem2TmmError(

@@ -43,7 +43,7 @@ from .. import _validation as check
 from ..errors import Fem2TmmError
 from .orbit import EARTH, SOLAR_CONSTANT, Planet
 from .sampling import HALTON_BASES, ScrambledHalton
-from .solar import arrivals, gather, sun_unit, triangle_emitters
+from .solar import RayBalance, arrivals, gather, sun_unit, triangle_emitters
 from .surfaces import Surface, TriangleScene, pad_faces
 from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
@@ -53,7 +53,7 @@ KINDS = ("albedo", "ir")
 
 
 @dataclass(frozen=True, eq=False)
-class PlanetResult:
+class PlanetResult(RayBalance):
     """Planet albedo or infrared power on the sides of a surface, and its energy balance (all powers in W).
 
     ``incident_side`` (2f,) power arriving directly from the planet on each side (unshadowed), ``incident_face``
@@ -72,13 +72,6 @@ class PlanetResult:
     absorbed_face: np.ndarray
     absorbed_group: np.ndarray
     rays_group: np.ndarray
-    incident: float
-    shadowed: float
-    escaped: float
-    blocked: float
-    capped: float
-    rays: int
-    segments: int
     kind: str
     focus: str
     sampling: str
@@ -184,14 +177,8 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
     position = check_position(position, planet)
     sun = sun_unit(sun_direction)
     f = surface.n_faces
-    if groups is None:
-        groups, g = np.arange(2 * f, dtype=np.int64), 2 * f
-    else:
-        groups, g = check.side_groups(groups, f)
-    if scene is None:
-        scene = TriangleScene(surface)
-    elif scene.surface is not surface:
-        raise Fem2TmmError("trace_planet: `scene` was built for another surface; pass the scene of this surface")
+    groups, g = check.side_groups(groups, f)
+    scene = TriangleScene.of(surface, scene, "trace_planet")
     optics = surface.optics("solar" if kind == "albedo" else "ir")
     # sides that can see the planet: the normal within 90° + θ_max of nadir (seen from the mesh origin; the
     # margin covers the mesh's extent); curved triangles are kept whole

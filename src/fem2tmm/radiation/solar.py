@@ -45,7 +45,23 @@ SOLAR_DIMS = 5
 
 
 @dataclass(frozen=True, eq=False)
-class SolarResult:
+class RayBalance:
+    """The energy balance of one tracing of an external source (W): ``incident`` lit power arriving on the sampled
+    sides, ``shadowed`` hidden by the model itself, ``escaped`` left to space after reflections/transmissions,
+    ``blocked`` reaching inactive sides, ``capped`` left in rays stopped early; incident = absorbed + escaped +
+    blocked + capped.  ``rays`` origins traced, ``segments`` intersection queries (shadow rays included)."""
+
+    incident: float
+    shadowed: float
+    escaped: float
+    blocked: float
+    capped: float
+    rays: int
+    segments: int
+
+
+@dataclass(frozen=True, eq=False)
+class SolarResult(RayBalance):
     """Absorbed solar power and the energy balance of one solar tracing (all powers in W).
 
     ``absorbed_side`` (2f,) per side (2i front, 2i+1 back), ``absorbed_face`` (f,) both sides summed,
@@ -65,13 +81,6 @@ class SolarResult:
     absorbed_group: np.ndarray
     power_group: np.ndarray
     rays_group: np.ndarray
-    incident: float
-    shadowed: float
-    escaped: float
-    blocked: float
-    capped: float
-    rays: int
-    segments: int
     sun_direction: np.ndarray
     solar_flux: float
     engine: str
@@ -258,14 +267,8 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     flux = check.nonnegative("solar_flux", solar_flux, "power density (W/m²)")
     sun = sun_unit(sun_direction)
     f = surface.n_faces
-    if groups is None:
-        groups, g = np.arange(2 * f, dtype=np.int64), 2 * f
-    else:
-        groups, g = check.side_groups(groups, f)
-    if scene is None:
-        scene = TriangleScene(surface)
-    elif scene.surface is not surface:
-        raise Fem2TmmError("trace_solar: `scene` was built for another surface; pass the scene of this surface")
+    groups, g = check.side_groups(groups, f)
+    scene = TriangleScene.of(surface, scene, "trace_solar")
     optics = surface.optics("solar")
     em = sunlit_emitters(scene, groups, g, sun)
     rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)

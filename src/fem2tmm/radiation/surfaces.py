@@ -231,6 +231,16 @@ class TriangleScene:
     offset.
     """
 
+    @classmethod
+    def of(cls, surface: Surface, scene: "TriangleScene | None", caller: str, backend: str = "auto") -> "TriangleScene":
+        """``scene`` if it was built for ``surface``, a new scene of ``surface`` if it is None; an error naming
+        ``caller`` otherwise (the argument check of every tracer that accepts a ready scene)."""
+        if scene is None:
+            return cls(surface, backend)
+        if scene.surface is not surface:
+            raise Fem2TmmError(f"{caller}: `scene` was built for another surface; pass the scene of this surface")
+        return scene
+
     def __init__(self, surface: Surface, backend: str = "auto", *, engine: bool = True):
         """``engine=False`` skips building the ray engine over all triangles (``self.engine`` is None): for
         subclasses that trace part of the triangles with engines of their own."""

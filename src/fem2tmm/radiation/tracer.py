@@ -396,10 +396,7 @@ class _ExchangeTracer:
 
     def __init__(self, surface: Surface, groups: np.ndarray, n_groups: int, backend: str,
                  scene: TriangleScene | None = None):
-        if scene is None:
-            scene = TriangleScene(surface, backend)
-        elif scene.surface is not surface:
-            raise Fem2TmmError("trace_exchange: `scene` was built for another surface; pass the scene of this surface")
+        scene = TriangleScene.of(surface, scene, "trace_exchange", backend)
         self.scene = scene
         self.optics = surface.optics("ir")
         scene.hit_rows(self.optics)  # built once here, not by the first batch of every worker thread
