@@ -26,6 +26,10 @@ SolarOn = Literal["detailed", "super_faces"]
 Sampling = Literal["halton", "random"]
 ReductionMethod = Literal["local", "global"]
 CapacitanceMethod = Literal["cluster", "equivalent"]
+ReducedNetwork = Literal["exact", "positive"]
+ClusteringMethod = Literal["growing", "metis"]
+TransientMethod = Literal["crank-nicolson", "backward-euler", "bdf2"]
+TransientCapacitance = Literal["lumped", "consistent"]
 
 
 @dataclass(frozen=True)
@@ -140,7 +144,10 @@ class ReductionSettings:
     capacitance: CapacitanceMethod = "cluster"
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
-    network: str = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
+    # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve
+    radiation_aware: bool = False
+    outer_iterations: int = 4  # re-linearisations about T_ref (each: reduction, network solve, recovery)
+    network: ReducedNetwork = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
 
 
 @dataclass(frozen=True)
@@ -148,6 +155,8 @@ class ClusteringSettings:
     feature_angle: float = 30.0
     seed: int = 0
     smoothing_layers: int = 2
+    balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
+    method: ClusteringMethod = "growing"  # growing | metis (pymetis on each region)
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun
     solar_aware: bool | None = None
@@ -161,6 +170,9 @@ class ReferenceSettings:
     detailed: bool = True
     rays_per_face: int | None = None
     ray_density: float | None = None
+    # estimate the reference's own ray noise: two independent half-budget references (REFs; detailed solar in
+    # "super_faces" mode), the reference is their mean and its noise RMS(T_a - T_b)/2
+    noise: bool = True
 
 
 @dataclass(frozen=True)
@@ -169,7 +181,7 @@ class SolverSettings:
     max_iterations: int = 200
 
 
-TRANSIENT_METHODS = ("crank-nicolson", "backward-euler", "bdf2")
+TRANSIENT_METHODS = get_args(TransientMethod)
 
 
 @dataclass(frozen=True)
@@ -183,8 +195,8 @@ class TransientSpec:
     tolerance: float | None = None
     output_every: float | None = None
     initial_temperature: float | str = "steady"
-    method: str = "crank-nicolson"
-    capacitance: str = "lumped"  # lumped | consistent (detailed FE model)
+    method: TransientMethod = "crank-nicolson"
+    capacitance: TransientCapacitance = "lumped"  # lumped | consistent (detailed FE model)
     periodic: bool = False
     periodic_tolerance: float = 0.01
 
@@ -608,7 +620,11 @@ class _Parser:
 
     def reduction(self, d) -> ReductionSettings:
         w = "[reduction]"
-        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network"})
+        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network", "radiation_aware",
+                              "outer_iterations"})
+        if d.get("radiation_aware") is True and d.get("network", "exact") == "positive":
+            raise self.err(w, "radiation_aware = true needs network = \"exact\" (the radiation-aware network is "
+                              "K'_SN - diag(H_SN) with a correction load; the positive fit is not defined for it)")
         D = lambda name: _default(ReductionSettings, name)  # noqa: E731
         return ReductionSettings(
             enabled=self.boolean(d, "enabled", w, D("enabled")),
@@ -616,12 +632,14 @@ class _Parser:
             capacitance=self.string(d, "capacitance", w, default=D("capacitance"), choices=get_args(CapacitanceMethod)),
             filter=self.number(d, "filter", w, default=D("filter"), lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
-            network=self.string(d, "network", w, default="exact", choices=("exact", "positive")),
+            radiation_aware=self.boolean(d, "radiation_aware", w, D("radiation_aware")),
+            outer_iterations=self.number(d, "outer_iterations", w, default=D("outer_iterations"), lo=1, integer=True),
+            network=self.string(d, "network", w, default=D("network"), choices=get_args(ReducedNetwork)),
         )
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"
-        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware"})
+        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method"})
         aware = d.get("solar_aware")
         D = lambda name: _default(ClusteringSettings, name)  # noqa: E731
         return ClusteringSettings(
@@ -629,17 +647,19 @@ class _Parser:
             feature_angle=self.number(d, "feature_angle", w, default=D("feature_angle"), lo=0, hi=180),
             seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
             smoothing_layers=self.number(d, "smoothing_layers", w, default=D("smoothing_layers"), lo=0, integer=True),
+            balance=self.boolean(d, "balance", w, D("balance")),
+            method=self.string(d, "method", w, default=D("method"), choices=get_args(ClusteringMethod)),
         )
 
     def reference(self, d) -> ReferenceSettings:
         w = "[reference]"
-        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density"})
+        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density", "noise"})
         rpf = self.number(d, "rays_per_face", w, lo=1, integer=True)
         dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
-        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")),
-                                 rays_per_face=rpf, ray_density=dens)
+        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")), rays_per_face=rpf, ray_density=dens,
+                                 noise=self.boolean(d, "noise", w, _default(ReferenceSettings, "noise")))
 
     def solver(self, d) -> SolverSettings:
         w = "[solver]"
@@ -653,7 +673,7 @@ class _Parser:
         w = "[transient]"
         d = self.table(d, w, {"end", "start", "step", "tolerance", "output_every", "initial_temperature", "method",
                               "capacitance", "periodic", "periodic_tolerance"}, {"end"})
-        start = self.number(d, "start", w, default=0.0)
+        start = self.number(d, "start", w, default=_default(TransientSpec, "start"))
         end = self.number(d, "end", w, required=True)
         if not end > start:
             raise self.err(f"{w}.end", f"must be after start ({start} s), got {end}")
@@ -672,8 +692,10 @@ class _Parser:
             end=end, start=start, step=step, tolerance=tol,
             output_every=self.number(d, "output_every", w, lo=0, lo_open=True),
             initial_temperature=init,
-            method=self.string(d, "method", w, default="crank-nicolson", choices=TRANSIENT_METHODS),
-            capacitance=self.string(d, "capacitance", w, default="lumped", choices=("lumped", "consistent")),
-            periodic=self.boolean(d, "periodic", w, False),
-            periodic_tolerance=self.number(d, "periodic_tolerance", w, default=0.01, lo=0, lo_open=True),
+            method=self.string(d, "method", w, default=_default(TransientSpec, "method"), choices=TRANSIENT_METHODS),
+            capacitance=self.string(d, "capacitance", w, default=_default(TransientSpec, "capacitance"),
+                                    choices=get_args(TransientCapacitance)),
+            periodic=self.boolean(d, "periodic", w, _default(TransientSpec, "periodic")),
+            periodic_tolerance=self.number(d, "periodic_tolerance", w, default=_default(TransientSpec, "periodic_tolerance"),
+                                           lo=0, lo_open=True),
         )
