@@ -255,7 +255,7 @@ def test_balanced_clusters_have_even_areas_within_regions_and_never_cross_an_edg
         a = np.bincount(lab, area)
         assert a.std() / a.mean() <= 0.05  # measured 0.028-0.031 (thesis scheme, balance=False: 0.11-0.16)
         assert_partition_ok(pts, cells, lab, 20)
-    box = meshes.box(1.0, 0.6, 0.3, 40, 24, 12)  # six faces = six regions (90° edges), ~60 quads per cluster
+    box = shapes.box(1.0, 0.6, 0.3, 40, 24, 12)  # six faces = six regions (90° edges), ~60 quads per cluster
     c = box.padded_cells[:, :4]
     lab, reg = partition(box.points, c, 40, return_regions=True)
     assert_partition_ok(box.points, c, lab, 40)
@@ -272,7 +272,7 @@ def test_balanced_clusters_have_even_areas_within_regions_and_never_cross_an_edg
 
 def test_metis_method_gives_contiguous_balanced_clusters_inside_regions():
     pytest.importorskip("pymetis")
-    box = meshes.box(1.0, 0.6, 0.3, 40, 24, 12)
+    box = shapes.box(1.0, 0.6, 0.3, 40, 24, 12)
     c = box.padded_cells[:, :4]
     lab, reg = partition(box.points, c, 40, return_regions=True, method="metis")
     assert_partition_ok(box.points, c, lab, 40)  # contiguity checked with networkx
@@ -288,7 +288,7 @@ def test_metis_method_gives_contiguous_balanced_clusters_inside_regions():
 def test_metis_repair_merges_stray_pieces_and_refills_empty_clusters():
     from fem2tmm.cluster.metis import repair
 
-    plate = meshes.plate(1.0, 1.0, 6, 1)  # a row of 6 quads 0-1-2-3-4-5
+    plate = shapes.plate(1.0, 1.0, 6, 1)  # a row of 6 quads 0-1-2-3-4-5
     c = plate.padded_cells[:, :4]
     g = nx.Graph(list(naive_links(plate.points, c, "shell")))
     A = nx.to_scipy_sparse_array(g, nodelist=range(6), format="csr")
@@ -304,7 +304,7 @@ def test_metis_method_missing_pymetis_is_a_clear_error(monkeypatch):
     import fem2tmm.cluster.metis as mt
 
     monkeypatch.setattr(mt, "available", lambda: False)
-    plate = meshes.plate(1.0, 1.0, 4, 4)
+    plate = shapes.plate(1.0, 1.0, 4, 4)
     with pytest.raises(Fem2TmmError, match="pymetis"):
         partition(plate.points, plate.padded_cells[:, :4], 4, method="metis")
     with pytest.raises(Fem2TmmError, match="method"):
@@ -479,7 +479,7 @@ def test_user_labels_route_into_run_validated_and_equal_to_the_same_partition_co
     from conftest import make_case
     from fem2tmm.pipeline import run
 
-    plate = meshes.plate(0.4, 0.2, 20, 10)
+    plate = shapes.plate(0.4, 0.2, 20, 10)
     case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
                        "back": "black", "super_nodes": 6}],
                      [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
