@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from fem2tmm.errors import Fem2TmmError
-from fem2tmm.io.benchmarks import write_plate_deck
+from scenarios import write_plate_deck
 from fem2tmm.io.nastran import _parse_int, _parse_real, read_nastran
 
 DATA = Path(__file__).parent / "data"
@@ -403,7 +403,7 @@ def test_file_and_unit_errors(tmp_path):
 def test_benchmark_million_quads(request):
     if "slow" not in (request.config.getoption("markexpr") or ""):
         pytest.skip("long measurement (about a minute): run with -m slow")
-    from fem2tmm.io.benchmarks import bench_nastran
+    from benchmarks.io import bench_nastran
 
     (res,) = bench_nastran(n_side=1000, repeats=1)
     assert res["elements"] == 1_000_000 and res["nodes"] == 1001**2
