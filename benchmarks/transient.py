@@ -15,9 +15,14 @@ solver itself costs).
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
+
+from fem2tmm.case import Case
+from fem2tmm.mesh.shapes import plate
+from fem2tmm.pipeline import run
+
+from .cases import REPO
 
 PERIOD = 6000.0
 
@@ -49,11 +54,7 @@ def _row(name: str, res, wall: float) -> dict:
 def bench_transient_baffle(super_nodes: int = 10) -> list[dict]:
     import tomllib
 
-    from ..bench import _repo_file
-    from ..case import Case
-    from ..pipeline import run
-
-    path = Path(_repo_file("examples", "baffle", "case.toml"))
+    path = REPO / "examples" / "baffle" / "case.toml"
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     for p in data["parts"]:
         p["super_nodes"] = super_nodes
@@ -68,10 +69,6 @@ def bench_transient_baffle(super_nodes: int = 10) -> list[dict]:
 
 
 def bench_transient_plate_1m(n: int = 1000, super_nodes: int = 1000, steps: int = 1000) -> list[dict]:
-    from ..case import Case
-    from ..meshes import plate
-    from ..pipeline import run
-
     mesh = plate(1.0, 1.0, n, n)
     case = Case.from_dict({
         "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
