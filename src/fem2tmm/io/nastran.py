@@ -1215,14 +1215,21 @@ def _joints(deck: _Deck, grids: _Grids) -> tuple[list[JointBlock], Counter]:
             if eid is None:
                 raise Fem2TmmError(f"{where}: {card} EID {f[0].decode('latin-1')!r} is not an integer")
             if card == "RBE2":
-                a, pid, deps = _scalar_int(f[1]), 0, []
+                a, pid, deps, thru = _scalar_int(f[1]), 0, [], False
                 for x in f[3:]:
                     if not x.strip():
+                        continue
+                    if x.strip().upper() == b"THRU" and deps:
+                        thru = True
                         continue
                     v = _scalar_int(x)
                     if v is None:
                         break  # ALPHA / TREF (reals) end the node list
-                    deps.append(v)
+                    if thru:
+                        deps.extend(range(deps[-1] + 1, v + 1))
+                        thru = False
+                    else:
+                        deps.append(v)
             elif card == "RBE3":
                 a, pid, deps = _scalar_int(f[2]), 0, []
                 j, state = 4, "w"
@@ -1478,8 +1485,8 @@ def _pid_groups(blocks, pids, dims, n_nodes: int, source: str):
     mixed = np.flatnonzero(dmin != dmax)
     if len(mixed):
         raise Fem2TmmError(
-            f"{source}: property ids {format_ids(upid[mixed])} are used by both shell and solid elements; "
-            "give shells and solids different PIDs"
+            f"{source}: property ids {format_ids(upid[mixed])} are used by elements of different kinds (bars, "
+            "shells, solids); give each kind its own PIDs"
         )
     # node lists: unique (PID rank, node) pairs over every element corner
     offs = np.cumsum([0] + [len(b.cells) for b in blocks])
