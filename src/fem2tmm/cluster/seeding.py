@@ -3,7 +3,7 @@
 Weighted k-means minimises ``Σ_k Σ_{i∈c_k} w_i ‖p_i − μ_k‖²`` with ``μ_k`` the weighted mean of its points;
 with area (volume) weights a refined patch of the mesh does not attract more clusters.
 
-Algorithm (chosen by measurement, see :mod:`fem2tmm.cluster.benchmarks`):
+Algorithm (chosen by measurement, see the checkout's ``benchmarks/cluster.py``):
 
 1. **Weighted subsample.**  When there are more than ``S = max(20 k, 10 000)`` points, S indices are drawn
    with replacement with probability ∝ w and the distinct ones are weighted by how often they were drawn
@@ -15,7 +15,7 @@ Algorithm (chosen by measurement, see :mod:`fem2tmm.cluster.benchmarks`):
 3. **A few Lloyd iterations on the full set** (``full_iter = 5``) to remove the sampling noise.
 
 Lloyd's assignment step uses a KD-tree on the k centres (``scipy.spatial.cKDTree``, O(n log k)), the update
-step weighted ``bincount``.  Measured with :func:`fem2tmm.cluster.benchmarks.bench_seeding` (plate with a 10x
+step weighted ``bincount``.  Measured with ``benchmarks.cluster.bench_seeding`` (plate with a 10x
 refined quarter, area weights, k = 1000, 2 shared cores, one run each):
 
 =========================  ==================  ====================
@@ -88,7 +88,8 @@ def kmeans_plusplus(X: np.ndarray, w: np.ndarray, k: int, rng: np.random.Generat
 
 
 def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[int] = 0, sample_size: int | None = None,
-                    n_init: int | None = None, full_iter: int = 5, tol: float = 1e-4) -> np.ndarray:
+                    n_init: int | None = None, full_iter: int = 5, tol: float = 1e-4,
+                    max_iter: int = 50) -> np.ndarray:
     """Weighted k-means centres.
 
     Parameters
@@ -104,6 +105,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
         elements, few when k is small and local minima are few)
     full_iter : most Lloyd iterations on the full set after the sample stage
     tol : relative improvement of the objective below which Lloyd iterations stop
+    max_iter : most Lloyd iterations of each restart on the sample
 
     Returns
     -------
@@ -126,7 +128,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
         n_init = int(np.clip(2e6 // (len(Xs) * k), 1, min(k, 10)))
     best, best_obj = None, np.inf
     for _ in range(n_init):
-        C, obj = _lloyd(Xs, ws, kmeans_plusplus(Xs, ws, k, rng), 50, tol)
+        C, obj = _lloyd(Xs, ws, kmeans_plusplus(Xs, ws, k, rng), max_iter, tol)
         if obj < best_obj:
             best, best_obj = C, obj
     if Xs is not X:

@@ -184,6 +184,10 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
         _histogram(folder / "lse.png", result.radiation.lse, "Line-sum error of the super-face REFs",
                    "|LSE| (before closure)")
         images.append(("lse.png", "Exchange-factor line-sum errors (super faces)"))
+    if result.transient is not None:
+        from .transient import transient_plots
+
+        images += transient_plots(folder, result)
 
     if before_html is not None:
         before_html()
@@ -208,6 +212,17 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
             text += (f"; recovered RMS {err['positive']['rms']:.4g} K against {err['exact']['rms']:.4g} K for the "
                      "exact reduction")
         rows.append(("positive network", text))
+    tr = s.get("transient") or {}
+    if tr:
+        t_acc = tr.get("accuracy") or {}
+        rows.append(("transient", f"{tr['method']}, {tr['start_s']:g} to {tr['end_s']:g} s, {len(tr['times_s'])} output "
+                     f"times" + (f", {tr['periods']} periods" if tr.get("periods") else "")
+                     + (f"; recovered vs detailed RMS {t_acc['rms_K']:.4g} K, max {t_acc['max_K']:.4g} K at "
+                        f"{t_acc['time_of_max_s']:g} s" if t_acc else "")))
+        for k, eb in (tr.get("energy_balance") or {}).items():
+            rows.append((f"transient energy ({k})", f"stored {eb['stored_J']:.6g} J = applied {eb['applied_J']:.6g} J − "
+                         f"to space {eb['to_space_J']:.6g} J − into fixed {eb['into_fixed_J']:.6g} J "
+                         f"(imbalance {eb['relative']:.1e} relative)"))
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation (reduced)", f"{rad['rays']:,} rays, RMS LSE {rad['lse_rms']:.3g}"))
@@ -243,14 +258,16 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
             flows.append((f"energy imbalance ({k})", _fmt(eb["imbalance_W"], " W"), ""))
     timings = [(k, f"{v:.2f} s") for k, v in (s.get("timings_s") or {}).items()]
 
-    figs = "".join(f'<figure><img src="{name}" alt="{html.escape(cap)}"><figcaption>{html.escape(cap)}'
-                   f"</figcaption></figure>" for name, cap in images)
+    wide = {"temperature.png", "error.png"}  # two views side by side: the full page width
+    figs = "".join(f'<figure{" class=wide" if name in wide else ""}><img src="{name}" alt="{html.escape(cap)}">'
+                   f"<figcaption>{html.escape(cap)}</figcaption></figure>" for name, cap in images)
     doc = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>fem2tmm report</title>
 <style>
 body {{ font-family: sans-serif; margin: 2em; max-width: 1100px; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }} td, th {{ border: 1px solid #bbb; padding: 4px 10px; text-align: left; }}
-figure {{ display: inline-block; margin: 0.5em; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
+figure {{ display: inline-block; margin: 0.5em; vertical-align: top; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
+figure.wide {{ display: block; }} figure.wide img {{ max-width: 100%; }}
 pre {{ background: #f6f6f6; padding: 1em; overflow-x: auto; }}
 </style></head><body>
 <h1>fem2tmm report</h1>
