@@ -391,8 +391,12 @@ def test_cli_network_reduce_writes_decks_summary_and_report(ten_deck, tmp_path):
         sol = solve_network(net.active())
         got = dict(zip(net.numbers.tolist(), sol.T - KELVIN))
         assert all(abs(got[int(k)] - v) < 1e-6 for k, v in red_T.items()), name
-    # the output folder is never overwritten
+    # a folder fem2tmm wrote (its .fem2tmm marker) is replaced; one holding a file of the user's is refused
+    assert (out / ".fem2tmm").is_file()
+    assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 0
+    (out / "mine.txt").write_text("user file")
     assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 2
+    assert (out / "mine.txt").read_text() == "user file"
 
 
 def test_cli_bad_deck_exits_2_naming_file_and_line(tmp_path, capsys):
