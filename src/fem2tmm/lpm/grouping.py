@@ -427,7 +427,9 @@ def sweep(grouper: Grouper, pf_values, dtmax_values) -> Sweep:
     return Sweep(pf=pf_values, dtmax=dt_values, ratio=ratio, passed=passed, max_delta=md, n_c=nc, best=best)
 
 
-__all__ = ["Criteria", "CaseCheck", "Grouper", "Grouping", "MU_DEFAULT", "Sweep", "adjacency", "assemble_reduced", "check_case",
-           "compact", "compact_case", "components", "dimensionless", "flow_errors", "group", "isolate_boundaries",
-           "known_positions", "prepare", "reduction_ratio", "restriction", "sizing_matrix", "sum_couplings", "sweep",
-           "weighted_mean"]
+__all__ = [
+    "Criteria", "CaseCheck", "Grouper", "Grouping", "MU_DEFAULT", "Sweep", "adjacency", "assemble_reduced",
+    "check_case", "compact", "compact_case", "components", "dimensionless", "flow_errors", "group",
+    "isolate_boundaries", "known_positions", "prepare", "reduction_ratio", "restriction", "sizing_matrix",
+    "sum_couplings", "sweep", "weighted_mean",
+]
