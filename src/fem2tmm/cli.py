@@ -22,6 +22,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default=None, help="output folder (default: <case name>-out next to the case)")
     r.add_argument("--no-reference", action="store_true", help="do not solve the detailed reference model")
     r.add_argument("--quiet", action="store_true", help="no progress output")
+    r.add_argument("--scheduler", default=None,
+                   help="where the work runs: serial (default, in-process), local (a Dask LocalCluster on this "
+                        "machine's cores) or a Dask scheduler address tcp://host:8786; overrides [compute] scheduler")
     d = sub.add_parser("demo", help="built-in baffle study (no input files needed)")
     d.add_argument("--out", default="fem2tmm-demo", help="output folder (default: ./fem2tmm-demo)")
     d.add_argument("--quiet", action="store_true")
@@ -68,6 +71,12 @@ def _run(args) -> int:
     from .pipeline import run
 
     case = Case.from_toml(args.case)
+    if args.scheduler is not None:
+        from dataclasses import replace
+
+        from .case import check_scheduler
+
+        case = replace(case, compute=replace(case.compute, scheduler=check_scheduler(args.scheduler, "--scheduler")))
     out = Path(args.out) if args.out else Path(args.case).with_name(Path(args.case).stem + "-out")
     result = run(case, out=out, quiet=args.quiet, reference=False if args.no_reference else None)
     if not args.quiet:

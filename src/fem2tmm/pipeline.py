@@ -149,8 +149,14 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
     overrides ``[reference] detailed``.
     """
+    from .compute import executing
+    from .loadcases import has_cases
+
+    if has_cases(case.raw):
+        raise Fem2TmmError(f"{case.source}: this version runs [[cases]]/[sweep] files case by case only through "
+                           "fem2tmm.loadcases.load_cases; run each case separately")
     prog = Progress(quiet=quiet)
-    with reporting(prog.callback()):
+    with executing(case.compute.scheduler, case.compute.workers), reporting(prog.callback()):
         result = _run(case, prog, mesh, reference)
     if out is not None:
         result.out = write_outputs(result, Path(out))

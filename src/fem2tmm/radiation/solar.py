@@ -207,6 +207,48 @@ def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, 
     return sides, powers, escaped, blocked, capped, segments
 
 
+class _SolarBatches:
+    """The batches of one solar run as a picklable callable (the scene rebuilds itself where it is unpickled):
+    ``job(b)`` traces rays b·batch .. (b + 1)·batch - 1, its generator seeded from (seed, 7, 1, b) only, and returns
+    ``(absorbed (2f,) W, incident, shadowed, escaped, blocked, capped, segments)``."""
+
+    def __init__(self, scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces):
+        self.scene, self.optics, self.em, self.per_ray, self.sun = scene, optics, em, per_ray, sun
+        self.seed, self.batch, self.min_weight, self.max_bounces = seed, batch, min_weight, max_bounces
+        self.start = np.concatenate([[0], np.cumsum(rays)])
+        self.total = int(self.start[-1])
+        setup = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
+        self.halton = self.offsets = None
+        if sampling == "halton":
+            self.halton = ScrambledHalton(setup, bases=HALTON_BASES[:SOLAR_DIMS])
+            self.offsets = setup.integers(0, HALTON_SKIP, size=len(rays))
+
+    def __call__(self, b: int):
+        scene, optics, em, sun, start, halton, batch = (self.scene, self.optics, self.em, self.sun, self.start,
+                                                        self.halton, self.batch)
+        f = scene.surface.n_faces
+        rev = -sun  # direction of the incoming sunlight
+        ray = np.arange(b * batch, min((b + 1) * batch, self.total), dtype=np.int64)
+        grp = np.searchsorted(start, ray, side="right") - 1
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(7, 1, b)))
+        if halton is not None:
+            U = halton.points(self.offsets[grp] + (ray - start[grp]))
+        else:
+            U = rng.random((ray.size, SOLAR_DIMS))
+        prim, side, p, nrm, _, lit, wr = _sun_origins(scene, em, grp, U, sun)
+        w0 = self.per_ray[grp] if wr is None else self.per_ray[grp] * wr
+        shadowed = float(w0[~lit].sum())
+        incident = float(w0[lit].sum())
+        live = lit & optics.active[side]
+        blocked = float(w0[lit & ~live].sum())
+        k = np.flatnonzero(live)
+        out = _follow(scene, optics, side[k], prim[k], p[k], nrm[k], np.broadcast_to(rev, (k.size, 3)).copy(), w0[k],
+                      self.min_weight * w0[k], rng, U[k, 2:] if halton is not None else None, self.max_bounces)
+        sides, powers, escaped, blocked2, capped, segs = out
+        absorbed = np.bincount(sides, weights=powers, minlength=2 * f)
+        return absorbed, incident, shadowed, escaped, blocked + blocked2, capped, segs + ray.size
+
+
 def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None, rays_per_group=None,
                 ray_density: float | None = None, sampling: str = "halton", seed: int = 0,
                 max_bounces: int = MAX_BOUNCES, min_weight: float = 1e-12, scene: TriangleScene | None = None,
@@ -252,36 +294,8 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     rays = _budget(em, g, rays_per_group, ray_density)
     power = flux * em.weight
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
-    start = np.concatenate([[0], np.cumsum(rays)])
-    total = int(start[-1])
-    setup = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
-    halton = offsets = None
-    if sampling == "halton":
-        halton = ScrambledHalton(setup, bases=HALTON_BASES[:SOLAR_DIMS])
-        offsets = setup.integers(0, HALTON_SKIP, size=g)
-    rev = -sun  # direction of the incoming sunlight
-
-    def job(b):
-        ray = np.arange(b * batch, min((b + 1) * batch, total), dtype=np.int64)
-        grp = np.searchsorted(start, ray, side="right") - 1
-        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7, 1, b)))
-        if halton is not None:
-            U = halton.points(offsets[grp] + (ray - start[grp]))
-        else:
-            U = rng.random((ray.size, SOLAR_DIMS))
-        prim, side, p, nrm, _, lit, wr = _sun_origins(scene, em, grp, U, sun)
-        w0 = per_ray[grp] if wr is None else per_ray[grp] * wr
-        shadowed = float(w0[~lit].sum())
-        incident = float(w0[lit].sum())
-        live = lit & optics.active[side]
-        blocked = float(w0[lit & ~live].sum())
-        k = np.flatnonzero(live)
-        out = _follow(scene, optics, side[k], prim[k], p[k], nrm[k], np.broadcast_to(rev, (k.size, 3)).copy(), w0[k],
-                      min_weight * w0[k], rng, U[k, 2:] if halton is not None else None, max_bounces)
-        sides, powers, escaped, blocked2, capped, segs = out
-        absorbed = np.bincount(sides, weights=powers, minlength=2 * f)
-        return absorbed, incident, shadowed, escaped, blocked + blocked2, capped, segs + ray.size
-
+    job = _SolarBatches(scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces)
+    total = job.total
     parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
     absorbed = np.zeros(2 * f)
     totals = np.zeros(5)

@@ -235,6 +235,7 @@ class TriangleScene:
         subclasses that trace part of the triangles with engines of their own."""
 
         self.surface = surface
+        self._backend = backend
         tri = surface.triangles
         self.tri_vertices = tri.vertices
         self.tri_face = tri.face
@@ -250,6 +251,11 @@ class TriangleScene:
                                                          axis=1))
         self._tables = None
         self._rows = None
+
+    def __reduce__(self):
+        """Pickled as its surface and backend: the ray engine (C pointers) is rebuilt where it is unpickled, e.g.
+        once on each Dask worker (:mod:`fem2tmm.compute`); the rebuilt scene gives the same hits."""
+        return (type(self), (self.surface, self._backend))
 
     def sample(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points on primitives ``prim`` (r,) from unit-square samples ``u``, ``v`` (r,) by the area-preserving
