@@ -11,7 +11,6 @@ import pytest
 from fem2tmm import Case, Fem2TmmError
 from fem2tmm.cluster import PartInput, cluster_parts
 from fem2tmm.fem.elements import TYPE_CODE
-from fem2tmm.network import solar_aware
 
 
 def strip(profile, ny, width=1.0):
@@ -102,9 +101,9 @@ solar_on = "{solar_on}"
 
 
 def test_case_option(tmp_path):
-    assert solar_aware(_case(tmp_path)) is True  # default: on with super-face solar loads
-    assert solar_aware(_case(tmp_path, solar_on="detailed")) is False  # exact distribution: nothing to follow
-    assert solar_aware(_case(tmp_path, "solar_aware = false")) is False
-    assert solar_aware(_case(tmp_path, "solar_aware = true", solar_on="detailed")) is True
+    assert _case(tmp_path).solar_aware is True  # default: on with super-face solar loads
+    assert _case(tmp_path, solar_on="detailed").solar_aware is False  # exact distribution: nothing to follow
+    assert _case(tmp_path, "solar_aware = false").solar_aware is False
+    assert _case(tmp_path, "solar_aware = true", solar_on="detailed").solar_aware is True
     with pytest.raises(Fem2TmmError, match="solar_aware"):
         _case(tmp_path, 'solar_aware = "yes"')

@@ -11,7 +11,7 @@ Public API (DESIGN §4.4)::
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
+from ._version import __version__  # noqa: I001  (first: stages name the version)
 
 from . import meshes
 from .case import Case
@@ -19,7 +19,8 @@ from .cluster import partition
 from .errors import Fem2TmmError
 from .io import read_mesh
 from .mesh import ElementBlock, Group, Mesh
-from .pipeline import Result, run
+from .pipeline import run
+from .result import Result
 from .radiation import exchange_factors
 from .radiation.solar import solar_fluxes
 

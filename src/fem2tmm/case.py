@@ -16,11 +16,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
+from .constants import ABSOLUTE_ZERO_C, KELVIN
 from .errors import Fem2TmmError
 from .io.units import LENGTH_UNITS
-
-KELVIN = 273.15
-ABSOLUTE_ZERO_C = -KELVIN
 
 
 @dataclass(frozen=True)
@@ -188,6 +186,21 @@ class Case:
     def with_changes(self, **sections) -> "Case":
         """A copy with some sections replaced, e.g. ``case.with_changes(reference=ReferenceSettings(False))``."""
         return replace(self, **sections)
+
+    @property
+    def has_sun(self) -> bool:
+        """Whether the environment has a Sun: a direction and a positive solar flux."""
+        env = self.environment
+        return env.sun_direction is not None and env.solar_flux > 0
+
+    @property
+    def solar_aware(self) -> bool:
+        """Whether the clustering follows a solar pre-pass: ``[clustering] solar_aware``, by default on when the
+        super faces carry lumped solar loads (``solar_on = "super_faces"``), and only when there is a Sun."""
+        flag = self.clustering.solar_aware
+        if flag is None:
+            flag = self.environment.solar_on == "super_faces"
+        return bool(flag) and self.has_sun
 
 
 # ---------------------------------------------------------------------------------------------- parser

@@ -1,6 +1,7 @@
 """Command line: ``fem2tmm run | demo | bench | --version``.
 
-Exit status: 0 success, 2 user error (one message, no traceback), 1 internal error.
+Exit status: 0 success, 2 user error (:class:`~fem2tmm.errors.Fem2TmmError`: one message, no traceback),
+1 internal error (:class:`~fem2tmm.errors.InternalError`: a bug, to be reported).
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ import sys
 import warnings
 
 from . import __version__
-from .errors import Fem2TmmError
+from .errors import Fem2TmmError, InternalError
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -56,6 +57,10 @@ def main(argv: list[str] | None = None) -> int:
     except Fem2TmmError as exc:
         print(f"fem2tmm: error: {exc}", file=sys.stderr)
         return 2
+    except InternalError as exc:
+        print(f"fem2tmm: internal error: {exc}\nThis is a bug in fem2tmm {__version__}: please report it with the "
+              "case file and this message.", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("fem2tmm: interrupted", file=sys.stderr)
         return 130
@@ -80,7 +85,7 @@ def _run(args) -> int:
     out = Path(args.out) if args.out else Path(args.case).with_name(Path(args.case).stem + "-out")
     result = run(case, out=out, quiet=args.quiet, reference=False if args.no_reference else None)
     if not args.quiet:
-        from .report_text import summary_table
+        from .export.summary import summary_table
 
         print(summary_table(result.summary))
         print(f"outputs in {result.out}")

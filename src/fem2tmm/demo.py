@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .case import Case
 from .pipeline import run
-from .report_text import summary_table
+from .export.summary import summary_table
 
 DEMO_CASE = {
     "materials": {"aluminium": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},

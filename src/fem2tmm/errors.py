@@ -1,8 +1,11 @@
-"""The single exception type of fem2tmm.
+"""The exceptions of fem2tmm.
 
 Every problem with user input (a file, a case key, a group, an element) raises :class:`Fem2TmmError`
 with a message that names the culprit and says what to do.  The command line prints the message
 without a traceback and exits with status 2.
+
+A broken internal invariant (a bug, not bad input) raises :class:`InternalError`; the command line
+prints it with a request to report it and exits with status 1.
 """
 
 from __future__ import annotations
@@ -10,6 +13,10 @@ from __future__ import annotations
 
 class Fem2TmmError(Exception):
     """A user-facing error: bad input, inconsistent case, unsolvable model."""
+
+
+class InternalError(RuntimeError):
+    """An internal invariant does not hold: a bug in fem2tmm, not a problem of the input."""
 
 
 def format_ids(ids, limit: int = 10) -> str:

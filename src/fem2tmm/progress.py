@@ -1,13 +1,16 @@
 """Progress reporting shared by the stages, without coupling them to a user interface.
 
 Long loops call :func:`report` ``(done, total, what)``; it does nothing unless a caller installed a
-callback with :func:`reporting` (the pipeline does, with tqdm bars, unless ``--quiet``).  The callback is
-looked up in a context variable, so stages stay plain functions and tests see no output.
+callback with :func:`reporting` (the pipeline does, with the tqdm bars of :class:`Progress`, unless
+``--quiet``).  The callback is looked up in a context variable, so stages stay plain functions and tests see
+no output.
 """
 
 from __future__ import annotations
 
 import contextvars
+import sys
+import time
 from contextlib import contextmanager
 from typing import Callable
 
@@ -30,3 +33,59 @@ def reporting(callback: Callable[[int, int, str], None] | None):
         yield
     finally:
         _callback.reset(token)
+
+
+class Progress:
+    """Stage timer and tqdm progress (silent when ``quiet``).  ``timings`` maps stage name -> seconds."""
+
+    def __init__(self, quiet: bool = False, stream=None):
+        self.quiet = quiet
+        self.stream = stream or sys.stderr
+        self.timings: dict[str, float] = {}
+        self._bars: dict[str, object] = {}
+
+    @contextmanager
+    def stage(self, name: str, label: str | None = None):
+        """Time the block as stage ``name`` (printing ``label`` before and after unless quiet)."""
+        if not self.quiet:
+            print(f"[fem2tmm] {label or name} …", file=self.stream, flush=True)
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.close_bars()
+        dt = time.perf_counter() - t0
+        self.timings[name] = self.timings.get(name, 0.0) + dt
+        if not self.quiet:
+            print(f"[fem2tmm] {label or name}: {dt:.2f} s", file=self.stream, flush=True)
+
+    def bar(self, total: int, desc: str):
+        """A tqdm bar (or a no-op object) with ``update(n)`` and ``close()``."""
+        from tqdm.auto import tqdm
+
+        return tqdm(total=total, desc=desc, disable=self.quiet or total <= 1, file=self.stream, leave=False)
+
+    def callback(self):
+        """A :func:`report` callback driving one tqdm bar per kind of work (None if quiet).
+
+        Bars still open when a stage ends are closed by :meth:`stage`."""
+        if self.quiet:
+            return None
+
+        def cb(done: int, total: int, what: str) -> None:
+            b = self._bars.get(what)
+            if b is None or b.total != total or done < b.n:
+                if b is not None:
+                    b.close()
+                b = self._bars[what] = self.bar(total, what)
+            b.update(done - b.n)  # tqdm limits the redraw rate
+            if done >= total:
+                b.close()
+                self._bars.pop(what, None)
+
+        return cb
+
+    def close_bars(self) -> None:
+        for b in self._bars.values():
+            b.close()
+        self._bars.clear()

@@ -17,9 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import KELVIN
 from ..errors import Fem2TmmError
-
-KELVIN = 273.15
 
 
 @dataclass(frozen=True)

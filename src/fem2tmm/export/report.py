@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import KELVIN
+
 #: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
 MAX_FACES = 60_000
 
@@ -131,14 +133,14 @@ def write_report(folder: Path, result, case_text: str) -> list[str]:
         images.append(("clusters.png", "Clusters: each colour is one super node" + note))
     T_dof = result.T_recovered if result.T_recovered is not None else result.detailed.T
     kind = "recovered from the reduced model" if result.T_recovered is not None else "detailed model"
-    note = render_faces(folder / "temperature.png", pts, f.nodes, face_values(T_dof) - 273.15,
+    note = render_faces(folder / "temperature.png", pts, f.nodes, face_values(T_dof) - KELVIN,
                         f"Temperature ({kind})", "T [°C]")
     images.append(("temperature.png", f"Temperature, {kind}" + note))
     if result.T_recovered is not None and result.detailed is not None:
         note = render_faces(folder / "error.png", pts, f.nodes, face_values(result.T_recovered - result.detailed.T),
                             "Recovered minus detailed", "ΔT [K]", cmap="coolwarm", symmetric=True)
         images.append(("error.png", "Error of the recovered temperatures against the detailed reference" + note))
-    solar = result.extras.get("absorbed_solar_faces")
+    solar = result.absorbed_solar_faces
     if solar is not None:
         note = render_faces(folder / "solar.png", pts, f.nodes, solar, "Absorbed solar flux", "q [W/m²]",
                             cmap="viridis")

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..solve.steady import SIGMA
-from .esatan import KELVIN, Deck
+from ..constants import KELVIN, SIGMA
+from .esatan import Deck
 
 
 def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict:

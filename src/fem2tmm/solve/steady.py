@@ -21,10 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from ..constants import SIGMA
 from ..errors import Fem2TmmError
 from ..linalg import factorize
-
-SIGMA = 5.670374419e-8  # W/(m² K⁴), CODATA 2018
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,238 @@
+"""Reader of ESATAN input decks (the thermal-model part) into a :class:`~fem2tmm.lpm.network.Network`.
+
+Understood (everything else in these blocks is refused with ``file:line``):
+
+- ``$NODES``: ``D12 = 'label', T = 20.0, C = 5.0 * RHO, A = 0.1, ALP = 0.3, EPS = 0.8, QI = 2.0;`` with kinds D
+  (diffusion; C = 0 is an arithmetic node), B (boundary) and X (inactive); the loads QS, QA, QE, QI, QR are summed
+  into the node's dissipation; FX, FY, FZ (m) are the node's position when given.
+- ``$CONDUCTORS``: ``GL(a, b) = expr;`` and ``GR(a, b) = expr;`` where a and b are node numbers or ranges
+  ``n1:n2`` (a range against a single node couples every node of the range to it; two ranges of equal length are
+  paired element by element).  Parallel conductors add up.
+- ``$CONSTANTS`` / ``$LOCALS`` (sub-blocks ``$REAL``, ``$INTEGER``, ``$CONTROL``): ``NAME = expr;`` values usable
+  in every expression above (the block may come after its use, as in ESATAN).  Control constants ``TABS``
+  (absolute zero offset, default 273.15: temperatures in °C) and ``STEFAN`` (σ; GR values are rescaled to
+  fem2tmm's σ) are honoured.
+- ``$VARIABLES1``: plain assignments ``QI12 = expr;`` / ``QI(12) = expr;`` (as fem2tmm's writer emits).  Other
+  statements of the operation blocks are not interpreted: they are counted in ``Network.notes``.
+
+Comments run from ``#`` to the end of the line; a statement ends at ``;`` and may span lines.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..constants import KELVIN, SIGMA
+from ..errors import Fem2TmmError
+from .expressions import ExpressionError, evaluate, resolve, split_top
+from .network import Network, couplings_from_lists
+
+_NODE = re.compile(r"^([A-Za-z])\s*(\d+)\s*=\s*(.*)$", re.S)
+_COND = re.compile(r"^(G[A-Za-z]*)\s*\(\s*([^,()]+?)\s*,\s*([^,()]+?)\s*\)\s*=\s*(.+)$", re.S)
+_ASSIGN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$", re.S)
+_QI = re.compile(r"^QI\s*(?:\(\s*(\d+)\s*\)|(\d+))\s*=\s*(.+)$", re.S | re.I)
+_LOADS = ("QS", "QA", "QE", "QI", "QR")
+_NODE_KEYS = ("T", "C", "A", "ALP", "EPS", "FX", "FY", "FZ") + _LOADS
+_BLOCKS = {"MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS", "EVALUATION", "VARIABLES1",
+           "VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "ENDMODEL", "REPEAT"}
+_SUBBLOCKS = {"REAL", "INTEGER", "CHARACTER", "CONTROL"}
+
+
+def statements(text: str):
+    """Yield ``(block, subblock, line, statement)`` of an ESATAN deck: comments removed, statements split at ``;``
+    (outside quotes), ``$`` block headers tracked.  ``line`` is the 1-based line where the statement starts."""
+    block = sub = None
+    buf, start = [], None
+    for lineno, raw in enumerate(text.splitlines(), 1):
+        line, quote = [], None
+        for ch in raw:
+            if quote:
+                line.append(ch)
+                if ch == quote:
+                    quote = None
+                continue
+            if ch == "#":
+                break
+            if ch in "'\"":
+                quote = ch
+            if ch == ";":
+                buf.append("".join(line))
+                stmt = " ".join(s.strip() for s in buf if s.strip())
+                if stmt:
+                    yield block, sub, lineno if start is None else start, stmt
+                buf, line, start = [], [], None
+                continue
+            line.append(ch)
+        rest = "".join(line).strip()
+        if not rest:
+            continue
+        if not buf and rest.startswith("$"):
+            word = rest[1:].split()[0].upper() if len(rest) > 1 else ""
+            if word in _SUBBLOCKS:
+                sub = word
+            else:
+                block, sub = word, None
+            continue
+        if start is None:
+            start = lineno
+        buf.append(rest)
+    tail = " ".join(s.strip() for s in buf if s.strip())
+    if tail:
+        yield block, sub, start, tail + "\0"  # unterminated: reported by the caller
+
+
+def _range(token: str) -> np.ndarray:
+    token = token.strip()
+    if ":" in token:
+        a, b = (int(t) for t in token.split(":", 1))
+        if b < a:
+            raise ValueError(f"empty node range {token!r}")
+        return np.arange(a, b + 1, dtype=np.int64)
+    return np.array([int(token)], np.int64)
+
+
+def read_esatan(path: str | Path) -> Network:
+    """Read an ESATAN input deck (see the module docstring for the subset); temperatures to K, GR to fem2tmm's σ.
+
+    Raises :class:`Fem2TmmError` with ``file:line`` and what to fix for the first statement it cannot read.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise Fem2TmmError(f"{path}: cannot read the deck ({exc.strerror})") from None
+    stmts = list(statements(text))
+
+    def fail(line, msg):
+        raise Fem2TmmError(f"{path}:{line}: {msg}")
+
+    for block, _, line, s in stmts:
+        if s.endswith("\0"):
+            fail(line, f"statement {s[:-1][:60]!r} is not terminated by ';'")
+    if not any(b == "NODES" for b, *_ in stmts) and "$NODES" not in text.upper():
+        raise Fem2TmmError(f"{path}: no $NODES block: not an ESATAN input deck")
+    # constants first (they may be defined after their use)
+    definitions = []
+    for block, sub, line, s in stmts:
+        if block in ("CONSTANTS", "LOCALS") and sub != "CHARACTER":
+            m = _ASSIGN.match(s)
+            if not m:
+                fail(line, f"cannot read the constant definition {s[:60]!r} (expected NAME = value;)")
+            definitions.append((line, m.group(1).upper(), m.group(2)))
+    consts = resolve(definitions, fail)
+    tabs = consts.get("TABS", KELVIN)
+    gr_scale = consts.get("STEFAN", SIGMA) / SIGMA
+
+    def value(line, expr, what):
+        try:
+            return evaluate(expr, consts)
+        except ExpressionError as exc:
+            fail(line, f"{what}: {exc}")
+
+    nodes: list[tuple] = []
+    conds: list[tuple] = []
+    qi_set: list[tuple] = []
+    skipped = 0
+    for block, sub, line, s in stmts:
+        if block == "NODES":
+            m = _NODE.match(s)
+            if not m:
+                fail(line, f"cannot read the node definition {s[:60]!r} (expected e.g. D12 = 'label', T = 20, C = 5;)")
+            kind = m.group(1).upper()
+            if kind not in "DBX":
+                fail(line, f"node kind {kind!r} of node {m.group(2)} is not D, B or X")
+            parts = [p.strip() for p in split_top(m.group(3))]
+            label = ""
+            if parts and parts[0][:1] in "'\"":
+                label = parts.pop(0).strip("'\"")
+            attrs = {}
+            for p in parts:
+                if not p:
+                    continue
+                if "=" not in p:
+                    fail(line, f"node {m.group(2)}: cannot read {p!r} (expected KEY = value)")
+                key, expr = (t.strip() for t in p.split("=", 1))
+                key = key.upper()
+                if key not in _NODE_KEYS:
+                    fail(line, f"node {m.group(2)}: unknown attribute {key!r} (understood: {', '.join(_NODE_KEYS)})")
+                attrs[key] = value(line, expr, f"node {m.group(2)} {key}")
+            nodes.append((line, kind, int(m.group(2)), label, attrs))
+        elif block == "CONDUCTORS":
+            m = _COND.match(s)
+            if not m:
+                fail(line, f"cannot read the conductor {s[:60]!r} (expected GL(a, b) = value; or GR(a, b) = value;)")
+            kind = m.group(1).upper()
+            if kind not in ("GL", "GR"):
+                fail(line, f"conductor type {kind} is not supported (only GL and GR; fluid conductors are not)")
+            try:
+                a, b = _range(m.group(2)), _range(m.group(3))
+            except ValueError:
+                fail(line, f"cannot read the node references ({m.group(2)}, {m.group(3)}) (node numbers or n1:n2 "
+                           "ranges; submodel references are not supported: flatten the model)")
+            if len(a) != len(b) and min(len(a), len(b)) != 1:
+                fail(line, f"node ranges of different lengths ({len(a)} and {len(b)}) in {kind}")
+            a, b = np.broadcast_arrays(a, b)
+            conds.append((line, kind, a, b, value(line, m.group(4), kind)))
+        elif block == "VARIABLES1":
+            m = _QI.match(s)
+            if m:
+                qi_set.append((line, int(m.group(1) or m.group(2)), value(line, m.group(3), "QI")))
+            else:
+                skipped += 1
+        elif block in ("VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "EVALUATION", "ARRAYS"):
+            skipped += 1
+        elif block not in ("CONSTANTS", "LOCALS", "MODEL", "ENDMODEL") and block is not None:
+            fail(line, f"statement in unknown block ${block}")
+        elif block is None:
+            fail(line, f"statement {s[:60]!r} before any $ block")
+    if not nodes:
+        raise Fem2TmmError(f"{path}: the $NODES block defines no node")
+    numbers = np.array([nd[2] for nd in nodes], np.int64)
+    u, c = np.unique(numbers, return_counts=True)
+    if (c > 1).any():
+        dup = int(u[c > 1][0])
+        lines = [nd[0] for nd in nodes if nd[2] == dup]
+        fail(lines[1], f"node {dup} is defined twice (first at line {lines[0]})")
+    order = np.argsort(numbers)
+    sorted_numbers = numbers[order]
+
+    def rows(line, refs):
+        pos = np.minimum(np.searchsorted(sorted_numbers, refs), len(numbers) - 1)
+        bad = sorted_numbers[pos] != refs
+        if bad.any():
+            fail(line, f"conductor to undefined node(s) {', '.join(str(int(v)) for v in np.unique(refs[bad])[:10])}")
+        return order[pos]
+
+    n = len(numbers)
+    lists = {"GL": ([], [], []), "GR": ([], [], [])}
+    for line, kind, a, b, g in conds:
+        ia, ib = rows(line, a), rows(line, b)
+        la, lb, lg = lists[kind]
+        la.append(ia)
+        lb.append(ib)
+        lg.append(np.full(len(ia), g * (gr_scale if kind == "GR" else 1.0)))
+    mats = {kind: couplings_from_lists(n, *lists[kind]) for kind in lists}
+    get = lambda key, default=0.0: np.array([nd[4].get(key, default) for nd in nodes], float)  # noqa: E731
+    Q = sum(get(k) for k in _LOADS)
+    for line, num, q in qi_set:
+        i = rows(line, np.array([num]))[0]
+        Q[i] = q + sum(nodes[i][4].get(k, 0.0) for k in _LOADS if k != "QI")
+    coords = None
+    if any(("FX" in nd[4] or "FY" in nd[4] or "FZ" in nd[4]) for nd in nodes):
+        has = np.array([any(k in nd[4] for k in ("FX", "FY", "FZ")) for nd in nodes])
+        coords = np.where(has[:, None], np.c_[get("FX"), get("FY"), get("FZ")], np.nan)
+    notes = ()
+    if skipped:
+        notes += (f"{skipped} statements of the operation blocks ($VARIABLES1/2, $EXECUTION, …) not interpreted",)
+    if gr_scale != 1.0:
+        notes += (f"GR rescaled from STEFAN = {consts['STEFAN']!r} to sigma = {SIGMA!r}",)
+    return Network(numbers=numbers, labels=np.array([nd[3] for nd in nodes], dtype=object).astype(str),
+                   kind=np.array([nd[1] for nd in nodes]), T=get("T") + tabs, C=get("C"), A=get("A"),
+                   alp=get("ALP"), eps=get("EPS"), QI=Q, GL=mats["GL"], GR=mats["GR"], coordinates=coords,
+                   source=str(path), notes=notes)
+
+
+__all__ = ["read_esatan", "statements"]

@@ -1,0 +1,95 @@
+"""Steady solution of a network (radiation included) with fem2tmm's Newton solver, and its boundary heat flows.
+
+The kernel is :func:`fem2tmm.solve.steady.solve_steady` (one implementation): the network's GL Laplacian is the
+conduction matrix, its GR goes in as node-to-node radiation (dense-enough reduced networks: direct Newton) or, for
+large sparse networks, in the factored form ``Iᵀ GR I`` that makes the solver use Newton-Krylov (GMRES
+preconditioned by the LU of conduction plus lumped radiation; no fill-in from long-range GR).  Boundary nodes are
+held at the load case's temperatures.  Fernández Rico linearises σGR(T_i⁴ − T_j⁴) by a secant and iterates
+(eq. 45–47); Newton converges to the same fixed point, faster.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..constants import SIGMA
+from ..errors import Fem2TmmError
+from ..solve.steady import FacedRadiation, SteadyProblem, check_solvable, solve_steady
+from .network import LoadCase, Network
+
+#: GR with more than this many non-zeros per node goes through the factored (Newton-Krylov) path
+KRYLOV_GR_PER_NODE = 30
+
+
+@dataclass(frozen=True)
+class NetworkSolution:
+    """Steady temperatures ``T`` (n,) K and heat flows INTO each boundary node from the rest of the network:
+    ``H_conductive`` (n,) W and ``H_radiative`` (n,) W (0 on non-boundary nodes); ``iterations`` of Newton."""
+
+    T: np.ndarray
+    H_conductive: np.ndarray
+    H_radiative: np.ndarray
+    iterations: int
+
+    @property
+    def H(self) -> np.ndarray:
+        return self.H_conductive + self.H_radiative
+
+
+def steady_problem(net: Network, case: LoadCase) -> SteadyProblem:
+    """The :class:`SteadyProblem` of ``net`` (active nodes only) under ``case``."""
+    if (net.kind == "X").any():
+        raise Fem2TmmError(f"{net.source}: solve the active network (Network.active()) — inactive nodes present")
+    fixed = net.boundary
+    T_fixed = np.where(fixed, case.T_boundary, 0.0)
+    if fixed.any() and np.any(T_fixed[fixed] <= 0):
+        raise Fem2TmmError(f"{net.source}: case {case.name!r}: boundary temperatures must be above absolute zero")
+    n = net.n
+    GR = sp.csr_matrix(net.GR)
+    faced = None
+    node_gr = None
+    if GR.nnz > KRYLOV_GR_PER_NODE * max(n, 1):
+        faced = FacedRadiation(W=sp.identity(n, format="csr"), G=GR)
+    elif GR.nnz:
+        node_gr = GR
+    return SteadyProblem(K=net.K(), Q=np.asarray(case.Q, float), fixed=fixed, T_fixed=T_fixed,
+                         g_space=np.zeros(n), T_sink=3.0, GR=node_gr, faced=faced)
+
+
+def boundary_flows(net: Network, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Conductive and radiative heat (n,) W flowing into each boundary node from the other nodes at temperatures T."""
+    b = net.boundary
+    Hc = np.zeros(net.n)
+    Hr = np.zeros(net.n)
+    if b.any():
+        rows = np.flatnonzero(b)
+        GLb = net.GL[rows]
+        GRb = net.GR[rows]
+        Hc[rows] = GLb @ T - np.asarray(GLb.sum(axis=1)).ravel() * T[rows]
+        T4 = T**4
+        Hr[rows] = SIGMA * (GRb @ T4 - np.asarray(GRb.sum(axis=1)).ravel() * T4[rows])
+    return Hc, Hr
+
+
+def solve_network(net: Network, case: LoadCase | None = None, T0=None, tol: float = 1e-10) -> NetworkSolution:
+    """Steady solution of ``net`` under ``case`` (default: the deck's own QI and boundary temperatures).
+
+    ``T0`` start temperatures (K, scalar or (n,)); default: the deck's T where positive, else the boundary mean.
+    Raises :class:`Fem2TmmError` naming the nodes of a part with neither a boundary nor radiation.
+    """
+    case = net.default_case() if case is None else case
+    problem = steady_problem(net, case)
+    check_solvable(problem, describe=net.describe)
+    if T0 is None:
+        fb = problem.fixed
+        mean = float(np.mean(problem.T_fixed[fb])) if fb.any() else 293.15
+        T0 = np.where(net.T > 1.0, net.T, mean)
+    sol = solve_steady(problem, T0=T0, tol=tol)
+    Hc, Hr = boundary_flows(net, sol.T)
+    return NetworkSolution(T=sol.T, H_conductive=Hc, H_radiative=Hr, iterations=sol.iterations)
+
+
+__all__ = ["NetworkSolution", "boundary_flows", "solve_network", "steady_problem"]

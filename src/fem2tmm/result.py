@@ -1,0 +1,61 @@
+"""What a run produced: :class:`Result`, every stage's output in a named, typed field."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .case import Case
+from .cluster import Clustering
+from .fem.model import FEModel
+from .mesh import Mesh
+from .radiation import ExchangeResult
+from .radiation.solar import SolarResult
+from .reduce.network import ReducedModel
+from .solve.steady import SteadySolution
+
+
+@dataclass
+class Result:
+    """What a run produced.  ``summary`` is the dict written to ``summary.json``; fields of stages that did not
+    run are None."""
+
+    case: Case
+    mesh: Mesh
+    model: FEModel
+    summary: dict = field(default_factory=dict)
+    out: Path | None = None
+    # detailed reference model
+    detailed: SteadySolution | None = None
+    radiation_detailed: ExchangeResult | None = None  # REFs between FE face sides
+    solar_detailed: SolarResult | None = None  # solar rays traced on the FE face sides
+    # reduced model
+    clustering: Clustering | None = None
+    reduced: ReducedModel | None = None
+    reduced_solution: SteadySolution | None = None
+    T_recovered: np.ndarray | None = None  # (n_dof,) K
+    radiation: ExchangeResult | None = None  # REFs between super faces
+    super_faces_count: int | None = None  # number of super faces the REFs were traced between
+    solar_super_faces: SolarResult | None = None  # solar rays traced on the super faces
+    solar_on: str | None = None  # how the reduced model took its solar loads ("detailed" | "super_faces")
+    # absorbed solar flux maps: (n_faces,) W/m² per FE face and (n_elements,) W/m² per mesh element (NaN outside)
+    absorbed_solar_faces: np.ndarray | None = None
+    absorbed_solar_elements: np.ndarray | None = None
+    quadrics: list[dict] | None = None  # one fit report per quadric region (summary.json "quadrics")
+
+    @property
+    def T_detailed_nodes(self) -> np.ndarray | None:
+        """(n_nodes,) detailed temperatures in K (NaN outside the model), or None."""
+        return None if self.detailed is None else self.model.node_temperatures(self.detailed.T)
+
+    @property
+    def T_recovered_nodes(self) -> np.ndarray | None:
+        """(n_nodes,) temperatures recovered from the reduced model in K (NaN outside the model), or None."""
+        return None if self.T_recovered is None else self.model.node_temperatures(self.T_recovered)
+
+    @property
+    def T_nodes(self) -> np.ndarray:
+        """The result temperatures (K) of every mesh node: recovered when reduced, detailed otherwise."""
+        return self.T_recovered_nodes if self.T_recovered is not None else self.T_detailed_nodes

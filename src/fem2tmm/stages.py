@@ -1,0 +1,259 @@
+"""The stages of a run as plain functions ``(case, model, ...) -> plain data``, called in order by
+:mod:`fem2tmm.pipeline` (and only by it).
+
+Each function adapts a stage package (clustering, radiation, solar, quadrics, steady solve) to the case: it
+reads the case's settings and the FE model and returns arrays or the stage's own result type.  A new stage
+(transient, orbit fluxes, load cases) is one more function here and one more call in
+:func:`fem2tmm.pipeline._run`.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+from .case import Case
+from .cluster import Clustering, PartInput, cluster_parts
+from .errors import InternalError
+from .fem.model import FEModel
+from .radiation import ExchangeResult, Surface, trace_exchange
+from .radiation.quadric import QuadricScene, fit_regions
+from .radiation.solar import SolarResult, trace_solar
+from .reduce.network import ReducedModel, determined_elements, kept_dofs, super_faces
+from .solve.steady import FacedRadiation, SteadyProblem
+
+PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
+
+
+# --------------------------------------------------------------------------------------------- problems
+def detailed_problem(model: FEModel) -> SteadyProblem:
+    """The detailed steady problem (radiation: every active side sees only space)."""
+    return SteadyProblem(K=model.K, Q=model.Q, fixed=model.fixed_mask, T_fixed=model.fixed_values,
+                         g_space=model.space_coupling(), T_sink=model.T_sink)
+
+
+def reduced_problem(rm: ReducedModel) -> SteadyProblem:
+    """The steady problem of the reduced network ``rm``."""
+    return SteadyProblem(K=rm.K, Q=rm.Q, fixed=rm.fixed, T_fixed=rm.T_fixed, g_space=rm.g_space,
+                         T_sink=rm.T_sink, GR=rm.GR, names=tuple(rm.names))
+
+
+def describe_nodes(model: FEModel) -> Callable[[np.ndarray], str]:
+    """``describe(dofs) -> str``: the parts holding some DOFs, for the solvability check's messages."""
+
+    def describe(dofs: np.ndarray) -> str:
+        mask = np.isin(model.element_dofs, dofs).any(axis=1)
+        names = sorted({model.parts[p].name for p in np.unique(model.element_part[mask])})
+        return "parts " + ", ".join(repr(n) for n in names)
+
+    return describe
+
+
+# ------------------------------------------------------------------------------------------- clustering
+def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | None = None) -> Clustering:
+    """Cluster every part of ``model`` with its requested number of super nodes.
+
+    Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
+    clustered: every requested super node goes to elements with unknowns.  They get the label -1.
+    ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
+    """
+    determined = determined_elements(model, kept_dofs(model, case))
+    parts = []
+    for p, info in enumerate(model.parts):
+        rows = np.flatnonzero((model.element_part == p) & ~determined)
+        if not len(rows):
+            continue  # the whole part is held at fixed temperatures
+        parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
+                               cells=model.element_cells[rows], types=model.element_types[rows],
+                               n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
+                               ids=model.mesh.element_ids[model.elements[rows]],
+                               flux=None if flux is None else np.nan_to_num(flux[model.elements[rows]])))
+    cs = case.clustering
+    return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
+                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress)
+
+
+# -------------------------------------------------------------------------------------------- radiation
+def radiation_surface(model: FEModel) -> Surface:
+    """The model's radiating faces as a ray-tracing :class:`~fem2tmm.radiation.Surface` (sides 2i front, 2i+1 back)."""
+    f = model.faces
+    return Surface(points=model.mesh.points, faces=f.nodes, emissivity=f.emissivity, absorptivity=f.absorptivity,
+                   specular=f.specular, transmissivity=f.transmissivity,
+                   transmission_specular=f.transmission_specular, active=f.active)
+
+
+def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: float | None = None,
+                    exchange: bool = True) -> dict:
+    """Keyword arguments of :func:`~fem2tmm.radiation.trace_exchange` (``exchange``) or of
+    :func:`~fem2tmm.radiation.solar.trace_solar` (not ``exchange``: no budget, no target) from the case's
+    ``[radiation]`` section.
+
+    The exchange budget is ``rays_per_face`` per group or ``ray_density`` rays/m² when one is given, else the
+    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``)."""
+    rs = case.radiation
+    kw = {"sampling": rs.sampling, "seed": rs.seed, "max_bounces": rs.max_bounces}
+    if not exchange:
+        return kw
+    if rays_per_face is None and ray_density is None:
+        if rs.ray_density:
+            ray_density = float(rs.ray_density)
+        else:
+            rays_per_face = int(rs.rays_per_face or 1000)
+    return {**kw, "rays_per_group": rays_per_face, "ray_density": ray_density, "target_lse": rs.target_lse}
+
+
+def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = None, rays_per_face: int | None = None,
+                       ray_density: float | None = None, scene=None
+                       ) -> tuple[FacedRadiation, np.ndarray, ExchangeResult]:
+    """Face-to-face REFs of the detailed model: every active side is a REF node.
+
+    Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
+    ``g_space`` (n_dof,) m² to the sink, and the :class:`~fem2tmm.radiation.ExchangeResult`.
+    """
+    surface = radiation_surface(model) if surface is None else surface
+    f = model.faces
+    active = np.flatnonzero(f.active)
+    groups = np.full(2 * f.n, -1, np.int64)
+    groups[active] = np.arange(len(active))
+    res = trace_exchange(surface, groups, scene=scene, **tracer_settings(case, rays_per_face, ray_density))
+    Ws = f.W[active // 2]  # each side takes its face's nodal weights
+    g = len(active)
+    GR = sp.csr_matrix(res.GR)
+    faced = FacedRadiation(W=Ws.tocsr(), G=GR[:, :g].tocsr())
+    g_space = np.asarray(Ws.T @ np.asarray(GR[:, g].todense()).ravel()).ravel()
+    return faced, g_space, res
+
+
+def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                      sf: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, ExchangeResult, int]:
+    """REFs between super faces summed into GR between super nodes.
+
+    Returns ``(GR, g_space, result, n_super_faces)``: GR (n, n) m² (zero diagonal), g_space (n,) m².
+    ``sf``: the :func:`~fem2tmm.reduce.network.super_faces` of ``rm`` if already computed.
+    """
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    n_sf = len(owner)
+    res = trace_exchange(surface, groups, scene=scene, **tracer_settings(case))
+    S = sp.csr_matrix((np.ones(n_sf), (np.arange(n_sf), owner)), shape=(n_sf, rm.n))
+    GRsf = sp.csr_matrix(res.GR)
+    GR = np.asarray((S.T @ GRsf[:, :n_sf] @ S).todense())
+    np.fill_diagonal(GR, 0.0)
+    GR = 0.5 * (GR + GR.T)
+    g_space = np.asarray(S.T @ np.asarray(GRsf[:, n_sf].todense()).ravel()).ravel()
+    return GR, g_space, res, n_sf
+
+
+# ------------------------------------------------------------------------------------------------ solar
+def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, scene=None
+                   ) -> tuple[np.ndarray, SolarResult]:
+    """Solar power absorbed by every FE face side, traced on the detailed mesh.
+
+    Returns ``(q, result)``: nodal loads q (n_dof,) W (face power spread by the face's area shares) and the
+    :class:`~fem2tmm.radiation.solar.SolarResult`.
+    """
+    surface = radiation_surface(model) if surface is None else surface
+    env = case.environment
+    res = trace_solar(surface, env.sun_direction, env.solar_flux, rays_per_group=env.solar_rays_per_face,
+                      scene=scene, **tracer_settings(case, exchange=False))
+    q = np.asarray(model.faces.W.T @ res.absorbed_face).ravel()
+    return q, res
+
+
+def solar_prepass(model: FEModel, case: Case, surface: Surface | None = None, scene=None) -> np.ndarray:
+    """A cheap solar map for the clustering: absorbed flux (n_elements,) W/m² of every mesh element (NaN outside
+    the model), traced on the flat FE faces with :data:`PREPASS_RAYS_PER_FACE` rays per face on average (one
+    emitting group, origins uniform over the Sun's cross-section), shadowing and reflections included.  ``scene``:
+    a flat :class:`~fem2tmm.radiation.surfaces.TriangleScene` of ``surface`` to reuse."""
+    surface = radiation_surface(model) if surface is None else surface
+    env = case.environment
+    f = model.faces
+    res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=np.zeros(2 * f.n, np.int64),
+                      rays_per_group=PREPASS_RAYS_PER_FACE * f.n, scene=scene,
+                      **tracer_settings(case, exchange=False))
+    return face_flux_per_element(model, res.absorbed_face)
+
+
+def super_face_solar(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                     sf: tuple[np.ndarray, np.ndarray] | None = None
+                     ) -> tuple[np.ndarray, SolarResult, np.ndarray]:
+    """The thesis' super-face solar loads: origins sampled over each super face as a whole (equal ray
+    density to the detailed tracing), absorbed power summed per super node (uniform over it).
+
+    Returns ``(q_sn, result, groups)``: q_sn (n,) W per super node.  ``sf``: the
+    :func:`~fem2tmm.reduce.network.super_faces` of ``rm`` if already computed.
+    """
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    n_sf = len(owner)
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=n_sf)
+    env = case.environment
+    res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=groups,
+                      rays_per_group=np.maximum(faces_per_group * env.solar_rays_per_face, 1), scene=scene,
+                      **tracer_settings(case, exchange=False))
+    # the power absorbed by each side, wherever its origin was, belongs to the super face of that side
+    side_power = res.absorbed_side
+    q_sn = np.zeros(rm.n)
+    ok = groups >= 0
+    np.add.at(q_sn, owner[groups[ok]], side_power[ok])
+    lost = side_power[~ok].sum()  # power absorbed by inactive sides is impossible (they block): keep the books
+    if lost > 1e-12 * max(side_power.sum(), 1e-300):
+        raise InternalError("solar power absorbed by a side outside every super face")
+    return q_sn, res, groups
+
+
+def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:
+    """Absorbed flux (n_elements,) W/m² of every mesh element from per-face powers (W); NaN outside the model."""
+    f = model.faces
+    n = model.mesh.n_elements
+    p = np.bincount(f.element, weights=face_power, minlength=n)
+    a = np.bincount(f.element, weights=f.area, minlength=n)
+    return np.divide(p, a, out=np.full(n, np.nan), where=a > 0)
+
+
+def absorbed_solar_maps(model: FEModel, solar: SolarResult) -> tuple[np.ndarray, np.ndarray]:
+    """Absorbed solar flux maps of a solar trace: (n_faces,) W/m² per FE face and (n_elements,) W/m² per mesh
+    element (NaN outside the model)."""
+    return solar.absorbed_face / model.faces.area, face_flux_per_element(model, solar.absorbed_face)
+
+
+# --------------------------------------------------------------------------------------------- quadrics
+def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clustering | None = None):
+    """The ray scene with fitted quadrics for the parts tagged ``quadric = true`` (or the groups listed in
+    ``quadric = [...]``), or None.
+
+    One quadric is fitted per region of the tagged faces (regions: the clustering's, i.e. split at sharp edges
+    and junctions, restricted to the tagged groups; without a clustering, one per part).  A region that is not a quadric is refused with a
+    clear error (see :func:`fem2tmm.radiation.quadric.fit_quadric`).  Returns ``(scene, report)``.
+    """
+    if not any(p.quadric for p in case.parts):
+        return None, None
+    f = model.faces
+    mesh = model.mesh
+    tagged_el = np.zeros(mesh.n_elements, bool)
+    for p, info in zip(case.parts, model.parts):
+        if p.quadric is True:
+            tagged_el[info.elements] = True
+        elif p.quadric:
+            for g in p.quadric:
+                tagged_el[np.intersect1d(mesh.group(g).elements, info.elements)] = True
+    in_tagged = tagged_el[f.element]
+    if clustering is not None:
+        region = clustering.regions[f.element]
+        region_of_face = np.where(in_tagged & (region >= 0), region, -1)
+        # determined elements carry no cluster/region: give them their part's id beyond the region ids
+        rest = in_tagged & (region < 0)
+        region_of_face[rest] = int(clustering.regions.max(initial=-1)) + 1 + f.part[rest]
+    else:
+        region_of_face = np.where(in_tagged, f.part, -1)
+    names = {}
+    for r in np.unique(region_of_face[region_of_face >= 0]):
+        part = case.parts[int(f.part[np.flatnonzero(region_of_face == r)[0]])].name
+        names[int(r)] = f"part {part!r} region {int(r)}"
+    quadrics, qof = fit_regions(model.mesh.points, f.nodes, region_of_face, names=names)
+    report = [{"region": names[int(r)], "max_distance_m": float(q.max_distance), "rms_distance_m": float(q.rms_distance),
+               "size_m": float(q.size)} for r, q in zip(sorted(names), quadrics)]
+    return QuadricScene(surface, qof, quadrics), report
