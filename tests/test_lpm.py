@@ -328,3 +328,79 @@ def test_round_trip_of_fem2tmm_decks_gives_the_same_reduced_solution(fin_out):
     # the decks carry the exact reduction's negative GL (kept, not filtered)
     net = read_network(fin_out.out / "model.esatan")
     assert (net.GL.data < 0).sum() == 2 * fin_out.summary["reduced"]["negative_links"]
+
+
+# ------------------------------------------------------------------------------------------------------ CLI
+def ten_node_coordinates():
+    """Node positions (m) of nodes 1-8 whose distances are the printed D (the printed D is realisable in 3-D:
+    least squares from a fixed start reaches it to 1e-9 m)."""
+    from scipy.optimize import least_squares
+
+    i, j = np.nonzero(D_UPPER[:8, :8])
+
+    def f(x):
+        X = x.reshape(8, 3)
+        return np.linalg.norm(X[i] - X[j], axis=1) - D_UPPER[i, j]
+
+    sol = least_squares(f, np.random.default_rng(0).uniform(0.0, 0.1, 24), xtol=1e-15, ftol=1e-15)
+    assert np.abs(sol.fun).max() < 1e-6
+    return sol.x.reshape(8, 3) + 0.1  # away from the origin (ESATAN's "no position")
+
+
+@pytest.fixture(scope="module")
+def ten_deck(tmp_path_factory):
+    from fem2tmm.export.esatan import write_esatan
+    from fem2tmm.lpm.driver import to_deck
+
+    d = tmp_path_factory.mktemp("ten")
+    net = ten_node_network()
+    write_esatan(d / "ten.esatan", to_deck(net, net.T), title="ten")
+    X = ten_node_coordinates()
+    (d / "nodes.csv").write_text("node,x,y,z\n" + "".join(f"{k + 1},{x},{y},{z}\n" for k, (x, y, z) in enumerate(X)))
+    return d
+
+
+def test_cli_network_reduce_writes_decks_summary_and_report(ten_deck, tmp_path):
+    import json
+
+    from fem2tmm.cli import main
+
+    out = tmp_path / "out"
+    case = tmp_path / "net.toml"
+    case.write_text('[criteria]\ndelta_max = 3.0\n[[load_cases]]\nname = "nominal"\n'
+                    '[[load_cases]]\nname = "hot"\npower = { 5 = 12.0 }\nboundary = { 9 = 40.0 }\n')
+    rc = main(["network", "reduce", str(ten_deck / "ten.esatan"), "--case", str(case), "--coordinates",
+               str(ten_deck / "nodes.csv"), "--pf", "0.2", "--dtmax", "10", "--out", str(out), "--quiet"])
+    assert rc == 0
+    s = json.loads((out / "summary.json").read_text())
+    # the writer adds an uncoupled SPACE node (11): it stays a boundary node of its own
+    assert s["groups"] == [[1, 2], [3, 4, 6, 7, 8], [5], [9], [10], [11]]
+    assert s["ratio"] == pytest.approx(0.625) and set(s["criteria"]["cases"]) == {"nominal", "hot"}
+    red_T = s["reduced"]["temperatures_C"]
+    assert set(red_T) == {"1", "3", "5", "9", "10", "11"}
+    assert abs(red_T["5"] - TRED_PRINTED[2]) < TOL_T
+    assert abs(s["reduced"]["heat_flows_W"]["9"]["conductive"] - HRED_PRINTED["cb"]) < TOL_H
+    assert abs(s["cases"]["hot"]["reduced"]["temperatures_C"]["9"] - 40.0) < 1e-9
+    # the hot case: 12 W instead of 10 W leave through the boundaries
+    hot = s["cases"]["hot"]["detailed"]["heat_flows_W"]
+    assert abs(sum(v["total"] for v in hot.values()) - 12.0) < 1e-9
+    assert (out / "sweep.png").is_file() and "sweep.png" in (out / "report.html").read_text()
+    # the reduced decks read back and solve to the reduced temperatures of the first case
+    for name in ("model.esatan", "model.sinda"):
+        net = read_network(out / name)
+        sol = solve_network(net.active())
+        got = dict(zip(net.numbers.tolist(), sol.T - KELVIN))
+        assert all(abs(got[int(k)] - v) < 1e-6 for k, v in red_T.items()), name
+    # the output folder is never overwritten
+    assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 2
+
+
+def test_cli_bad_deck_exits_2_naming_file_and_line(tmp_path, capsys):
+    from fem2tmm.cli import main
+
+    p = tmp_path / "bad.esatan"
+    p.write_text(ESATAN_DECK.replace("GL(1, 4) = 7.0;", "GL(1, 4) = 7.0 +;"))
+    assert main(["network", "reduce", str(p), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"{p}:14:" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()

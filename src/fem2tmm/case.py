@@ -18,7 +18,7 @@ from typing import Any, Mapping
 
 from .constants import ABSOLUTE_ZERO_C, KELVIN
 from .errors import Fem2TmmError
-from .io.units import LENGTH_UNITS
+from .io.units import LENGTH_UNITS, TEMPERATURE_UNITS, UNIT_SYSTEMS, unit_system_name
 
 
 @dataclass(frozen=True)
@@ -59,6 +59,33 @@ class Part:
     back: str
     super_nodes: int
     quadric: bool | tuple[str, ...] = False  # True: the whole part; a tuple: only these groups of the part
+    index: int = 0
+    area: float | None = None  # m², line parts (bars); overrides the mesh's PBAR/PROD/... area
+
+
+JOINT_TREATMENTS = ("conductance", "isothermal", "ignore")
+JOINT_CARDS = ("RBE2", "RBE3", "CBUSH", "CELAS1", "CELAS2", "CGAP")
+
+
+@dataclass(frozen=True)
+class Joint:
+    """How thermal joints (Nastran RBE2, RBE3, CBUSH, CELAS1/2, CGAP) conduct.
+
+    The joints selected by ``cards`` (card types), ``pids`` (property ids) or ``elements`` (element ids) are
+    ``conductance`` links (``conductance`` W/K per connection, or ``contact_conductance`` W/(m² K) over
+    ``area`` m² per joint element, shared equally by its connections), ``isothermal`` (their nodes merged) or
+    ``ignore`` (explicitly dropped).  When several entries select a joint, element ids win over PIDs, PIDs
+    over card types.
+    """
+
+    treatment: str
+    cards: tuple[str, ...] = ()
+    pids: tuple[int, ...] = ()
+    elements: tuple[int, ...] = ()
+    conductance: float | None = None  # W/K per connection
+    contact_conductance: float | None = None  # W/(m² K)
+    area: float | None = None  # m² per joint element
+    name: str = ""
     index: int = 0
 
 
@@ -141,6 +168,18 @@ class ComputeSettings:
 class MeshSpec:
     file: Path | None
     unit: str = "m"
+    unit_system: str | None = None  # Nastran material/load values (fem2tmm.io.units.UNIT_SYSTEMS)
+    temperature_unit: str | None = None  # K | C | F | R: the deck's temperature scale
+    nastran_loads: bool | tuple[str, ...] = False  # read the deck's SPC/TEMP/QBDY/QVOL/RADBC (all or these cards)
+    ignore_cards: tuple[str, ...] = ()  # unmodelled structural Nastran cards dropped explicitly
+    load_set: int | None = None  # Nastran load set id (when the deck has several)
+    spc_set: int | None = None  # Nastran SPC set id
+
+    def reader_options(self) -> dict:
+        """Keyword arguments of :func:`fem2tmm.io.read_mesh` beyond the file and unit."""
+        return {"unit_system": self.unit_system, "temperature_unit": self.temperature_unit,
+                "loads": self.nastran_loads, "ignore_cards": self.ignore_cards, "load_set": self.load_set,
+                "spc_set": self.spc_set}
 
 
 @dataclass(frozen=True)
@@ -153,6 +192,7 @@ class Case:
     optics: Mapping[str, Optics]
     parts: tuple[Part, ...]
     boundaries: tuple[Boundary, ...] = ()
+    joints: tuple[Joint, ...] = ()
     environment: Environment = field(default_factory=Environment)
     radiation: RadiationSettings = field(default_factory=RadiationSettings)
     reduction: ReductionSettings = field(default_factory=ReductionSettings)
@@ -278,8 +318,8 @@ class _Parser:
     # -------------------------------------------------------------------------------------- sections
     def case(self, data: Mapping[str, Any]) -> Case:
         top = self.table(data, "case", {"mesh", "materials", "optics", "parts", "boundary", "environment",
-                                        "radiation", "reduction", "clustering", "reference", "solver", "compute",
-                                        "cases", "sweep"},
+                                        "radiation", "reduction", "clustering", "reference", "solver", "joints",
+                                        "compute", "cases", "sweep"},
                          {"parts"})
         from .loadcases import expand, has_cases
 
@@ -306,6 +346,10 @@ class _Parser:
         if not isinstance(b_raw, list):
             raise self.err("[[boundary]]", "expected an array of tables ([[boundary]] entries)")
         boundaries = tuple(self.boundary(i, b) for i, b in enumerate(b_raw))
+        j_raw = top.get("joints", [])
+        if not isinstance(j_raw, list):
+            raise self.err("[[joints]]", "expected an array of tables ([[joints]] entries)")
+        joints = tuple(self.joint(i, j) for i, j in enumerate(j_raw))
         return Case(
             source=self.src,
             mesh=mesh,
@@ -313,6 +357,7 @@ class _Parser:
             optics=optics,
             parts=parts,
             boundaries=boundaries,
+            joints=joints,
             environment=self.environment(top.get("environment", {})),
             radiation=self.radiation(top.get("radiation", {})),
             reduction=self.reduction(top.get("reduction", {})),
@@ -325,12 +370,64 @@ class _Parser:
         )
 
     def mesh(self, d) -> MeshSpec:
-        d = self.table(d, "[mesh]", {"file", "unit"})
-        f = self.string(d, "file", "[mesh]")
-        unit = self.string(d, "unit", "[mesh]", default="m")
+        w = "[mesh]"
+        d = self.table(d, w, {"file", "unit", "unit_system", "temperature_unit", "nastran_loads", "ignore_cards",
+                              "load_set", "spc_set"})
+        f = self.string(d, "file", w)
+        unit = self.string(d, "unit", w, default="m")
         if unit.lower() not in LENGTH_UNITS:
             raise self.err("[mesh].unit", f"unknown length unit {unit!r}; expected one of {', '.join(LENGTH_UNITS)}")
-        return MeshSpec(file=(self.base / f) if f is not None else None, unit=unit.lower())
+        system = self.string(d, "unit_system", w)
+        if system is not None:
+            system = unit_system_name(system, where=f"{self.src}: [mesh].unit_system")
+            sys_len = UNIT_SYSTEMS[system][0]
+            if "unit" in d and abs(LENGTH_UNITS[unit.lower()] - sys_len) > 1e-12 * sys_len:
+                raise self.err(w, f"unit = {unit!r} contradicts unit_system = {system!r}; give one of them")
+            unit = next(u for u, v in LENGTH_UNITS.items() if abs(v - sys_len) <= 1e-12 * sys_len)
+        tu = self.string(d, "temperature_unit", w, choices=tuple(TEMPERATURE_UNITS))
+        loads = d.get("nastran_loads", False)
+        if not isinstance(loads, bool):
+            loads = self.strings(d, "nastran_loads", w)
+            from .io.nastran import _LOAD_CARDS
+
+            bad = [c for c in loads if c.upper() not in _LOAD_CARDS]
+            if bad:
+                raise self.err(f"{w}.nastran_loads", f"unknown load card(s) {bad}; expected true/false or a list "
+                               f"of {', '.join(_LOAD_CARDS)}")
+            loads = tuple(c.upper() for c in loads)
+        return MeshSpec(file=(self.base / f) if f is not None else None, unit=unit.lower(), unit_system=system,
+                        temperature_unit=tu, nastran_loads=loads,
+                        ignore_cards=tuple(c.upper() for c in self.strings(d, "ignore_cards", w)),
+                        load_set=self.number(d, "load_set", w, integer=True, lo=1),
+                        spc_set=self.number(d, "spc_set", w, integer=True, lo=1))
+
+    def joint(self, i, d) -> Joint:
+        w = f"[[joints]][{i}]"
+        d = self.table(d, w, {"name", "cards", "pids", "elements", "treatment", "conductance",
+                              "contact_conductance", "area"}, {"treatment"})
+        treat = self.string(d, "treatment", w, choices=JOINT_TREATMENTS)
+        cards = tuple(c.upper() for c in self.strings(d, "cards", w))
+        bad = [c for c in cards if c not in JOINT_CARDS]
+        if bad:
+            raise self.err(f"{w}.cards", f"{bad} are not joint cards; joint cards: {', '.join(JOINT_CARDS)}")
+        pids, elements = self.ints(d, "pids", w), self.ints(d, "elements", w)
+        if not (cards or pids or elements):
+            raise self.err(w, "select joints with 'cards', 'pids' and/or 'elements'")
+        g = self.number(d, "conductance", w, lo=0, lo_open=True)
+        h = self.number(d, "contact_conductance", w, lo=0, lo_open=True)
+        area = self.number(d, "area", w, lo=0, lo_open=True)
+        if treat == "conductance":
+            if (g is None) == (h is None):
+                raise self.err(w, "a conductance joint needs either 'conductance' (W/K per connection) or "
+                                  "'contact_conductance' (W/(m² K)) with 'area' (m²)")
+            if h is not None and area is None:
+                raise self.err(w, "'contact_conductance' needs 'area' (m² of contact per joint element)")
+        elif g is not None or h is not None or area is not None:
+            raise self.err(w, f"conductance/contact_conductance/area only apply to treatment = 'conductance', "
+                              f"not {treat!r}")
+        return Joint(treatment=treat, cards=cards, pids=pids, elements=elements, conductance=g,
+                     contact_conductance=h, area=area, name=self.string(d, "name", w, default=f"joints_{i}"),
+                     index=i)
 
     def material(self, name, d) -> Material:
         w = f"[materials.{name}]"
@@ -364,8 +461,8 @@ class _Parser:
 
     def part(self, i, d, materials, optics) -> Part:
         w = f"[[parts]][{i}]"
-        d = self.table(d, w, {"name", "groups", "material", "thickness", "front", "back", "super_nodes", "quadric"},
-                       {"name", "groups"})
+        d = self.table(d, w, {"name", "groups", "material", "thickness", "front", "back", "super_nodes", "quadric",
+                              "area"}, {"name", "groups"})
         name = self.string(d, "name", w)
         w = f"[[parts]][{i}] ({name!r})"
         groups = self.strings(d, "groups", w)
@@ -390,6 +487,7 @@ class _Parser:
             super_nodes=self.number(d, "super_nodes", w, default=1, lo=1, integer=True),
             quadric=self.quadric(d, w, groups),
             index=i,
+            area=self.number(d, "area", w, lo=0, lo_open=True),
         )
 
     def quadric(self, d, w, groups) -> bool | tuple[str, ...]:

@@ -1,4 +1,4 @@
-"""Command line: ``fem2tmm run | demo | bench | --version``.
+"""Command line: ``fem2tmm run | demo | bench | network reduce | --version``.
 
 Exit status: 0 success, 2 user error (:class:`~fem2tmm.errors.Fem2TmmError`: one message, no traceback),
 1 internal error (:class:`~fem2tmm.errors.InternalError`: a bug, to be reported).
@@ -31,7 +31,37 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--quiet", action="store_true")
     b = sub.add_parser("bench", help="benchmarks; one JSON object per line")
     b.add_argument("names", nargs="*", help="benchmarks to run (default: all); 'list' lists them")
+    _network_parser(sub)
     return p
+
+
+def _network_parser(sub) -> None:
+    """``fem2tmm network reduce DECK [--case net.toml] [--pf P] [--dtmax K] [--coordinates nodes.csv] --out DIR``."""
+    n = sub.add_parser("network", help="reduce an existing thermal network (ESATAN / SINDA deck, reduced.npz)")
+    nsub = n.add_subparsers(dest="network_command")
+    r = nsub.add_parser("reduce", help="automatic grouping (or TMRT sets) of a network deck")
+    r.add_argument("deck", help="ESATAN input deck, SINDA/FLUINT deck or fem2tmm reduced.npz")
+    r.add_argument("--case", default=None, help="network case file (TOML): grouping, criteria, load cases, tmrt")
+    r.add_argument("--pf", type=float, default=None, help="conductance filter p_f (default: the sweep's best)")
+    r.add_argument("--dtmax", type=float, default=None, help="temperature filter in K (default: the sweep's best)")
+    r.add_argument("--coordinates", default=None, help="nodes.csv with columns node,x,y,z in m")
+    r.add_argument("--out", required=True, help="output folder (new or empty)")
+    r.add_argument("--quiet", action="store_true", help="no summary line")
+
+
+def _network(args) -> int:
+    """``fem2tmm network reduce``: see :mod:`fem2tmm.lpm.driver`."""
+    if args.network_command != "reduce":
+        raise Fem2TmmError("usage: fem2tmm network reduce DECK [--case net.toml] [--pf P] [--dtmax K] "
+                           "[--coordinates nodes.csv] --out DIR")
+    from .lpm.driver import network_reduce
+
+    res = network_reduce(args.deck, case=args.case, pf=args.pf, dtmax=args.dtmax, coordinates=args.coordinates,
+                         out=args.out)
+    if not args.quiet:
+        print(f"{res.detailed.n} -> {res.reduced.n} nodes (r_r = {res.ratio:.3f}), criteria "
+              f"{'met' if res.passed else 'NOT met'}; outputs in {args.out}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -50,6 +80,8 @@ def main(argv: list[str] | None = None) -> int:
                 from .demo import run_demo
 
                 return run_demo(out=args.out, quiet=args.quiet)
+            if args.command == "network":
+                return _network(args)
             if args.command == "bench":
                 from .bench import main as bench_main
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from .errors import Fem2TmmError, format_ids
 from .fem import geometry
-from .fem.elements import DIM, ELEMENT_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
+from .fem.elements import DIM, ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 
 
 @dataclass(frozen=True)
@@ -58,6 +58,50 @@ class PropertyData:
     density: float | None = None  # kg/m³
     specific_heat: float | None = None  # J/(kg K)
     material_id: int | None = None
+    #: MAT5 anisotropic conductivity (kxx, kxy, kxz, kyy, kyz, kzz) W/(m K) in the basic system, or None
+    conductivity_tensor: tuple[float, ...] | None = None
+    area: float | None = None  # m², cross-section of line elements (PBAR, PROD, ...)
+    card: str | None = None  # the property card (PSHELL, PCOMP, PBARL, ...): where thickness/area come from
+
+
+@dataclass(frozen=True)
+class JointBlock:
+    """Thermal joints of one card type (RBE2, RBE3, CBUSH, CELAS1, CELAS2, CGAP).
+
+    ``ids`` (j,) element ids, ``pids`` (j,) property ids (0: the card has none), ``pairs`` (p, 2) mesh node
+    indices of each connection (independent / first node, dependent / second node), ``owner`` (p,) row
+    of ``ids`` that each connection belongs to.
+    """
+
+    card: str
+    ids: np.ndarray
+    pids: np.ndarray
+    pairs: np.ndarray
+    owner: np.ndarray
+
+
+@dataclass(frozen=True)
+class DeckLoads:
+    """Thermal boundary conditions a Nastran deck carries (``[mesh] nastran_loads``), in SI units / K.
+
+    ``fixed_nodes`` (f,) node indices with ``fixed_values`` (f,) K (SPC, SPC1 + TEMP/TEMPD);
+    ``flux_faces`` (q, 4) node indices padded with -1 and ``flux_values`` (q,) W/m² (QBDY1/2/3, QHBDY areas);
+    ``nodal_power`` (n_nodes,) W (QHBDY POINT); ``volume_elements`` (v,) global element indices with
+    ``volume_values`` (v,) W/m³ (QVOL); ``rad_faces`` (r, 4) with ``rad_emissivity`` (r,) (x RADBC FAMB) and
+    ``rad_ambient`` (r,) K (CHBDYx + RADBC + RADM).  ``counts`` card -> number of cards used.
+    """
+
+    fixed_nodes: np.ndarray
+    fixed_values: np.ndarray
+    flux_faces: np.ndarray
+    flux_values: np.ndarray
+    nodal_power: np.ndarray
+    volume_elements: np.ndarray
+    volume_values: np.ndarray
+    rad_faces: np.ndarray
+    rad_emissivity: np.ndarray
+    rad_ambient: np.ndarray
+    counts: Mapping[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +116,13 @@ class Mesh:
     node_ids : (n,) int64 original node (GRID) ids
     source : the file it was read from (for error messages)
     properties : group name -> :class:`PropertyData` (Nastran decks)
+    section_area : (m,) m² cross-section of each line element (NaN: not given), or None
+    midside : (k, 3) int64 rows (node, a, b): mid-side nodes of quadratic elements, which the model does not
+        solve for; their temperature is the mean of the edge ends a, b (outputs), or None
+    joints : thermal joint cards (:class:`JointBlock`)
+    cards : what the reader did with the deck's cards: ``{"ignored": {card: count}, "refused": {...},
+        "modelled": {...}}``
+    loads : the deck's own thermal boundary conditions (:class:`DeckLoads`), or None
     """
 
     points: np.ndarray
@@ -80,6 +131,11 @@ class Mesh:
     node_ids: np.ndarray | None = None
     source: str = "<memory>"
     properties: Mapping[str, PropertyData] = field(default_factory=dict)
+    section_area: np.ndarray | None = None
+    midside: np.ndarray | None = None
+    joints: tuple[JointBlock, ...] = ()
+    cards: Mapping[str, Mapping[str, int]] = field(default_factory=dict)
+    loads: DeckLoads | None = None
 
     def __post_init__(self):
         pts = np.asarray(self.points, dtype=np.float64)
@@ -123,7 +179,7 @@ class Mesh:
 
     @cached_property
     def element_dims(self) -> np.ndarray:
-        """(m,) int8 dimension of each element (2 shells, 3 solids)."""
+        """(m,) int8 dimension of each element (1 lines, 2 shells, 3 solids)."""
         return np.concatenate(
             [np.full(len(b.cells), DIM[b.type], np.int8) for b in self.blocks] or [np.zeros(0, np.int8)]
         )
@@ -165,6 +221,12 @@ class Mesh:
             else:
                 out[pos[0][np.searchsorted(pos[1], gidx)]] = val
         return out
+
+    def element_lengths(self, elements: np.ndarray | None = None) -> np.ndarray:
+        """Length (m,) in m of line elements; NaN for shells and solids."""
+        return self._per_element(
+            lambda t, c: np.linalg.norm(self.points[c[:, 1]] - self.points[c[:, 0]], axis=1) if t in LINE_TYPES
+            else None, elements=elements)
 
     def element_areas(self, elements: np.ndarray | None = None) -> np.ndarray:
         """Area (m,) in m² of shell elements; NaN for solids."""

@@ -35,7 +35,7 @@ def load_mesh(case: Case) -> Mesh:
 
     if case.mesh.file is None:
         raise Fem2TmmError(f"{case.source}: [mesh] file is missing")
-    return read_mesh(case.mesh.file, unit=case.mesh.unit)
+    return read_mesh(case.mesh.file, unit=case.mesh.unit, **case.mesh.reader_options())
 
 
 def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, quiet: bool = True,

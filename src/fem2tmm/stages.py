@@ -69,7 +69,8 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
                                ids=model.mesh.element_ids[model.elements[rows]],
-                               flux=None if flux is None else np.nan_to_num(flux[model.elements[rows]])))
+                               flux=None if (flux is None or info.kind == "line")
+                               else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
     return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
                          seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress)

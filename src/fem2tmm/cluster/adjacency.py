@@ -76,7 +76,15 @@ def _sides(points: np.ndarray, cells: np.ndarray, types: np.ndarray, kind: str):
         if len(sel) == 0:
             continue
         c = cells[sel]
-        if kind == "shell":
+        if kind == "line":  # bars meet at nodes: the "side" is an end node, of unit measure
+            for i in range(2):
+                nodes = np.full((len(sel), 4), -1, np.int64)
+                nodes[:, 3] = c[:, i]
+                out_nodes.append(nodes)
+                out_elem.append(sel)
+                out_meas.append(np.ones(len(sel)))
+                out_fwd.append(np.ones(len(sel), bool))
+        elif kind == "shell":
             for i, j in SHELL_EDGES[t]:
                 p, q = c[:, i], c[:, j]
                 nodes = np.full((len(sel), 4), -1, np.int64)
@@ -111,7 +119,8 @@ def dual_graph(points: np.ndarray, cells: np.ndarray, types: np.ndarray, kind: s
     """Build the :class:`DualGraph` of one part.
 
     ``points`` (n, 3) m; ``cells`` (m, 8) int64 node indices padded with -1; ``types`` (m,) int8 type
-    codes; ``kind`` "shell" (link through edges) or "solid" (link through faces).
+    codes; ``kind`` "shell" (link through edges), "solid" (link through faces) or "line" (bars linked
+    through an end node shared by exactly two of them; a node shared by more is a junction).
     """
     m = len(cells)
     nodes, elem, meas, fwd = _sides(points, cells, types, kind)

@@ -152,7 +152,7 @@ def allocate(n_clusters: int, kind: str, measure: np.ndarray, boundary: np.ndarr
     measure = np.asarray(measure, float)
     n_elements = np.asarray(n_elements, np.int64)
     r = len(measure)
-    unit = "m²" if kind == "shell" else "m³"
+    unit = {"shell": "m²", "solid": "m³", "line": "m"}[kind]
     where = f"part {part!r}: " if part else ""
     if n_clusters > n_elements.sum():
         raise Fem2TmmError(
@@ -163,16 +163,17 @@ def allocate(n_clusters: int, kind: str, measure: np.ndarray, boundary: np.ndarr
         order = np.argsort(-measure, kind="stable")
         listed = "; ".join(f"region {i}: {n_elements[i]} elements, {measure[i]:.4g} {unit}" for i in order[:10])
         more = f"; … ({r} in all)" if r > 10 else ""
-        cause = ("sharp edges, junctions, changes of material/thickness/optics and disconnected pieces"
-                 if kind == "shell" else "changes of material and disconnected pieces")
+        cause = {"shell": "sharp edges, junctions, changes of material/thickness/optics and disconnected pieces",
+                 "solid": "changes of material and disconnected pieces",
+                 "line": "junctions of more than two bars, changes of section/material and disconnected bars"}[kind]
         raise Fem2TmmError(
             f"{where}{n_clusters} super nodes requested but the part splits into {r} regions ({cause}); "
             f"each region needs at least one super node, so ask for at least {r}. Regions: {listed}{more}"
         )
-    width = equivalent_width(kind, measure, boundary) if shape else np.full(r, np.inf)
+    width = equivalent_width(kind, measure, boundary) if shape and kind != "line" else np.full(r, np.inf)
     w = measure if weight is None else np.asarray(weight, float)
     density = (w / measure) / (w.sum() / measure.sum())
-    dim = 2 if kind == "shell" else 3
+    dim = {"shell": 2, "solid": 3, "line": 1}[kind]
     out = np.zeros(r, np.int64)
     free = np.ones(r, bool)
     budget = int(n_clusters)

@@ -18,7 +18,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
 from ..fem import geometry
-from ..fem.elements import ELEMENT_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
+from ..fem.elements import ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 from .adjacency import DualGraph, dual_graph, induced_csr, to_csr
 from .allocate import allocate
 from .growing import grow
@@ -26,7 +26,9 @@ from .regions import regions as split_regions
 from .seeding import seed_elements, weighted_kmeans
 from .smoothing import smooth
 
-_KIND_TYPES = {"shell": SHELL_TYPES, "solid": SOLID_TYPES}
+_KIND_TYPES = {"shell": SHELL_TYPES, "solid": SOLID_TYPES, "line": LINE_TYPES}
+_MEASURE_UNIT = {"shell": "m2", "solid": "m3", "line": "m"}
+_BOUNDARY_UNIT = {"shell": "m", "solid": "m2", "line": "ends"}
 _STEPS = ("geometry", "regions", "allocation", "seeding", "growing", "smoothing")
 
 
@@ -37,7 +39,8 @@ class PartInput:
     Attributes
     ----------
     name : part name (error messages, report)
-    kind : "shell" or "solid"
+    kind : "shell", "solid" or "line" (bars: regions are the chains between junctions, clusters grow
+        along the bars, no boundary smoothing)
     elements : (m,) int64 global element indices of the part
     cells : (m, 8) int64 node indices padded with -1 (rows of ``Mesh.padded_cells``)
     types : (m,) int8 type codes (:data:`fem2tmm.fem.elements.TYPE_CODE`); shells tri3/quad4, solids
@@ -108,7 +111,7 @@ def _check_part(points: np.ndarray, part: PartInput, n_elements: int | None) -> 
     """Shape, kind, type and range checks of one part; raises Fem2TmmError."""
     where = f"part {part.name!r}"
     if part.kind not in _KIND_TYPES:
-        raise Fem2TmmError(f"{where}: kind must be 'shell' or 'solid', got {part.kind!r}")
+        raise Fem2TmmError(f"{where}: kind must be 'shell', 'solid' or 'line', got {part.kind!r}")
     m = len(part.elements)
     if m == 0:
         raise Fem2TmmError(f"{where} has no elements; check its groups")
@@ -162,6 +165,8 @@ def _geometry(points: np.ndarray, part: PartInput):
         if part.kind == "shell":
             measure[sel] = geometry.shell_areas(points, c, t)
             normals[sel] = geometry.shell_normals(points, c, t)
+        elif part.kind == "line":
+            measure[sel] = np.linalg.norm(X[:, 1] - X[:, 0], axis=1)
         else:
             measure[sel] = np.abs(geometry.solid_volumes(points, c, t))
     if not np.isfinite(centroids).all() or not np.isfinite(measure).all():
@@ -169,11 +174,11 @@ def _geometry(points: np.ndarray, part: PartInput):
         raise Fem2TmmError(f"part {part.name!r}: non-finite coordinates in {_ids(part, np.flatnonzero(bad))}")
     s = np.sort(np.where(part.cells >= 0, part.cells, -1 - np.arange(8)[None, :]), axis=1)
     repeated = (s[:, 1:] == s[:, :-1]).any(axis=1)
-    dim = 2 if part.kind == "shell" else 3
+    dim = {"shell": 2, "solid": 3, "line": 1}[part.kind]
     tiny = measure <= 1e-10 * diag**dim
     bad = repeated | tiny
     if bad.any():
-        what = "zero area" if part.kind == "shell" else "zero volume"
+        what = {"shell": "zero area", "solid": "zero volume", "line": "zero length"}[part.kind]
         raise Fem2TmmError(
             f"part {part.name!r}: degenerate elements (repeated nodes or {what}): "
             f"{_ids(part, np.flatnonzero(bad))}; fix or remove them"
@@ -227,7 +232,7 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
             raise Fem2TmmError(f"part {part.name!r}: weights must be {m} finite positive numbers, one per element")
     t1 = time.perf_counter()
     graph = dual_graph(points, part.cells, part.types, part.kind)
-    if m > 1 and not graph.shared.all():
+    if m > 1 and part.kind != "line" and not graph.shared.all():
         side = "edge" if part.kind == "shell" else "face"
         raise Fem2TmmError(
             f"part {part.name!r}: isolated elements (sharing no {side} with any other element of the part): "
@@ -296,14 +301,14 @@ def _part_report(prep: _Prepared, labels: np.ndarray, k_offset: int, smoothing: 
         "regions": int(len(prep.alloc)),
         "junctions": int(g.n_junctions),
         "measure": float(prep.measure.sum()),
-        "measure_unit": "m2" if part.kind == "shell" else "m3",
+        "measure_unit": _MEASURE_UNIT[part.kind],
         "cluster_measure_cv": float(cm.std() / cm.mean()) if k > 1 else 0.0,
         "cluster_measure_min": float(cm.min()),
         "cluster_measure_max": float(cm.max()),
         "contiguous": bool(n_comp == k and (np.bincount(local, minlength=k) > 0).all()),
         "boundary_before": before,
         "boundary_after": after,
-        "boundary_unit": "m" if part.kind == "shell" else "m2",
+        "boundary_unit": _BOUNDARY_UNIT[part.kind],
         "smoothing": sm,
         "time_s": {s: round(v, 6) for s, v in prep.times.items()},
     }
@@ -366,7 +371,8 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
             el = order[bounds[r]:bounds[r + 1]]
             ptr, ind, lengths = induced_csr(G.indptr, G.indices, G.data, el, scratch)
             lab, stats = _cluster_region(ptr, ind, lengths, pr.centroids[el], pr.weights[el], k,
-                                         (int(seed), r), int(smoothing_layers), pr.times)
+                                         (int(seed), r), 0 if part.kind == "line" else int(smoothing_layers),
+                                         pr.times)
             local[el] = lab + k_reg
             if stats is not None:
                 smoothing.append(stats)

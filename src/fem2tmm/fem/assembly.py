@@ -86,15 +86,53 @@ def block_geometry(points: np.ndarray, cells: np.ndarray, etype: str, need_gradi
     return BlockGeometry(etype, np.abs(det), Jinv=Jinv, det=det)
 
 
+def tensor33(tensor: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) symmetric conductivity tensors from (m, 6) rows (kxx, kxy, kxz, kyy, kyz, kzz)."""
+    t = np.asarray(tensor, float)
+    return t[:, [[0, 1, 2], [1, 3, 4], [2, 4, 5]]]
+
+
+def line_matrices(points: np.ndarray, cells: np.ndarray, k: np.ndarray, area: np.ndarray,
+                  tensor: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Conduction matrices (m, 2, 2) W/K and lengths (m,) m of 2-node line elements (bars, rods).
+
+    ``k A / L [[1, -1], [-1, 1]]``: conduction along the axis only; ``k`` (m,) W/(m K), ``area`` (m,) m²;
+    with ``tensor`` (m, 6) (rows not NaN) the axial conductivity is ``eᵀ K e`` (e the unit axis).
+    """
+    d = points[cells[:, 1]] - points[cells[:, 0]]
+    L = np.linalg.norm(d, axis=1)
+    k = np.asarray(k, float).copy()
+    if tensor is not None:
+        aniso = ~np.isnan(tensor).any(axis=1)
+        if aniso.any():
+            e = d[aniso] / L[aniso, None]
+            k[aniso] = np.einsum("mi,mij,mj->m", e, tensor33(tensor[aniso]), e)
+    g = k * np.asarray(area, float) / L
+    Ke = np.empty((len(cells), 2, 2))
+    Ke[:, 0, 0] = Ke[:, 1, 1] = g
+    Ke[:, 0, 1] = Ke[:, 1, 0] = -g
+    return Ke, L
+
+
 def conduction_matrices(points: np.ndarray, cells: np.ndarray, etype: str, k: np.ndarray,
-                        thickness: np.ndarray | None = None, geom: BlockGeometry | None = None) -> np.ndarray:
+                        thickness: np.ndarray | None = None, geom: BlockGeometry | None = None,
+                        tensor: np.ndarray | None = None) -> np.ndarray:
     """Element conduction matrices (m, nk, nk) in W/K.
 
     Shells: ``t k ∫ ∇ₛNᵢ·∇ₛNⱼ dA`` with the surface gradient of the (possibly warped) element;
-    solids: ``k ∫ ∇Nᵢ·∇Nⱼ dV``.  ``k`` (m,) W/(m K); ``thickness`` (m,) m for shells.
+    solids: ``k ∫ ∇Nᵢ·∇Nⱼ dV``.  ``k`` (m,) W/(m K); ``thickness`` (m,) m for shells.  ``tensor`` (m, 6)
+    anisotropic conductivities (kxx, kxy, kxz, kyy, kyz, kzz) W/(m K) in the basic system: rows that are
+    not NaN replace ``k`` by ``∫ ∇Nᵢᵀ K ∇Nⱼ`` (shells: the tangential part, ∇ₛ lying in the surface).
     """
     rule = RULES[etype]
     geom = block_geometry(points, cells, etype) if geom is None else geom
+    if tensor is not None and not np.isnan(tensor).all():
+        aniso = ~np.isnan(tensor).any(axis=1)
+        Ke = conduction_matrices(points, cells, etype, np.where(aniso, 1.0, k), thickness, geom)
+        sel = np.flatnonzero(aniso)
+        Ke[sel] = _anisotropic(points, cells[sel], etype, tensor33(tensor[sel]),
+                               None if thickness is None else np.asarray(thickness)[sel])
+        return Ke
     m, nk = cells.shape
     q = len(rule.w)
     wm = geom.measure * rule.w  # (m, q)
@@ -114,6 +152,28 @@ def conduction_matrices(points: np.ndarray, cells: np.ndarray, etype: str, k: np
         grad = np.matmul(rule.dN[i][None, :, :], geom.Jinv[:, i])  # (m, k, 3) = dN/dξ · dξ/dX
         Ke += wm[:, i, None, None] * np.matmul(grad, grad.transpose(0, 2, 1))
     return Ke * np.asarray(k)[:, None, None]
+
+
+def _anisotropic(points, cells, etype, K3, thickness):
+    """``∫ ∇Nᵢᵀ K ∇Nⱼ`` (x thickness for shells) with the 3-D (surface) gradient, (m, nk, nk)."""
+    rule = RULES[etype]
+    m, nk = cells.shape
+    Ke = np.zeros((m, nk, nk))
+    if etype in SHELL_TYPES:
+        J, dA, _ = shell_metric(points, cells, etype, rule)
+        for i in range(len(rule.w)):
+            a, b = J[:, i, :, 0], J[:, i, :, 1]
+            g = np.stack([np.stack([(a * a).sum(1), (a * b).sum(1)], 1), np.stack([(a * b).sum(1), (b * b).sum(1)], 1)], 1)
+            G = np.matmul(J[:, i], np.linalg.inv(g))  # (m, 3, 2): ∇ₛ = G · ∂/∂ξ
+            grad = np.matmul(rule.dN[i][None], G.transpose(0, 2, 1))  # (m, k, 3)
+            Ke += (rule.w[i] * dA[:, i])[:, None, None] * np.matmul(np.matmul(grad, K3), grad.transpose(0, 2, 1))
+        return Ke * np.asarray(thickness)[:, None, None]
+    J, det = solid_jacobian(points, cells, etype, rule)
+    Jinv = inverse3(J, det)
+    for i in range(len(rule.w)):
+        grad = np.matmul(rule.dN[i][None, :, :], Jinv[:, i])
+        Ke += (rule.w[i] * np.abs(det[:, i]))[:, None, None] * np.matmul(np.matmul(grad, K3), grad.transpose(0, 2, 1))
+    return Ke
 
 
 def volume_shares(points: np.ndarray, cells: np.ndarray, etype: str,
@@ -159,6 +219,8 @@ __all__ = [
     "BlockGeometry",
     "block_geometry",
     "conduction_matrices",
+    "line_matrices",
+    "tensor33",
     "volume_shares",
     "area_shares",
     "to_coo",

@@ -10,6 +10,7 @@ quad4     4      2       2 x 2 Gauss
 tet4      4      3       1 point
 hex8      8      3       2 x 2 x 2 Gauss
 wedge6    6      3       3-point triangle x 2-point Gauss line
+line2     2      1       2-point Gauss (bars, rods, beams: conduction along the axis)
 ========  =====  ======  =========================================================
 
 Shells (tri3, quad4) have a front side: the side their right-hand normal (nodes 0 -> 1 -> 2) points to.
@@ -24,9 +25,10 @@ import numpy as np
 
 SHELL_TYPES = ("tri3", "quad4")
 SOLID_TYPES = ("tet4", "hex8", "wedge6")
-ELEMENT_TYPES = SHELL_TYPES + SOLID_TYPES
-N_NODES = {"tri3": 3, "quad4": 4, "tet4": 4, "hex8": 8, "wedge6": 6}
-DIM = {"tri3": 2, "quad4": 2, "tet4": 3, "hex8": 3, "wedge6": 3}
+LINE_TYPES = ("line2",)
+ELEMENT_TYPES = SHELL_TYPES + SOLID_TYPES + LINE_TYPES
+N_NODES = {"tri3": 3, "quad4": 4, "tet4": 4, "hex8": 8, "wedge6": 6, "line2": 2}
+DIM = {"tri3": 2, "quad4": 2, "tet4": 3, "hex8": 3, "wedge6": 3, "line2": 1}
 #: integer code of each type, used in padded (m, 8) cell arrays
 TYPE_CODE = {name: i for i, name in enumerate(ELEMENT_TYPES)}
 
@@ -41,6 +43,17 @@ SOLID_FACES: dict[str, tuple[tuple[int, ...], ...]] = {
 SHELL_EDGES: dict[str, tuple[tuple[int, int], ...]] = {
     "tri3": ((0, 1), (1, 2), (2, 0)),
     "quad4": ((0, 1), (1, 2), (2, 3), (3, 0)),
+}
+
+#: corner-node pairs of the edges that carry the mid-side nodes of the quadratic variants, in Nastran's
+#: (and VTK's) order of the mid-side nodes (CTRIA6 G4-G6, CQUAD8 G5-G8, CTETRA G5-G10, CHEXA G9-G20,
+#: CPENTA G7-G15)
+MIDSIDE_EDGES: dict[str, tuple[tuple[int, int], ...]] = {
+    "tri3": ((0, 1), (1, 2), (2, 0)),
+    "quad4": ((0, 1), (1, 2), (2, 3), (3, 0)),
+    "tet4": ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)),
+    "hex8": ((0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 5), (2, 6), (3, 7), (4, 5), (5, 6), (6, 7), (7, 4)),
+    "wedge6": ((0, 1), (1, 2), (2, 0), (0, 3), (1, 4), (2, 5), (3, 4), (4, 5), (5, 3)),
 }
 
 #: node permutation that mirrors a solid element (turns a negatively oriented element positive)
@@ -115,6 +128,13 @@ def _wedge6(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return N, dN
 
 
+def _line2(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r = xi[:, 0]
+    N = np.stack([(1 - r) / 2, (1 + r) / 2], axis=1)
+    dN = np.broadcast_to(np.array([[[-0.5], [0.5]]]), (len(xi), 2, 1)).copy()
+    return N, dN
+
+
 _G2 = 1.0 / np.sqrt(3.0)
 
 
@@ -140,6 +160,9 @@ def _rule(etype: str) -> Rule:
         xi = np.array([[p[0], p[1], c] for c in (-_G2, _G2) for p in tri])
         w = np.full(6, 1 / 6)
         N, dN = _wedge6(xi)
+    elif etype == "line2":
+        xi, w = np.array([[-_G2], [_G2]]), np.ones(2)
+        N, dN = _line2(xi)
     else:  # pragma: no cover - guarded by callers
         raise KeyError(etype)
     return Rule(N=N, dN=dN, w=w)
@@ -156,7 +179,8 @@ def centroid_rule(etype: str) -> Rule:
         "tet4": np.array([[0.25, 0.25, 0.25]]),
         "hex8": np.array([[0.0, 0.0, 0.0]]),
         "wedge6": np.array([[1 / 3, 1 / 3, 0.0]]),
+        "line2": np.array([[0.0]]),
     }[etype]
-    f = {"tri3": _tri3, "quad4": _quad4, "tet4": _tet4, "hex8": _hex8, "wedge6": _wedge6}[etype]
+    f = {"tri3": _tri3, "quad4": _quad4, "tet4": _tet4, "hex8": _hex8, "wedge6": _wedge6, "line2": _line2}[etype]
     N, dN = f(xi)
     return Rule(N=N, dN=dN, w=np.ones(1))

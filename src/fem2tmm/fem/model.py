@@ -21,12 +21,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
-from .assembly import (ElementCOO, area_shares, block_geometry, conduction_matrices, scatter_shares, to_coo,
+from .assembly import (ElementCOO, area_shares, block_geometry, conduction_matrices, line_matrices, scatter_shares,
+                       to_coo,
                        volume_shares)
-from .elements import MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
+from .elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
 from .geometry import cross, solid_jacobian
 
 _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
@@ -35,7 +37,7 @@ _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
 @dataclass(frozen=True)
 class PartInfo:
     name: str
-    kind: str  # shell | solid
+    kind: str  # shell | solid | line
     elements: np.ndarray  # global element indices
     super_nodes: int
     quadric: bool
@@ -114,6 +116,18 @@ class FEModel:
     fixed: tuple[FixedGroup, ...]
     T_sink: float
     loads: dict = field(default_factory=dict)  # boundary name -> W applied
+    #: thermal joints kept as their own conductances (DOF numbering, ``elem`` = connection index); in K, not in coo
+    links: ElementCOO | None = None
+    joints: dict = field(default_factory=dict)  # report: card -> {treatment: number of joint elements}
+    #: (n_dof,) extra εA (m²) to the sink of radiating deck faces (CHBDYx + RADBC), or None
+    extra_space: np.ndarray | None = None
+
+    @property
+    def link_dofs(self) -> np.ndarray:
+        """Sorted DOFs that conductance joints connect (kept as one-node super nodes by the reduction)."""
+        if self.links is None or not len(self.links.rows):
+            return np.zeros(0, np.int64)
+        return np.unique(self.links.rows)
 
     @property
     def fixed_mask(self) -> np.ndarray:
@@ -131,13 +145,17 @@ class FEModel:
     def space_coupling(self) -> np.ndarray:
         """(n_dof,) εA (m²) of every DOF to space, summed over the active sides of its faces."""
         f = self.faces
-        return scatter_shares(f.dofs, f.shares, self.n_dof, weights=f.eps_area / f.area)
+        g = scatter_shares(f.dofs, f.shares, self.n_dof, weights=f.eps_area / f.area)
+        return g if self.extra_space is None else g + self.extra_space
 
     def node_temperatures(self, T_dof: np.ndarray) -> np.ndarray:
         """(n_nodes,) temperatures of every mesh node (NaN for nodes outside the model)."""
         out = np.full(len(self.node_dof), np.nan)
         ok = self.node_dof >= 0
         out[ok] = T_dof[self.node_dof[ok]]
+        ms = self.mesh.midside
+        if ms is not None and len(ms):  # mid-side nodes of quadratic elements: mean of the edge ends
+            out[ms[:, 0]] = 0.5 * (out[ms[:, 1]] + out[ms[:, 2]])
         return out
 
 
@@ -175,16 +193,21 @@ def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
         dims = mesh.element_dims[el]
         if dims.min() != dims.max():
             raise Fem2TmmError(
-                f"{case.source}: [[parts]] {p.name!r} mixes shell and solid elements; split it into two parts"
+                f"{case.source}: [[parts]] {p.name!r} mixes line, shell and solid elements; split it into one part "
+                "per kind"
             )
-        parts.append(PartInfo(p.name, "shell" if dims[0] == 2 else "solid", el, p.super_nodes, p.quadric))
+        parts.append(PartInfo(p.name, {1: "line", 2: "shell", 3: "solid"}[int(dims[0])], el, p.super_nodes,
+                              p.quadric))
     return parts, owner
 
 
 def _properties(mesh: Mesh, case, parts, owner) -> dict[str, np.ndarray]:
     """Per-element conductivity, density, specific heat, thickness from the case, else from the mesh."""
     m = mesh.n_elements
-    props = {k: np.full(m, np.nan) for k in ("k", "rho", "cp", "t")}
+    props = {k: np.full(m, np.nan) for k in ("k", "rho", "cp", "t", "area")}
+    props["tensor"] = np.full((m, 6), np.nan)
+    if mesh.section_area is not None:
+        props["area"][:] = mesh.section_area
     # mesh-provided data per element (Nastran PIDs)
     for gname, pdata in mesh.properties.items():
         grp = mesh.groups.get(gname)
@@ -194,19 +217,31 @@ def _properties(mesh: Mesh, case, parts, owner) -> dict[str, np.ndarray]:
             v = getattr(pdata, attr)
             if v is not None:
                 props[key][grp.elements] = v
+        if pdata.conductivity_tensor is not None:
+            props["tensor"][grp.elements] = pdata.conductivity_tensor
     for cp, info in zip(case.parts, parts):
         el = info.elements
         if cp.material is not None:
             mat = case.materials[cp.material]
             props["k"][el] = mat.conductivity
+            props["tensor"][el] = np.nan
             props["rho"][el] = np.nan if mat.density is None else mat.density
             props["cp"][el] = np.nan if mat.specific_heat is None else mat.specific_heat
         if cp.thickness is not None:
             props["t"][el] = cp.thickness
-        if np.isnan(props["k"][el]).any():
+        if cp.area is not None:
+            props["area"][el] = cp.area
+        if (np.isnan(props["k"][el]) & np.isnan(props["tensor"][el]).any(axis=1)).any():
             raise Fem2TmmError(
                 f"{case.source}: [[parts]] {cp.name!r} has no material: set 'material' (a [materials] entry) "
-                "or use a Nastran deck whose PSHELL/PSOLID reference a MAT4 with K"
+                "or use a Nastran deck whose properties reference a MAT4/MAT5 with K (and, for other length units "
+                "than m and mm, declare [mesh] unit_system)"
+            )
+        if info.kind == "line" and np.isnan(props["area"][el]).any():
+            bad = el[np.isnan(props["area"][el])]
+            raise Fem2TmmError(
+                f"{case.source}: [[parts]] {cp.name!r}: line elements {format_ids(mesh.element_ids[bad])} have no "
+                "cross-section area: set 'area' (m²) or use a Nastran deck with PBAR/PBARL/PBEAM/PBEAML/PROD/PTUBE"
             )
         if info.kind == "shell" and np.isnan(props["t"][el]).any():
             raise Fem2TmmError(
@@ -229,6 +264,16 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
         sel = np.flatnonzero(types == code)
         nk = RULES[t].N.shape[1]
         c = cells[sel, :nk]
+        if t in LINE_TYPES:
+            L = np.linalg.norm(mesh.points[c[:, 1]] - mesh.points[c[:, 0]], axis=1)
+            bad = L <= 1e-12 * size
+            if bad.any():
+                raise Fem2TmmError(
+                    f"{mesh.source}: line elements {format_ids(mesh.element_ids[elements[sel[bad]]])} have zero "
+                    "length (coincident end GRIDs); a zero-length connection is a joint (CBUSH/RBE2) or remove it"
+                )
+            blocks.append((t, sel, c, None))
+            continue
         if t in SHELL_TYPES:
             geom = block_geometry(mesh.points, c, t)
             area = geom.measure @ RULES[t].w
@@ -299,33 +344,49 @@ def build_model(mesh: Mesh, case) -> FEModel:
     cells, blocks = _check_and_orient(mesh, elements, types, mesh.padded_cells[elements])
     epart = owner[elements]
 
-    # ---- DOFs: nodes of thermal elements, fixed-temperature groups merged
+    # ---- DOFs: nodes of thermal elements and joints; fixed-temperature groups and isothermal joints merged
     n_nodes = mesh.n_nodes
+    iso_pairs, cond_pairs, cond_G, joint_report = _joint_links(mesh, case)
     in_model = np.zeros(n_nodes, bool)
     in_model[cells[cells >= 0]] = True
-    rep = np.arange(n_nodes)
+    in_model[iso_pairs.ravel()] = True
+    in_model[cond_pairs.ravel()] = True
     node_boundary = np.full(n_nodes, -1, np.int64)
     fixed_specs = []
-    for b in case.boundaries:
-        if b.kind != "temperature":
-            continue
-        nodes = _boundary_nodes(mesh, case, b)
+    specs = [(b.name, b.value, _boundary_nodes(mesh, case, b)) for b in case.boundaries if b.kind == "temperature"]
+    case_fixed = np.zeros(n_nodes, bool)
+    for _, _, nodes in specs:
+        case_fixed[nodes] = True
+    specs += _deck_fixed(mesh, case_fixed, in_model)
+    for si, (name, value, nodes) in enumerate(specs):
         nodes = nodes[in_model[nodes]]
         if len(nodes) == 0:
             raise Fem2TmmError(
-                f"{case.source}: [[boundary]] {b.name!r} (temperature) touches no node of the thermal model's "
+                f"{case.source}: [[boundary]] {name!r} (temperature) touches no node of the thermal model's "
                 "elements; check its groups/nodes"
             )
         clash = nodes[node_boundary[nodes] >= 0]
         if len(clash):
-            other = case.boundaries[int(node_boundary[clash[0]])].name
+            other = specs[int(node_boundary[clash[0]])][0]
             raise Fem2TmmError(
                 f"{case.source}: nodes {format_ids(mesh.node_ids[clash])} are in two temperature boundaries "
-                f"({other!r} and {b.name!r}); merge them or make them disjoint"
+                f"({other!r} and {name!r}); merge them or make them disjoint"
             )
-        node_boundary[nodes] = b.index
-        rep[nodes] = nodes[0]
-        fixed_specs.append((b, nodes))
+        node_boundary[nodes] = si
+        fixed_specs.append((name, value, nodes))
+    # union of merged nodes: each fixed group, each isothermal joint connection
+    ea = [iso_pairs[:, 0]] + [np.full(len(n) - 1, n[0]) for _, _, n in fixed_specs]
+    eb = [iso_pairs[:, 1]] + [n[1:] for _, _, n in fixed_specs]
+    ea, eb = np.concatenate(ea).astype(np.int64), np.concatenate(eb).astype(np.int64)
+    _, comp = connected_components(sp.csr_matrix((np.ones(len(ea)), (ea, eb)), shape=(n_nodes, n_nodes)),
+                                   directed=False)
+    first = np.full(n_nodes, n_nodes, np.int64)
+    np.minimum.at(first, comp, np.arange(n_nodes))
+    rep = first[comp]
+    fixed_rep = [rep[n[0]] for _, _, n in fixed_specs]
+    if len(set(fixed_rep)) < len(fixed_rep):
+        raise Fem2TmmError(f"{case.source}: isothermal joints ([[joints]] treatment = 'isothermal') connect two "
+                           "fixed-temperature boundaries; make those joints 'conductance' or merge the boundaries")
     used_rep = rep[in_model]
     uniq, inv = np.unique(used_rep, return_inverse=True)
     dof_of_rep = np.full(n_nodes, -1, np.int64)
@@ -333,7 +394,7 @@ def build_model(mesh: Mesh, case) -> FEModel:
     node_dof = np.full(n_nodes, -1, np.int64)
     node_dof[in_model] = dof_of_rep[used_rep]
     n_dof = len(uniq)
-    fixed = tuple(FixedGroup(b.name, b.value, int(node_dof[nodes[0]]), nodes) for b, nodes in fixed_specs)
+    fixed = tuple(FixedGroup(name, value, int(node_dof[nodes[0]]), nodes) for name, value, nodes in fixed_specs)
 
     # ---- element integrals
     element_dofs = np.where(cells >= 0, node_dof[np.maximum(cells, 0)], -1)
@@ -342,12 +403,24 @@ def build_model(mesh: Mesh, case) -> FEModel:
     for t, sel, c, geom in blocks:
         nk = c.shape[1]
         el = elements[sel]
+        if t in LINE_TYPES:
+            Ke, L = line_matrices(mesh.points, c, props["k"][el], props["area"][el], props["tensor"][el])
+            coos.append(to_coo(element_dofs[sel, :nk], Ke, sel))
+            vshares[sel, :nk] = (props["area"][el] * L / 2)[:, None]
+            continue
         thick = props["t"][el] if t in SHELL_TYPES else None
-        Ke = conduction_matrices(mesh.points, c, t, props["k"][el], thick, geom=geom)
+        Ke = conduction_matrices(mesh.points, c, t, props["k"][el], thick, geom=geom, tensor=props["tensor"][el])
         coos.append(to_coo(element_dofs[sel, :nk], Ke, sel))
         vshares[sel, :nk] = volume_shares(mesh.points, c, t, thick, geom=geom)
     coo = ElementCOO.concatenate(coos)
-    K = coo.tocsr(n_dof)
+    links = ElementCOO(*(np.concatenate([a, b]) for a, b in zip(
+        (node_dof[cond_pairs[:, 0]], node_dof[cond_pairs[:, 1]], -cond_G, np.arange(len(cond_G))),
+        (node_dof[cond_pairs[:, 1]], node_dof[cond_pairs[:, 0]], -cond_G, np.arange(len(cond_G))))))
+    self_loop = links.rows == links.cols  # both ends merged (isothermal / fixed): no conductance
+    links = links.select(~self_loop)
+    diag = ElementCOO(links.rows, links.rows, -links.vals, links.elem)  # zero row sums
+    K = ElementCOO.concatenate([coo, links, diag]).tocsr(n_dof)
+    links = ElementCOO.concatenate([links, diag]) if len(links.rows) else None
     K.sum_duplicates()
     volume = scatter_shares(element_dofs, vshares, n_dof)
     rc = props["rho"][elements] * props["cp"][elements]
@@ -368,6 +441,30 @@ def build_model(mesh: Mesh, case) -> FEModel:
         q = _load_vector(mesh, case, b, node_dof, n_dof)
         Q += q
         loads[b.name] = float(q.sum())
+    extra_space = None
+    if mesh.loads is not None:
+        dl = mesh.loads
+        nodal, eps_area = _deck_nodal_loads(mesh, dl, elements, vshares)
+        for name, q in nodal.items():
+            lost = np.abs(q[node_dof < 0]).sum()
+            if lost > 1e-12 * max(np.abs(q).sum(), 1e-300):
+                raise Fem2TmmError(f"{mesh.source}: deck {name} loads fall on GRIDs of no thermal element; check the "
+                                   "[[parts]] groups or leave those cards out of [mesh] nastran_loads")
+            ok = node_dof >= 0
+            qd = np.bincount(node_dof[ok], weights=q[ok], minlength=n_dof)
+            Q += qd
+            loads[f"deck {name}"] = float(qd.sum())
+        if eps_area is not None:
+            amb = np.unique(dl.rad_ambient)
+            T_sink = case.environment.sink_temperature
+            if np.abs(amb - T_sink).max() > 1e-9 * max(T_sink, 1.0):
+                raise Fem2TmmError(
+                    f"{mesh.source}: RADBC ambient temperatures {', '.join(f'{t - 273.15:g}' for t in amb)} °C differ "
+                    f"from [environment] sink_temperature = {T_sink - 273.15:g} °C; fem2tmm has one sink: set "
+                    "sink_temperature to the RADBC ambient temperature, or leave RADBC out of [mesh] nastran_loads"
+                )
+            ok = node_dof >= 0
+            extra_space = np.bincount(node_dof[ok], weights=eps_area[ok], minlength=n_dof)
     if unused:
         used_by_bc = set()
         for b in case.boundaries:
@@ -381,13 +478,119 @@ def build_model(mesh: Mesh, case) -> FEModel:
                 stacklevel=2,
             )
     key = np.column_stack([epart, props["k"][elements], props["rho"][elements] * props["cp"][elements],
-                           props["t"][elements]])
+                           props["t"][elements], props["area"][elements], props["tensor"][elements]])
     _, attribute = np.unique(np.nan_to_num(key, nan=-1.0), axis=0, return_inverse=True)
     return FEModel(mesh=mesh, parts=tuple(parts), node_dof=node_dof, n_dof=n_dof, elements=elements,
                    element_part=epart, element_dofs=element_dofs, element_cells=cells, element_types=types,
                    element_attribute=attribute.ravel().astype(np.int64), volume_shares=vshares, capacity_shares=cshares,
                    coo=coo, K=K, volume=volume, capacity=capacity, faces=faces, Q=Q, fixed=fixed,
-                   T_sink=case.environment.sink_temperature, loads=loads)
+                   T_sink=case.environment.sink_temperature, loads=loads, links=links, joints=joint_report,
+                   extra_space=extra_space)
+
+
+def _joint_links(mesh: Mesh, case):
+    """Decide every joint element's treatment from ``case.joints``.
+
+    Returns ``(iso_pairs (q, 2), cond_pairs (l, 2), cond_G (l,) W/K, report)``; raises one error listing the
+    joint cards (with counts) that no ``[[joints]]`` entry covers, and for entries that select nothing.
+    """
+    iso, cond, G, report, undecided = [], [], [], {}, {}
+    hits = np.zeros(len(case.joints), np.int64)
+    for jb in mesh.joints:
+        choice = np.full(len(jb.ids), -1, np.int64)
+        for level in ("cards", "pids", "elements"):
+            for j in case.joints:
+                sel = getattr(j, level)
+                if not sel:
+                    continue
+                if level == "cards":
+                    m = np.full(len(jb.ids), jb.card in sel)
+                else:
+                    m = np.isin(jb.pids if level == "pids" else jb.ids, np.asarray(sel, np.int64))
+                choice[m] = j.index
+                hits[j.index] += int(m.sum())
+        if (choice < 0).any():
+            undecided[jb.card] = int((choice < 0).sum())
+            continue
+        counts = {}
+        per_conn = choice[jb.owner]
+        n_conn = np.bincount(jb.owner, minlength=len(jb.ids))
+        for j in case.joints:
+            mine = per_conn == j.index
+            counts[j.treatment] = counts.get(j.treatment, 0) + int((choice == j.index).sum())
+            if not mine.any():
+                continue
+            if j.treatment == "isothermal":
+                iso.append(jb.pairs[mine])
+            elif j.treatment == "conductance":
+                cond.append(jb.pairs[mine])
+                if j.conductance is not None:
+                    G.append(np.full(int(mine.sum()), j.conductance))
+                else:  # contact conductance over the element's area, shared by its connections
+                    G.append(j.contact_conductance * j.area / n_conn[jb.owner[mine]])
+        report[jb.card] = {k: v for k, v in counts.items() if v}
+    if undecided:
+        listed = ", ".join(f"{c} ({n})" for c, n in undecided.items())
+        names = ", ".join(f'"{c}"' for c in undecided)
+        raise Fem2TmmError(
+            f"{mesh.source}: joint cards with no thermal treatment: {listed}; add to {case.source} e.g. "
+            f"[[joints]] cards = [{names}] treatment = \"conductance\" conductance = <W/K per connection> "
+            "(or treatment = \"isothermal\" / \"ignore\"; select by pids = [...] or elements = [...] as well)"
+        )
+    for j in case.joints:
+        if hits[j.index] == 0:
+            raise Fem2TmmError(f"{case.source}: [[joints]] {j.name!r} selects no joint element of {mesh.source} "
+                               f"(cards {list(j.cards)}, pids {list(j.pids)}, elements {list(j.elements)})")
+    z = np.zeros((0, 2), np.int64)
+    return (np.concatenate(iso) if iso else z, np.concatenate(cond) if cond else z,
+            np.concatenate(G) if G else np.zeros(0), report)
+
+
+def _deck_fixed(mesh: Mesh, case_fixed: np.ndarray, in_model: np.ndarray) -> list:
+    """Fixed-temperature specs ``(name, K, nodes)`` of the deck's SPC/TEMP (one per distinct value); nodes the
+    case fixes itself are left to the case (the case overrides the deck)."""
+    dl = mesh.loads
+    if dl is None or not len(dl.fixed_nodes):
+        return []
+    nodes, vals = dl.fixed_nodes, dl.fixed_values
+    keep = ~case_fixed[nodes] & in_model[nodes]
+    nodes, vals = nodes[keep], vals[keep]
+    out = []
+    for v in np.unique(vals):
+        out.append((f"SPC {v - 273.15:g} C", float(v), np.unique(nodes[vals == v])))
+    return out
+
+
+def _deck_nodal_loads(mesh: Mesh, dl, elements: np.ndarray, vshares: np.ndarray):
+    """Nodal powers (n_nodes,) W per kind of deck load, and the nodal εA (n_nodes,) m² of RADBC faces or None."""
+    n = mesh.n_nodes
+    out = {}
+
+    def face_shares(faces):
+        sh = np.zeros(faces.shape)
+        for nk, t in ((3, "tri3"), (4, "quad4")):
+            sel = np.flatnonzero((faces[:, 3] < 0) if nk == 3 else (faces[:, 3] >= 0))
+            if len(sel):
+                sh[sel, :nk] = area_shares(mesh.points, faces[sel, :nk], t)
+        return sh
+
+    if len(dl.flux_faces):
+        out["flux (QBDY/QHBDY)"] = scatter_shares(dl.flux_faces, face_shares(dl.flux_faces), n, weights=dl.flux_values)
+    if len(dl.volume_elements):
+        pos = np.searchsorted(elements, dl.volume_elements)
+        pos = np.minimum(pos, len(elements) - 1)
+        if not (elements[pos] == dl.volume_elements).all():
+            bad = dl.volume_elements[elements[pos] != dl.volume_elements]
+            raise Fem2TmmError(f"{mesh.source}: QVOL on elements {format_ids(mesh.element_ids[bad])} that belong to no "
+                               "part")
+        cells = mesh.padded_cells[dl.volume_elements]
+        out["QVOL"] = scatter_shares(cells, vshares[pos], n, weights=dl.volume_values)
+    if np.any(dl.nodal_power):
+        out["QHBDY POINT"] = dl.nodal_power
+    eps_area = None
+    if len(dl.rad_faces):
+        eps_area = scatter_shares(dl.rad_faces, face_shares(dl.rad_faces), n, weights=dl.rad_emissivity)
+    return out, eps_area
 
 
 def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from ..errors import Fem2TmmError
@@ -11,27 +12,45 @@ GMSH_SUFFIXES = (".msh",)
 NASTRAN_SUFFIXES = (".bdf", ".nas", ".dat", ".blk", ".bulk", ".fem")
 
 
-def read_mesh(path: str | Path, unit: str = "m") -> Mesh:
-    """Read a structural mesh: Gmsh ``.msh`` (2.2, 4.1) or Nastran bulk data (``.bdf .nas .dat ...``).
+_NASTRAN_HEAD = re.compile(rb"^(?:BEGIN\s+BULK|CEND|SOL\s|INCLUDE|GRID\*?[\s,]|CQUAD4|CTRIA3|CHEXA|CTETRA|CPENTA|"
+                           rb"CBAR|CROD|PSHELL|PSOLID|MAT[145]|CORD2[RCS]|ID\s|APP\s)", re.IGNORECASE | re.MULTILINE)
+
+
+def mesh_format(path: Path) -> str:
+    """``"gmsh"`` or ``"nastran"``, decided by the content of the first 256 kB (any suffix: ``.inp``, ``.dat``,
+    ``.nas``, ``.bdf``, ``.blk`` ...); an error naming what was found otherwise."""
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 18)
+    if head.lstrip().startswith(b"$MeshFormat"):
+        return "gmsh"
+    if _NASTRAN_HEAD.search(head):
+        return "nastran"
+    if re.search(rb"^\*(?:NODE|HEADING|ELEMENT)", head, re.IGNORECASE | re.MULTILINE):
+        raise Fem2TmmError(f"{path}: this is an Abaqus input file (*NODE/*ELEMENT), not Nastran bulk data or Gmsh; "
+                           "export the mesh as Nastran bulk data (.bdf) or Gmsh (.msh)")
+    raise Fem2TmmError(f"{path}: neither Gmsh ($MeshFormat) nor Nastran bulk data (GRID, element or BEGIN BULK "
+                       "lines) found in the file; use a Gmsh .msh file or a Nastran deck")
+
+
+def read_mesh(path: str | Path, unit: str = "m", **options) -> Mesh:
+    """Read a structural mesh: Gmsh ``.msh`` (2.2, 4.1) or Nastran bulk data (any suffix, by content).
 
     ``unit`` is the length unit of the file; the returned :class:`~fem2tmm.mesh.Mesh` is in metres.
+    ``options`` go to :func:`fem2tmm.io.nastran.read_nastran` (``unit_system``, ``temperature_unit``,
+    ``loads``, ``ignore_cards``, ``strict``, ``load_set``, ``spc_set``); Gmsh files take none.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if not path.exists():
         raise Fem2TmmError(f"mesh file {path} does not exist")
-    if suffix in GMSH_SUFFIXES:
+    fmt = "gmsh" if suffix in GMSH_SUFFIXES else mesh_format(path)
+    if fmt == "gmsh":
         from .gmsh import read_gmsh
 
         return read_gmsh(path, unit=unit)
-    if suffix in NASTRAN_SUFFIXES:
-        from .nastran import read_nastran
+    from .nastran import read_nastran
 
-        return read_nastran(path, unit=unit).validate()
-    raise Fem2TmmError(
-        f"{path}: unknown mesh format {suffix!r}; use a Gmsh .msh file or Nastran bulk data "
-        f"({', '.join(NASTRAN_SUFFIXES)})"
-    )
+    return read_nastran(path, unit=unit, **options).validate()
 
 
 __all__ = ["read_mesh"]

@@ -65,10 +65,12 @@ def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.nd
     return np.where(ed >= 0, one_node[np.maximum(ed, 0)], True).all(axis=1)
 
 def kept_dofs(model: FEModel, case: Case) -> np.ndarray:
-    """DOFs of ``[reduction] keep_nodes`` (original node ids)."""
+    """DOFs of ``[reduction] keep_nodes`` (original node ids) and of the conductance joints' ends (a joint
+    stays its own link between one-node super nodes; fixed-temperature ends are boundary nodes already)."""
     ids = np.asarray(case.reduction.keep_nodes, np.int64)
+    joint = np.setdiff1d(model.link_dofs, [g.dof for g in model.fixed])
     if not len(ids):
-        return np.zeros(0, np.int64)
+        return joint
     idx = model.mesh.node_index(ids, where=f"{case.source}: [reduction] keep_nodes")
     dofs = model.node_dof[idx]
     outside = ids[dofs < 0]
@@ -78,7 +80,7 @@ def kept_dofs(model: FEModel, case: Case) -> np.ndarray:
     if fixed.any():
         raise Fem2TmmError(f"{case.source}: [reduction] keep_nodes: nodes {format_ids(ids[fixed])} are in a "
                            "fixed-temperature boundary (already a boundary node)")
-    return np.unique(dofs)
+    return np.union1d(dofs, joint)
 
 
 def build_reduced(model: FEModel, clustering: Clustering, case: Case) -> ReducedModel:
@@ -107,6 +109,9 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case) -> Reduced
     if determined.any():
         direct = model.coo.select(~keep_entry)
         np.add.at(K, (row_of_dof[direct.rows], row_of_dof[direct.cols]), direct.vals)
+    if model.links is not None:  # joints: their own conductances between one-node super nodes
+        L = model.links
+        np.add.at(K, (row_of_dof[L.rows], row_of_dof[L.cols]), L.vals)
     report = {"method": red.method, "diagnostics": dict(red.diagnostics),
               "determined_elements": int(determined.sum()), "dropped_clusters": int(len(clustering.cluster_part) - n_cl)}
     if case.reduction.filter > 0:

@@ -1,0 +1,280 @@
+"""``fem2tmm network reduce``: read a deck, reduce it (automatic grouping or TMRT), check it per load case, write
+the reduced decks, ``summary.json`` and ``report.html``.
+
+Output folder (checked before any computation): it must not exist or be empty — nothing there that fem2tmm did
+not write is ever overwritten; everything is written into a temporary sibling folder renamed at the end.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..constants import KELVIN
+from ..errors import Fem2TmmError
+from . import grouping as G
+from .network import LoadCase, Network
+from .readers import read_coordinates, read_network
+from .settings import NetworkSettings
+from .solve import solve_network
+from .tmrt import tmrt_reduce
+
+
+@dataclass
+class NetworkReduction:
+    """Everything ``network reduce`` computed.  ``labels`` (n_d,) reduced node of every detailed node (-1:
+    suppressed); ``checks`` / ``reduced_solutions`` / ``detailed_solutions`` one per load case."""
+
+    detailed: Network
+    reduced: Network
+    labels: np.ndarray
+    cases: list
+    detailed_solutions: list
+    reduced_solutions: list
+    checks: list
+    ratio: float
+    method: str
+    settings: NetworkSettings
+    pf: float | None = None
+    dtmax: float | None = None
+    sweep: G.Sweep | None = None
+    suppressed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    def groups(self) -> list[list[int]]:
+        """Detailed node numbers of every reduced node (in reduced order; suppressed nodes in none)."""
+        keep = self.labels >= 0
+        g = G.Grouping(labels=self.labels[keep], reduced=self.reduced, checks=self.checks,
+                       solutions=self.reduced_solutions, ratio=self.ratio)
+        return g.groups(self.detailed.numbers[keep])
+
+
+def load_cases(net: Network, specs) -> list[LoadCase]:
+    """Load cases of ``net`` from :class:`~fem2tmm.lpm.settings.LoadCaseSpec` (overrides of QI W and boundary °C);
+    none: the deck's own case."""
+    if not specs:
+        return [net.default_case()]
+    out = []
+    for spec in specs:
+        Q = net.QI.astype(float).copy()
+        T = net.T.astype(float).copy()
+        if spec.power:
+            Q[net.index(list(spec.power), where=f"load case {spec.name!r} power")] = list(spec.power.values())
+        if spec.boundary:
+            idx = net.index(list(spec.boundary), where=f"load case {spec.name!r} boundary")
+            notb = ~net.boundary[idx]
+            if notb.any():
+                raise Fem2TmmError(f"load case {spec.name!r}: {net.describe(idx[notb])} are not boundary nodes")
+            T[idx] = np.asarray(list(spec.boundary.values()), float) + KELVIN
+        out.append(LoadCase(name=spec.name, Q=Q, T_boundary=T))
+    return out
+
+
+def check_out(out: Path) -> None:
+    """Refuse an output place that holds anything (never overwrite what fem2tmm did not write)."""
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise Fem2TmmError(f"{out}: the output folder exists and is not empty; give a new or empty --out (fem2tmm "
+                           "never overwrites files it did not write)")
+
+
+def reduce_network(deck: str | Path, settings: NetworkSettings | None = None, pf: float | None = None,
+                   dtmax: float | None = None, coordinates: str | Path | None = None) -> NetworkReduction:
+    """Read ``deck`` and reduce it as ``settings`` says (``pf`` / ``dtmax`` override the case's thresholds)."""
+    t0 = time.perf_counter()
+    settings = settings or NetworkSettings()
+    for name, v in (("--pf", pf), ("--dtmax", dtmax)):
+        if v is not None and not (np.isfinite(v) and v >= 0):
+            raise Fem2TmmError(f"{name} {v}: expected a number >= 0")
+    net = read_network(deck)
+    if coordinates is not None:
+        nums, xyz = read_coordinates(coordinates)
+        net = net.with_coordinates(nums, xyz, where=str(coordinates))
+    net = net.active()
+    cases = load_cases(net, settings.load_cases)
+    timings = {"read": time.perf_counter() - t0}
+    t1 = time.perf_counter()
+    detailed = [solve_network(net, c) for c in cases]
+    timings["detailed_solve"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    if settings.method == "tmrt":
+        res = _tmrt(net, cases, detailed, settings)
+    else:
+        res = _auto(net, cases, detailed, settings, settings.pf if pf is None else pf,
+                    settings.dtmax if dtmax is None else dtmax)
+    timings["reduce"] = time.perf_counter() - t1
+    res.timings = timings
+    return res
+
+
+def _auto(net, cases, detailed, settings, pf, dtmax) -> NetworkReduction:
+    grouper = G.prepare(net, cases, crit=settings.criteria, mu=settings.mu,
+                        internal_boundary=settings.internal_boundary, detailed=detailed)
+    sw = G.sweep(grouper, settings.pf_values, settings.dtmax_values)
+    if pf is None or dtmax is None:
+        sub = G.sweep(grouper, settings.pf_values if pf is None else [pf],
+                      settings.dtmax_values if dtmax is None else [dtmax])
+        if sub.best is not None:
+            i, j = sub.best
+        else:  # nothing passes: the most accurate pair (smallest worst δ), reported as failing
+            i, j = np.unravel_index(np.argmin(sub.max_delta), sub.max_delta.shape)
+        pf, dtmax = float(sub.pf[i]), float(sub.dtmax[j])
+    g = G.group(grouper, pf, dtmax)
+    return NetworkReduction(detailed=net, reduced=g.reduced, labels=g.labels, cases=cases,
+                            detailed_solutions=detailed, reduced_solutions=g.solutions, checks=g.checks,
+                            ratio=g.ratio, method="auto", settings=settings, pf=pf, dtmax=dtmax, sweep=sw)
+
+
+def _tmrt(net, cases, detailed, settings) -> NetworkReduction:
+    red = tmrt_reduce(net, suppress=settings.suppress, groups=settings.groups, capacitance=settings.capacitance,
+                      filter_threshold=settings.filter)
+    P = G.restriction(red.labels, red.reduced.n)
+    checks, sols = [], []
+    s = red.suppressed
+    for case, det in zip(cases, detailed):
+        Q = np.asarray(P.T @ case.Q).ravel() + (red.PD @ case.Q[s] if len(s) else 0.0)
+        rcase = LoadCase(case.name, Q, G.weighted_mean(case.T_boundary, net.C, red.labels, red.reduced.n))
+        chk, sol = G.check_case(net, red.labels, red.reduced, case, det, settings.criteria, rcase=rcase)
+        checks.append(chk)
+        sols.append(sol)
+    n_b = int(net.boundary.sum())
+    return NetworkReduction(detailed=net, reduced=red.reduced, labels=red.labels, cases=cases,
+                            detailed_solutions=detailed, reduced_solutions=sols, checks=checks,
+                            ratio=G.reduction_ratio(net.n, red.reduced.n, n_b), method="tmrt", settings=settings,
+                            suppressed=net.numbers[s])
+
+
+# ------------------------------------------------------------------------------------------------------ outputs
+def _temps(numbers, T) -> dict:
+    return {str(int(k)): round(float(t) - KELVIN, 6) for k, t in zip(numbers, T)}
+
+
+def _flows(numbers, Hc, Hr) -> dict:
+    return {str(int(k)): {"conductive": float(c), "radiative": float(r), "total": float(c + r)}
+            for k, c, r in zip(numbers, Hc, Hr)}
+
+
+def build_summary(res: NetworkReduction, deck: str) -> dict:
+    """The ``summary.json`` dict (first load case at the top level, every case under ``cases``)."""
+    net, red = res.detailed, res.reduced
+    bd = np.flatnonzero(net.boundary)
+    crit = res.settings.criteria
+    cases = {}
+    for case, det, sol, chk in zip(res.cases, res.detailed_solutions, res.reduced_solutions, res.checks):
+        cases[case.name] = {
+            "detailed": {"temperatures_C": _temps(net.numbers, det.T),
+                         "heat_flows_W": _flows(net.numbers[bd], det.H_conductive[bd], det.H_radiative[bd])},
+            "reduced": {"temperatures_C": _temps(red.numbers, sol.T),
+                        "target_temperatures_C": _temps(red.numbers, chk.T_target),
+                        "heat_flows_W": _flows(red.numbers[chk.boundary], chk.Hc_reduced, chk.Hr_reduced)},
+            "criteria": chk.summary(),
+        }
+    first = cases[res.cases[0].name]
+    s = {
+        "version": __version__,
+        "deck": str(deck),
+        "method": res.method,
+        "nodes": {"detailed": int(net.n), "boundary": int(net.boundary.sum()), "reduced": int(red.n),
+                  "suppressed": int(len(res.suppressed))},
+        "ratio": float(res.ratio),
+        "thresholds": {"pf": res.pf, "dtmax_K": res.dtmax, "mu_m2_per_s": res.settings.mu},
+        "groups": res.groups(),
+        "suppressed": [int(v) for v in res.suppressed],
+        "detailed": first["detailed"],
+        "reduced": first["reduced"] | {"conductive_links": int(red.GL.nnz // 2),
+                                       "radiative_links": int(red.GR.nnz // 2)},
+        "criteria": {"delta_max_K": crit.delta_max, "q_max_W": crit.q_max, "q_lim_W": crit.q_lim,
+                     "q_rel_max": crit.q_rel_max, "met": bool(res.passed),
+                     "cases": {k: v["criteria"] for k, v in cases.items()}},
+        "cases": cases,
+        "notes": list(net.notes),
+        "timings_s": {k: round(v, 4) for k, v in res.timings.items()},
+    }
+    if res.sweep is not None:
+        sw = res.sweep
+        s["sweep"] = {"pf": sw.pf.tolist(), "dtmax_K": sw.dtmax.tolist(), "ratio": sw.ratio.tolist(),
+                      "passed": sw.passed.tolist(), "max_delta_K": sw.max_delta.tolist(),
+                      "best": None if sw.best is None else {"pf": float(sw.pf[sw.best[0]]),
+                                                             "dtmax_K": float(sw.dtmax[sw.best[1]]),
+                                                             "ratio": float(sw.ratio[sw.best])}}
+    return s
+
+
+def to_deck(net: Network, T: np.ndarray):
+    """An :class:`~fem2tmm.export.esatan.Deck` of ``net`` with temperatures ``T`` (n,) K: a boundary node labelled
+    SPACE becomes the deck's space node; without one, an uncoupled SPACE node is numbered after the largest."""
+    from ..export.esatan import Deck
+
+    space = np.flatnonzero(net.boundary & (np.char.upper(net.labels.astype(str)) == "SPACE"))
+    keep = np.ones(net.n, bool)
+    GRd = net.GR.toarray()
+    if len(space):
+        sp_i = int(space[0])
+        keep[sp_i] = False
+        number, T_space, gr_space = int(net.numbers[sp_i]), float(T[sp_i]), GRd[sp_i][keep]
+    else:
+        number, T_space, gr_space = int(net.numbers.max(initial=0)) + 1, 3.0, np.zeros(net.n)
+    k = np.flatnonzero(keep)
+    return Deck(numbers=net.numbers[k], labels=net.labels[k], boundary=net.boundary[k], T=np.asarray(T)[k],
+                C=net.C[k], A=net.A[k], alp=net.alp[k], eps=net.eps[k], GL=net.GL[k][:, k].toarray(),
+                GR=GRd[np.ix_(k, k)], GR_space=gr_space, Q=net.QI[k], space=number, T_space=T_space)
+
+
+def write_outputs(res: NetworkReduction, deck: str | Path, out: str | Path) -> Path:
+    """``model.esatan``, ``model.sinda``, ``summary.json``, ``report.html`` (+ PNGs) into ``out`` (atomically)."""
+    from ..export.esatan import write_esatan
+    from ..export.sinda import write_sinda
+    from .report import write_report
+
+    out = Path(out)
+    check_out(out)
+    parent = out.resolve().parent
+    parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)
+    try:
+        sol = res.reduced_solutions[0]
+        d = to_deck(res.reduced, sol.T)
+        title = f"{Path(deck).stem}_reduced"
+        write_esatan(tmp / "model.esatan", d, title=title)
+        write_sinda(tmp / "model.sinda", d, submodel=Path(deck).stem)
+        summary = build_summary(res, str(deck))
+        write_report(tmp, res, summary)
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
+        check_out(out)
+        if out.exists():
+            out.rmdir()  # empty (checked just above)
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def network_reduce(deck, case=None, pf=None, dtmax=None, coordinates=None, out=None) -> NetworkReduction:
+    """The ``fem2tmm network reduce`` command: validate, reduce, write; returns the :class:`NetworkReduction`."""
+    if out is None:
+        raise Fem2TmmError("network reduce: --out DIR is required")
+    check_out(Path(out))
+    settings = NetworkSettings.from_toml(case) if case else NetworkSettings()
+    res = reduce_network(deck, settings, pf=pf, dtmax=dtmax, coordinates=coordinates)
+    write_outputs(res, deck, out)
+    return res
+
+
+__all__ = ["NetworkReduction", "build_summary", "check_out", "load_cases", "network_reduce", "reduce_network",
+           "to_deck", "write_outputs"]
