@@ -22,9 +22,13 @@ from .mesh import ElementBlock, Group, Mesh
 from .pipeline import run
 from .result import Result
 from .radiation import exchange_factors
+from .radiation.orbit import Attitude, Orbit, Planet
+from .radiation.orbital import orbital_fluxes
+from .radiation.planet import planet_fluxes
 from .radiation.solar import solar_fluxes
 
 __all__ = [
+    "Attitude",
     "Case",
     "ElementBlock",
     "Fem2TmmError",
@@ -33,6 +37,10 @@ __all__ = [
     "Result",
     "__version__",
     "meshes",
+    "Orbit",
+    "orbital_fluxes",
+    "Planet",
+    "planet_fluxes",
     "exchange_factors",
     "partition",
     "solar_fluxes",

@@ -805,6 +805,17 @@ class QuadricScene(TriangleScene):
         p, n, _ = self._sample(prim, u, v)
         return p, n
 
+    def sample_weighted(self, prim, u, v):
+        """Points on the quadric (or facets), front normals and weights J / (mean J over the triangle) on quadric
+        triangles (1 elsewhere; None when the batch has none or the scene is unweighted)."""
+        p, n, J = self._sample(prim, u, v)
+        j = np.flatnonzero(self.tri_quadric[prim] >= 0)
+        if j.size == 0 or not self.weighted:
+            return p, n, None
+        w = np.ones(len(prim))
+        w[j] = J[j] / self._ratio[prim[j]]
+        return p, n, w
+
     def _sample(self, prim, u, v):
         """Points and front normals on the quadric (quadric triangles) or facets, and the area Jacobian (r,)."""
         p, n = super().sample(prim, u, v)

@@ -55,7 +55,8 @@ class SolarResult:
     ``blocked`` power reaching inactive sides (directly or after reflections), ``capped`` power left in rays stopped
     by ``min_weight`` / ``max_bounces`` (or lost to an unresolvable self hit); incident = absorbed + escaped +
     blocked + capped.  ``rays`` origins traced, ``segments`` intersection queries (shadow rays included),
-    ``sun_direction`` (3,) unit vector towards the Sun, ``solar_flux`` W/m², ``engine``, ``sampling``.
+    ``sun_direction`` (3,) unit vector towards the Sun, ``solar_flux`` W/m², ``engine``, ``sampling``;
+    ``incident_side`` (2f,) lit power arriving directly from the Sun on each side (before absorption).
     """
 
     absorbed_side: np.ndarray
@@ -74,6 +75,7 @@ class SolarResult:
     solar_flux: float
     engine: str
     sampling: str
+    incident_side: np.ndarray | None = None
 
     @property
     def absorbed(self) -> float:
@@ -103,12 +105,19 @@ def sunlit_emitters(scene: TriangleScene, groups: np.ndarray, n_groups: int, sun
     the Sun and 0 on the other for a flat triangle; both may be positive on a curved one).  ``weight`` = ``area``
     (g,) is the projected area (m²) of each group; ``entry_prim`` are triangle ids of ``scene``.
     """
+    return triangle_emitters(scene, groups, n_groups, scene.facing_areas(sun))
+
+
+def triangle_emitters(scene: TriangleScene, groups: np.ndarray, n_groups: int, weights: np.ndarray) -> GroupEmitters:
+    """Emission tables of the sides of each group with sampling weights per triangle side: ``weights`` (t, 2) m²
+    (front, back) of the triangles of ``scene`` (e.g. projected areas facing the Sun, or areas of the sides that
+    see a planet); ``groups`` (2f,) int group per side (-1: not sampled).  ``weight`` = ``area`` (g,) is the sum of
+    the weights of each group; ``entry_prim`` are triangle ids of ``scene``."""
     t = len(scene.tri_face)
-    facing = scene.facing_areas(sun)
-    total = facing.sum(axis=1)
+    total = weights.sum(axis=1)
     view = SimpleNamespace(tri_face=np.arange(t), tri_area=total)
     sid = 2 * np.repeat(scene.tri_face, 2) + np.tile([0, 1], t)  # side of the real face, per (triangle, side)
-    share = np.divide(facing, total[:, None], out=np.zeros_like(facing), where=total[:, None] > 0).ravel()
+    share = np.divide(weights, total[:, None], out=np.zeros_like(weights), where=total[:, None] > 0).ravel()
     em = GroupEmitters.build(view, groups[sid], share, n_groups)
     return replace(em, area=em.weight)
 
@@ -149,6 +158,8 @@ def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, 
     escaped = blocked = capped = 0.0
     segments = 0
     for bounce in range(max_bounces + 1):
+        if side.size == 0:  # nothing (left) to follow
+            break
         a = absorb[side]
         taken = a * w
         got_s.append(side)
@@ -210,7 +221,9 @@ def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, 
 class _SolarBatches:
     """The batches of one solar run as a picklable callable (the scene rebuilds itself where it is unpickled):
     ``job(b)`` traces rays b·batch .. (b + 1)·batch - 1, its generator seeded from (seed, 7, 1, b) only, and returns
-    ``(absorbed (2f,) W, incident, shadowed, escaped, blocked, capped, segments)``."""
+    its :func:`arrivals`."""
+
+    distributable = True  # map_batches may send it to Dask workers
 
     def __init__(self, scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces):
         self.scene, self.optics, self.em, self.per_ray, self.sun = scene, optics, em, per_ray, sun
@@ -224,10 +237,7 @@ class _SolarBatches:
             self.offsets = setup.integers(0, HALTON_SKIP, size=len(rays))
 
     def __call__(self, b: int):
-        scene, optics, em, sun, start, halton, batch = (self.scene, self.optics, self.em, self.sun, self.start,
-                                                        self.halton, self.batch)
-        f = scene.surface.n_faces
-        rev = -sun  # direction of the incoming sunlight
+        scene, start, halton, batch = self.scene, self.start, self.halton, self.batch
         ray = np.arange(b * batch, min((b + 1) * batch, self.total), dtype=np.int64)
         grp = np.searchsorted(start, ray, side="right") - 1
         rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(7, 1, b)))
@@ -235,18 +245,10 @@ class _SolarBatches:
             U = halton.points(self.offsets[grp] + (ray - start[grp]))
         else:
             U = rng.random((ray.size, SOLAR_DIMS))
-        prim, side, p, nrm, _, lit, wr = _sun_origins(scene, em, grp, U, sun)
+        prim, side, p, nrm, _, lit, wr = _sun_origins(scene, self.em, grp, U, self.sun)
         w0 = self.per_ray[grp] if wr is None else self.per_ray[grp] * wr
-        shadowed = float(w0[~lit].sum())
-        incident = float(w0[lit].sum())
-        live = lit & optics.active[side]
-        blocked = float(w0[lit & ~live].sum())
-        k = np.flatnonzero(live)
-        out = _follow(scene, optics, side[k], prim[k], p[k], nrm[k], np.broadcast_to(rev, (k.size, 3)).copy(), w0[k],
-                      self.min_weight * w0[k], rng, U[k, 2:] if halton is not None else None, self.max_bounces)
-        sides, powers, escaped, blocked2, capped, segs = out
-        absorbed = np.bincount(sides, weights=powers, minlength=2 * f)
-        return absorbed, incident, shadowed, escaped, blocked + blocked2, capped, segs + ray.size
+        return arrivals(scene, self.optics, side, prim, p, nrm, np.broadcast_to(-self.sun, (ray.size, 3)), w0, lit,
+                        rng, U[:, 2:] if halton is not None else None, self.min_weight, self.max_bounces, ray.size)
 
 
 def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None, rays_per_group=None,
@@ -296,22 +298,55 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
     job = _SolarBatches(scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces)
     total = job.total
-    parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
-    absorbed = np.zeros(2 * f)
-    totals = np.zeros(5)
-    segments = 0
-    for part in parts:  # loop over batches, in batch order (deterministic sums)
-        absorbed += part[0]
-        totals += part[1:6]
-        segments += part[6]
+    absorbed, incident, totals, segments = gather(map_batches(job, math.ceil(total / batch) if total else 0, threads),
+                                                  2 * f)
     mine = groups >= 0
     return SolarResult(
         absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1),
         absorbed_group=np.bincount(groups[mine], weights=absorbed[mine], minlength=g), power_group=power,
         rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
         blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments), sun_direction=sun,
-        solar_flux=flux, engine=scene.engine.name, sampling=sampling,
+        solar_flux=flux, engine=scene.engine.name, sampling=sampling, incident_side=incident,
     )
+
+
+def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, travel, w0, lit, rng, qmc,
+             min_weight: float, max_bounces: int, queries: int):
+    """Energy bookkeeping of one batch of source rays (parallel sunlight, planet albedo or infrared) arriving at
+    points ``p`` (r, 3) of primitives ``prim`` (r,) on sides ``side`` (r,) (front normals ``nrm`` (r, 3)), travelling
+    along ``travel`` (r, 3) unit, carrying ``w0`` (r,) W; ``lit`` (r,) False where the shadow ray towards the source
+    hit the model.  Lit rays on active sides are followed by :func:`_follow` (absorbed fraction per hit, the rest
+    reflected / transmitted in the band of ``optics``); lit rays on inactive sides are blocked.  ``qmc`` (r, 3) or
+    None: quasi-random numbers of the first event and its diffuse direction.  ``queries`` intersection queries
+    already made for the batch (shadow rays).
+
+    Returns ``(absorbed (2f,) W per side, incident (2f,) W per side (lit arrivals), totals (5,) = (incident,
+    shadowed, escaped, blocked, capped) W, segments)``; incident = absorbed + escaped + blocked + capped."""
+    n_sides = len(optics.active)
+    incident_side = np.bincount(side[lit], weights=w0[lit], minlength=n_sides)
+    shadowed = float(w0[~lit].sum())
+    incident = float(w0[lit].sum())
+    live = lit & optics.active[side]
+    blocked = float(w0[lit & ~live].sum())
+    k = np.flatnonzero(live)
+    out = _follow(scene, optics, side[k], prim[k], p[k], nrm[k], np.array(travel[k], dtype=float), w0[k],
+                  min_weight * w0[k], rng, None if qmc is None else qmc[k], max_bounces)
+    sides, powers, escaped, blocked2, capped, segs = out
+    absorbed = np.bincount(sides, weights=powers, minlength=n_sides)
+    return absorbed, incident_side, np.array([incident, shadowed, escaped, blocked + blocked2, capped]), segs + queries
+
+
+def gather(parts: list, n_sides: int):
+    """Sum the :func:`arrivals` of the batches, in batch order (deterministic sums): ``(absorbed (2f,), incident
+    (2f,), totals (5,), segments)``."""
+    absorbed, incident, totals = np.zeros(n_sides), np.zeros(n_sides), np.zeros(5)
+    segments = 0
+    for part in parts:  # loop over batches
+        absorbed += part[0]
+        incident += part[1]
+        totals += part[2]
+        segments += part[3]
+    return absorbed, incident, totals, segments
 
 
 def solar_fluxes(points, faces, sun_direction, solar_flux, absorptivity=0.2, specular=0.0, rays_per_face=1000,

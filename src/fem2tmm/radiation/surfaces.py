@@ -263,6 +263,13 @@ class TriangleScene:
         return sample_points(np.asarray(prim), np.ascontiguousarray(u, dtype=np.float64),
                              np.ascontiguousarray(v, dtype=np.float64), self._geom)
 
+    def sample_weighted(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray):
+        """:meth:`sample` plus the relative density correction of each point (r,) (mean 1 over a primitive) or
+        None when the map is uniform over the true area (planar triangles); curved scenes return their area
+        Jacobian over its mean."""
+        p, n = self.sample(prim, u, v)
+        return p, n, None
+
     def emit(self, prim: np.ndarray, sign: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Emitted rays from primitives ``prim`` (r,), side ``sign`` (r,) +1 front / -1 back, driven by the
         unit-hypercube samples ``U`` (r, >= 4): U[:, 0:2] place the origin by the area-preserving map (eq. 2.18),

@@ -321,12 +321,13 @@ def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") ->
     """``[job(0), ..., job(n_batches - 1)]``, results in batch order, so a job that seeds its generator from its
     batch index gives output independent of where and in which order the batches ran.  In this process
     (the default, :mod:`fem2tmm.compute` serial) ``threads`` Python threads run the batches (numpy and Embree
-    release the GIL); on a Dask executor (:func:`fem2tmm.compute.using`) every batch is one task and ``job``, which
-    must then be picklable, is scattered to the workers once.  Progress is reported after each batch."""
+    release the GIL); on a Dask executor (:func:`fem2tmm.compute.using`) a ``job`` marked ``distributable`` (a
+    picklable object, e.g. :class:`_ExchangeBatches`) is scattered to the workers once and every batch is one
+    task; other jobs (closures) run here.  Progress is reported after each batch."""
     from ..compute import current
 
     ex = current()
-    if ex.distributed and n_batches:
+    if ex.distributed and n_batches and getattr(job, "distributable", False):
         return ex.map(_call_batch, range(n_batches), shared={"job": job}, what=what)
     out = []
     if threads > 1 and n_batches > 1:
@@ -468,6 +469,8 @@ class _ExchangeBatches:
     ``buffers`` (set by the caller in its own process), or, where unpickled (a Dask worker; the scene rebuilds
     itself there), returns them.  Returns ``((groups, lengths, starts), segments, weight sums or None, (cols,
     vals) or None)``."""
+
+    distributable = True  # map_batches may send it to Dask workers
 
     def __init__(self, tracer: "_ExchangeTracer", rays, sampling: str, seed, stream: int, batch: int,
                  max_bounces: int):

@@ -1,0 +1,182 @@
+"""Orbital heat fluxes along an orbit: direct solar (parallel rays, off in eclipse, scaled by the lit fraction of
+the solar disc in penumbra), planet albedo and planet infrared (planet-focused Halton sampling), with shadowing and
+multiple reflections by the spacecraft itself (thesis §2.4).
+
+One position at a time the Sun, the spacecraft's position and the nadir are expressed in the mesh frame through
+the :class:`~fem2tmm.radiation.orbit.Attitude`, and the tracers of :mod:`~fem2tmm.radiation.solar` and
+:mod:`~fem2tmm.radiation.planet` run on one ray scene.  Each distinct true anomaly is traced once: the two rows of
+an eclipse boundary share their albedo and infrared, and their solar power is the lit one scaled by the lit
+fraction (the solar tracer is linear in the flux).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import Fem2TmmError
+from .orbit import Attitude, Orbit, OrbitPositions
+from .planet import optics_surface, trace_planet
+from .solar import trace_solar
+from .surfaces import Surface, TriangleScene, pad_faces
+from .tracer import MAX_BOUNCES
+
+KINDS = ("solar", "albedo", "ir")
+
+
+@dataclass(frozen=True, eq=False)
+class OrbitalFluxes:
+    """Heat fluxes at the k positions of an orbit on n emitting units (sides, faces or groups), all powers in W.
+
+    ``positions`` the orbit's :class:`~fem2tmm.radiation.orbit.OrbitPositions` (true anomaly, time, lit fraction,
+    eclipse flag, event); ``sun`` (k, 3) and ``nadir`` (k, 3) unit vectors in the mesh frame, ``position`` (k, 3)
+    m the mesh origin from the planet centre in the mesh frame, ``attitude`` (k, 3, 3) mesh -> inertial rotations.
+    ``incident[kind]`` (k, n) power arriving directly from the source (Sun, lit planet, planet IR) and
+    ``absorbed[kind]`` (k, n) power absorbed after reflections and transmissions, for each kind of ``kinds``;
+    ``lost[kind]`` (k,) power that left (escaped to space, blocked by inactive sides or capped):
+    Σ incident = Σ absorbed + lost per position.  ``escaped[kind]`` (k,) the part that escaped to space.
+    ``rays[kind]`` (k,) origins traced, ``segments`` intersection queries in all.
+    """
+
+    positions: OrbitPositions
+    sun: np.ndarray
+    nadir: np.ndarray
+    position: np.ndarray
+    attitude: np.ndarray
+    kinds: tuple
+    incident: dict
+    absorbed: dict
+    lost: dict
+    escaped: dict
+    rays: dict
+    segments: int
+
+    @property
+    def true_anomaly(self) -> np.ndarray:
+        return self.positions.true_anomaly
+
+    @property
+    def time(self) -> np.ndarray:
+        return self.positions.time
+
+    def total(self, what: str = "absorbed") -> np.ndarray:
+        """(k, n) sum over the kinds of ``what`` ("absorbed" or "incident")."""
+        table = getattr(self, what)
+        return sum(table[k] for k in self.kinds)
+
+
+def mesh_frame(orbit: Orbit, attitude: Attitude, positions: OrbitPositions):
+    """``(sun (k, 3), nadir (k, 3), position (k, 3) m, rotations (k, 3, 3))`` in the mesh frame at the orbit's
+    ``positions`` (rotations: mesh -> inertial)."""
+    M = attitude.matrices(orbit, positions.position, positions.velocity)
+    sun = np.einsum("kji,j->ki", M, orbit.sun)
+    pos = np.einsum("kji,kj->ki", M, positions.position)
+    nadir = -pos / np.linalg.norm(pos, axis=1, keepdims=True)
+    return sun, nadir, pos, M
+
+
+def check_kinds(kinds) -> tuple:
+    kinds = (kinds,) if isinstance(kinds, str) else tuple(kinds)
+    bad = [k for k in kinds if k not in KINDS]
+    if bad or not kinds or len(set(kinds)) != len(kinds):
+        raise Fem2TmmError(f"kinds must be distinct names among {', '.join(KINDS)}, got {list(kinds)}")
+    return kinds
+
+
+def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS, groups=None, rays_per_group=None,
+                ray_density: float | None = None, sampling: str = "halton", seed: int = 0,
+                max_bounces: int = MAX_BOUNCES, scene: TriangleScene | None = None, threads: int = 2,
+                per: str = "side", solar_rays_per_group=None, focus: str = "planet") -> OrbitalFluxes:
+    """Solar, albedo and planet-infrared powers on the sides of ``surface`` at every position of ``orbit``.
+
+    ``groups`` (2f,) emitting unit of each side (-1: no origins there; default every side its own), as for
+    :func:`~fem2tmm.radiation.solar.trace_solar`; ``rays_per_group`` / ``ray_density`` the planet rays' budget,
+    ``solar_rays_per_group`` the solar one (default the same).  ``per`` "side" (n = 2f), "face" (n = f, both sides
+    summed) or "group" (n = groups).  ``focus`` "planet" (PFHS) or "hemisphere" (plain sampling, for
+    comparison).  Position j of the orbit traces with seed (``seed``, j') (j' the index of its
+    distinct true anomaly).  Returns :class:`OrbitalFluxes`.
+    """
+    kinds = check_kinds(kinds)
+    if per not in ("side", "face", "group"):
+        raise Fem2TmmError(f"per must be 'side', 'face' or 'group', got {per!r}")
+    if scene is None:
+        scene = TriangleScene(surface)
+    positions = orbit.positions()
+    sun, nadir, pos, M = mesh_frame(orbit, attitude, positions)
+    f = surface.n_faces
+    g = 2 * f if groups is None else int(np.max(groups)) + 1
+
+    def pick(res, side_values):
+        if per == "side":
+            return side_values
+        if per == "face":
+            return side_values.reshape(f, 2).sum(axis=1)
+        gr = np.arange(2 * f) if groups is None else np.asarray(groups)
+        mine = gr >= 0
+        return np.bincount(gr[mine], weights=side_values[mine], minlength=g)
+
+    n = {"side": 2 * f, "face": f, "group": g}[per]
+    k = len(positions)
+    incident = {kind: np.zeros((k, n)) for kind in kinds}
+    absorbed = {kind: np.zeros((k, n)) for kind in kinds}
+    lost = {kind: np.zeros(k) for kind in kinds}
+    escaped = {kind: np.zeros(k) for kind in kinds}
+    rays = {kind: np.zeros(k, np.int64) for kind in kinds}
+    segments = 0
+    distinct, first = np.unique(positions.true_anomaly, return_index=True)
+    solar_budget = rays_per_group if solar_rays_per_group is None else solar_rays_per_group
+    for jd, j0 in enumerate(first):  # loop over the distinct positions of the orbit
+        rows = np.flatnonzero(positions.true_anomaly == distinct[jd])
+        for kind in kinds:
+            lit = positions.lit[rows]
+            if kind == "solar":
+                if not (lit > 0).any() or orbit.solar_flux == 0:
+                    continue
+                res = trace_solar(surface, sun[j0], orbit.solar_flux, groups=groups, rays_per_group=solar_budget,
+                                  ray_density=ray_density, sampling=sampling, seed=(seed, jd),
+                                  max_bounces=max_bounces, scene=scene, threads=threads)
+                inc, ab = res.incident_side, res.absorbed_side
+            else:
+                res = trace_planet(surface, pos[j0], sun[j0], kind=kind, planet=orbit.planet, groups=groups,
+                                   rays_per_group=rays_per_group, ray_density=ray_density, sampling=sampling,
+                                   seed=(seed, jd), solar_flux=orbit.solar_flux, max_bounces=max_bounces,
+                                   scene=scene, threads=threads, focus=focus)
+                inc, ab = res.incident_side, res.absorbed_side
+                lit = np.ones(len(rows))
+            scale = lit[:, None]
+            incident[kind][rows] = scale * pick(res, inc)[None, :]
+            absorbed[kind][rows] = scale * pick(res, ab)[None, :]
+            lost[kind][rows] = lit * (res.escaped + res.blocked + res.capped)
+            escaped[kind][rows] = lit * res.escaped
+            rays[kind][rows] = res.rays
+            segments += res.segments
+    return OrbitalFluxes(positions=positions, sun=sun, nadir=nadir, position=pos, attitude=M, kinds=kinds,
+                         incident=incident, absorbed=absorbed, lost=lost, escaped=escaped, rays=rays,
+                         segments=segments)
+
+
+def orbital_fluxes(points, faces, orbit: Orbit, attitude: Attitude, kinds=KINDS, absorptivity=0.2, emissivity=0.8,
+                   rays_per_face=1000, seed=0, *, specular=0.0, ray_density=None, sampling="halton",
+                   threads=2) -> OrbitalFluxes:
+    """Solar, albedo and planet-infrared powers on the front side of each face along an orbit (DESIGN §4.5).
+
+    ``points`` (n, 3) m, ``faces`` (m, 3) or (m, 4) int (front side = right-hand normal; front sides absorb and
+    reflect, back sides stop rays).  ``orbit`` an :class:`~fem2tmm.radiation.orbit.Orbit` (``Orbit.make``),
+    ``attitude`` an :class:`~fem2tmm.radiation.orbit.Attitude` (``Attitude.make``).  ``kinds`` any of "solar",
+    "albedo", "ir".  ``absorptivity`` (solar band: direct solar and albedo), ``emissivity`` (infrared band: planet
+    IR), ``specular`` fraction of the reflected energy: scalars or (m,).  ``rays_per_face`` origins per face and
+    position (or ``ray_density`` rays per m²); ``sampling`` "halton" or "random"; ``seed``.
+
+    Returns :class:`OrbitalFluxes` with ``incident[kind]`` and ``absorbed[kind]`` (k, m) W per position and face
+    and the position table (``positions.true_anomaly`` deg, ``positions.time`` s, ``positions.eclipse``, ``sun``
+    and ``nadir`` (k, 3) in the mesh frame).
+    """
+    faces = pad_faces(faces)
+    m = len(faces)
+    surface = optics_surface(points, faces, absorptivity, emissivity, specular, m)
+    groups = np.stack([np.arange(m), np.full(m, -1)], axis=1).ravel()
+    if ray_density is not None:
+        rays_per_face = None
+    return trace_orbit(surface, orbit, attitude, kinds=kinds, groups=groups, rays_per_group=rays_per_face,
+                       ray_density=ray_density, sampling=sampling, seed=seed, threads=threads, per="group")
