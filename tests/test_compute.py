@@ -13,7 +13,8 @@ import time
 import numpy as np
 import pytest
 
-from fem2tmm.compute import DaskExecutor, SerialExecutor, current, using
+from fem2tmm.compute import DaskExecutor, SerialExecutor, current, open_executor, using
+from fem2tmm.errors import Fem2TmmError
 from fem2tmm.progress import reporting
 
 distributed = pytest.importorskip("distributed")
@@ -68,37 +69,45 @@ def _cluster(n):
     return DaskExecutor(distributed.Client(cluster), cluster)
 
 
-@pytest.mark.parametrize("n_workers", [1, 2])
-def test_local_cluster_gives_bit_identical_rays(serial_run, n_workers):
-    (surface, groups, sun), expected = serial_run
-    ex = _cluster(n_workers)
-    try:
-        with using(ex):
-            got = _trace(surface, groups, sun)
-        assert ex.workers == n_workers
-    finally:
-        ex.close()
-    _assert_identical(got, expected)
-
-
-def test_a_worker_killed_mid_run_is_replaced_with_identical_results(serial_run):
-    (surface, groups, sun), expected = serial_run
+@pytest.fixture(scope="module")
+def cluster2():
     ex = _cluster(2)
+    yield ex
+    ex.close()
+
+
+def test_a_worker_killed_mid_run_is_replaced_with_identical_results(serial_run, cluster2):
+    (surface, groups, sun), expected = serial_run
+    ex = cluster2
     killed = []
-    try:
-        pids = sorted(ex.client.run(os.getpid).values())
+    pids = sorted(ex.client.run(os.getpid).values())
 
-        def kill_one(done, total, what):
-            if not killed and done >= 2 and done < total - 2:  # units still to run
-                os.kill(pids[0], signal.SIGKILL)
-                killed.append((done, total))
+    def kill_one(done, total, what):
+        if not killed and done >= 2 and done < total - 2:  # units still to run
+            os.kill(pids[0], signal.SIGKILL)
+            killed.append((done, total))
 
-        with using(ex), reporting(kill_one):
-            got = _trace(surface, groups, sun)
-    finally:
-        ex.close()
+    with using(ex), reporting(kill_one):
+        got = _trace(surface, groups, sun)
     assert killed, "no worker was killed while units were pending"
-    _assert_identical(got, expected)
+    _assert_identical(got, expected)  # the rays are the same on 2 workers, one of them killed, as in this process
+
+
+def test_ctrl_c_cancels_the_submitted_units(serial_run, cluster2):
+    (surface, groups, sun), _ = serial_run
+    ex = cluster2
+
+    def interrupt(done, total, what):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with using(ex), reporting(interrupt), pytest.raises(KeyboardInterrupt):
+        _trace(surface, groups, sun)
+    deadline = time.perf_counter() + 10.0
+    while any(ex.client.processing().values()) and time.perf_counter() < deadline:
+        time.sleep(0.1)
+    assert not any(ex.client.processing().values())  # nothing left running on the workers
+    assert not ex.client.who_has()  # no result or scattered scene left in the cluster
 
 
 def test_cli_unreachable_scheduler_exits_2_before_computing(tmp_path):
@@ -112,10 +121,18 @@ def test_cli_unreachable_scheduler_exits_2_before_computing(tmp_path):
     p = subprocess.run([sys.executable, "-m", "fem2tmm.cli", "run", str(case), "--out", str(out), "--quiet",
                         "--scheduler", "tcp://127.0.0.1:9"], capture_output=True, text=True, timeout=60,
                        env={**os.environ, "PYTHONPATH": os.path.join(root, "src")})
-    assert time.perf_counter() - t0 < 10.0 + 5.0  # the 10 s budget plus the interpreter's and imports' start-up
+    # the interpreter and the imports may take long on a loaded machine: the 10 s budget is checked in-process below
+    assert time.perf_counter() - t0 < 30.0
     assert p.returncode == 2
     assert p.stderr.count("\n") == 1 and "cannot reach the Dask scheduler" in p.stderr and "Traceback" not in p.stderr
     assert not out.exists() and sorted(x.name for x in tmp_path.iterdir()) == ["case.toml"]
+
+
+def test_an_unreachable_scheduler_is_one_error_within_10_s():
+    t0 = time.perf_counter()
+    with pytest.raises(Fem2TmmError, match=r"cannot reach the Dask scheduler at tcp://127.0.0.1:9 within"):
+        open_executor("tcp://127.0.0.1:9")
+    assert time.perf_counter() - t0 < 10.0
 
 
 def test_serial_runs_never_import_dask():

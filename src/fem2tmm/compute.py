@@ -26,7 +26,7 @@ from .errors import Fem2TmmError
 from .progress import report
 
 #: seconds to wait for a Dask scheduler before giving up (the whole check stays within 10 s)
-CONNECT_TIMEOUT = 5.0
+CONNECT_TIMEOUT = 3.0
 #: a unit that raised is re-run this many times (a unit on a worker that died is always re-run by Dask)
 RETRIES = 1
 

@@ -47,6 +47,7 @@ class Result:
     absorbed_solar_faces: np.ndarray | None = None
     absorbed_solar_elements: np.ndarray | None = None
     quadrics: list[dict] | None = None  # one fit report per quadric region (summary.json "quadrics")
+    cache: dict[str, str] | None = None  # stage -> "computed" | "reused" (fem2tmm.cache; summary.json "cache")
 
     @property
     def T_detailed_nodes(self) -> np.ndarray | None:
@@ -62,3 +63,16 @@ class Result:
     def T_nodes(self) -> np.ndarray:
         """The result temperatures (K) of every mesh node: recovered when reduced, detailed otherwise."""
         return self.T_recovered_nodes if self.T_recovered is not None else self.T_detailed_nodes
+
+
+@dataclass
+class CasesResult:
+    """What a run of a case file with ``[[cases]]``/``[sweep]`` produced: ``results`` {case name: :class:`Result`}
+    in file order, ``parameters`` {case name: {dotted key: value}} set by a sweep, ``summary`` the dict written to
+    the top ``summary.json`` (per-case table, envelope), ``out`` the output folder."""
+
+    case: Case
+    results: dict[str, Result]
+    parameters: dict[str, dict] = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+    out: Path | None = None
