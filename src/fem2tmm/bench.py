@@ -29,6 +29,7 @@ REGISTRY: dict[str, str] = {
     "solar": "fem2tmm.radiation.benchmarks_solar:bench_solar",
     "quadric": "fem2tmm.radiation.benchmarks_quadric:bench_quadric",
     "network": "fem2tmm.lpm.benchmarks:bench_network",
+    "cases": "fem2tmm.benchmarks_cases:bench_cases",
 }
 
 

@@ -537,9 +537,8 @@ class QuadricScene(TriangleScene):
             self._setup_surfaces()
             self._setup_areas()
 
-    def __reduce__(self):
-        """Pickled as its constructor's arguments (fitted quadrics included): engines rebuilt where unpickled."""
-        return (type(self), self._args)
+    def _init_args(self) -> tuple:
+        return self._args  # fitted quadrics included; see TriangleScene.__reduce__
 
     @classmethod
     def from_regions(cls, surface: Surface, region_of_face, names=None, tol: float = FIT_TOL, backend: str = "auto",
