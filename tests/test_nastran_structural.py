@@ -171,7 +171,8 @@ def test_cquad8_ctria6_area_capacity_and_linear_patch(tmp_path):
     for T in (res.T_detailed_nodes, res.T_recovered_nodes):
         np.testing.assert_allclose(T - KELVIN, 50.0 * x, rtol=0, atol=1e-9)
     # heat through the plate: k t W ΔT / L = 200 · 0.002 · 1 · 100 / 2 = 20 W
-    assert res.summary["detailed"]["heat_into_fixed_W"]["hot"] == pytest.approx(20.0, rel=1e-9)  # the heat "hot" supplies
+    # heat_into_fixed_W is positive into the boundary (docs/case-file.md): the cold edge takes +20 W
+    assert res.summary["detailed"]["heat_into_fixed_W"][case.boundaries[0].name] == pytest.approx(20.0, rel=1e-9)
 
 
 # ------------------------------------------------------------------------------------------- composites, MAT5
@@ -206,8 +207,8 @@ def test_mat5_orthotropic_plate(tmp_path, axis):
                      {"kind": "temperature", "nodes": hi, "value": 100.0, "name": "hi"}])
     res = quiet(run, case)
     k = 100.0 if axis == "x" else 10.0
-    # heat_into_fixed_W: the heat each boundary supplies to the model
-    assert res.summary["detailed"]["heat_into_fixed_W"]["hi"] == pytest.approx(k * 0.002 * 1.0 * 100.0, rel=1e-9)
+    # heat_into_fixed_W is positive into the boundary (docs/case-file.md): the cold edge takes k t W ΔT / L
+    assert res.summary["detailed"]["heat_into_fixed_W"]["lo"] == pytest.approx(k * 0.002 * 1.0 * 100.0, rel=1e-9)
 
 
 # ------------------------------------------------------------------------------------------- syntax, includes
@@ -321,3 +322,146 @@ def test_nastran95_washer_d01_12_1a(tmp_path):
         assert np.abs(ours - nastran)[wedge].max() < 0.01
     # the flux input: 288.5 W/m² x the inner face (r = 1, 4 degrees, 0.1 deep) = 2.0141 W (published OLOAD 4 x 0.5034)
     assert res.summary["detailed"]["loads_W"]["deck flux (QBDY/QHBDY)"] == pytest.approx(4 * 5.034252e-01, rel=1e-6)
+
+
+# ------------------------------------------------------------------------------------------- inspect, outputs
+def test_inspect_counts_regions(tmp_path, capsys):
+    from fem2tmm.cli import main
+
+    # PID 1: a U channel folded at 90 degrees twice (3 regions at the 30 degree default); PID 2: a flat plate
+    lines = []
+    xs, zs = [0.0, 0.0, 1.0, 1.0], [1.0, 0.0, 0.0, 1.0]  # the U profile in the xz plane, extruded along y
+    for j, y in enumerate((0.0, 0.5, 1.0)):
+        for i, (x, z) in enumerate(zip(xs, zs)):
+            lines.append(card("GRID", 1 + i + 4 * j, "", x, y, z))
+    for j in range(2):
+        for i in range(3):
+            g = 1 + i + 4 * j
+            lines.append(card("CQUAD4", 1 + i + 3 * j, 1, g, g + 1, g + 5, g + 4))
+    lines += plate_cards(5.0, 101, 101, 2)
+    lines += [card("PSHELL", 1, 10, 0.001), card("PSHELL", 2, 10, 0.002), card("MAT4", 10, 1.0),
+              card("SPC1", 1, 1, 101, "THRU", 103), card("CBUSH", 500, 9, 8, 101), card("PARAM", "POST", -1),
+              card("RBAR", 501, 5, 6, 123456)]
+    deck = write(tmp_path, lines)
+    assert main(["inspect", str(deck)]) == 0
+    text = capsys.readouterr().out
+    assert re.search(r"PID 1\s+shell\s+6\s+3\s+3 m2", text), text  # 3 regions, area 3 m²
+    assert re.search(r"PID 2\s+shell\s+4\s+1\s+1 m2\s+0.002 m \(PSHELL\)", text), text
+    assert "consistent" in text and "cards refused" in text and "RBAR (1)" in text and "PARAM (1)" in text
+    # one piece: the CBUSH joins the channel to the plate; it touches the joint and the SPC1
+    assert "connected pieces (elements and joints): 1" in text and "joint: yes, SPC: yes" in text
+
+
+def test_line_part_clusters_and_vtu(tmp_path):
+    # a chain of 12 CRODs between the two plates, clustered into 3 contiguous super nodes; outputs hold line cells
+    lines = two_plates([])
+    for i in range(11):
+        lines.append(card("GRID", 1000 + i, "", 1.0 + (i + 1) / 12, 0.5, 0.0))
+    chain = [6, *range(1000, 1011), 104]
+    lines += [card("CROD", 900 + i, 3, a, b) for i, (a, b) in enumerate(zip(chain[:-1], chain[1:]))]
+    lines += [card("PROD", 3, 30, 1e-4), card("MAT4", 30, 100.0, 900.0, 2700.0)]
+    deck = write(tmp_path, lines)
+    case = case_for(deck, [*PLATES, {"name": "rod", "groups": ["PID 3"], "super_nodes": 3}], HEAT_FIX)
+    res = quiet(run, case, out=tmp_path / "out")
+    rep = next(p for p in res.summary["reduced"]["clustering"]["parts"] if p["name"] == "rod")
+    assert rep["kind"] == "line" and rep["clusters"] == 3 and rep["contiguous"]
+    i6, i104 = res.mesh.node_index([6, 104], where="test")
+    T = res.T_recovered_nodes
+    # closed form: 5 W through a rod of L = 1 m, A = 1e-4 m², k = 100: ΔT = 5 / (100 · 1e-4) = 500 K
+    assert T[i6] - T[i104] == pytest.approx(500.0, rel=1e-9)
+    import meshio
+
+    vtu = meshio.read(tmp_path / "out" / "temperatures.vtu")
+    assert sum(len(c.data) for c in vtu.cells if c.type == "line") == 12
+
+
+def test_case_overrides_deck_loads(tmp_path):
+    # the washer with only its QBDY1 taken from the deck and the outer face held at 10 °C by the case instead of
+    # the deck's SPC at 0: the problem is linear, so every temperature moves by exactly +10 K
+    base = {"file": "d01121a.inp", "temperature_unit": "C"}
+    parts = [{"name": "washer", "groups": ["PID 200"], "super_nodes": 3}]
+    a = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": True}, "parts": parts},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    b = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": ["QBDY1"]}, "parts": parts,
+                                   "boundary": [{"kind": "temperature", "nodes": [11, 22, 111, 122], "value": 10.0}]},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    np.testing.assert_allclose(b.T_detailed_nodes - a.T_detailed_nodes, 10.0, rtol=0, atol=1e-9)
+    assert [g.name for g in a.model.fixed] == ["SPC 0 C"] and len(b.model.fixed) == 1
+    # all deck loads on, and the case's boundary on the same GRIDs: the case wins over the deck's SPC
+    c = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": True}, "parts": parts,
+                                   "boundary": [{"kind": "temperature", "nodes": [11, 22, 111, 122], "value": 10.0}]},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    np.testing.assert_allclose(c.T_detailed_nodes, b.T_detailed_nodes, rtol=0, atol=1e-9)
+    assert len(c.model.fixed) == 1
+
+
+# ------------------------------------------------------------------------------------------- units, solids
+def test_inch_lbf_second_fahrenheit_materials(tmp_path):
+    # MAT4 K = 1 lbf/(s °F) = 0.1129848 W / (0.0254 m · 5/9 K) = 8.006803 W/(m K) (1 in·lbf = 0.1129848 J);
+    # RHO = 1 lbf s²/in⁴ = 4.4482216 N s² / 0.0254⁴ m⁴... = 1.0686895e7 kg/m³; CP = 1 in²/(s² °F) = 0.0254²/(5/9)
+    lines = [*plate_cards(0.0, 1, 1, 1), card("PSHELL", 1, 10, 0.1), card("MAT4", 10, 1.0, 1.0, 1.0)]
+    deck = write(tmp_path, lines)
+    p = quiet(read_nastran, deck, unit_system="in-lbf-s", temperature_unit="F").properties["PID 1"]
+    assert p.conductivity == pytest.approx(0.1129848290276167 / (0.0254 * 5 / 9), rel=1e-12)
+    assert p.density == pytest.approx(1.0686895e7, rel=1e-7)
+    assert p.specific_heat == pytest.approx(0.0254**2 / (5 / 9), rel=1e-12)
+    assert p.thickness == pytest.approx(0.1 * 0.0254, rel=1e-15)
+    with pytest.raises(Fem2TmmError, match=r"unit system 'in-lbf-s' is ambiguous about temperature.*temperature_unit"):
+        quiet(read_nastran, deck, unit_system="in-lbf-s")
+    with pytest.raises(Fem2TmmError, match=r"\[mesh\]: unit = 'mm' contradicts unit_system = 'in-lbf-s'"):
+        Case.from_dict({"mesh": {"file": "x.bdf", "unit": "mm", "unit_system": "inch-lbf-s"},
+                        "parts": [{"name": "p", "groups": ["PID 1"]}]})
+
+
+def test_ignore_cards_lets_the_run_proceed(tmp_path):
+    deck = write(tmp_path, two_plates([card("RBAR", 900, 6, 104, 123456), card("CBUSH", 901, 7, 6, 104)]))
+    # the RBAR is dropped explicitly; the CBUSH (PID 7) conducts 2 W/K: drop = P / G = 5 / 2 K
+    case = case_for(deck, PLATES, HEAT_FIX, mesh={"ignore_cards": ["RBAR"]},
+                    joints=[{"pids": [7], "treatment": "conductance", "conductance": 2.0}])
+    res = quiet(run, case)
+    assert res.mesh.cards["ignored"] == {"RBAR": 1} and res.summary["mesh"]["joints"] == {"CBUSH": {"conductance": 1}}
+    assert res.summary["mesh"]["ignored_cards"] == {"RBAR": 1}
+    i6, i104 = res.mesh.node_index([6, 104], where="test")
+    assert res.T_recovered_nodes[i6] - res.T_recovered_nodes[i104] == pytest.approx(2.5, rel=1e-9)
+
+
+def test_chexa20_linear_patch_and_mat5_solid(tmp_path):
+    # a 2 x 1 x 1 m block of two CHEXA20 (mid-side GRIDs at edge midpoints), MAT5 KXX = 5, KYY = 7, KZZ = 11:
+    # volume exact, the linear field T = 30 x exact at every GRID, heat = KXX A ΔT / L = 5 · 1 · 60 / 2 = 150 W
+    X = {}
+
+    def gid(x, y, z):
+        key = (round(2 * x), round(2 * y), round(2 * z))
+        return X.setdefault(key, len(X) + 1)
+
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+    edges = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 5), (2, 6), (3, 7), (4, 5), (5, 6), (6, 7), (7, 4)]
+    lines = []
+    for e, x0 in enumerate((0.0, 1.0)):
+        c = [(x + x0, y, z) for x, y, z in corners]
+        m = [tuple((np.array(c[a]) + np.array(c[b])) / 2) for a, b in edges]
+        g = [gid(*p) for p in c + m]
+        lines += [card("CHEXA", 1 + e, 1, *g[:6], "+"), card("+", *g[6:14], "+"), card("+", *g[14:])]
+    lines = [card("GRID", i, "", k[0] / 2, k[1] / 2, k[2] / 2) for k, i in X.items()] + lines
+    lines += [card("PSOLID", 1, 10), card("MAT5", 10, 5.0, "", "", 7.0, "", 11.0)]
+    deck = write(tmp_path, lines)
+    mesh = quiet(read_mesh, deck)
+    assert len(mesh.midside) == 20 and np.nansum(mesh.element_volumes()) == pytest.approx(2.0, rel=1e-14)
+    lo = mesh.node_ids[mesh.points[:, 0] == 0.0].tolist()
+    hi = mesh.node_ids[mesh.points[:, 0] == 2.0].tolist()
+    case = case_for(deck, [{"name": "b", "groups": ["PID 1"], "super_nodes": 1}],
+                    [{"kind": "temperature", "nodes": lo, "value": 0.0, "name": "lo"},
+                     {"kind": "temperature", "nodes": hi, "value": 60.0, "name": "hi"}])
+    res = quiet(run, case, mesh=mesh)
+    for T in (res.T_detailed_nodes, res.T_recovered_nodes):
+        np.testing.assert_allclose(T - KELVIN, 30.0 * mesh.points[:, 0], rtol=0, atol=1e-9)
+    assert res.summary["detailed"]["heat_into_fixed_W"]["lo"] == pytest.approx(150.0, rel=1e-9)
+
+
+def test_pcompg_plies(tmp_path):
+    # PCOMPG: one ply per continuation line (GPLYID MID T THETA SOUT); plies 0.2 / 0.3 / 0.5 mm
+    lines = [*plate_cards(0.0, 1, 1, 1), card("PCOMPG", 1, "", "", "", "", "", "", "", "+"),
+             card("+", 1, 10, 0.2, 0.0, "", "", "", "", "+"), card("+", 2, 10, 0.3, 45.0, "", "", "", "", "+"),
+             card("+", 3, 10, 0.5, 90.0), card("MAT4", 10, 100.0)]
+    p = quiet(read_nastran, write(tmp_path, lines), unit="mm").properties["PID 1"]
+    assert p.thickness == pytest.approx(1.0e-3, rel=1e-14) and p.conductivity == pytest.approx(100.0, rel=1e-14)

@@ -12,6 +12,8 @@ import dataclasses
 import time
 from pathlib import Path
 
+import numpy as np
+
 from .case import Case
 from .errors import Fem2TmmError
 from .cache import digest
@@ -27,9 +29,10 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .result import CasesResult, Result
 from .solve.steady import check_solvable, solve_steady
-from .stages import (absorbed_solar_maps, cluster_key, cluster_model, describe_nodes, detailed_problem,
-                     detailed_radiation, detailed_solar, fit_quadrics, geometry_key, positive_reduced, quadric_regions,
-                     radiation_surface, reduce_key, reduced_problem, reduced_radiation, scene_key, solar_prepass,
+from .stages import (absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
+                     detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key, mean_faced,
+                     positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
+                     reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_solar, trace_key, tracer_settings)
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
@@ -45,11 +48,15 @@ def load_mesh(case: Case) -> Mesh:
 
 
 def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, quiet: bool = True,
-        reference: bool | None = None, cache: str | Path | bool | None = None) -> Result | CasesResult:
+        reference: bool | None = None, labels: np.ndarray | None = None,
+        cache: str | Path | bool | None = None) -> Result | CasesResult:
     """Run ``case``; write the output folder ``out`` (if given) only once everything succeeded.
 
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
-    overrides ``[reference] detailed``.  A case file with ``[[cases]]`` or ``[sweep]``
+    overrides ``[reference] detailed``.  ``labels`` (n_elements,) int: your own partition into super nodes
+    (e.g. from METIS or another tool), one cluster per mesh element (-1 outside the parts), numbered 0 … K−1
+    with every number used and each cluster within one part; it replaces the clustering (and the parts'
+    ``super_nodes``).  Non-contiguous clusters are accepted with a warning.  A case file with ``[[cases]]`` or ``[sweep]``
     (:mod:`fem2tmm.loadcases`) runs every case and returns a :class:`~fem2tmm.result.CasesResult`
     (outputs: one folder per case in ``out`` and the envelope over the cases); otherwise a
     :class:`~fem2tmm.result.Result`.  Stage results are shared between cases and runs through the stage cache
@@ -73,12 +80,13 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
         workers = ex.workers
         for name, c, _ in cases:
             prog = Progress(quiet=quiet, label=name or None)
-            key = (str(c.mesh.file), c.mesh.unit)
+            key = repr(c.mesh)  # the file and every reader option: cases that share it read it once
             if mesh is None and key not in meshes:
                 with prog.stage("read", "reading the mesh"):
                     meshes[key] = load_mesh(c)
             with reporting(prog.callback()):
-                results.append(_run(c, prog, mesh if mesh is not None else meshes[key], reference, store))
+                results.append(_run(c, prog, mesh if mesh is not None else meshes[key], reference, store,
+                                    labels))
     if len(cases) == 1 and not cases[0][0]:
         result = results[0]
         if out is not None:
@@ -134,13 +142,19 @@ class _Scenes:
         return self._main
 
 
-def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, store=None) -> Result:
+def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, store=None,
+         labels: np.ndarray | None = None) -> Result:
+    if case.clustering.method == "metis" and labels is None:
+        from .cluster.metis import require
+
+        require()  # the optional dependency, before any long computation
     if mesh is None:
         with prog.stage("read", "reading the mesh"):
             mesh = load_mesh(case)
     mesh = mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
+    check_transient(model, case)
     do_ref = case.reference.detailed if reference is None else reference
     problem = detailed_problem(model)
     check_solvable(problem, describe=describe_nodes(model))
@@ -154,31 +168,37 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         seconds = compile_estimate()
         if seconds > 0:
             prog.note(f"compiling the ray tracer's kernels (first run after an install, ~{seconds:.0f} s)")
-    scenes = _Scenes(surface)
+    scenes = _Scenes(surface)  # the ray scenes, built when a stage traces (a cached stage needs none)
     geometry = geometry_key(model) if surface is not None else None
     ir = surface.optics("ir") if surface is not None else None
     solar = surface.optics("solar") if surface is not None else None
     env = case.environment
-    sun_settings = (env.sun_direction, env.solar_flux, env.solar_rays_per_face, tracer_settings(case, exchange=False))
+
+    def sun_key(stage: str, scene: str, role: str, *more) -> str:
+        return trace_key(stage, geometry, solar, scene, env.sun_direction, env.solar_flux, env.solar_rays_per_face,
+                         tracer_settings(case, exchange=False, role=role), *more)
+
     q_solar = None  # detailed solar nodal loads (n_dof,) W
 
     # clustering (following a coarse solar map when asked)
+    ckey = None
     if case.reduction.enabled:
         flux = None
         if sun and case.solar_aware:
             flux = _cached(prog, store, status, "solar_prepass", "tracing a coarse solar map for the clustering",
-                           lambda: trace_key("solar_prepass", geometry, solar, "flat", *sun_settings),
+                           lambda: sun_key("solar_prepass", "flat", "prepass"),
                            lambda: solar_prepass(model, case, surface, scene=scenes.flat()))
-        cluster_progress = lambda i, n: report(i, n, "regions clustered")  # noqa: E731
-        ckey = cluster_key(model, case, flux)
-        result.clustering = _cached(prog, store, status, "cluster", "clustering", lambda: ckey,
-                                    lambda: cluster_model(model, case, progress=cluster_progress, flux=flux))
+        ckey = cluster_key(model, case, flux, labels)
+        result.clustering = _cached(
+            prog, store, status, "cluster", "clustering", lambda: ckey,
+            lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
+                                  labels=labels))
 
     # quadrics where the case asks for them (the scene itself is built when a stage traces)
     if surface is not None and any(p.quadric for p in case.parts):
         regions = quadric_regions(model, case, result.clustering)
-        scenes.fit = _cached(prog, store, status, "quadrics", "fitting quadrics",
-                             lambda: digest("quadrics", *regions), lambda: fit_quadrics(*regions))
+        scenes.fit = _cached(prog, store, status, "quadrics", "fitting quadrics", lambda: digest("quadrics", *regions),
+                             lambda: fit_quadrics(*regions))
         result.quadrics = scenes.fit[2]
     skey = scene_key(scenes.fit)
 
@@ -186,7 +206,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     if sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed"):
         q_solar, result.solar_detailed = _cached(
             prog, store, status, "solar_detailed", "tracing solar rays on the detailed mesh",
-            lambda: trace_key("solar_detailed", geometry, solar, skey, *sun_settings),
+            lambda: sun_key("solar_detailed", skey, "reference"),
             lambda: detailed_solar(model, case, surface, scene=scenes.main()))
         result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, result.solar_detailed)
 
@@ -203,19 +223,23 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 lambda: reduced_radiation(model, rm, case, surface, scene=scenes.main(), sf=sf))
             rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
         q_recover = model.Q
+        result.q_recover = q_recover
+        q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
         if sun:
             if case.environment.solar_on == "detailed":
                 # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
                 q_sn = rm.reduction.distribute(q_solar)
                 q_recover = model.Q + q_solar
+                result.q_recover = q_recover
             else:
                 q_sn, result.solar_super_faces, _ = _cached(
                     prog, store, status, "solar", "tracing solar rays on the super faces",
-                    lambda: trace_key("solar", geometry, solar, skey, sf, rm.n, *sun_settings),
+                    lambda: sun_key("solar", skey, "reduced", sf, rm.n),
                     lambda: super_face_solar(model, rm, case, surface, scene=scenes.main(), sf=sf))
                 if result.absorbed_solar_elements is None:
                     result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(
                         model, result.solar_super_faces)
+                q_lumped = q_sn
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
             result.solar_on = case.environment.solar_on
         result.reduced = rm
@@ -229,32 +253,80 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             result.T_recovered_exact = rm.reduction.recover(exact.T, q_recover)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
+        if case.reduction.radiation_aware:
+            with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
+                result.thesis_T_recovered = result.T_recovered
+                result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
+                    radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
+                                            result.T_recovered))
 
-    # detailed reference model
+    # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:
+        noise = do_ref and case.reduction.enabled and case.reference.noise
+        halves = []  # the problems of the two half references, when the reference is noisy
         if trace:
             ref = case.reference
-            faced, g_space, result.radiation_detailed = _cached(
-                prog, store, status, "radiation_detailed", "tracing FE-face exchange factors (detailed model)",
-                lambda: trace_key("radiation_detailed", geometry, ir, skey,
-                                  tracer_settings(case, ref.rays_per_face, ref.ray_density)),
-                lambda: detailed_radiation(model, case, surface, rays_per_face=ref.rays_per_face,
-                                           ray_density=ref.ray_density, scene=scenes.main()))
+
+            def detailed_refs(role: str = "reference", fraction: float = 1.0):
+                return _cached(prog, store, status, "radiation_detailed",
+                               "tracing FE-face exchange factors (detailed model)",
+                               lambda: trace_key("radiation_detailed", geometry, ir, skey,
+                                                 tracer_settings(case, ref.rays_per_face, ref.ray_density, role=role,
+                                                                 fraction=fraction)),
+                               lambda: detailed_radiation(model, case, surface, rays_per_face=ref.rays_per_face,
+                                                          ray_density=ref.ray_density, scene=scenes.main(),
+                                                          role=role, fraction=fraction))
+
+            if noise:
+                parts = [detailed_refs(role, 0.5) for role in ("reference", "reference_b")]
+                halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
+                faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
+                result.radiation_detailed = parts[0][2]
+                result.reference_halves = 2
+            else:
+                faced, g_space, result.radiation_detailed = detailed_refs()
             problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
-        if q_solar is not None:
-            problem = dataclasses.replace(problem, Q=problem.Q + q_solar)
+        q_ref = q_solar
+        if q_solar is not None and noise and case.reduction.enabled and case.environment.solar_on != "detailed":
+            # the reference's own solar loads are noisy too: a second independent tracing
+            q_b, _ = _cached(prog, store, status, "solar_detailed_b",
+                             "tracing a second, independent detailed solar map (reference noise)",
+                             lambda: sun_key("solar_detailed", skey, "reference_b"),
+                             lambda: detailed_solar(model, case, surface, scene=scenes.main(), role="reference_b"))
+            halves = halves or [problem, problem]
+            halves = [dataclasses.replace(h, Q=h.Q + q) for h, q in zip(halves, (q_solar, q_b))]
+            q_ref = 0.5 * (q_solar + q_b)
+        elif q_solar is not None:
+            halves = [dataclasses.replace(h, Q=h.Q + q_solar) for h in halves]
+        if q_ref is not None:
+            problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = _solve(problem, case)
+        if halves:
+            with prog.stage("reference_noise", "solving the two half references (reference noise)"):
+                Ta, Tb = (s.T for s in map_units(_solve_unit, halves, shared=_solver_settings(case),
+                                                 what="steady solves"))
+            result.reference_noise = reference_noise(model, Ta, Tb)
+
+    # transient: the reduced model in time (recovered at every output time) and the detailed reference
+    if case.transient is not None:
+        with prog.stage("transient", "integrating the transient"):
+            rs, det = result.reduced_solution, result.detailed
+            result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
+                                             result.q_recover, problem if det is not None else None,
+                                             None if det is None else det.T)
 
     result.summary = build_summary(result, prog.timings)
     return result
 
 
+def _solver_settings(case: Case) -> dict:
+    return {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
+
+
 def _solve(problem, case: Case):
     """The steady solution of ``problem``: one work unit (:func:`fem2tmm.compute.map_units`)."""
-    [solution] = map_units(_solve_unit, [problem], shared={"tol": case.solver.tolerance,
-                                                          "max_iter": case.solver.max_iterations},
-                           what="steady solves")
+    [solution] = map_units(_solve_unit, [problem], shared=_solver_settings(case), what="steady solves")
     return solution
 
 

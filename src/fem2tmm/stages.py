@@ -17,14 +17,17 @@ import scipy.sparse as sp
 
 from .cache import digest
 from .case import Case
-from .cluster import Clustering, PartInput, cluster_parts
-from .errors import InternalError
-from .fem.model import FEModel
+from .cluster import Clustering, PartInput, cluster_parts, from_labels
+from .errors import Fem2TmmError, InternalError
+from .fem.model import FEModel, boundary_load
 from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, determined_elements, kept_dofs, super_faces
+from .reduce.network import ReducedModel, build_reduced, determined_elements, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
+from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
+                              solve_transient)
+from .timefunc import Series, Table
 
 PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
 
@@ -84,14 +87,19 @@ def describe_nodes(model: FEModel) -> Callable[[np.ndarray], str]:
 
 
 # ------------------------------------------------------------------------------------------- clustering
-def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | None = None) -> Clustering:
+def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | None = None,
+                  labels: np.ndarray | None = None) -> Clustering:
     """Cluster every part of ``model`` with its requested number of super nodes.
 
+    ``labels`` (n_elements,) int: a user partition instead (:func:`fem2tmm.cluster.from_labels`; the parts'
+    ``super_nodes`` are then ignored).
     Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
     """
     args, kw = _cluster_inputs(model, case, flux)
+    if labels is not None:
+        return from_labels(*args, labels, feature_angle=kw["feature_angle"], where="run(labels=...)")
     return cluster_parts(*args, **kw, progress=progress)
 
 
@@ -107,10 +115,12 @@ def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None) -> tupl
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
                                ids=model.mesh.element_ids[model.elements[rows]],
-                               flux=None if flux is None else np.nan_to_num(flux[model.elements[rows]])))
+                               flux=None if (flux is None or info.kind == "line")
+                               else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
     return ((model.mesh.points, parts, model.mesh.n_elements),
-            {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers})
+            {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
+             "balance": cs.balance, "method": cs.method})
 
 
 # -------------------------------------------------------------------------------------------- radiation
@@ -122,16 +132,30 @@ def radiation_surface(model: FEModel) -> Surface:
                    transmission_specular=f.transmission_specular, active=f.active)
 
 
+#: Random streams of a run, all derived from ``[radiation] seed``: the reduced model's tracings use the seed
+#: itself; every other role gets its own ``numpy.random.SeedSequence`` entropy ``(seed, role)``, so the reference
+#: never draws the reduced model's random numbers (issue 21: otherwise their ray noise is correlated and the
+#: error metric does not see it).
+SEED_ROLES = {"reduced": None, "reference": 1, "reference_b": 2, "prepass": 3, "absorption": 4}
+
+
+def role_seed(seed: int, role: str):
+    """The seed (an int, or SeedSequence entropy ``[seed, k]``) of one random-number role of a run."""
+    k = SEED_ROLES[role]
+    return int(seed) if k is None else [int(seed), k]
+
+
 def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: float | None = None,
-                    exchange: bool = True) -> dict:
+                    exchange: bool = True, role: str = "reduced", fraction: float = 1.0) -> dict:
     """Keyword arguments of :func:`~fem2tmm.radiation.trace_exchange` (``exchange``) or of
     :func:`~fem2tmm.radiation.solar.trace_solar` (not ``exchange``: no budget, no target) from the case's
     ``[radiation]`` section.
 
     The exchange budget is ``rays_per_face`` per group or ``ray_density`` rays/m² when one is given, else the
-    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``)."""
+    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``).  ``role`` picks the random stream
+    (:data:`SEED_ROLES`); ``fraction`` scales the exchange budget (two half-budget references)."""
     rs = case.radiation
-    kw = {"sampling": rs.sampling, "seed": rs.seed, "max_bounces": rs.max_bounces}
+    kw = {"sampling": rs.sampling, "seed": role_seed(rs.seed, role), "max_bounces": rs.max_bounces}
     if not exchange:
         return kw
     if rays_per_face is None and ray_density is None:
@@ -139,13 +163,18 @@ def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: f
             ray_density = float(rs.ray_density)
         else:
             rays_per_face = int(rs.rays_per_face or 1000)
+    if fraction != 1.0:
+        rays_per_face = None if rays_per_face is None else max(1, int(np.ceil(rays_per_face * fraction)))
+        ray_density = None if ray_density is None else ray_density * fraction
     return {**kw, "rays_per_group": rays_per_face, "ray_density": ray_density, "target_lse": rs.target_lse}
 
 
 def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = None, rays_per_face: int | None = None,
-                       ray_density: float | None = None, scene=None
+                       ray_density: float | None = None, scene=None, role: str = "reference", fraction: float = 1.0
                        ) -> tuple[FacedRadiation, np.ndarray, ExchangeResult]:
     """Face-to-face REFs of the detailed model: every active side is a REF node.
+
+    ``role``, ``fraction``: random stream and budget fraction (:func:`tracer_settings`).
 
     Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
     ``g_space`` (n_dof,) m² to the sink, and the :class:`~fem2tmm.radiation.ExchangeResult`.
@@ -155,13 +184,28 @@ def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = Non
     active = np.flatnonzero(f.active)
     groups = np.full(2 * f.n, -1, np.int64)
     groups[active] = np.arange(len(active))
-    res = trace_exchange(surface, groups, scene=scene, **tracer_settings(case, rays_per_face, ray_density))
+    res = trace_exchange(surface, groups, scene=scene,
+                         **tracer_settings(case, rays_per_face, ray_density, role=role, fraction=fraction))
     Ws = f.W[active // 2]  # each side takes its face's nodal weights
     g = len(active)
     GR = sp.csr_matrix(res.GR)
     faced = FacedRadiation(W=Ws.tocsr(), G=GR[:, :g].tocsr())
     g_space = np.asarray(Ws.T @ np.asarray(GR[:, g].todense()).ravel()).ravel()
     return faced, g_space, res
+
+
+def mean_faced(parts: list[FacedRadiation]) -> FacedRadiation:
+    """The mean of independent face-to-face radiation estimates of one model (same ``W``)."""
+    return FacedRadiation(W=parts[0].W, G=(sum(p.G for p in parts) / len(parts)).tocsr())
+
+
+def reference_noise(model: FEModel, Ta: np.ndarray, Tb: np.ndarray) -> dict:
+    """Noise of a reference that is the mean of two independent half references with solutions ``Ta``, ``Tb``
+    (n_dof,) K: the difference of two independent estimates has twice the variance of one, the mean half of
+    one, so the mean's error is estimated by ``(Ta − Tb)/2`` node by node (over the mesh nodes of the model).
+    Returns ``{"rms_K", "max_K"}``."""
+    d = 0.5 * (model.node_temperatures(Ta) - model.node_temperatures(Tb))[model.node_dof >= 0]
+    return {"rms_K": float(np.sqrt(np.mean(d**2))), "max_K": float(np.abs(d).max(initial=0.0))}
 
 
 def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
@@ -186,9 +230,10 @@ def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Sur
 
 
 # ------------------------------------------------------------------------------------------------ solar
-def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, scene=None
+def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, scene=None, role: str = "reference"
                    ) -> tuple[np.ndarray, SolarResult]:
-    """Solar power absorbed by every FE face side, traced on the detailed mesh.
+    """Solar power absorbed by every FE face side, traced on the detailed mesh (the reference's; with
+    ``solar_on = "detailed"`` the reduced model takes the same loads).  ``role``: random stream.
 
     Returns ``(q, result)``: nodal loads q (n_dof,) W (face power spread by the face's area shares) and the
     :class:`~fem2tmm.radiation.solar.SolarResult`.
@@ -196,7 +241,7 @@ def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, s
     surface = radiation_surface(model) if surface is None else surface
     env = case.environment
     res = trace_solar(surface, env.sun_direction, env.solar_flux, rays_per_group=env.solar_rays_per_face,
-                      scene=scene, **tracer_settings(case, exchange=False))
+                      scene=scene, **tracer_settings(case, exchange=False, role=role))
     q = np.asarray(model.faces.W.T @ res.absorbed_face).ravel()
     return q, res
 
@@ -211,7 +256,7 @@ def solar_prepass(model: FEModel, case: Case, surface: Surface | None = None, sc
     f = model.faces
     res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=np.zeros(2 * f.n, np.int64),
                       rays_per_group=PREPASS_RAYS_PER_FACE * f.n, scene=scene,
-                      **tracer_settings(case, exchange=False))
+                      **tracer_settings(case, exchange=False, role="prepass"))
     return face_flux_per_element(model, res.absorbed_face)
 
 
@@ -326,24 +371,26 @@ def geometry_key(model: FEModel) -> str:
     return digest("geometry", model.mesh.points, f.nodes, f.element, f.W, model.mesh.n_elements)
 
 
-def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None) -> str:
-    """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes and flux, and
-    the clustering settings."""
+def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None) -> str:
+    """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes and flux, the
+    clustering settings and the user's ``labels``."""
     args, kw = _cluster_inputs(model, case, flux)
-    return digest("cluster", *args, kw)
+    return digest("cluster", *args, kw, labels)
 
 
-def reduce_key(model: FEModel, case: Case, clustering_key: str) -> str:
+def reduce_key(model: FEModel, case: Case, clustering_key: str, T_ref: np.ndarray | None = None) -> str:
     """Key of :func:`~fem2tmm.reduce.network.build_reduced` up to what
     :func:`~fem2tmm.reduce.network.refresh_reduced` applies per case (loads, boundary temperatures, sink,
     optics): the clustering and every other field of the FE model, the fixed groups' nodes, the kept nodes
-    and the ``[reduction]`` settings."""
+    and the ``[reduction]`` settings; for a radiation-aware reduction (``T_ref``) also T_ref, the faces' εA and
+    the sink, which its operator holds."""
     fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.name not in _CASE_VALUES}
     faces = {f.name: getattr(model.faces, f.name) for f in dataclasses.fields(model.faces)
              if f.name not in _FACE_OPTICS}
     fixed = [(g.name, g.dof, g.nodes) for g in model.fixed]
+    aware = None if T_ref is None else (T_ref, model.faces.eps_area, model.T_sink)
     return digest("reduce", clustering_key, fields, faces, fixed, model.mesh.node_ids, kept_dofs(model, case),
-                  case.reduction)
+                  case.reduction, aware)
 
 
 def scene_key(fit: tuple | None) -> str:
@@ -356,3 +403,164 @@ def trace_key(stage: str, geometry: str, optics, scene: str, *settings) -> str:
     """Key of a ray-tracing stage: the geometry (:func:`geometry_key`), the band's per-side optics (a
     :class:`~fem2tmm.radiation.surfaces.SideOptics`), the scene (:func:`scene_key`) and the stage's settings."""
     return digest(stage, geometry, optics, scene, *settings)
+
+
+# -------------------------------------------------------------------------------------------- transient
+def check_transient(model: FEModel, case: Case) -> None:
+    """Refuse a ``[transient]`` whose model has no capacitance (before any long computation)."""
+    if case.transient is None:
+        return
+    if case.reduction.enabled and case.reduction.radiation_aware:
+        raise Fem2TmmError(f"{case.source}: [transient] with [reduction] radiation_aware = true is not available "
+                           "(its network carries a correction linearised about one steady field); set "
+                           "radiation_aware = false for the transient")
+    if model.capacity is not None:
+        return
+    missing = sorted({p.name for p in case.parts if p.material is None or case.materials[p.material].density is None
+                      or case.materials[p.material].specific_heat is None})
+    raise Fem2TmmError(f"{case.source}: [transient] needs the capacitance of every part: give density and "
+                       f"specific_heat to the materials of parts {', '.join(map(repr, missing)) or '(from the mesh)'}")
+
+
+def transient_settings(case: Case) -> TransientSettings:
+    """The solver settings of ``[transient]``."""
+    t = case.transient
+    return TransientSettings(end=t.end, start=t.start, step=t.step, tolerance=t.tolerance,
+                             output_every=t.output_every, method=t.method, periodic=t.periodic,
+                             periodic_tolerance=t.periodic_tolerance)
+
+
+def load_tables(model: FEModel, case: Case) -> list[tuple[np.ndarray, Table, float]]:
+    """(pattern (n_dof,) W per unit value, table, value at start) of every power/flux boundary whose value is a
+    time table."""
+    out = []
+    for b in case.boundaries:
+        if b.table is not None and b.kind != "temperature":
+            out.append((boundary_load(model, case, dataclasses.replace(b, value=1.0)), b.table, b.value))
+    return out
+
+
+def load_series(Q_start: np.ndarray, tables, distribute=None) -> Series:
+    """Loads in time from the loads at the start ``Q_start`` (which hold every table at its start value) and the
+    ``tables`` of :func:`load_tables`; ``distribute`` maps detailed patterns to super nodes (Y)."""
+    pats = [p if distribute is None else distribute(p) for p, _, _ in tables]
+    base = np.array(Q_start, float)
+    for p, (_, _, v) in zip(pats, tables):
+        base -= v * p
+    return Series(base, tuple(pats), tuple(t for _, t, _ in tables))
+
+
+def fixed_series(T_fixed: np.ndarray, rows: dict[str, int], case: Case) -> Series:
+    """Fixed temperatures in time (K): ``T_fixed`` at the start with each table boundary's row (``rows``: boundary
+    name -> row) following its table."""
+    base = np.array(T_fixed, float)
+    pats, tabs = [], []
+    for b in case.boundaries:
+        if b.table is not None and b.kind == "temperature" and b.name in rows:
+            e = np.zeros_like(base)
+            e[rows[b.name]] = 1.0
+            base[rows[b.name]] = 0.0
+            pats.append(e)
+            tabs.append(b.table)
+    return Series(base, tuple(pats), tuple(tabs))
+
+
+def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_reduced: np.ndarray | None = None,
+                  q_recover: np.ndarray | None = None, detailed: SteadyProblem | None = None,
+                  T_detailed: np.ndarray | None = None) -> TransientRun:
+    """The ``[transient]`` stage: the reduced model in time with recovery at every output time, and the detailed
+    model when ``detailed`` (its steady problem, radiation and solar loads included) is given.
+
+    ``T_reduced`` / ``T_detailed`` (K) the steady solutions, used when ``initial_temperature = "steady"``;
+    ``q_recover`` (n_dof,) W the detailed loads at the start that the recovery uses (applied + detailed solar).
+    """
+    import time
+
+    from .fem.model import consistent_capacity
+
+    spec = case.transient
+    settings = transient_settings(case)
+    tables = load_tables(model, case)
+    sink = case.environment.sink_table or Table.constant(model.T_sink)
+    run = TransientRun(times=settings.output_times(), settings=settings)
+
+    def initial(T_steady):
+        return T_steady if spec.initial_temperature == "steady" else spec.initial_temperature
+
+    if rm is not None:
+        t0 = time.perf_counter()
+        rows = {str(rm.names[i]): int(i) for i in np.flatnonzero(rm.fixed)}
+        prob = TransientProblem(K=rm.K, C=rm.C, Q=load_series(rm.Q, tables, rm.reduction.distribute), fixed=rm.fixed,
+                                T_fixed=fixed_series(rm.T_fixed, rows, case), g_space=rm.g_space, T_sink=sink,
+                                GR=rm.GR, names=tuple(rm.names))
+        run.reduced_problem = prob
+        run.reduced = solve_transient(prob, settings, initial(T_reduced))
+        run.timings["reduced"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        q = load_series(model.Q if q_recover is None else q_recover, tables)
+        if settings.periodic:
+            q = q.periodic(settings.start, settings.end - settings.start)
+        run.T_recovered = recover_series(rm.reduction.recover, run.reduced.T, q, run.times)
+        run.timings["recover"] = time.perf_counter() - t0
+    if detailed is not None:
+        t0 = time.perf_counter()
+        C = model.capacity if spec.capacitance == "lumped" else consistent_capacity(model)
+        rows = {g.name: g.dof for g in model.fixed}
+        prob = TransientProblem(K=detailed.K, C=C, Q=load_series(detailed.Q, tables), fixed=detailed.fixed,
+                                T_fixed=fixed_series(detailed.T_fixed, rows, case), g_space=detailed.g_space,
+                                T_sink=sink, GR=detailed.GR, faced=detailed.faced)
+        run.detailed = solve_transient(prob, settings, initial(T_detailed))
+        run.timings["detailed"] = time.perf_counter() - t0
+    return run
+
+
+# -------------------------------------------------------------------------------- radiation-aware reduction
+OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this
+
+
+def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
+                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray
+                            ) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
+    """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
+
+    Parameters
+    ----------
+    model, clustering, case : as for :func:`~fem2tmm.reduce.network.build_reduced`
+    rm : the thesis' reduced model with its radiation (``GR``, ``g_space``), whose couplings are kept
+    q_detailed : (n_dof,) W loads known on the detailed mesh (heaters, detailed solar): distributed by Y'
+    q_lumped : (n,) W loads already lumped per super node (super-face solar)
+    T_ref : (n_dof,) K the pre-solve's recovered field; the emission is linearised about it, then about each
+        outer iteration's field: at most ``[reduction] outer_iterations`` reductions and network solves, fewer
+        once the field moves less than :data:`OUTER_TOLERANCE`
+
+    Returns
+    -------
+    ``(rm', solution, T, history)``: the network (``K`` = K̃, ``Q`` = Y'q + q_lumped + Q_corr at the last
+    reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
+    (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
+    """
+    import dataclasses
+
+    from .reduce.conduction import blas_threads
+
+    e_sn = rm.g_space + (0.0 if rm.GR is None else np.asarray(rm.GR).sum(axis=1))
+    history: list[dict] = []
+    for it in range(max(int(case.reduction.outer_iterations), 1)):
+        # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically
+        ra_rm = dataclasses.replace(build_reduced(model, clustering, case, T_ref=T_ref), GR=rm.GR, g_space=rm.g_space)
+        ra = ra_rm.radiative
+        T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, ra_rm.supernodes.A @ T_ref)
+        corr = ra.correction(T_ref, T_sn_ref, e_sn)
+        ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
+        with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
+            sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+        T = ra.recover(sol.T, q_detailed, T_ref)
+        d = T - T_ref
+        history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
+                        "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
+                        "correction_W": float(np.abs(corr).sum())})
+        T_ref = T
+        if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
+            break
+    ra.history = history
+    return ra_rm, sol, T, history

@@ -586,6 +586,9 @@ def _deck_fixed(mesh: Mesh, case_fixed: np.ndarray, in_model: np.ndarray) -> lis
     nodes, vals = dl.fixed_nodes, dl.fixed_values
     keep = ~case_fixed[nodes] & in_model[nodes]
     nodes, vals = nodes[keep], vals[keep]
+    if np.isnan(vals).any():
+        raise Fem2TmmError(f"{mesh.source}: SPC1 GRIDs {format_ids(mesh.node_ids[nodes[np.isnan(vals)]])} have no TEMP "
+                           "(or TEMPD) value to be held at; add TEMP cards, or fix them in the case file")
     out = []
     for v in np.unique(vals):
         out.append((f"SPC {v - 273.15:g} C", float(v), np.unique(nodes[vals == v])))
@@ -653,6 +656,12 @@ def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:
     if b.nodes:
         nodes.append(mesh.node_index(b.nodes, where=f"{case.source}: [[boundary]] {b.name!r}.nodes"))
     return np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
+
+
+def boundary_load(model: FEModel, case, b) -> np.ndarray:
+    """Nodal loads (n_dof,) W of one power or flux boundary ``b`` of ``case`` (with its ``value``) on ``model``;
+    with ``value = 1`` it is the load pattern a time table multiplies."""
+    return _load_vector(model.mesh, case, b, model.node_dof, model.n_dof)
 
 
 def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
