@@ -28,6 +28,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
     s = {
         "version": __version__,
         "case": case.source,
+        "load_case": case.name or None,  # the [[cases]] name in a multi-case run
         "mesh": {"file": str(case.mesh.file) if case.mesh.file else mesh.source, "nodes": int(mesh.n_nodes),
                  "elements": int(mesh.n_elements), "model_nodes": int(np.sum(model.node_dof >= 0)),
                  "dofs": int(model.n_dof), "thermal_elements": int(len(model.elements)),
