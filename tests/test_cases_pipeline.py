@@ -11,7 +11,7 @@ import pytest
 
 from fem2tmm.case import Case
 from fem2tmm.loadcases import deep_merge
-from fem2tmm.meshes import baffle
+from fem2tmm.mesh.shapes import baffle
 from fem2tmm.pipeline import run
 
 GROUPS = ["aperture_lip", "front_cone", "outer_skin", "main_cone", "middle_annulus", "back_annulus"]

@@ -24,7 +24,7 @@ def _scene():
     """The demo baffle (5184 quads): every active side a REF node; a Sun 45° off the axis."""
     from fem2tmm.demo import demo_case
     from fem2tmm.fem.model import build_model
-    from fem2tmm.meshes import baffle
+    from fem2tmm.mesh.shapes import baffle
     from fem2tmm.stages import radiation_surface
 
     case = demo_case()

@@ -52,7 +52,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
         cache: str | Path | bool | None = None) -> Result | CasesResult:
     """Run ``case``; write the output folder ``out`` (if given) only once everything succeeded.
 
-    ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
+    ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.mesh.shapes`); ``reference``
     overrides ``[reference] detailed``.  ``labels`` (n_elements,) int: your own partition into super nodes
     (e.g. from METIS or another tool), one cluster per mesh element (-1 outside the parts), numbered 0 … K−1
     with every number used and each cluster within one part; it replaces the clustering (and the parts'
@@ -151,7 +151,6 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     if mesh is None:
         with prog.stage("read", "reading the mesh"):
             mesh = load_mesh(case)
-    mesh = mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
     check_transient(model, case)

@@ -16,7 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .cache import digest
-from .case import Case
+from .case import Case, RadiationSettings
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import Fem2TmmError, InternalError
 from .fem.model import FEModel, boundary_load
@@ -162,7 +162,7 @@ def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: f
         if rs.ray_density:
             ray_density = float(rs.ray_density)
         else:
-            rays_per_face = int(rs.rays_per_face or 1000)
+            rays_per_face = int(rs.rays_per_face or RadiationSettings.rays_per_face)
     if fraction != 1.0:
         rays_per_face = None if rays_per_face is None else max(1, int(np.ceil(rays_per_face * fraction)))
         ray_density = None if ray_density is None else ray_density * fraction

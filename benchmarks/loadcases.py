@@ -1,4 +1,4 @@
-"""``fem2tmm bench cases``: load cases on the baffle example (18 404 quads), in-process and on a Dask LocalCluster.
+"""``fem2tmm bench cases`` (``python -m benchmarks.run cases``): load cases on the baffle example (18 404 quads), in-process and on a Dask LocalCluster.
 
 Rows (one JSON object each):
 
@@ -23,12 +23,20 @@ import time
 
 import numpy as np
 
+from fem2tmm import _validation as check
+from fem2tmm.case import Case
+from fem2tmm.pipeline import run
+from fem2tmm.radiation.solar import _SolarBatches, sunlit_emitters
+from fem2tmm.radiation.surfaces import TriangleScene
+from fem2tmm.radiation.tracer import BATCH
+from fem2tmm.stages import radiation_surface
+
+from .run import REPO
+
 
 def _base(rays_per_face: int, solar_rays_per_face: int) -> dict:
-    from .bench import _repo_file
-
     return {
-        "mesh": {"file": _repo_file("meshes", "baffle.msh"), "unit": "mm"},
+        "mesh": {"file": str(REPO / "meshes" / "baffle.msh"), "unit": "mm"},
         "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
         "optics": {"paint": {"emissivity": 0.05, "absorptivity": 0.2, "specular": 1.0}},
         "parts": [{"name": "baffle", "groups": ["aperture_lip", "front_cone", "outer_skin", "main_cone",
@@ -45,16 +53,12 @@ def _base(rays_per_face: int, solar_rays_per_face: int) -> dict:
 
 
 def _case(data: dict):
-    from .case import Case
-
     return Case.from_dict(copy.deepcopy(data), source="<bench cases>")
 
 
 def bench_cases(n_cases: int = 8, workers: int = 2, rays_per_face: int = 5000, solar_rays_per_face: int = 100
                 ) -> list[dict]:
     """See the module docstring; ``rays_per_face`` per super face, ``solar_rays_per_face`` per FE face side."""
-    from .pipeline import run
-    from .radiation.tracer import BATCH
 
     base = _base(rays_per_face, solar_rays_per_face)
     optics = [{"name": f"eol{k}", "optics": {"paint": {"emissivity": round(0.05 + 0.01 * k, 3),
@@ -106,10 +110,6 @@ def _sizing(multi, rays_per_s_per_worker: float, elements: float = 1e6, position
     """Workers for ``elements`` x ``positions`` x ``cases`` in one hour at ``rays_per_s_per_worker``, tracing
     ``kinds`` flux kinds (solar, albedo, planet IR) at ``rays_per_face`` rays per FE face and position, and the
     data a worker receives (the pickled solar job of the baffle per face, scaled)."""
-    from .radiation.solar import _SolarBatches, sunlit_emitters
-    from .radiation.surfaces import TriangleScene
-    from .radiation.tracer import _budget
-    from .stages import radiation_surface
 
     r = next(iter(multi.results.values()))
     faces = r.model.faces.n
@@ -118,7 +118,7 @@ def _sizing(multi, rays_per_s_per_worker: float, elements: float = 1e6, position
     sun = np.asarray(r.solar_detailed.sun_direction)
     g = 2 * faces
     em = sunlit_emitters(scene, np.arange(g, dtype=np.int64), g, sun)  # the detailed solar job, as trace_solar builds it
-    rays = _budget(em, g, r.case.environment.solar_rays_per_face, None)
+    rays = check.ray_budget(r.case.environment.solar_rays_per_face, None, em.area, em.weight > 0)
     job = _SolarBatches(scene, surface.optics("solar"), em, rays, np.ones(g), sun, "halton", 0, 1 << 17, 1e-12, 1000)
     job_bytes = len(pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL))
     rays = kinds * rays_per_face * elements * positions * cases
