@@ -97,20 +97,28 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
     """
-    args, kw = _cluster_inputs(model, case, flux)
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
     if labels is not None:
         return from_labels(*args, labels, feature_angle=kw["feature_angle"], where="run(labels=...)")
     return cluster_parts(*args, **kw, progress=progress)
 
 
-def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None) -> tuple[tuple, dict]:
-    """The arguments of :func:`~fem2tmm.cluster.cluster_parts` for ``model`` (what the clustering depends on)."""
-    determined = determined_elements(model, kept_dofs(model, case))
+def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True
+                    ) -> tuple[tuple, dict]:
+    """The arguments of :func:`~fem2tmm.cluster.cluster_parts` for ``model`` (what the clustering depends on);
+    ``check_counts``: refuse impossible super-node counts first (:func:`_check_count`)."""
+    kept = kept_dofs(model, case)
+    determined = determined_elements(model, kept)
+    one_node = np.zeros(model.n_dof, bool)  # DOFs that are super nodes of their own (fixed groups, kept nodes)
+    one_node[[g.dof for g in model.fixed]] = True
+    one_node[kept] = True
     parts = []
     for p, info in enumerate(model.parts):
         rows = np.flatnonzero((model.element_part == p) & ~determined)
         if not len(rows):
             continue  # the whole part is held at fixed temperatures
+        if check_counts:
+            _check_count(case, info, model.element_dofs[rows], one_node)
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
@@ -121,6 +129,20 @@ def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None) -> tupl
     return ((model.mesh.points, parts, model.mesh.n_elements),
             {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
              "balance": cs.balance, "method": cs.method})
+
+
+def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarray) -> None:
+    """Refuse, before clustering, a super-node count that cannot give independent super nodes: the part's
+    clusters and the one-node super nodes among its DOFs all average over the part's DOFs, so more of them than
+    DOFs are linearly dependent."""
+    dofs = np.unique(element_dofs[element_dofs >= 0])
+    free = int(np.count_nonzero(~one_node[dofs]))
+    if info.super_nodes > free:
+        raise Fem2TmmError(
+            f"{case.source}: [[parts]] {info.name!r} asks for {info.super_nodes} super nodes, but its elements have "
+            f"only {free} nodes with an unknown temperature ({len(dofs)} nodes, {len(dofs) - free} of them fixed or "
+            f"kept): more super nodes than that repeat each other's mean temperature (linearly dependent).  Use at "
+            f"most {free}; a useful reduction has far fewer (each super node should hold several elements)")
 
 
 # -------------------------------------------------------------------------------------------- radiation
@@ -374,7 +396,7 @@ def geometry_key(model: FEModel) -> str:
 def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None) -> str:
     """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes and flux, the
     clustering settings and the user's ``labels``."""
-    args, kw = _cluster_inputs(model, case, flux)
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
     return digest("cluster", *args, kw, labels)
 
 
