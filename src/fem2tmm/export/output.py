@@ -20,6 +20,8 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
+
 import numpy as np
 
 from .._version import __version__
@@ -120,6 +122,48 @@ def check_output_place(out: str | Path) -> Path:
     return out
 
 
+def write_folder(out: str | Path, fill: Callable[[Path], None], cache=None) -> Path:
+    """Write an output folder atomically: ``fill(tmp)`` writes every file into a temporary sibling folder, which
+    gets the ``.fem2tmm`` marker and then replaces ``out`` (a folder fem2tmm wrote) or becomes it.
+
+    ``out`` must pass :func:`check_output_place` (checked again just before anything is replaced); on any error the
+    temporary folder is removed and ``out`` is untouched.  Returns ``out`` absolute.  ``cache``: a
+    :class:`~fem2tmm.cache.StageCache` whose new entries go to the stage-cache folder of the previous outputs
+    (``out/.cache``, :meth:`~fem2tmm.cache.StageCache.commit`), which moves into the new ones (the marker lists
+    its files too)."""
+    from ..cache import CACHE_DIR
+
+    out = check_output_place(out)
+    parent = out.parent
+    parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)
+    try:
+        fill(tmp)
+        check_output_place(out)  # nothing foreign appeared meanwhile
+        old_cache = out / CACHE_DIR
+        keep = old_cache.is_dir() and not old_cache.is_symlink()
+        if cache is not None:
+            cache.commit(old_cache if keep else tmp / CACHE_DIR)
+        if keep:  # nothing but renames between this and the swap
+            os.replace(old_cache, tmp / CACHE_DIR)
+        (tmp / MARKER).write_text(json.dumps({"version": __version__, "files": _entries(tmp)}, indent=1),
+                                  encoding="utf-8")
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
+            os.replace(out, old / "x")
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
 def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = None, cache=None) -> Path:
     """Write every output into a temporary sibling folder, then move it to ``out`` atomically.
 
@@ -128,7 +172,7 @@ def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = 
     show the same figure, measured just before they are composed).  ``cache``: a
     :class:`~fem2tmm.cache.StageCache` whose new entries go to ``out/.cache`` (kept across runs)."""
     t0 = time.perf_counter()
-    out = _atomic_folder(out, lambda tmp: write_case_folder(result, tmp, t0), cache)
+    out = write_folder(out, lambda tmp: write_case_folder(result, tmp, t0), cache)
     if timings is not None:
         timings["write"] = time.perf_counter() - t0
     return out
@@ -156,7 +200,7 @@ def write_cases_outputs(multi, out: Path, timings: dict[str, float] | None = Non
         write_cases_report(tmp, multi.summary, _case_text(multi.case))
         (tmp / "summary.json").write_text(json.dumps(_jsonable(multi.summary), indent=2), encoding="utf-8")
 
-    out = _atomic_folder(out, fill, cache)
+    out = write_folder(out, fill, cache)
     if timings is not None:
         timings["write"] = time.perf_counter() - t0
     return out
@@ -192,44 +236,6 @@ def write_case_folder(result: Result, folder: Path, t0: float | None = None) -> 
     write_report(folder, result, _case_text(result.case), before_html=written)
     written()
     (folder / "summary.json").write_text(json.dumps(_jsonable(result.summary), indent=2), encoding="utf-8")
-
-
-def _atomic_folder(out: Path, fill, cache=None) -> Path:
-    """``fill(tmp)`` writes the outputs into a temporary sibling folder, which then replaces ``out`` (checked by
-    :func:`check_output_place` first and again just before the swap).  The stage-cache folder of the previous
-    outputs (``out/.cache``) takes ``cache``'s new entries (:meth:`~fem2tmm.cache.StageCache.commit`) and moves
-    into the new outputs; the marker lists every file, the cache's included."""
-    from ..cache import CACHE_DIR
-
-    out = check_output_place(out)
-    parent = out.parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
-    try:
-        fill(tmp)
-        check_output_place(out)  # nothing foreign appeared meanwhile
-        old_cache = out / CACHE_DIR
-        keep = old_cache.is_dir() and not old_cache.is_symlink()
-        if cache is not None:
-            cache.commit(old_cache if keep else tmp / CACHE_DIR)
-        if keep:  # nothing but renames between this and the swap
-            os.replace(old_cache, tmp / CACHE_DIR)
-        (tmp / MARKER).write_text(json.dumps({"version": __version__, "files": _entries(tmp)}, indent=1),
-                                  encoding="utf-8")
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
-            os.replace(out, old / "x")
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out
 
 
 def _element_full(model: FEModel, n_elements: int, values: np.ndarray) -> np.ndarray:
