@@ -154,6 +154,27 @@ class SolverSettings:
 
 
 @dataclass(frozen=True)
+class OrbitSettings:
+    """``[orbit]`` (with ``[orbit.planet]`` and ``[orbit.attitude]``): the orbit, the planet, the Sun, the
+    spacecraft's attitude and how the orbital fluxes are traced and used (DESIGN §4.5, issue 18).
+
+    ``orbit`` an :class:`~fem2tmm.radiation.orbit.Orbit` (positions, eclipses, Sun), ``attitude`` an
+    :class:`~fem2tmm.radiation.orbit.Attitude`; ``kinds`` of fluxes among solar, albedo, ir; ``rays_per_face``
+    rays per FE face side and position (planet and solar; per FE face of each super face on super faces);
+    ``fluxes_on`` "detailed" (traced on the FE faces, the reduced model takes them through the exact power
+    distribution) or "super_faces" (traced on the super faces, uniform over each super node); ``steady``
+    "average" (one steady solve with the orbit-averaged loads) or "positions" (plus one steady solve per
+    position)."""
+
+    orbit: Any
+    attitude: Any
+    kinds: tuple[str, ...] = ("solar", "albedo", "ir")
+    rays_per_face: int = 100
+    fluxes_on: str = "detailed"
+    steady: str = "average"
+
+
+@dataclass(frozen=True)
 class MeshSpec:
     file: Path | None
     unit: str = "m"
@@ -188,6 +209,7 @@ class Case:
     clustering: ClusteringSettings = field(default_factory=ClusteringSettings)
     reference: ReferenceSettings = field(default_factory=ReferenceSettings)
     solver: SolverSettings = field(default_factory=SolverSettings)
+    orbit: OrbitSettings | None = None
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -304,7 +326,8 @@ class _Parser:
     # -------------------------------------------------------------------------------------- sections
     def case(self, data: Mapping[str, Any]) -> Case:
         top = self.table(data, "case", {"mesh", "materials", "optics", "parts", "boundary", "environment",
-                                        "radiation", "reduction", "clustering", "reference", "solver", "joints"},
+                                        "radiation", "reduction", "clustering", "reference", "solver", "joints",
+                                        "orbit"},
                          {"parts"})
         mesh = self.mesh(top.get("mesh", {}))
         materials = {}
@@ -345,6 +368,7 @@ class _Parser:
             clustering=self.clustering(top.get("clustering", {})),
             reference=self.reference(top.get("reference", {})),
             solver=self.solver(top.get("solver", {})),
+            orbit=self.orbit(top["orbit"], top.get("environment", {})) if "orbit" in top else None,
             raw=dict(data),
         )
 
@@ -512,6 +536,63 @@ class _Parser:
         return Environment(sink_temperature=sink, sun_direction=sun, solar_flux=flux,
                            solar_on=self.string(d, "solar_on", w, default="detailed", choices=("detailed", "super_faces")),
                            solar_rays_per_face=self.number(d, "solar_rays_per_face", w, default=100, lo=1, integer=True))
+
+    def orbit(self, d, environment) -> OrbitSettings:
+        from .radiation.orbit import Attitude, Orbit, Planet
+
+        w = "[orbit]"
+        keys = {"altitude", "semi_major_axis", "eccentricity", "inclination", "raan", "argument_of_perigee", "beta",
+                "sun_argument", "date", "solar_flux", "positions", "eclipse", "kinds", "rays_per_face", "fluxes_on",
+                "steady", "planet", "attitude"}
+        d = self.table(d, w, keys)
+        if isinstance(environment, Mapping) and ("sun_direction" in environment or "solar_flux" in environment):
+            raise self.err("[environment]", "sun_direction / solar_flux are set by [orbit] (the Sun by beta or date, "
+                                            "[orbit] solar_flux); remove them from [environment]")
+        p = self.table(d.get("planet", {}), f"{w}.planet", {"radius", "mu", "albedo", "ir_temperature",
+                                                           "ir_emissivity", "ir_flux"})
+        wp = f"{w}.planet"
+        ir_t = self.number(p, "ir_temperature", wp, default=288.0 - KELVIN, lo=ABSOLUTE_ZERO_C)
+        planet = Planet(radius=self.number(p, "radius", wp, default=6_378_136.0, lo=0, lo_open=True),
+                        mu=self.number(p, "mu", wp, default=3.986004418e14, lo=0, lo_open=True),
+                        albedo=self.number(p, "albedo", wp, default=0.3, lo=0, hi=1),
+                        ir_temperature=ir_t + KELVIN,
+                        ir_emissivity=self.number(p, "ir_emissivity", wp, default=1.0, lo=0, hi=1),
+                        ir_flux=self.number(p, "ir_flux", wp, lo=0))
+        date = d.get("date")
+        if date is not None and not isinstance(date, str) and not hasattr(date, "year"):
+            raise self.err(f"{w}.date", f"expected a date (2026-06-21T12:00:00 or a TOML date-time), got {date!r}")
+        flux = d.get("solar_flux", 1366.1)
+        if not (flux == "distance" or (isinstance(flux, (int, float)) and not isinstance(flux, bool))):
+            raise self.err(f"{w}.solar_flux", f"expected a flux in W/m² or \"distance\", got {flux!r}")
+        positions = d.get("positions", 24)
+        if not ((isinstance(positions, int) and not isinstance(positions, bool)) or (
+                isinstance(positions, list) and all(isinstance(x, (int, float)) for x in positions))):
+            raise self.err(f"{w}.positions", f"expected a number of positions or a list of true anomalies (deg), "
+                                             f"got {positions!r}")
+        num = lambda k, default=None: self.number(d, k, w, default=default)  # noqa: E731
+        try:
+            orbit = Orbit.make(planet, altitude=num("altitude"), semi_major_axis=num("semi_major_axis"),
+                               eccentricity=num("eccentricity", 0.0), inclination=num("inclination", 0.0),
+                               raan=num("raan", 0.0), argument_of_perigee=num("argument_of_perigee", 0.0),
+                               beta=num("beta"), sun_argument=num("sun_argument", 0.0), date=date, solar_flux=flux,
+                               positions=positions, eclipse=self.string(d, "eclipse", w, default="cylindrical"),
+                               where=f"{self.src}: {w}")
+            a = self.table(d.get("attitude", {}), f"{w}.attitude", {"kind", "primary", "secondary", "axes",
+                                                                     "rotation"})
+            attitude = Attitude.make(self.string(a, "kind", f"{w}.attitude", default="nadir"), a.get("primary"),
+                                     a.get("secondary"), a.get("axes"), a.get("rotation"),
+                                     where=f"{self.src}: [orbit.attitude]")
+        except (TypeError, ValueError) as exc:
+            raise self.err(w, f"invalid value: {exc}") from None
+        kinds = self.strings(d, "kinds", w) or ("solar", "albedo", "ir")
+        bad = [k for k in kinds if k not in ("solar", "albedo", "ir")]
+        if bad or len(set(kinds)) != len(kinds):
+            raise self.err(f"{w}.kinds", f"expected distinct names among solar, albedo, ir, got {list(kinds)}")
+        return OrbitSettings(orbit=orbit, attitude=attitude, kinds=tuple(kinds),
+                             rays_per_face=self.number(d, "rays_per_face", w, default=100, lo=1, integer=True),
+                             fluxes_on=self.string(d, "fluxes_on", w, default="detailed",
+                                                   choices=("detailed", "super_faces")),
+                             steady=self.string(d, "steady", w, default="average", choices=("average", "positions")))
 
     def radiation(self, d) -> RadiationSettings:
         w = "[radiation]"

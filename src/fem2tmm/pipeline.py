@@ -22,9 +22,10 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
-from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_problem, detailed_radiation,
-                     detailed_solar, quadric_scene, radiation_surface, reduced_problem, reduced_radiation, solar_prepass,
-                     super_face_solar)
+from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_orbit, detailed_problem,
+                     detailed_radiation, detailed_solar, orbit_average, orbit_positions_detailed,
+                     orbit_positions_reduced, quadric_scene, radiation_surface, reduced_problem, reduced_radiation,
+                     solar_prepass, super_face_orbit, super_face_solar)
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
@@ -65,7 +66,8 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
     radiating = bool(model.faces.active.any())
     trace = case.radiation.enabled and radiating
     sun = case.has_sun and radiating
-    surface = radiation_surface(model) if (trace or sun) else None
+    orbit = case.orbit if radiating else None
+    surface = radiation_surface(model) if (trace or sun or orbit) else None
     q_solar = None  # detailed solar nodal loads (n_dof,) W
     scene = None  # one ray scene (Embree BVH) shared by every tracing stage
 
@@ -95,6 +97,12 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
             q_solar, result.solar_detailed = detailed_solar(model, case, surface, scene=scene)
             result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, result.solar_detailed)
 
+    # orbital loads (solar, albedo, planet IR at every position) on the detailed mesh
+    q_orbit = None  # (k, n_dof) W per position
+    if orbit is not None and (do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
+        with prog.stage("orbit_detailed", "tracing orbital fluxes on the detailed mesh"):
+            q_orbit, result.orbit_detailed = detailed_orbit(model, case, surface, scene=scene)
+
     # reduced model: conduction, radiation, solar loads, solve, recovery
     if case.reduction.enabled:
         with prog.stage("reduce", "reducing conduction"):
@@ -119,12 +127,31 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                         model, result.solar_super_faces)
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
             result.solar_on = case.environment.solar_on
+        q_sn_orbit = None  # (k, n_SN) W per position
+        if orbit is not None:
+            if orbit.fluxes_on == "detailed":
+                q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
+            else:
+                with prog.stage("orbit", "tracing orbital fluxes on the super faces"):
+                    q_sn_orbit, result.orbit_super_faces = super_face_orbit(model, rm, case, surface, scene=scene,
+                                                                            sf=sf)
+            result.orbit_on = orbit.fluxes_on
+        rm_base, q_recover_base = rm, q_recover
+        if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
+            rm = dataclasses.replace(rm, Q=rm.Q + orbit_average(result, q_sn_orbit))
+            if q_orbit is not None and orbit.fluxes_on == "detailed":
+                q_recover = q_recover + orbit_average(result, q_orbit)
         result.reduced = rm
         with prog.stage("solve_reduced", "solving the reduced model"):
             result.reduced_solution = solve_steady(reduced_problem(rm), tol=case.solver.tolerance,
                                                    max_iter=case.solver.max_iterations)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
+        if q_sn_orbit is not None and orbit.steady == "positions":
+            with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
+                result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,
+                                                                   q_orbit if orbit.fluxes_on == "detailed" else None,
+                                                                   result.reduced_solution.T, case)
 
     # detailed reference model
     if do_ref or not case.reduction.enabled:
@@ -136,8 +163,18 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                 problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
         if q_solar is not None:
             problem = dataclasses.replace(problem, Q=problem.Q + q_solar)
+        base = problem
+        if q_orbit is not None:
+            problem = dataclasses.replace(problem, Q=problem.Q + orbit_average(result, q_orbit))
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+        if q_orbit is not None and orbit.steady == "positions":
+            with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
+                T = orbit_positions_detailed(base, q_orbit, result.detailed.T, case)
+                if case.reduction.enabled:
+                    result.orbit_T_positions_detailed = T
+                else:
+                    result.orbit_T_positions = T
 
     result.summary = build_summary(result, prog.timings)
     return result

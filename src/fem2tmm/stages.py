@@ -9,6 +9,7 @@ reads the case's settings and the FE model and returns arrays or the stage's own
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -22,7 +23,7 @@ from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
 from .reduce.network import ReducedModel, determined_elements, kept_dofs, super_faces
-from .solve.steady import FacedRadiation, SteadyProblem
+from .solve.steady import FacedRadiation, SteadyProblem, solve_steady
 
 PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
 
@@ -196,14 +197,96 @@ def super_face_solar(model: FEModel, rm: ReducedModel, case: Case, surface: Surf
                       rays_per_group=np.maximum(faces_per_group * env.solar_rays_per_face, 1), scene=scene,
                       **tracer_settings(case, exchange=False))
     # the power absorbed by each side, wherever its origin was, belongs to the super face of that side
-    side_power = res.absorbed_side
-    q_sn = np.zeros(rm.n)
+    return sides_to_super_nodes(res.absorbed_side, groups, owner, rm.n, "solar"), res, groups
+
+
+def sides_to_super_nodes(side_power: np.ndarray, groups: np.ndarray, owner: np.ndarray, n: int, what: str
+                         ) -> np.ndarray:
+    """Power absorbed per side ``side_power`` (2f,) or (k, 2f) W summed per super node (n,) or (k, n): the power
+    of each side, wherever its ray started, belongs to the super node owning its super face (``groups`` (2f,)
+    super face per side, ``owner`` super node per super face).  Power on a side outside every super face is
+    impossible (inactive sides block, they do not absorb): :class:`InternalError` naming ``what``."""
     ok = groups >= 0
-    np.add.at(q_sn, owner[groups[ok]], side_power[ok])
-    lost = side_power[~ok].sum()  # power absorbed by inactive sides is impossible (they block): keep the books
-    if lost > 1e-12 * max(side_power.sum(), 1e-300):
-        raise InternalError("solar power absorbed by a side outside every super face")
-    return q_sn, res, groups
+    side_power = np.asarray(side_power, float)
+    lost = np.abs(side_power[..., ~ok]).sum()
+    if lost > 1e-12 * max(np.abs(side_power).sum(), 1e-300):
+        raise InternalError(f"{what} power absorbed by a side outside every super face")
+    S = sp.csr_matrix((np.ones(int(ok.sum())), (np.flatnonzero(ok), owner[groups[ok]])), shape=(len(groups), n))
+    return np.asarray((S.T @ side_power.T).T)
+
+
+# ------------------------------------------------------------------------------------------------ orbit
+def _orbit_trace(model: FEModel, case: Case, surface: Surface | None, scene, groups, rays, per: str):
+    from .radiation.orbital import trace_orbit
+
+    surface = radiation_surface(model) if surface is None else surface
+    o = case.orbit
+    return trace_orbit(surface, o.orbit, o.attitude, kinds=o.kinds, groups=groups, rays_per_group=rays,
+                       scene=scene, per=per, **tracer_settings(case, exchange=False))
+
+
+def detailed_orbit(model: FEModel, case: Case, surface: Surface | None = None, scene=None):
+    """Orbital fluxes (``[orbit]``: solar, albedo, planet IR at every position) traced on the FE face sides.
+
+    Returns ``(q, fluxes)``: nodal absorbed power q (k, n_dof) W per position (face power spread by the face's
+    area shares) and the :class:`~fem2tmm.radiation.orbital.OrbitalFluxes` per FE face (incident and absorbed W
+    (k, n_faces) per kind)."""
+    active = model.faces.active
+    groups = np.where(active, np.arange(len(active)), -1)  # every active side its own group
+    fl = _orbit_trace(model, case, surface, scene, groups, case.orbit.rays_per_face, "face")
+    q = np.asarray(model.faces.W.T @ fl.total("absorbed").T).T
+    return q, fl
+
+
+def super_face_orbit(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                     sf: tuple[np.ndarray, np.ndarray] | None = None):
+    """Orbital fluxes traced on the super faces (origins over each super face as a whole, the same ray density as
+    the detailed tracing), absorbed power summed per super node (uniform over it).
+
+    Returns ``(q_sn, fluxes)``: q_sn (k, n) W per position and super node, and the
+    :class:`~fem2tmm.radiation.orbital.OrbitalFluxes` per side (k, 2 n_faces)."""
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
+    rays = np.maximum(faces_per_group * case.orbit.rays_per_face, 1)
+    fl = _orbit_trace(model, case, surface, scene, groups, rays, "side")
+    return sides_to_super_nodes(fl.total("absorbed"), groups, owner, rm.n, "orbital"), fl
+
+
+def orbit_average(result, q: np.ndarray) -> np.ndarray:
+    """Orbit average (n,) of loads ``q`` (k, n) given at the positions of the run's orbital fluxes (piecewise
+    linear in time, jumps at eclipse boundaries, :func:`~fem2tmm.radiation.orbital.period_average`)."""
+    from .radiation.orbital import period_average
+
+    fl = result.orbit_fluxes
+    return period_average(fl.positions.time, q, fl.positions.period)
+
+
+def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.ndarray, q_dof: np.ndarray | None,
+                            T0: np.ndarray, case: Case) -> np.ndarray:
+    """Steady reduced solves with the loads of each orbit position (``rm`` without orbital loads, ``q_sn`` (k, n)
+    W), recovered on the detailed mesh with ``q_recover`` + ``q_dof[j]`` (the exact distribution) or
+    ``q_recover`` alone (super-face loads, uniform over each super node).  Starts from ``T0``; returns (k, n_dof)
+    K."""
+    out = []
+    T = T0
+    for j in range(len(q_sn)):  # loop over the orbit positions (a few tens)
+        sol = solve_steady(reduced_problem(replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
+                           max_iter=case.solver.max_iterations)
+        T = sol.T
+        out.append(rm.reduction.recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))
+    return np.array(out)
+
+
+def orbit_positions_detailed(problem: SteadyProblem, q_dof: np.ndarray, T0: np.ndarray, case: Case) -> np.ndarray:
+    """Steady detailed solves with the loads ``q_dof`` (k, n_dof) W of each orbit position added to ``problem``;
+    starts from ``T0``; returns (k, n_dof) K."""
+    out = []
+    T = T0
+    for j in range(len(q_dof)):  # loop over the orbit positions
+        T = solve_steady(replace(problem, Q=problem.Q + q_dof[j]), T0=T, tol=case.solver.tolerance,
+                         max_iter=case.solver.max_iterations).T
+        out.append(T)
+    return np.array(out)
 
 
 def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:

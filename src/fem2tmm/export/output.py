@@ -23,6 +23,7 @@ from ..errors import Fem2TmmError
 from ..fem.model import FEModel
 from .esatan import Deck, node_numbers, write_esatan
 from .nastran_temp import write_temp
+from .orbit import write_orbit_npz
 from .report import write_report
 from .sinda import write_sinda
 from .vtu import write_vtu
@@ -76,6 +77,7 @@ def write_outputs(result: Result, out: Path) -> Path:
         write_temp(tmp / "temperatures.bdf", mesh.node_ids, T - KELVIN)
         if result.reduced is not None:
             _write_reduced(tmp, result)
+        write_orbit_npz(tmp, result)
         result.summary.setdefault("timings_s", {})["write"] = 0.0  # listed in the report's timing table
         write_report(tmp, result, _case_text(result.case))
         result.summary["timings_s"]["write"] = time.perf_counter() - t0  # everything but summary.json itself

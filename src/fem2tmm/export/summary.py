@@ -10,6 +10,7 @@ import numpy as np
 from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
+from .orbit import orbit_summary
 
 if TYPE_CHECKING:
     from ..result import Result
@@ -43,6 +44,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         },
         "energy_balance_W": {"reduced": None, "detailed": None if detailed is None else detailed.balance},
         "solar": _solar_summary(result),
+        "orbit": orbit_summary(result),
         "quadrics": result.quadrics,
         "timings_s": dict(timings),
     }

@@ -180,3 +180,37 @@ def orbital_fluxes(points, faces, orbit: Orbit, attitude: Attitude, kinds=KINDS,
         rays_per_face = None
     return trace_orbit(surface, orbit, attitude, kinds=kinds, groups=groups, rays_per_group=rays_per_face,
                        ray_density=ray_density, sampling=sampling, seed=seed, threads=threads, per="group")
+
+
+def _wrapped(times: np.ndarray, values: np.ndarray, period: float):
+    """The table closed over one period: times (k + 1,) ending at times[0] + period, values (k + 1, ...)."""
+    t = np.asarray(times, float)
+    v = np.asarray(values, float)
+    if t.ndim != 1 or len(t) == 0 or v.shape[0] != len(t) or np.any(np.diff(t) < 0):
+        raise Fem2TmmError("orbit table: times must be a non-decreasing (k,) array with one row of values per time")
+    if not (period > 0 and t[-1] - t[0] <= period):
+        raise Fem2TmmError(f"orbit table: the times span {t[-1] - t[0]:g} s, more than the period {period:g} s")
+    return np.append(t, t[0] + period), np.concatenate([v, v[:1]])
+
+
+def period_average(times, values, period: float) -> np.ndarray:
+    """Time average over one period of a periodic table: ``values`` (k, ...) at ``times`` (k,) s (non-decreasing,
+    within one period; repeated times mark a jump) joined by straight lines, the last row back to the first one
+    period later.  Exact for the piecewise-linear load the orbit transient interpolates."""
+    t, v = _wrapped(times, values, period)
+    dt = np.diff(t)
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.tensordot(dt, mid, axes=(0, 0)) / period
+
+
+def periodic_values(times, values, period: float, t) -> np.ndarray:
+    """Values (m, ...) of the periodic piecewise-linear table (``times`` (k,) s, ``values`` (k, ...)) at times ``t``
+    (m,) s (any real times; wrapped into the period).  At a repeated time (a jump: an eclipse boundary) the value
+    just after the jump is returned."""
+    tt, v = _wrapped(times, values, period)
+    x = tt[0] + np.mod(np.asarray(t, float) - tt[0], period)
+    i = np.clip(np.searchsorted(tt, x, side="right") - 1, 0, len(tt) - 2)
+    dt = tt[i + 1] - tt[i]
+    w = np.divide(x - tt[i], dt, out=np.zeros_like(x), where=dt > 0)
+    w = w.reshape(w.shape + (1,) * (v.ndim - 1))
+    return (1.0 - w) * v[i] + w * v[i + 1]
