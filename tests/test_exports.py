@@ -113,7 +113,7 @@ def test_report_references_existing_images(fin_run):
     for name in imgs:
         data = (fin_run.out / name).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
-    assert "Heat flows" in html and "into boundary" in html
+    assert "Heat flows" in html and "into fixed boundary" in html and "Temperatures per part" in html
 
 
 def test_reduced_npz_contents(fin_run):

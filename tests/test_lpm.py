@@ -404,3 +404,33 @@ def test_cli_bad_deck_exits_2_naming_file_and_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"{p}:14:" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_cli_tmrt_case_with_ra_and_ce_post_processing(tmp_path):
+    import json
+
+    from fem2tmm.export.esatan import write_esatan
+    from fem2tmm.cli import main
+    from fem2tmm.lpm.driver import to_deck
+
+    net, supp, rad, _ = random_network()
+    deck = tmp_path / "rnd.esatan"
+    write_esatan(deck, to_deck(net, net.T), title="rnd")
+    case = tmp_path / "net.toml"
+    nums = net.numbers
+    case.write_text(
+        '[reduction]\nmethod = "tmrt"\n'
+        f"[tmrt]\nsuppress = {nums[supp].tolist()}\n"
+        f'[[post.ra]]\nname = "inner"\nnodes = {nums[supp[:6]].tolist()}\n'
+        f'[[post.ce]]\nname = "a_to_b"\nfrom = {nums[supp[:5]].tolist()}\nto = {nums[supp[5:12]].tolist()}\n')
+    out = tmp_path / "out"
+    assert main(["network", "reduce", str(deck), "--case", str(case), "--out", str(out), "--quiet"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["method"] == "tmrt" and s["nodes"]["suppressed"] == len(supp)
+    # suppression is exact: RA and CE of suppressed nodes recovered = detailed (round-off of the solves)
+    ra, ce = s["post_processing"]["RA_C"]["inner"], s["post_processing"]["CE_W"]["a_to_b"]
+    assert abs(ra["recovered"] - ra["detailed"]) < 1e-8 and abs(ce["recovered"] - ce["detailed"]) < 1e-8
+    assert s["criteria"]["met"] and s["cases"]["deck"]["criteria"]["max_delta_K"] < 1e-8
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[post.ra]]\nname = "x"\nnodes = [123456]\n')
+    assert main(["network", "reduce", str(deck), "--case", str(bad), "--out", str(tmp_path / "o2")]) == 2

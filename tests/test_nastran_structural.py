@@ -129,3 +129,195 @@ def test_joint_without_treatment_names_the_key(tmp_path):
     deck = write(tmp_path, two_plates([card("CBUSH", 900, 7, 6, 104)]))
     with pytest.raises(Fem2TmmError, match=r'CBUSH \(1\).*\[\[joints\]\] cards = \["CBUSH"\] treatment'):
         quiet(run, case_for(deck, PLATES, HEAT_FIX))
+
+
+# ------------------------------------------------------------------------------------------- quadratic elements
+def quadratic_deck(tmp_path):
+    """[0, 2] x [0, 1]: one CQUAD8 on [0, 1] x [0, 1], two CTRIA6 on [1, 2] x [0, 1]; mid-side GRIDs at the
+    edge midpoints (straight edges)."""
+    pts = {}
+    for i in range(5):
+        for j in range(3):
+            pts[1 + i + 5 * j] = (0.5 * i, 0.5 * j)
+    del pts[7]  # (0.5, 0.5): the CQUAD8 has no centre node
+    g = lambda x, y: 1 + int(round(2 * x)) + 5 * int(round(2 * y))  # noqa: E731
+    lines = [card("GRID", k, "", x, y, 0.0) for k, (x, y) in pts.items()]
+    # CQUAD8: corners G1-G4, mid-sides G5 (1-2), G6 (2-3), G7 (3-4), G8 (4-1)
+    lines.append(card("CQUAD8", 1, 1, g(0, 0), g(1, 0), g(1, 1), g(0, 1), g(.5, 0), g(1, .5), "+"))
+    lines.append(card("+", g(.5, 1), g(0, .5)))
+    # CTRIA6: corners G1-G3, mid-sides G4 (1-2), G5 (2-3), G6 (3-1)
+    lines.append(card("CTRIA6", 2, 1, g(1, 0), g(2, 0), g(2, 1), g(1.5, 0), g(2, .5), g(1.5, .5)))
+    lines.append(card("CTRIA6", 3, 1, g(1, 0), g(2, 1), g(1, 1), g(1.5, .5), g(1.5, 1), g(1, .5)))
+    lines += [card("PSHELL", 1, 10, 0.002), card("MAT4", 10, 200.0, 900.0, 2700.0)]
+    return write(tmp_path, lines), pts
+
+
+def test_cquad8_ctria6_area_capacity_and_linear_patch(tmp_path):
+    deck, pts = quadratic_deck(tmp_path)
+    with pytest.warns(UserWarning, match=r"quadratic elements \(CTRIA6 2, CQUAD8 1\) are modelled by their corner"):
+        mesh = read_mesh(deck)
+    left = [k for k, (x, _) in pts.items() if x == 0.0]
+    right = [k for k, (x, _) in pts.items() if x == 2.0]
+    case = case_for(deck, [{"name": "p", "groups": ["PID 1"], "super_nodes": 2}],
+                    [{"kind": "temperature", "nodes": left, "value": 0.0},
+                     {"kind": "temperature", "nodes": right, "value": 100.0, "name": "hot"}])
+    res = quiet(run, case, mesh=mesh)
+    # area exact: 2 m² (straight-edged quadratic elements have the area of their corner polygon)
+    assert np.nansum(mesh.element_areas()) == pytest.approx(2.0, rel=1e-14)
+    # heat capacity exact: ρ c t A = 2700 · 900 · 0.002 · 2 J/K
+    assert res.model.capacity.sum() == pytest.approx(2700.0 * 900.0 * 0.002 * 2.0, rel=1e-12)
+    # linear patch T = 50 x °C, exact at every GRID (corner and mid-side): linear fields are in the FE space
+    x = np.array([pts[int(k)][0] for k in mesh.node_ids])
+    for T in (res.T_detailed_nodes, res.T_recovered_nodes):
+        np.testing.assert_allclose(T - KELVIN, 50.0 * x, rtol=0, atol=1e-9)
+    # heat through the plate: k t W ΔT / L = 200 · 0.002 · 1 · 100 / 2 = 20 W
+    assert res.summary["detailed"]["heat_into_fixed_W"]["hot"] == pytest.approx(20.0, rel=1e-9)  # the heat "hot" supplies
+
+
+# ------------------------------------------------------------------------------------------- composites, MAT5
+def test_pcomp_thickness_and_ply_average(tmp_path):
+    # plies 0.2 / 0.3 / 0.5 mm (mm-t-s deck); the last ply's MID blank = the ply before's (PCOMP rule)
+    lines = [*plate_cards(0.0, 1, 1, 1), card("PCOMP", 1, "", "", "", "", "", "", "", "+"),
+             card("+", 10, 0.2, 0.0, "", 11, 0.3, 45.0, "", "+"), card("+", "", 0.5, 90.0),
+             card("MAT4", 10, 100.0, 9e8, 2.7e-9), card("MAT4", 11, 10.0, 1e9, 1.6e-9)]
+    mesh = quiet(read_nastran, write(tmp_path, lines), unit="mm")
+    p = mesh.properties["PID 1"]
+    assert p.thickness == pytest.approx(1.0e-3, rel=1e-14) and p.card == "PCOMP"
+    # in-plane conduction of plies in parallel: (100·0.2 + 10·0.8) / 1.0 W/(m K)
+    assert p.conductivity == pytest.approx((100 * 0.2 + 10 * 0.8) / 1.0, rel=1e-14)
+    # density by thickness (kg/m³), specific heat by mass
+    assert p.density == pytest.approx((2700 * 0.2 + 1600 * 0.8) / 1.0, rel=1e-12)
+    assert p.specific_heat == pytest.approx((2700 * 0.2 * 900 + 1600 * 0.8 * 1000) / (2700 * 0.2 + 1600 * 0.8), rel=1e-12)
+
+
+@pytest.mark.parametrize("axis", ["x", "y"])
+def test_mat5_orthotropic_plate(tmp_path, axis):
+    # a 1 m x 1 m plate (4 x 4 quads, t = 2 mm), MAT5 KXX = 100, KYY = 10 W/(m K): heat flow between two
+    # opposite edges held 100 K apart is k t W ΔT / L (the linear field is exact in the FE space)
+    lines = [*plate_cards(0.0, 1, 1, 1, n=4), card("PSHELL", 1, 10, 0.002), card("MAT5", 10, 100.0, "", "", 10.0)]
+    deck = write(tmp_path, lines)
+    mesh = quiet(read_mesh, deck)
+    assert mesh.properties["PID 1"].conductivity_tensor == (100.0, 0.0, 0.0, 10.0, 0.0, 0.0)
+    c = 0 if axis == "x" else 1
+    lo = mesh.node_ids[mesh.points[:, c] == 0.0].tolist()
+    hi = mesh.node_ids[mesh.points[:, c] == 1.0].tolist()
+    case = case_for(deck, [{"name": "p", "groups": ["PID 1"], "super_nodes": 3}],
+                    [{"kind": "temperature", "nodes": lo, "value": 0.0, "name": "lo"},
+                     {"kind": "temperature", "nodes": hi, "value": 100.0, "name": "hi"}])
+    res = quiet(run, case)
+    k = 100.0 if axis == "x" else 10.0
+    # heat_into_fixed_W: the heat each boundary supplies to the model
+    assert res.summary["detailed"]["heat_into_fixed_W"]["hi"] == pytest.approx(k * 0.002 * 1.0 * 100.0, rel=1e-9)
+
+
+# ------------------------------------------------------------------------------------------- syntax, includes
+def test_nested_include_relative_to_the_top_deck(tmp_path):
+    # deck.bdf includes sub/a.inc; a.inc includes 'sub/b.inc', which exists only relative to the top deck
+    (tmp_path / "sub").mkdir()
+    write(tmp_path, ["INCLUDE 'sub/b.inc'", *plate_cards(0.0, 1, 1, 1)[9:]], name="sub/a.inc")
+    write(tmp_path, plate_cards(0.0, 1, 1, 1)[:9], name="sub/b.inc")
+    mesh = quiet(read_nastran, write(tmp_path, ["BEGIN BULK", "INCLUDE 'sub/a.inc'", card("PSHELL", 1, 1, 0.1)]))
+    assert mesh.n_nodes == 9 and mesh.n_elements == 4
+    with pytest.raises(Fem2TmmError, match=r"INCLUDE file 'nope\.inc' not found; tried \S*sub/nope\.inc, \S*/nope\.inc"):
+        quiet(read_nastran, write(tmp_path, ["INCLUDE 'nope.inc'"], name="sub/c.inc").parent.parent
+              / write(tmp_path, ["INCLUDE 'sub/c.inc'"], name="top2.bdf"))
+
+
+def test_free_field_replication_of_grids(tmp_path):
+    # GRID 1 at x = 0; '=,*1,=,*0.5,==' makes GRID 2 at x = 0.5 (y, z copied); '=3' three more: 3, 4, 5
+    lines = ["GRID,1,,0.,0.,0.", "=,*1,=,*0.5,==", "=3",
+             "GRID,11,,0.,1.,0.", "=,*1,=,*(0.5),==", "=(3)",
+             "CQUAD4,1,1,1,2,12,11", "=,*1,=,*1,*1,*1,*1", "=2", "PSHELL,1,1,.1"]
+    mesh = quiet(read_nastran, write(tmp_path, lines))
+    assert mesh.node_ids.tolist() == [1, 2, 3, 4, 5, 11, 12, 13, 14, 15]
+    np.testing.assert_allclose(mesh.points[:5, 0], [0.0, 0.5, 1.0, 1.5, 2.0], rtol=0, atol=1e-15)
+    assert mesh.element_ids.tolist() == [1, 2, 3, 4]
+    assert np.nansum(mesh.element_areas()) == pytest.approx(2.0, rel=1e-14)
+
+
+def test_legacy_reals_and_lenient_unused_cards(tmp_path):
+    # '.2523 -3' (embedded blank, implicit exponent) is 2.523e-4; a malformed MAT1 nobody uses is a warning
+    lines = [*plate_cards(0.0, 1, 1, 1), "PSHELL".ljust(8) + "1".ljust(8) + "10".ljust(8) + ".2523 -3", card("MAT4", 10, 1.0),
+             card("MAT1", 99, "", "", "", "x.y")]
+    with pytest.warns(UserWarning, match=r"malformed fields in 1 MAT1 card\(s\) the model does not use.*deck\.bdf:\d+"):
+        mesh = read_nastran(write(tmp_path, lines))
+    assert mesh.properties["PID 1"].thickness == pytest.approx(2.523e-4, rel=1e-15)
+    lines[-2] = card("MAT4", 10, "1.x")  # the same fault in a used card is an error naming file:line
+    with pytest.raises(Fem2TmmError, match=r"deck\.bdf:\d+: MAT4 field 3 \(K\) '1\.x' is malformed"):
+        quiet(read_nastran, write(tmp_path, lines))
+
+
+def test_mesh_format_by_content(tmp_path):
+    lines = [*plate_cards(0.0, 1, 1, 1), card("PSHELL", 1, 1, 0.1)]
+    for suffix in (".inp", ".nas", ".dat", ".blk", ".txt"):
+        assert quiet(read_mesh, write(tmp_path, lines, name="m" + suffix)).n_elements == 4
+    with pytest.raises(Fem2TmmError, match="Abaqus input file"):
+        read_mesh(write(tmp_path, ["*HEADING", "*NODE", "1, 0., 0., 0."], name="a.inp"))
+
+
+def test_line_sections(tmp_path):
+    # PBARL TUBE (r_out 10, r_in 8 mm), PBEAML I, PROD, PTUBE, CONROD in mm: areas (m²) from the MSC QRG forms
+    lines = [card("GRID", i, "", float(i), 0.0, 0.0) for i in range(1, 7)]
+    lines += [card("CBAR", 1, 1, 1, 2, 0.0, 1.0, 0.0), card("PBARL", 1, 10, "", "TUBE", "", "", "", "", "+"),
+              card("+", 10.0, 8.0),
+              card("CBEAM", 2, 2, 2, 3, 0.0, 1.0, 0.0), card("PBEAML", 2, 10, "", "I", "", "", "", "", "+"),
+              card("+", 100.0, 50.0, 40.0, 5.0, 8.0, 6.0),
+              card("CROD", 3, 3, 3, 4), card("PROD", 3, 10, 12.5),
+              card("CTUBE", 4, 4, 4, 5), card("PTUBE", 4, 10, 20.0, 2.0),
+              card("CONROD", 5, 5, 6, 10, 7.0), card("MAT4", 10, 150.0)]
+    mesh = quiet(read_nastran, write(tmp_path, lines), unit="mm")
+    want = [np.pi * (10**2 - 8**2), 50 * 8 + 40 * 6 + (100 - 8 - 6) * 5, 12.5, np.pi * (20**2 - 16**2) / 4, 7.0]
+    np.testing.assert_allclose(mesh.section_area, np.array(want) * 1e-6, rtol=1e-14)
+    assert mesh.properties["CONROD MID 10"].conductivity == 150.0
+    with pytest.raises(Fem2TmmError, match=r"PBARL 1: section type 'HAT' is not supported"):
+        lines[7] = card("PBARL", 1, 10, "", "HAT", "", "", "", "", "+")
+        quiet(read_nastran, write(tmp_path, lines))
+
+
+# ------------------------------------------------------------------------------------------- NASTRAN-95 washer
+N95 = Path(__file__).parent / "data" / "nastran95"
+
+
+def published_temperatures() -> dict[int, float]:
+    """GRID -> temperature from the 'T E M P E R A T U R E   V E C T O R' table of d01121a.out."""
+    lines = (N95 / "d01121a.out").read_text().splitlines()
+    start = next(i for i, s in enumerate(lines) if "T E M P E R A T U R E   V E C T O R" in s)
+    out = {}
+    for s in lines[start + 3:]:
+        m = re.match(r"\s+(\d+)\s+S\s+(.*)$", s)
+        if not m:
+            break
+        for k, v in enumerate(m.group(2).split()):
+            out[int(m.group(1)) + k] = float(v)
+    return out
+
+
+def test_nastran95_washer_d01_12_1a(tmp_path):
+    # the deck as published: CHEXA1/CHEXA2/CWEDGE with a material id in field 2, CTETRA, no PSOLID; its own
+    # QBDY1 on a CHBDY AREA4 (flux 288.5 at r = 1) and SPC (T = 0 at r = 2), read through nastran_loads
+    case = Case.from_dict({"mesh": {"file": "d01121a.inp", "nastran_loads": True, "temperature_unit": "C"},
+                           "parts": [{"name": "washer", "groups": ["PID 200"], "super_nodes": 3}]},
+                          base_dir=N95, source=str(N95 / "case.toml"))
+    res = quiet(run, case)
+    mesh = res.mesh
+    assert mesh.cards["modelled"] == {"CHEXA1": 1, "CHEXA2": 1, "CTETRA": 5, "CWEDGE": 14}
+    assert set(mesh.cards["ignored"]) == {"PARAM", "SEQGP"}
+    pub = published_temperatures()
+    assert len(pub) == 44 and pub[11] == 0.0 and pub[1] == 199.4187
+    ids = mesh.node_ids
+    r = np.hypot(mesh.points[:, 0], mesh.points[:, 1])
+    exact = 288.5 * np.log(2.0 / r)  # analytic: q r = 288.5 (k = 1), T(2) = 0
+    nastran = np.array([pub[int(g)] for g in ids])
+    err_n95 = np.abs(nastran - exact).max()
+    assert err_n95 == pytest.approx(3.44, abs=0.01)  # the published solution's largest error (GRID 12/112)
+    for T in (res.T_detailed_nodes, res.T_recovered_nodes):
+        ours = T - KELVIN
+        # fem2tmm is no farther from the analytic solution than NASTRAN-95 at its worst GRID
+        assert np.abs(ours - exact).max() <= err_n95
+        # on the wedge zone (CWEDGE elements, r >= 1.3) both codes use the same linear prism; one element away
+        # from the interface with the HEXA1/HEXA2/TETRA zone (whose elements differ: NASTRAN-95's HEXA1/2 are
+        # sub-tetrahedra, ours the trilinear hexahedron) they agree within 0.01 K
+        wedge = r >= 1.5 - 1e-12
+        assert np.abs(ours - nastran)[wedge].max() < 0.01
+    # the flux input: 288.5 W/m² x the inner face (r = 1, 4 degrees, 0.1 deep) = 2.0141 W (published OLOAD 4 x 0.5034)
+    assert res.summary["detailed"]["loads_W"]["deck flux (QBDY/QHBDY)"] == pytest.approx(4 * 5.034252e-01, rel=1e-6)

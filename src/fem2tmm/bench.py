@@ -28,6 +28,7 @@ REGISTRY: dict[str, str] = {
     "rays": "fem2tmm.radiation.benchmarks:bench_rays",
     "solar": "fem2tmm.radiation.benchmarks_solar:bench_solar",
     "quadric": "fem2tmm.radiation.benchmarks_quadric:bench_quadric",
+    "network": "fem2tmm.lpm.benchmarks:bench_network",
 }
 
 

@@ -18,6 +18,7 @@ from typing import Any, Mapping
 from .constants import ABSOLUTE_ZERO_C, KELVIN
 from .errors import Fem2TmmError
 from .io.units import LENGTH_UNITS, TEMPERATURE_UNITS, UNIT_SYSTEMS, unit_system_name
+from .timefunc import Table, parse_table
 
 
 @dataclass(frozen=True)
@@ -90,21 +91,27 @@ class Joint:
 
 @dataclass(frozen=True)
 class Boundary:
+    """A boundary condition.  ``value`` is the value used by the steady analysis: the table's value at the
+    ``[transient]`` start (0 s without a transient) when the value varies in time; ``table`` then holds the
+    whole function of time (same units: K, W or W/m²)."""
+
     kind: str  # temperature | power | flux
     value: float  # K for temperature, W for power, W/m² for flux
     groups: tuple[str, ...] = ()
     nodes: tuple[int, ...] = ()  # original node (GRID) ids
     name: str = ""
     index: int = 0
+    table: Table | None = None  # time-dependent value; None = constant
 
 
 @dataclass(frozen=True)
 class Environment:
-    sink_temperature: float = 3.0  # K
+    sink_temperature: float = 3.0  # K (at the [transient] start when it varies in time)
     sun_direction: tuple[float, float, float] | None = None  # unit vector from the model towards the Sun
     solar_flux: float = 0.0  # W/m²
     solar_on: str = "detailed"  # detailed | super_faces
     solar_rays_per_face: int = 100  # per FE face side (super_faces: per FE face of each super face)
+    sink_table: Table | None = None  # K, time-dependent sink temperature; None = constant
 
 
 @dataclass(frozen=True)
@@ -125,6 +132,7 @@ class ReductionSettings:
     capacitance: str = "cluster"  # cluster | equivalent
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
+    network: str = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
 
 
 @dataclass(frozen=True)
@@ -151,6 +159,26 @@ class ReferenceSettings:
 class SolverSettings:
     tolerance: float = 1e-9  # K, max |ΔT| of the last Newton step
     max_iterations: int = 200
+
+
+TRANSIENT_METHODS = ("crank-nicolson", "backward-euler", "bdf2")
+
+
+@dataclass(frozen=True)
+class TransientSpec:
+    """``[transient]``: times in s, temperatures in K.  ``step`` (fixed steps) or ``tolerance`` (K, adaptive
+    steps; ``step`` is then the largest step); ``initial_temperature`` K or ``"steady"``."""
+
+    end: float
+    start: float = 0.0
+    step: float | None = None
+    tolerance: float | None = None
+    output_every: float | None = None
+    initial_temperature: float | str = "steady"
+    method: str = "crank-nicolson"
+    capacitance: str = "lumped"  # lumped | consistent (detailed FE model)
+    periodic: bool = False
+    periodic_tolerance: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -209,6 +237,7 @@ class Case:
     clustering: ClusteringSettings = field(default_factory=ClusteringSettings)
     reference: ReferenceSettings = field(default_factory=ReferenceSettings)
     solver: SolverSettings = field(default_factory=SolverSettings)
+    transient: TransientSpec | None = None
     orbit: OrbitSettings | None = None
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
@@ -256,6 +285,7 @@ class _Parser:
     def __init__(self, source: str, base: Path):
         self.src = source
         self.base = base
+        self.t0 = 0.0  # time (s) at which time tables give the steady value: [transient] start
 
     def err(self, where: str, msg: str) -> Fem2TmmError:
         return Fem2TmmError(f"{self.src}: {where}: {msg}")
@@ -327,7 +357,7 @@ class _Parser:
     def case(self, data: Mapping[str, Any]) -> Case:
         top = self.table(data, "case", {"mesh", "materials", "optics", "parts", "boundary", "environment",
                                         "radiation", "reduction", "clustering", "reference", "solver", "joints",
-                                        "orbit"},
+                                        "transient", "orbit"},
                          {"parts"})
         mesh = self.mesh(top.get("mesh", {}))
         materials = {}
@@ -346,6 +376,8 @@ class _Parser:
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise self.err("[[parts]]", f"part names must be unique; repeated: {', '.join(dup)}")
+        transient = self.transient(top["transient"]) if "transient" in top else None
+        self.t0 = transient.start if transient is not None else 0.0
         b_raw = top.get("boundary", [])
         if not isinstance(b_raw, list):
             raise self.err("[[boundary]]", "expected an array of tables ([[boundary]] entries)")
@@ -368,6 +400,7 @@ class _Parser:
             clustering=self.clustering(top.get("clustering", {})),
             reference=self.reference(top.get("reference", {})),
             solver=self.solver(top.get("solver", {})),
+            transient=transient,
             orbit=self.orbit(top["orbit"], top.get("environment", {})) if "orbit" in top else None,
             raw=dict(data),
         )
@@ -511,16 +544,35 @@ class _Parser:
         groups, nodes = self.strings(d, "groups", w), self.ints(d, "nodes", w)
         if not groups and not nodes:
             raise self.err(w, "give 'groups' (mesh group names) and/or 'nodes' (original node ids)")
-        if kind == "temperature":
+        table = None
+        if isinstance(d["value"], (list, str)):
+            table = self.time_table(d["value"], f"{w}.value", kelvin=kind == "temperature")
+            v = table(self.t0)
+        elif kind == "temperature":
             v = self.number(d, "value", w, lo=ABSOLUTE_ZERO_C, lo_open=True) + KELVIN
         else:
             v = self.number(d, "value", w)
-        return Boundary(kind=kind, value=v, groups=groups, nodes=nodes, name=self.string(d, "name", w, default=f"{kind}_{i}"), index=i)
+        return Boundary(kind=kind, value=v, groups=groups, nodes=nodes, name=self.string(d, "name", w, default=f"{kind}_{i}"),
+                        index=i, table=table)
+
+    def time_table(self, value, where: str, kelvin: bool) -> Table:
+        """A value given as ``[[t, v], ...]`` or a two-column CSV file; °C -> K when ``kelvin``."""
+        table = parse_table(value, where, self.base)
+        if kelvin:
+            if not table.v.min() > ABSOLUTE_ZERO_C:
+                raise self.err(where, f"temperatures must be above {ABSOLUTE_ZERO_C} °C, got {table.v.min()}")
+            table = table.mapped(lambda v: v + KELVIN)
+        return table
 
     def environment(self, d) -> Environment:
         w = "[environment]"
         d = self.table(d, w, {"sink_temperature", "sun_direction", "solar_flux", "solar_on", "solar_rays_per_face"})
-        sink = self.number(d, "sink_temperature", w, default=3.0 - KELVIN, lo=ABSOLUTE_ZERO_C) + KELVIN
+        sink_table = None
+        if isinstance(d.get("sink_temperature"), (list, str)):
+            sink_table = self.time_table(d["sink_temperature"], f"{w}.sink_temperature", kelvin=True)
+            sink = sink_table(self.t0)
+        else:
+            sink = self.number(d, "sink_temperature", w, default=3.0 - KELVIN, lo=ABSOLUTE_ZERO_C) + KELVIN
         sun = d.get("sun_direction")
         if sun is not None:
             if (not isinstance(sun, list) or len(sun) != 3
@@ -533,7 +585,7 @@ class _Parser:
         flux = self.number(d, "solar_flux", w, default=0.0, lo=0)
         if flux > 0 and sun is None:
             raise self.err(w, "solar_flux is given but sun_direction is not")
-        return Environment(sink_temperature=sink, sun_direction=sun, solar_flux=flux,
+        return Environment(sink_temperature=sink, sun_direction=sun, solar_flux=flux, sink_table=sink_table,
                            solar_on=self.string(d, "solar_on", w, default="detailed", choices=("detailed", "super_faces")),
                            solar_rays_per_face=self.number(d, "solar_rays_per_face", w, default=100, lo=1, integer=True))
 
@@ -615,13 +667,14 @@ class _Parser:
 
     def reduction(self, d) -> ReductionSettings:
         w = "[reduction]"
-        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes"})
+        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network"})
         return ReductionSettings(
             enabled=self.boolean(d, "enabled", w, True),
             method=self.string(d, "method", w, default="local", choices=("local", "global")),
             capacitance=self.string(d, "capacitance", w, default="cluster", choices=("cluster", "equivalent")),
             filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
+            network=self.string(d, "network", w, default="exact", choices=("exact", "positive")),
         )
 
     def clustering(self, d) -> ClusteringSettings:
@@ -649,3 +702,32 @@ class _Parser:
         d = self.table(d, w, {"tolerance", "max_iterations"})
         return SolverSettings(tolerance=self.number(d, "tolerance", w, default=1e-9, lo=0, lo_open=True),
                               max_iterations=self.number(d, "max_iterations", w, default=200, lo=1, integer=True))
+
+    def transient(self, d) -> TransientSpec:
+        w = "[transient]"
+        d = self.table(d, w, {"end", "start", "step", "tolerance", "output_every", "initial_temperature", "method",
+                              "capacitance", "periodic", "periodic_tolerance"}, {"end"})
+        start = self.number(d, "start", w, default=0.0)
+        end = self.number(d, "end", w, required=True)
+        if not end > start:
+            raise self.err(f"{w}.end", f"must be after start ({start} s), got {end}")
+        step = self.number(d, "step", w, lo=0, lo_open=True)
+        tol = self.number(d, "tolerance", w, lo=0, lo_open=True)
+        if step is None and tol is None:
+            raise self.err(w, "give 'step' (s, fixed time steps) or 'tolerance' (K, adaptive steps; 'step' is then "
+                              "the largest step)")
+        init = d.get("initial_temperature", "steady")
+        if isinstance(init, str):
+            if init != "steady":
+                raise self.err(f"{w}.initial_temperature", f"expected a temperature (°C) or \"steady\", got {init!r}")
+        else:
+            init = self.number(d, "initial_temperature", w, lo=ABSOLUTE_ZERO_C, lo_open=True) + KELVIN
+        return TransientSpec(
+            end=end, start=start, step=step, tolerance=tol,
+            output_every=self.number(d, "output_every", w, lo=0, lo_open=True),
+            initial_temperature=init,
+            method=self.string(d, "method", w, default="crank-nicolson", choices=TRANSIENT_METHODS),
+            capacitance=self.string(d, "capacitance", w, default="lumped", choices=("lumped", "consistent")),
+            periodic=self.boolean(d, "periodic", w, False),
+            periodic_tolerance=self.number(d, "periodic_tolerance", w, default=0.01, lo=0, lo_open=True),
+        )

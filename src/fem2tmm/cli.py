@@ -102,10 +102,14 @@ def _run(args) -> int:
     from pathlib import Path
 
     from .case import Case
-    from .pipeline import run
+    from .export.output import check_output_place
 
     case = Case.from_toml(args.case)
     out = Path(args.out) if args.out else Path(args.case).with_name(Path(args.case).stem + "-out")
+    check_output_place(out)  # within a second, before the heavy imports and any computation
+
+    from .pipeline import run
+
     result = run(case, out=out, quiet=args.quiet, reference=False if args.no_reference else None)
     if not args.quiet:
         from .export.summary import summary_table

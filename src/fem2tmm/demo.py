@@ -12,8 +12,9 @@ import time
 from pathlib import Path
 
 from .case import Case
-from .pipeline import run
+from .export.output import check_output_place
 from .export.summary import summary_table
+from .pipeline import run
 
 DEMO_CASE = {
     "materials": {"aluminium": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
@@ -39,6 +40,7 @@ def demo_case() -> Case:
 def run_demo(out: str | Path = "fem2tmm-demo", quiet: bool = False) -> int:
     from .meshes import baffle
 
+    check_output_place(out)  # before building the mesh
     t0 = time.perf_counter()
     mesh = baffle()
     result = run(demo_case(), out=out, mesh=mesh, quiet=quiet)

@@ -13,19 +13,20 @@ from pathlib import Path
 
 from .case import Case
 from .errors import Fem2TmmError
-from .export.output import write_outputs
+from .export.output import check_output_place, write_outputs
 from .export.summary import build_summary
 from .fem.model import build_model
 from .mesh import Mesh
 from .progress import Progress, report, reporting
+from .radiation.compiled import compile_estimate
 from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
 from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_orbit, detailed_problem,
                      detailed_radiation, detailed_solar, orbit_average, orbit_positions_detailed,
-                     orbit_positions_reduced, quadric_scene, radiation_surface, reduced_problem, reduced_radiation,
-                     solar_prepass, super_face_orbit, super_face_solar)
+                     orbit_positions_reduced, positive_reduced, quadric_scene, radiation_surface, reduced_problem,
+                     reduced_radiation, solar_prepass, super_face_orbit, super_face_solar)
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
@@ -46,11 +47,13 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
     overrides ``[reference] detailed``.
     """
+    out = None if out is None else check_output_place(out)  # before any computation
     prog = Progress(quiet=quiet)
     with reporting(prog.callback()):
         result = _run(case, prog, mesh, reference)
     if out is not None:
-        result.out = write_outputs(result, Path(out))
+        with prog.stage("write", f"writing the outputs to {out}"):
+            result.out = write_outputs(result, out, timings=prog.timings)
     return result
 
 
@@ -68,6 +71,10 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
     sun = case.has_sun and radiating
     orbit = case.orbit if radiating else None
     surface = radiation_surface(model) if (trace or sun or orbit) else None
+    if surface is not None:
+        seconds = compile_estimate()
+        if seconds > 0:
+            prog.note(f"compiling the ray tracer's kernels (first run after an install, ~{seconds:.0f} s)")
     q_solar = None  # detailed solar nodal loads (n_dof,) W
     scene = None  # one ray scene (Embree BVH) shared by every tracing stage
 
@@ -145,6 +152,12 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
         with prog.stage("solve_reduced", "solving the reduced model"):
             result.reduced_solution = solve_steady(reduced_problem(rm), tol=case.solver.tolerance,
                                                    max_iter=case.solver.max_iterations)
+        if case.reduction.network == "positive":
+            exact = result.reduced_solution
+            with prog.stage("positive", "fitting a positive sparse network"):
+                rm, result.reduced_solution, result.positive = positive_reduced(model, rm, exact, case)
+            result.reduced = rm
+            result.T_recovered_exact = rm.reduction.recover(exact.T, q_recover)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if q_sn_orbit is not None and orbit.steady == "positions":

@@ -59,6 +59,11 @@ class Progress:
         if not self.quiet:
             print(f"[fem2tmm] {label or name}: {dt:.2f} s", file=self.stream, flush=True)
 
+    def note(self, text: str) -> None:
+        """Print one line ``[fem2tmm] text`` unless quiet."""
+        if not self.quiet:
+            print(f"[fem2tmm] {text}", file=self.stream, flush=True)
+
     def bar(self, total: int, desc: str):
         """A tqdm bar (or a no-op object) with ``update(n)`` and ``close()``."""
         from tqdm.auto import tqdm

@@ -37,6 +37,9 @@ class Result:
     reduced: ReducedModel | None = None
     reduced_solution: SteadySolution | None = None
     T_recovered: np.ndarray | None = None  # (n_dof,) K
+    # [reduction] network = "positive": the fit's report and the exact reduction's recovered field (n_dof,) K
+    positive: dict | None = None
+    T_recovered_exact: np.ndarray | None = None
     radiation: ExchangeResult | None = None  # REFs between super faces
     super_faces_count: int | None = None  # number of super faces the REFs were traced between
     solar_super_faces: SolarResult | None = None  # solar rays traced on the super faces

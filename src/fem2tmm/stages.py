@@ -9,7 +9,7 @@ reads the case's settings and the FE model and returns arrays or the stage's own
 
 from __future__ import annotations
 
-from dataclasses import replace
+import dataclasses
 from typing import Callable
 
 import numpy as np
@@ -23,7 +23,7 @@ from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
 from .reduce.network import ReducedModel, determined_elements, kept_dofs, super_faces
-from .solve.steady import FacedRadiation, SteadyProblem, solve_steady
+from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 
 PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
 
@@ -39,6 +39,36 @@ def reduced_problem(rm: ReducedModel) -> SteadyProblem:
     """The steady problem of the reduced network ``rm``."""
     return SteadyProblem(K=rm.K, Q=rm.Q, fixed=rm.fixed, T_fixed=rm.T_fixed, g_space=rm.g_space,
                          T_sink=rm.T_sink, GR=rm.GR, names=tuple(rm.names))
+
+
+def positive_reduced(model: FEModel, rm: ReducedModel, exact: SteadySolution, case: Case
+                     ) -> tuple[ReducedModel, SteadySolution, dict]:
+    """``[reduction] network = "positive"``: replace the exact dense K_SN of ``rm`` by a positive sparse network
+    between touching super nodes fitted to its response (:mod:`fem2tmm.lpm.positive`, the exact solution ``exact``
+    weighing as the case's own state), solve it, and compare with the exact reduction by the network criteria
+    (:class:`fem2tmm.lpm.grouping.Criteria` defaults: δ ≤ 3 K per super node, heat into each boundary within 0.1 W
+    below 1 W, 10 % above).  Returns the new model, its solution and the report for ``summary.json``."""
+    from .lpm.grouping import Criteria, flow_errors
+    from .lpm.positive import positive_network
+
+    pn = positive_network(rm.K, rm.supernodes.A, model.K, rm.fixed, states=exact.T)
+    rm_pos = dataclasses.replace(rm, K=pn.K, report={**rm.report, "positive": pn.report, "negative_links": 0,
+                                                      "negative_GL_W_per_K": 0.0})
+    sol = solve_steady(reduced_problem(rm_pos), T0=exact.T, tol=case.solver.tolerance,
+                       max_iter=case.solver.max_iterations)
+    crit = Criteria()
+    delta = np.abs(sol.T - exact.T)
+    f = np.flatnonzero(rm.fixed)
+    err, ok = flow_errors(-exact.heat_fixed[f], -sol.heat_fixed[f], crit)
+    report = {**pn.report,
+              "T_vs_exact_K": {"max": float(delta.max(initial=0.0)), "rms": float(np.sqrt(np.mean(delta**2)))},
+              "heat_into_fixed_W": {str(rm.names[i]): {"exact": float(exact.heat_fixed[i]),
+                                                       "positive": float(sol.heat_fixed[i])} for i in f},
+              "criteria": {"delta_max_K": crit.delta_max, "q_max_W": crit.q_max, "q_lim_W": crit.q_lim,
+                           "q_rel_max": crit.q_rel_max,
+                           "met": bool((delta[~rm.fixed] < crit.delta_max).all() and ok.all()),
+                           "max_flow_error": float(err.max(initial=0.0))}}
+    return rm_pos, sol, report
 
 
 def describe_nodes(model: FEModel) -> Callable[[np.ndarray], str]:
@@ -270,7 +300,7 @@ def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.nd
     out = []
     T = T0
     for j in range(len(q_sn)):  # loop over the orbit positions (a few tens)
-        sol = solve_steady(reduced_problem(replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
+        sol = solve_steady(reduced_problem(dataclasses.replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
                            max_iter=case.solver.max_iterations)
         T = sol.T
         out.append(rm.reduction.recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))
@@ -283,7 +313,7 @@ def orbit_positions_detailed(problem: SteadyProblem, q_dof: np.ndarray, T0: np.n
     out = []
     T = T0
     for j in range(len(q_dof)):  # loop over the orbit positions
-        T = solve_steady(replace(problem, Q=problem.Q + q_dof[j]), T0=T, tol=case.solver.tolerance,
+        T = solve_steady(dataclasses.replace(problem, Q=problem.Q + q_dof[j]), T0=T, tol=case.solver.tolerance,
                          max_iter=case.solver.max_iterations).T
         out.append(T)
     return np.array(out)

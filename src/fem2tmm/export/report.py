@@ -1,9 +1,10 @@
 """Static HTML report (``report.html`` + PNG images), opens offline.
 
-Contents: cluster map, temperature map (recovered when reduced), error map against the detailed
-reference, absorbed solar flux map, reduced-vs-detailed table (RMS, max, heat into each boundary and to
-space), exchange-factor line-sum-error histogram, stage timings and the case echoed.  Images are
-matplotlib renderings of the radiating faces (shells and the outer faces of solids) in an isometric view.
+Contents: summary (with what negative GL mean), temperatures per part (result and reference side by side) and
+per reduced node, heat flows (applied loads, absorbed solar, heat into each fixed boundary, to space; reduced
+against detailed), cluster map, temperature and error maps seen from two opposite sides (the hottest face
+marked), absorbed solar flux map, exchange-factor line-sum-error histogram, stage timings and the case as the
+user wrote it.  Images are matplotlib renderings of the radiating faces (shells and the outer faces of solids).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
+from .summary import NEGATIVE_GL_NOTE
 from .orbit import orbit_plots
 
 #: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
@@ -26,9 +28,17 @@ def _face_polygons(points: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
     return list(quads)
 
 
+#: the isometric view of the front (elevation, azimuth in degrees) and the opposite one: together they show every
+#: side of the model (each of the six axis directions faces one of them)
+BOTH_SIDES = ((25.0, -60.0), (-25.0, 120.0))
+
+
 def render_faces(path: Path, points: np.ndarray, faces: np.ndarray, values: np.ndarray, title: str, label: str,
-                 cmap: str = "inferno", categorical: bool = False, symmetric: bool = False) -> str:
-    """Render faces (f, 4) (-1 padded) coloured by ``values`` (f,) to ``path`` (PNG); returns a caption note."""
+                 cmap: str = "inferno", categorical: bool = False, symmetric: bool = False,
+                 views: tuple[tuple[float, float], ...] = BOTH_SIDES[:1], mark_max: bool = False) -> str:
+    """Render faces (f, 4) (-1 padded) coloured by ``values`` (f,) to ``path`` (PNG), one panel per view
+    ((elevation, azimuth) degrees) with one colour bar; ``mark_max`` marks the face of the largest value in every
+    panel.  Returns a caption note."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -41,8 +51,7 @@ def render_faces(path: Path, points: np.ndarray, faces: np.ndarray, values: np.n
         idx = np.linspace(0, len(faces) - 1, MAX_FACES).astype(np.int64)
         note = f" ({MAX_FACES:,} of {len(faces):,} faces drawn)"
     f, v = faces[idx], np.asarray(values, float)[idx]
-    fig = plt.figure(figsize=(7.5, 6.0), dpi=110)
-    ax = fig.add_subplot(projection="3d")
+    fig = plt.figure(figsize=(7.5 * len(views) if len(views) > 1 else 7.5, 6.0), dpi=110)
     if categorical:
         k = int(np.nanmax(v)) + 1 if np.isfinite(v).any() else 1
         perm = np.random.default_rng(0).permutation(max(k, 1))
@@ -60,25 +69,45 @@ def render_faces(path: Path, points: np.ndarray, faces: np.ndarray, values: np.n
             hi = lo + 1e-12
         norm = matplotlib.colors.Normalize(lo, hi)
         colors = plt.get_cmap(cmap)(norm(v))
-    pc = Poly3DCollection(_face_polygons(points, f), facecolors=colors, edgecolors="none", linewidths=0)
-    ax.add_collection3d(pc)
-    lo3, hi3 = points[np.unique(f[f >= 0])].min(axis=0), points[np.unique(f[f >= 0])].max(axis=0)
+    polys = _face_polygons(points, f)
+    used = points[np.unique(f[f >= 0])]
+    lo3, hi3 = used.min(axis=0), used.max(axis=0)
     c, r = (lo3 + hi3) / 2, (hi3 - lo3).max() / 2 or 1.0
-    ax.set_xlim(c[0] - r, c[0] + r)
-    ax.set_ylim(c[1] - r, c[1] + r)
-    ax.set_zlim(c[2] - r, c[2] + r)
-    ax.set_box_aspect((1, 1, 1))
-    ax.view_init(elev=25, azim=-60)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
-    ax.set_title(title)
+    hot = None
+    if mark_max and np.isfinite(v).any():
+        j = int(np.nanargmax(v))
+        hot = points[f[j][f[j] >= 0]].mean(axis=0)
+    axes = []
+    for k, (elev, azim) in enumerate(views):
+        ax = fig.add_subplot(1, len(views), k + 1, projection="3d")
+        ax.add_collection3d(Poly3DCollection(polys, facecolors=colors, edgecolors="none", linewidths=0))
+        if hot is not None:
+            ax.scatter(*hot, s=80, facecolors="none", edgecolors="cyan", linewidths=2, depthshade=False)
+        ax.set_xlim(c[0] - r, c[0] + r)
+        ax.set_ylim(c[1] - r, c[1] + r)
+        ax.set_zlim(c[2] - r, c[2] + r)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=elev, azim=azim)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_zlabel("z [m]")
+        ax.set_title(f"{title}\n(view from {_direction(elev, azim)})" if len(views) > 1 else title)
+        axes.append(ax)
     if norm is not None:
         sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
-        fig.colorbar(sm, ax=ax, shrink=0.7, label=label)
+        fig.colorbar(sm, ax=axes, shrink=0.7, label=label)
+    if hot is not None:
+        note += f"; the circle marks the maximum, {np.nanmax(v):.4g} {label.split('[')[-1].rstrip(']')}"
     fig.savefig(path)
     plt.close(fig)
     return note
+
+
+def _direction(elev: float, azim: float) -> str:
+    """'+x +y +z'-style octant a view (elevation, azimuth degrees) looks from."""
+    e, a = np.radians(elev), np.radians(azim)
+    d = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    return " ".join(f"{'+' if x > 0 else '-'}{n}" for x, n in zip(d, "xyz") if abs(x) > 1e-9)
 
 
 def _histogram(path: Path, values: np.ndarray, title: str, xlabel: str) -> None:
@@ -108,6 +137,10 @@ def _table(rows: list[tuple], header: tuple) -> str:
     return f"<table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table>"
 
 
+def _three(d: dict) -> tuple[str, str, str]:
+    return tuple("—" if d.get(k) is None else f"{d[k]:.3f}" for k in ("min", "mean", "max"))
+
+
 def _fmt(v, unit="") -> str:
     if v is None:
         return "—"
@@ -116,8 +149,10 @@ def _fmt(v, unit="") -> str:
     return f"{v}{unit}"
 
 
-def write_report(folder: Path, result, case_text: str) -> list[str]:
-    """Write ``report.html`` and its images into ``folder``; returns the image file names."""
+def write_report(folder: Path, result, case_text: str, before_html=None) -> list[str]:
+    """Write ``report.html`` and its images into ``folder``; returns the image file names.  ``before_html()``,
+    if given, is called after the images are rendered and before the page is composed (the caller updates
+    ``result.summary["timings_s"]["write"]`` there)."""
     folder = Path(folder)
     model = result.model
     s = result.summary
@@ -135,11 +170,11 @@ def write_report(folder: Path, result, case_text: str) -> list[str]:
     T_dof = result.T_recovered if result.T_recovered is not None else result.detailed.T
     kind = "recovered from the reduced model" if result.T_recovered is not None else "detailed model"
     note = render_faces(folder / "temperature.png", pts, f.nodes, face_values(T_dof) - KELVIN,
-                        f"Temperature ({kind})", "T [°C]")
-    images.append(("temperature.png", f"Temperature, {kind}" + note))
+                        f"Temperature ({kind})", "T [°C]", views=BOTH_SIDES, mark_max=True)
+    images.append(("temperature.png", f"Temperature, {kind}, seen from two opposite sides" + note))
     if result.T_recovered is not None and result.detailed is not None:
         note = render_faces(folder / "error.png", pts, f.nodes, face_values(result.T_recovered - result.detailed.T),
-                            "Recovered minus detailed", "ΔT [K]", cmap="coolwarm", symmetric=True)
+                            "Recovered minus detailed", "ΔT [K]", cmap="coolwarm", symmetric=True, views=BOTH_SIDES)
         images.append(("error.png", "Error of the recovered temperatures against the detailed reference" + note))
     solar = result.absorbed_solar_faces
     if solar is not None:
@@ -152,12 +187,16 @@ def write_report(folder: Path, result, case_text: str) -> list[str]:
                    "|LSE| (before closure)")
         images.append(("lse.png", "Exchange-factor line-sum errors (super faces)"))
 
+    if before_html is not None:
+        before_html()
     rows = [("mesh", f"{s['mesh']['nodes']:,} nodes, {s['mesh']['elements']:,} elements")]
     red = s.get("reduced")
     if red:
         rows.append(("reduced model", f"{red['super_nodes']} super nodes + {red['boundary_nodes']} boundary nodes; "
                      f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR, "
                      f"{red['super_faces']} super faces"))
+        if red["negative_links"]:
+            rows.append(("negative GL", f"{red['negative_links']} of {red['conductive_links']}: {NEGATIVE_GL_NOTE}"))
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
         rows.append(("recovered vs detailed", f"RMS {acc['rms_K']:.4g} K, max {acc['max_K']:.4g} K over {acc['nodes']:,} nodes"))
@@ -167,12 +206,28 @@ def write_report(folder: Path, result, case_text: str) -> list[str]:
     if rad.get("detailed"):
         rows.append(("radiation (detailed)", f"{rad['detailed']['rays']:,} rays, RMS LSE {rad['detailed']['lse_rms']:.3g}"))
 
+    tc = s.get("temperatures_C") or {}
+    ref = (tc.get("reference") or {}).get("parts") or {}
+    part_rows = [(name, *_three(d), *(_three(ref[name]) if name in ref else ()))
+                 for name, d in (tc.get("parts") or {}).items()]
+    head = "recovered" if str(tc.get("source", "")).startswith("recovered") else "detailed"
+    part_head = ("part", f"min ({head})", "mean", "max") + (("min (detailed)", "mean", "max") if ref else ())
+    sn_rows = [(k, f"{v:.3f}") for k, v in (tc.get("super_nodes") or {}).items()]
+
+    loads = s.get("loads_W") or {}
     flows = []
+    for name, w in (loads.get("boundaries") or {}).items():
+        flows.append((f"applied load '{name}'", _fmt(w, " W"), _fmt(w, " W") if s.get("detailed") else "—"))
+    if loads.get("absorbed_solar") is not None:
+        sol = s.get("solar") or {}
+        det_sol = (sol.get("detailed_mesh") or {}).get("absorbed_W")
+        flows.append(("absorbed solar", _fmt(loads["absorbed_solar"] if red else None, " W"),
+                      _fmt(det_sol if s.get("detailed") else None, " W")))
     det = s.get("detailed") or {}
     red_in = (red or {}).get("heat_into_fixed_W", {})
     det_in = det.get("heat_into_fixed_W", {})
     for name in sorted(set(red_in) | set(det_in)):
-        flows.append((f"into boundary '{name}'", _fmt(red_in.get(name), " W"), _fmt(det_in.get(name), " W")))
+        flows.append((f"into fixed boundary '{name}'", _fmt(red_in.get(name), " W"), _fmt(det_in.get(name), " W")))
     flows.append(("radiated to space", _fmt((red or {}).get("to_space_W"), " W"), _fmt(det.get("to_space_W"), " W")))
     for k in ("reduced", "detailed"):
         eb = (s.get("energy_balance_W") or {}).get(k)
@@ -193,7 +248,12 @@ pre {{ background: #f6f6f6; padding: 1em; overflow-x: auto; }}
 <h1>fem2tmm report</h1>
 <p>Case: <code>{html.escape(str(s.get('case')))}</code> — fem2tmm {html.escape(str(s.get('version')))}</p>
 <h2>Summary</h2>{_table(rows, ("", ""))}
+<h2>Temperatures per part [°C]</h2>{_table(part_rows, part_head)}
+<p>Min and max over the part's nodes, mean = plain mean over its nodes.</p>
+<details><summary>Temperatures of the {len(sn_rows)} reduced nodes [°C]</summary>{_table(sn_rows, ("node", "T [°C]"))}</details>
 <h2>Heat flows: reduced against detailed</h2>{_table(flows, ("", "reduced", "detailed"))}
+<p>Signs: loads are positive when they heat the model; "into fixed boundary" is positive when heat flows into the
+fixed-temperature boundary; "radiated to space" is positive when the model loses heat to the sink.</p>
 <h2>Maps</h2>{figs}
 <h2>Stage timings</h2>{_table(timings, ("stage", "time"))}
 <h2>Case</h2><pre>{html.escape(case_text)}</pre>

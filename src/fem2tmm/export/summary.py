@@ -22,10 +22,10 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
     case, mesh, model = result.case, result.mesh, result.model
     detailed = result.detailed
     T = result.T_detailed_nodes
-    fixed_heat = {}
+    fixed_heat = {}  # heat flowing INTO each fixed-temperature boundary (SteadySolution.heat_fixed: out of it)
     if detailed is not None:
         for g in model.fixed:
-            fixed_heat[g.name] = float(detailed.heat_fixed[g.dof])
+            fixed_heat[g.name] = -float(detailed.heat_fixed[g.dof])
     s = {
         "version": __version__,
         "case": case.source,
@@ -42,6 +42,8 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             "heat_into_fixed_W": fixed_heat, "loads_W": dict(model.loads),
             "to_space_W": float(detailed.to_space.sum()),
         },
+        "temperatures_C": _temperatures(result),
+        "loads_W": {"boundaries": dict(model.loads), "absorbed_solar": _absorbed_solar(result)},
         "energy_balance_W": {"reduced": None, "detailed": None if detailed is None else detailed.balance},
         "solar": _solar_summary(result),
         "orbit": orbit_summary(result),
@@ -64,7 +66,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             "filter": rm.report.get("filter"),
             "clustering": result.clustering.report if result.clustering is not None else None,
             "iterations": rs.iterations,
-            "heat_into_fixed_W": {str(rm.names[i]): float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
+            "heat_into_fixed_W": {str(rm.names[i]): -float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
             "to_space_W": float(rs.to_space.sum()),
         }
         s["energy_balance_W"]["reduced"] = rs.balance
@@ -73,7 +75,63 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             err = (model.node_temperatures(result.T_recovered) - T)[ok]
             s["accuracy"] = {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
                              "nodes": int(ok.sum())}
+    if result.positive is not None:
+        s["positive_network"] = dict(result.positive)
+        if detailed is not None and result.T_recovered_exact is not None:
+            ok = model.node_dof >= 0
+            e = (model.node_temperatures(result.T_recovered_exact) - T)[ok]
+            exact = {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.abs(e).max())}
+            pos = {"rms": s["accuracy"]["rms_K"], "max": s["accuracy"]["max_K"]}
+            s["positive_network"]["recovered_error_K"] = {
+                "positive": pos, "exact": exact,
+                "ratio_rms": pos["rms"] / exact["rms"] if exact["rms"] > 0 else None}
     return s
+
+
+def part_node_sets(model) -> list[np.ndarray]:
+    """The mesh node indices of each part's thermal elements (one sorted array per part)."""
+    cells = model.element_cells
+    n = model.mesh.n_nodes
+    part = np.broadcast_to(model.element_part[:, None], cells.shape)
+    ok = cells >= 0
+    key = np.unique(part[ok].astype(np.int64) * n + cells[ok])
+    bounds = np.searchsorted(key, np.arange(len(model.parts) + 1, dtype=np.int64) * n)
+    return [key[bounds[p]:bounds[p + 1]] - p * n for p in range(len(model.parts))]
+
+
+def _stats(T_nodes_K: np.ndarray, sets: list[np.ndarray], names: list[str]) -> dict:
+    out = {}
+    for name, nodes in zip(names, sets):
+        t = T_nodes_K[nodes] - KELVIN
+        t = t[np.isfinite(t)]
+        out[name] = ({"min": float(t.min()), "mean": float(t.mean()), "max": float(t.max())} if t.size
+                     else {"min": None, "mean": None, "max": None})
+    return out
+
+
+def _temperatures(result: Result) -> dict:
+    """``temperatures_C``: the result temperatures per part (min / mean over its nodes / max, °C) — recovered
+    from the reduced model when there is one, the detailed solution otherwise — the detailed reference's per part
+    when both ran, and each reduced node's temperature."""
+    model = result.model
+    sets = part_node_sets(model)
+    names = [p.name for p in model.parts]
+    reduced = result.T_recovered is not None
+    out = {"source": "recovered from the reduced model" if reduced else "detailed model",
+           "parts": _stats(result.T_nodes, sets, names), "reference": None, "super_nodes": None}
+    if reduced and result.detailed is not None:
+        out["reference"] = {"source": "detailed model", "parts": _stats(result.T_detailed_nodes, sets, names)}
+    if result.reduced is not None and result.reduced_solution is not None:
+        out["super_nodes"] = {str(k): float(t - KELVIN) for k, t in zip(result.reduced.names,
+                                                                          result.reduced_solution.T)}
+    return out
+
+
+def _absorbed_solar(result: Result) -> float | None:
+    """Absorbed solar power (W) the result model received: the super faces' when traced there, else the detailed
+    mesh's; None without a Sun."""
+    r = result.solar_super_faces if result.solar_super_faces is not None else result.solar_detailed
+    return None if r is None else float(r.absorbed)
 
 
 def _radiation_summary(result: Result) -> dict:
@@ -114,21 +172,65 @@ def _solar_summary(result: Result) -> dict | None:
     return out
 
 
+#: super nodes listed one by one in the terminal table (more: their range, all of them in summary.json)
+MAX_LISTED_NODES = 24
+#: what negative GL are, said wherever their count is shown
+NEGATIVE_GL_NOTE = ("negative GL are positive off-diagonal terms of the exact reduced conduction matrix: they belong "
+                    "to the exact reduction (the reduced model reproduces the detailed conduction for any load); "
+                    "[reduction] filter removes weak links")
+
+
+def _three(d: dict) -> str:
+    return "—" if d.get("min") is None else f"{d['min']:.2f} / {d['mean']:.2f} / {d['max']:.2f} °C"
+
+
+def temperature_rows(s: dict) -> list[tuple[str, str]]:
+    """(label, text) rows of the temperatures: per part min / mean / max (result and reference side by side)
+    and per super node."""
+    tc = s.get("temperatures_C") or {}
+    rows = []
+    ref = (tc.get("reference") or {}).get("parts") or {}
+    src = "recovered" if tc.get("source", "").startswith("recovered") else "detailed"
+    for name, d in (tc.get("parts") or {}).items():
+        text = f"{src} {_three(d)}" + (f"  |  detailed {_three(ref[name])}" if name in ref else "")
+        rows.append((f"T min/mean/max '{name}'", text))
+    sn = tc.get("super_nodes") or {}
+    if sn and len(sn) <= MAX_LISTED_NODES:
+        items = [f"{k} {v:.2f}" for k, v in sn.items()]
+        for k in range(0, len(items), 6):
+            rows.append(("T super nodes [°C]" if k == 0 else "", ", ".join(items[k:k + 6])))
+    elif sn:
+        v = np.array(list(sn.values()))
+        rows.append(("T super nodes", f"{len(sn)} nodes from {v.min():.2f} to {v.max():.2f} °C (each in summary.json "
+                                      "temperatures_C.super_nodes)"))
+    return rows
+
+
 def summary_table(s: dict) -> str:
+    """The plain-text table the command line prints after a run, from the ``summary.json`` dict."""
     rows = [("mesh", f"{s['mesh']['nodes']} nodes, {s['mesh']['elements']} elements")]
     red = s.get("reduced")
     if red:
         rows.append(("reduced model", f"{red['super_nodes']} super nodes + {red['boundary_nodes']} boundary nodes, "
                      f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR"))
+        if red["negative_links"]:
+            rows.append(("", NEGATIVE_GL_NOTE))
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation", f"{rad['rays']:,} rays, RMS line-sum error {rad['lse_rms']:.2e}"))
-    det = s.get("detailed")
-    if det:
-        rows.append(("detailed T", f"{det['T_min_C']:.3f} .. {det['T_max_C']:.3f} °C"))
+    rows += temperature_rows(s)
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
         rows.append(("reduced vs detailed", f"RMS {acc['rms_K']:.4f} K, max {acc['max_K']:.4f} K"))
+    det = s.get("detailed") or {}
+    loads = s.get("loads_W") or {}
+    for name, w in (loads.get("boundaries") or {}).items():
+        rows.append((f"load '{name}'", f"{w:.4g} W"))
+    if loads.get("absorbed_solar") is not None:
+        rows.append(("absorbed solar", f"{loads['absorbed_solar']:.4g} W"))
+    for label, flows in (("reduced", (red or {}).get("heat_into_fixed_W")), ("detailed", det.get("heat_into_fixed_W"))):
+        for name, w in (flows or {}).items():
+            rows.append((f"into fixed '{name}' ({label})", f"{w:+.4g} W"))
     eb = s.get("energy_balance_W") or {}
     for k in ("detailed", "reduced"):
         if eb.get(k):

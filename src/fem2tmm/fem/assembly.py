@@ -197,6 +197,19 @@ def area_shares(points: np.ndarray, cells: np.ndarray, etype: str, geom: BlockGe
     return (geom.measure * rule.w) @ rule.N
 
 
+def capacity_matrices(points: np.ndarray, cells: np.ndarray, etype: str, geom: BlockGeometry | None = None) -> np.ndarray:
+    """Consistent (mass-type) element matrices ``∫ NᵢNⱼ dA`` (shells, m²) or ``∫ NᵢNⱼ dV`` (solids, m³), (m, nk, nk).
+
+    Multiply by ρ·c (and the thickness for shells) for the consistent capacitance in J/K; row sums equal
+    :func:`area_shares` / :func:`volume_shares` (the lumped capacitance), since Σⱼ Nⱼ = 1.
+    """
+    rule = RULES[etype]
+    geom = block_geometry(points, cells, etype, need_gradients=False) if geom is None else geom
+    NN = np.einsum("qa,qb->qab", rule.N, rule.N).reshape(len(rule.w), -1)  # (q, k²)
+    m, nk = cells.shape
+    return ((geom.measure * rule.w) @ NN).reshape(m, nk, nk)
+
+
 def to_coo(cells: np.ndarray, Ke: np.ndarray, elem: np.ndarray) -> ElementCOO:
     """Scatter element matrices (m, k, k) of elements ``elem`` (m,) into an :class:`ElementCOO`."""
     m, nk = cells.shape
@@ -222,6 +235,7 @@ __all__ = [
     "line_matrices",
     "tensor33",
     "volume_shares",
+    "capacity_matrices",
     "area_shares",
     "to_coo",
     "scatter_shares",

@@ -25,9 +25,8 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
-from .assembly import (ElementCOO, area_shares, block_geometry, conduction_matrices, line_matrices, scatter_shares,
-                       to_coo,
-                       volume_shares)
+from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices, line_matrices,
+                       scatter_shares, to_coo, volume_shares)
 from .elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
 from .geometry import cross, solid_jacobian
 
@@ -159,6 +158,32 @@ class FEModel:
         return out
 
 
+def consistent_capacity(model: FEModel) -> sp.csr_matrix:
+    """Consistent capacitance matrix (n_dof, n_dof) J/K: ``∫ ρ c NᵢNⱼ dV`` (shells: x thickness).
+
+    Symmetric; its row sums are the lumped capacitance ``model.capacity``.  Each element's ρ·c (·thickness) is
+    its capacity over its measure, so no property is read twice.  Raises if the model has no capacity.
+    """
+    if model.capacity_shares is None:
+        raise Fem2TmmError("the consistent capacitance needs density and specific_heat for every part's material")
+    pts = model.mesh.points
+    coos = []
+    for code in np.unique(model.element_types):
+        t = _CODE_TYPE[int(code)]
+        sel = np.flatnonzero(model.element_types == code)
+        nk = RULES[t].N.shape[1]
+        if t in LINE_TYPES:  # ∫ NᵢNⱼ dL = L/6 [[2, 1], [1, 2]]; the length is scaled out below
+            Me = np.broadcast_to(np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0, (len(sel), 2, 2)).copy()
+        else:
+            Me = capacity_matrices(pts, model.element_cells[sel, :nk], t)
+        measure = Me.sum(axis=(1, 2))
+        Me *= (model.capacity_shares[sel, :nk].sum(axis=1) / measure)[:, None, None]
+        coos.append(to_coo(model.element_dofs[sel, :nk], Me, sel))
+    C = ElementCOO.concatenate(coos).tocsr(model.n_dof)
+    C.sum_duplicates()
+    return C
+
+
 # ------------------------------------------------------------------------------------------ helpers
 def _union(index_arrays, n: int) -> np.ndarray:
     """Sorted union of index arrays in [0, n) (a mask: linear time, unlike a hash/sort unique)."""
@@ -252,7 +277,8 @@ def _properties(mesh: Mesh, case, parts, owner) -> dict[str, np.ndarray]:
 
 
 def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells: np.ndarray):
-    """Mirror negatively oriented solids; raise on degenerate or inverted elements.
+    """Mirror negatively oriented solids (with a warning naming them); raise on degenerate or partly inverted
+    elements.
 
     Returns ``(cells, blocks)`` with ``blocks`` a list of ``(etype, rows, cells_of_rows, BlockGeometry)``.
     """
@@ -294,7 +320,10 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
         else:
             _, det = solid_jacobian(mesh.points, c, t)
             neg = (det @ RULES[t].w) < 0
-            if neg.any():
+            if neg.any():  # a mirrored node order (a numbering convention): the same element, reoriented
+                warnings.warn(
+                    f"{mesh.source}: {t} elements {format_ids(mesh.element_ids[elements[sel[neg]]])} have a negative "
+                    "Jacobian (mirrored node order); reoriented", stacklevel=3)
                 c[neg] = c[neg][:, list(MIRROR[t])]
                 cells[sel[neg], :nk] = c[neg]
             geom = block_geometry(mesh.points, c, t)
@@ -435,10 +464,12 @@ def build_model(mesh: Mesh, case) -> FEModel:
     # ---- loads
     Q = np.zeros(n_dof)
     loads = {}
+    fixed_dofs = np.array([f.dof for f in fixed], np.int64)
     for b in case.boundaries:
         if b.kind == "temperature":
             continue
         q = _load_vector(mesh, case, b, node_dof, n_dof)
+        _check_load_on_fixed(mesh, case, b, q, fixed, fixed_dofs)
         Q += q
         loads[b.name] = float(q.sum())
     extra_space = None
@@ -591,6 +622,30 @@ def _deck_nodal_loads(mesh: Mesh, dl, elements: np.ndarray, vshares: np.ndarray)
     if len(dl.rad_faces):
         eps_area = scatter_shares(dl.rad_faces, face_shares(dl.rad_faces), n, weights=dl.rad_emissivity)
     return out, eps_area
+
+
+def _check_load_on_fixed(mesh: Mesh, case, b, q: np.ndarray, fixed, fixed_dofs: np.ndarray) -> None:
+    """A power/flux load ``q`` (n_dof,) W that lands on fixed-temperature nodes goes straight into the boundary:
+    an error when all of it does (it cannot heat anything: surely a wrong group), a warning with the watts when
+    more than 1 % does (a heated panel with a fixed edge legitimately puts the edge nodes' share there)."""
+    total = float(np.abs(q).sum())
+    if total == 0 or not len(fixed_dofs):
+        return
+    on = q[fixed_dofs]
+    lost = float(np.abs(on).sum())
+    if lost < 0.01 * total:
+        return
+    names = ", ".join(repr(f.name) for f, w in zip(fixed, on) if w != 0)
+    nodes = np.concatenate([f.nodes for f, w in zip(fixed, on) if w != 0])
+    where = f"{case.source}: [[boundary]] {b.name!r} ({b.kind})"
+    if lost >= (1 - 1e-12) * total:
+        raise Fem2TmmError(
+            f"{where}: the whole load ({q.sum():.6g} W) falls on nodes of the fixed-temperature boundary {names} "
+            f"(nodes {format_ids(mesh.node_ids[nodes])}), so it would flow straight into that boundary and heat "
+            "nothing; put the load on other groups or nodes"
+        )
+    warnings.warn(f"{where}: {on.sum():.6g} W of its {q.sum():.6g} W fall on nodes of the fixed-temperature boundary "
+                  f"{names} and flow straight into it", stacklevel=3)
 
 
 def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:

@@ -43,6 +43,8 @@ def read_mesh(path: str | Path, unit: str = "m", **options) -> Mesh:
     suffix = path.suffix.lower()
     if not path.exists():
         raise Fem2TmmError(f"mesh file {path} does not exist")
+    if path.is_file() and path.stat().st_size == 0:
+        raise Fem2TmmError(f"mesh file {path} is empty (0 bytes): export the mesh again")
     fmt = "gmsh" if suffix in GMSH_SUFFIXES else mesh_format(path)
     if fmt == "gmsh":
         from .gmsh import read_gmsh

@@ -11,6 +11,8 @@ Nodes and elements get the ids 1..n / 1..m in file order (meshio does not keep G
 
 from __future__ import annotations
 
+import contextlib
+import io
 import warnings
 from pathlib import Path
 
@@ -60,14 +62,20 @@ def read_gmsh(path: str | Path, unit: str = "m") -> Mesh:
 
     path = Path(path)
     scale = length_scale(unit, where=f"{path}: unit")
+    bad = f"{path}: cannot be read as a Gmsh .msh file ({{}}); is it complete? Export it again from Gmsh (format " \
+          "2.2 or 4.1)"
+    chatter = io.StringIO()  # meshio prints warnings and errors itself (rich, to stderr): keep them out of the way
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), contextlib.redirect_stderr(chatter), contextlib.redirect_stdout(chatter):
             warnings.simplefilter("ignore")
-            mm = meshio.read(str(path), file_format="gmsh")
+            # the format's own reader: meshio.read() prints and calls sys.exit(1) when its reader fails
+            mm = meshio.gmsh.read(str(path))
     except FileNotFoundError:
         raise Fem2TmmError(f"mesh file {path} does not exist") from None
-    except Exception as exc:  # meshio raises many types on malformed files
-        raise Fem2TmmError(f"{path}: cannot be read as a Gmsh .msh file ({type(exc).__name__}: {exc})") from None
+    except (Exception, SystemExit) as exc:  # meshio raises many types on malformed files
+        raise Fem2TmmError(bad.format(f"{type(exc).__name__}: {exc}")) from None
+    if len(mm.points) == 0 or not any(len(c.data) for c in mm.cells):
+        raise Fem2TmmError(bad.format("no nodes or no elements"))
 
     points = np.asarray(mm.points, dtype=np.float64)
     if points.shape[1] == 2:

@@ -25,7 +25,7 @@ from .network import LoadCase, Network
 from .readers import read_coordinates, read_network
 from .settings import NetworkSettings
 from .solve import solve_network
-from .tmrt import tmrt_reduce
+from .tmrt import conductive_exchange, recomputed_average, tmrt_reduce
 
 
 @dataclass
@@ -48,6 +48,15 @@ class NetworkReduction:
     sweep: G.Sweep | None = None
     suppressed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     timings: dict = field(default_factory=dict)
+    tmrt: object = None  # the TmrtReduction (method "tmrt")
+
+    def recovered(self, k: int = 0) -> np.ndarray:
+        """Detailed temperatures (n_d,) K recovered from the reduced solution of load case ``k``: a grouped node
+        takes its group's temperature; a TMRT-suppressed node its recovery ``TRt T_red + K_SS⁻¹ Q_S``."""
+        T_red = self.reduced_solutions[k].T
+        if self.tmrt is not None:
+            return self.tmrt.recover(T_red, self.cases[k].Q[self.tmrt.suppressed])
+        return T_red[self.labels]
 
     @property
     def passed(self) -> bool:
@@ -104,6 +113,7 @@ def reduce_network(deck: str | Path, settings: NetworkSettings | None = None, pf
         net = net.with_coordinates(nums, xyz, where=str(coordinates))
     net = net.active()
     cases = load_cases(net, settings.load_cases)
+    _validate(net, settings)
     timings = {"read": time.perf_counter() - t0}
     t1 = time.perf_counter()
     detailed = [solve_network(net, c) for c in cases]
@@ -117,6 +127,21 @@ def reduce_network(deck: str | Path, settings: NetworkSettings | None = None, pf
     timings["reduce"] = time.perf_counter() - t1
     res.timings = timings
     return res
+
+
+def _validate(net: Network, settings: NetworkSettings) -> None:
+    """Every node number the case names exists (before any long computation)."""
+    where = settings.source
+    if settings.suppress:
+        net.index(settings.suppress, where=f"{where}: [tmrt] suppress")
+    for k, g in enumerate(settings.groups):
+        net.index(g, where=f"{where}: [tmrt] groups[{k}]")
+    for name, nodes in settings.ra:
+        net.index(nodes, where=f"{where}: [[post.ra]] {name}")
+    for name, a, b in settings.ce:
+        net.index(list(a) + list(b), where=f"{where}: [[post.ce]] {name}")
+        if set(a) & set(b):
+            raise Fem2TmmError(f"{where}: [[post.ce]] {name}: from and to share nodes {sorted(set(a) & set(b))}")
 
 
 def _auto(net, cases, detailed, settings, pf, dtmax) -> NetworkReduction:
@@ -153,7 +178,7 @@ def _tmrt(net, cases, detailed, settings) -> NetworkReduction:
     return NetworkReduction(detailed=net, reduced=red.reduced, labels=red.labels, cases=cases,
                             detailed_solutions=detailed, reduced_solutions=sols, checks=checks,
                             ratio=G.reduction_ratio(net.n, red.reduced.n, n_b), method="tmrt", settings=settings,
-                            suppressed=net.numbers[s])
+                            suppressed=net.numbers[s], tmrt=red)
 
 
 # ------------------------------------------------------------------------------------------------------ outputs
@@ -181,6 +206,17 @@ def build_summary(res: NetworkReduction, deck: str) -> dict:
                         "heat_flows_W": _flows(red.numbers[chk.boundary], chk.Hc_reduced, chk.Hr_reduced)},
             "criteria": chk.summary(),
         }
+    for k, (case, det) in enumerate(zip(res.cases, res.detailed_solutions)):
+        rec = res.recovered(k) if (res.settings.ra or res.settings.ce) else None
+        post = {"RA_C": {}, "CE_W": {}}
+        for name, nodes in res.settings.ra:
+            post["RA_C"][name] = {"detailed": recomputed_average(net, det.T, nodes) - KELVIN,
+                                  "recovered": recomputed_average(net, rec, nodes) - KELVIN}
+        for name, a, b in res.settings.ce:
+            post["CE_W"][name] = {"detailed": conductive_exchange(net, det.T, a, b),
+                                  "recovered": conductive_exchange(net, rec, a, b)}
+        if rec is not None:
+            cases[case.name]["post_processing"] = post
     first = cases[res.cases[0].name]
     s = {
         "version": __version__,
@@ -195,6 +231,7 @@ def build_summary(res: NetworkReduction, deck: str) -> dict:
         "detailed": first["detailed"],
         "reduced": first["reduced"] | {"conductive_links": int(red.GL.nnz // 2),
                                        "radiative_links": int(red.GR.nnz // 2)},
+        "post_processing": first.get("post_processing"),
         "criteria": {"delta_max_K": crit.delta_max, "q_max_W": crit.q_max, "q_lim_W": crit.q_lim,
                      "q_rel_max": crit.q_rel_max, "met": bool(res.passed),
                      "cases": {k: v["criteria"] for k, v in cases.items()}},

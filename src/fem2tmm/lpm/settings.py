@@ -27,6 +27,14 @@
     groups = [[201, 202, 203]]     # each list becomes one average node
     capacitance = "equivalent"     # equivalent | summed
     filter = 0.0                   # drop reduced GL below filter x min(K_ii, K_jj) (0: keep all)
+
+    [[post.ra]]                    # recomputed average (RA) of detailed nodes, from the recovered temperatures
+    name = "panel"
+    nodes = [1, 2, 3]
+    [[post.ce]]                    # conductive exchange (CE) from one set of detailed nodes to another, W
+    name = "panel_to_box"
+    from = [1, 2]
+    to = [3, 4]
 """
 
 from __future__ import annotations
@@ -48,6 +56,7 @@ _SECTIONS = {
     "criteria": {"delta_max", "q_max", "q_lim", "q_rel_max"},
     "load_cases": {"name", "power", "boundary"},
     "tmrt": {"suppress", "groups", "capacitance", "filter"},
+    "post": {"ra", "ce"},
 }
 
 
@@ -77,6 +86,8 @@ class NetworkSettings:
     groups: tuple = ()
     capacitance: str = "equivalent"
     filter: float = 0.0
+    ra: tuple = ()  # ((name, (nodes...)), ...)
+    ce: tuple = ()  # ((name, (from...), (to...)), ...)
     source: str = "defaults"
     text: str = ""
 
@@ -157,7 +168,19 @@ class NetworkSettings:
             raise Fem2TmmError(f"{source}: [tmrt] filter = {flt}: expected a fraction in [0, 1)")
         if method == "tmrt" and not (tm.get("suppress") or groups):
             raise Fem2TmmError(f"{source}: [reduction] method = 'tmrt' needs [tmrt] suppress and/or groups")
-        return cls(method=method, pf=num(grp, "pf", None, "grouping"), dtmax=num(grp, "dtmax", None, "grouping"),
+        post = data.get("post", {})
+        ra, ce = [], []
+        for item in post.get("ra", []):
+            if not isinstance(item, dict) or set(item) - {"name", "nodes"} or not item.get("nodes"):
+                raise Fem2TmmError(f"{source}: [[post.ra]] needs name and a non-empty nodes list")
+            ra.append((str(item.get("name", f"RA{len(ra) + 1}")), tuple(int(v) for v in item["nodes"])))
+        for item in post.get("ce", []):
+            if not isinstance(item, dict) or set(item) - {"name", "from", "to"} or not item.get("from") \
+                    or not item.get("to"):
+                raise Fem2TmmError(f"{source}: [[post.ce]] needs name and non-empty from / to node lists")
+            ce.append((str(item.get("name", f"CE{len(ce) + 1}")), tuple(int(v) for v in item["from"]),
+                       tuple(int(v) for v in item["to"])))
+        return cls(method=method, ra=tuple(ra), ce=tuple(ce), pf=num(grp, "pf", None, "grouping"), dtmax=num(grp, "dtmax", None, "grouping"),
                    mu=num(grp, "mu", MU_DEFAULT, "grouping", strict=True),
                    internal_boundary=bool(grp.get("internal_boundary", True)),
                    pf_values=values("pf_values", PF_DEFAULT), dtmax_values=values("dtmax_values", DTMAX_DEFAULT),

@@ -389,9 +389,11 @@ def close_exchange(A: sp.spmatrix, row_scale: np.ndarray, space_scale: np.ndarra
 
     GR_ij = w_ij S_ij + w_ji S_ji (:func:`enforce_reciprocity`, ``method`` and ``exponent``); the line-sum error
     LSE_i = 1 - blocked_i - Σ_j GR_ij/εA_i - space_raw_i after reciprocity and before the closure adjustment
-    (thesis eq. 1.47); space_i = space_raw_i + LSE_i, so that Σ_j GR_ij/εA_i + space_i = 1 - blocked_i.  Returns
-    ``GR`` (g, g + 1) m² (symmetric g x g block, column g = εA_i space_i), ``space`` (g,) and ``lse`` (g,) (both 0
-    for groups with εA = 0, whose GR rows hold the other groups' share M_ji).  The REFs themselves are
+    (thesis eq. 1.47).  Closure (:func:`balance_closure`): Σ_j GR_ij/εA_i + space_i = 1 - blocked_i with every
+    space_i >= 0, exactly 0 for the groups that traced rays of which none escaped (GR is then scaled symmetrically
+    rather than given a fake exchange with space); otherwise space_i = space_raw_i + LSE_i where that is >= 0.
+    Returns ``GR`` (g, g + 1) m² (symmetric g x g block, column g = εA_i space_i), ``space`` (g,) and ``lse`` (g,)
+    (both 0 for groups with εA = 0, whose GR rows hold the other groups' share M_ji).  The REFs themselves are
     :func:`refs_from_gr`.  ``threads`` Python threads (the result does not depend on it).
 
     Linear method: S is weighed and transposed in one pass, then GR (with its space column) is written directly by
@@ -405,13 +407,206 @@ def close_exchange(A: sp.spmatrix, row_scale: np.ndarray, space_scale: np.ndarra
     row_scale = np.ascontiguousarray(row_scale, dtype=float)
     space_scale = np.ascontiguousarray(space_scale, dtype=float)
     blocked = np.zeros(g) if blocked is None else np.asarray(blocked, float)
-    if method == "linear":
-        return _linear(A, row_scale, space_scale, eps_area, rays, exponent, True, blocked, threads)
-    GRb = enforce_reciprocity(scale_rows(A[:, :g], row_scale), eps_area, rays, method, exponent)
-    GRb.sort_indices()  # merged with an empty transposed part
     space_raw = space_scale * dense_columns(A.indptr, A.indices, A.data, g, 1)[0]
-    return _assemble(GRb.indptr, GRb.indices, np.append(GRb.data, 0.0), np.zeros(g + 1, np.int64),
-                     np.zeros(1, np.int32), np.zeros(1), g, g, True, eps_area, blocked, space_raw, threads)
+    if method == "linear":
+        GR, space, lse = _linear(A, row_scale, space_scale, eps_area, rays, exponent, True, blocked, threads)
+    else:
+        GRb = enforce_reciprocity(scale_rows(A[:, :g], row_scale), eps_area, rays, method, exponent)
+        GRb.sort_indices()  # merged with an empty transposed part
+        GR, space, lse = _assemble(GRb.indptr, GRb.indices, np.append(GRb.data, 0.0), np.zeros(g + 1, np.int64),
+                                   np.zeros(1, np.int32), np.zeros(1), g, g, True, eps_area, blocked, space_raw,
+                                   threads)
+    GR, space = balance_closure(GR, space, eps_area, blocked, closed=(rays > 0) & (space_raw == 0))
+    return GR, space, lse
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Closure without a fake exchange with space.  After reciprocity the rows of GR rarely sum to what the rays say
+# (1 - blocked); closing every row through the space column put that residual into space, negative for about half
+# the rows of a closed enclosure.  Instead GR is scaled symmetrically, GR' = D GR D (D diagonal > 0, so GR' stays
+# symmetric to the last bit and keeps its zeros), such that every row that lost no ray to space sums to exactly
+# εA_i (1 - blocked_i) with a space REF of exactly 0; rows that did lose rays keep their estimates (d_i = 1) and
+# close through space, unless that would make their space REF negative, in which case they are scaled too, down to
+# a space REF of 0.  The scale factors solve d_i Σ_j GR_ij d_j = t_i by Newton's method in log d: each step solves
+# (diag(R) + D GR D) x = t - R on the scaled rows (symmetric, positive definite unless a component is bipartite,
+# and well conditioned: its Jacobi-scaled spectrum lies in (0, 2]) by preconditioned conjugate gradients.
+
+#: rows whose relative closure error is below this are closed (Newton stops there)
+CLOSURE_RTOL = 1e-14
+#: no closure scale factor leaves [1/SCALE_BOUND, SCALE_BOUND] (consistent ray data needs about 1 ± LSE)
+SCALE_BOUND = 8.0
+
+
+@njit(cache=True, nogil=True)
+def _scaled_row_sums(indptr, indices, data, d, g, rows, out):
+    """out[k] = d_r Σ_{j<g} GR_rj d_j for r = rows[k] (GR in CSR form)."""
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        s = 0.0
+        for q in range(indptr[r], indptr[r + 1]):
+            j = indices[q]
+            if j < g:
+                s += data[q] * d[j]
+        out[k] = d[r] * s
+
+
+@njit(cache=True, nogil=True)
+def _scaled_matvec(indptr, indices, data, d, g, rows, v, out):
+    """out[k] = d_r Σ_{j<g} GR_rj d_j v_j for r = rows[k]; ``v`` (g,) (zero outside the rows of interest)."""
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        s = 0.0
+        for q in range(indptr[r], indptr[r + 1]):
+            j = indices[q]
+            if j < g:
+                s += data[q] * (d[j] * v[j])
+        out[k] = d[r] * s
+
+
+@njit(cache=True, nogil=True)
+def _scaled_diagonal(indptr, indices, data, d, rows, out):
+    """out[k] = d_r² GR_rr for r = rows[k]."""
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        out[k] = 0.0
+        for q in range(indptr[r], indptr[r + 1]):
+            if indices[q] == r:
+                out[k] = data[q] * d[r] * d[r]
+
+
+@njit(cache=True, nogil=True)
+def _apply_scaling(indptr, indices, data, d, g, eps_area, blocked, inv, zero_space, space):
+    """GR_ij *= d_i d_j (j < g) in place; then space_i = 0 where ``zero_space`` or εA_i = 0, else
+    max(0, 1 - blocked_i - Σ_j GR_ij / εA_i), written to ``space`` (g,) and, times εA_i, to the stored entry of
+    column g.  Returns the number of rows whose space value is non-zero but has no stored entry."""
+    missing = 0
+    for i in range(g):
+        s = 0.0
+        sq = -1
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            if j < g:
+                v = data[q] * (d[i] * d[j])
+                data[q] = v
+                s += v
+            elif j == g:
+                sq = q
+        sp_i = 0.0
+        if eps_area[i] > 0.0 and not zero_space[i]:
+            sp_i = max(0.0, 1.0 - blocked[i] - inv[i] * s)
+        space[i] = sp_i
+        if sq >= 0:
+            data[sq] = eps_area[i] * sp_i
+        elif sp_i != 0.0:
+            missing += 1
+    return missing
+
+
+def _newton_scaling(GR: sp.csr_matrix, d: np.ndarray, rows: np.ndarray, target: np.ndarray) -> None:
+    """Scale ``d`` (g,) on ``rows`` (k,) in place towards d_r Σ_j GR_rj d_j = ``target`` (k,) > 0 (the other d
+    fixed): Newton in y = log d, each step a conjugate-gradient solve of (diag(R) + D GR D) x = t - R, with a
+    backtracking line search on the RMS relative residual (steps limited to a factor e² per scale, every scale kept
+    within [1/``SCALE_BOUND``, ``SCALE_BOUND``]), so that an infeasible target (e.g. a closed row whose only partner
+    is a closed row with a smaller target, which consistent ray data cannot produce) ends at a bounded compromise
+    instead of diverging."""
+    from scipy.sparse.linalg import LinearOperator, cg
+
+    g = GR.shape[0]
+    ip, ix, dv = GR.indptr, GR.indices, GR.data
+    k = rows.size
+    R, y, diag = np.empty(k), np.empty(k), np.empty(k)
+    v = np.zeros(g)
+
+    def matvec(x):
+        v[rows] = x.ravel()
+        _scaled_matvec(ip, ix, dv, d, g, rows, v, y)
+        return R * x.ravel() + y
+
+    def residual(scales):
+        d[rows] = scales
+        _scaled_row_sums(ip, ix, dv, d, g, rows, R)
+        return (target - R) / target
+
+    Q = LinearOperator((k, k), matvec=matvec, dtype=float)
+    base = d[rows].copy()
+    res = residual(base)
+    for _ in range(50):
+        if np.max(np.abs(res)) <= CLOSURE_RTOL:
+            return
+        _scaled_diagonal(ip, ix, dv, d, rows, diag)
+        pre = 1.0 / np.maximum(R + diag, np.finfo(float).tiny)
+        M = LinearOperator((k, k), matvec=lambda x: pre * x.ravel(), dtype=float)
+        x, _ = cg(Q, target - R, rtol=1e-10, atol=0.0, maxiter=500, M=M)
+        if not np.all(np.isfinite(x)):
+            break
+        step = min(1.0, 2.0 / max(float(np.max(np.abs(x))), 1e-300))
+        phi = float(np.sum(res**2))
+        for _ in range(40):  # backtracking
+            trial = residual(np.clip(base * np.exp(step * x), 1.0 / SCALE_BOUND, SCALE_BOUND))
+            if float(np.sum(trial**2)) < phi:
+                break
+            step *= 0.5
+        else:  # no decrease: the closest closure reachable (round-off, or an infeasible target)
+            break
+        base, res = d[rows].copy(), trial
+    residual(base)
+
+
+def balance_closure(GR: sp.csr_matrix, space: np.ndarray, eps_area: np.ndarray, blocked: np.ndarray,
+                    closed: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+    """Close the rows of a reciprocal exchange without a fake exchange with space; returns ``(GR, space)``.
+
+    ``GR`` (g, g + 1) csr m² with sorted columns (symmetric g x g block, column g = εA_i space_i) and ``space``
+    (g,) as closed through the space column (space_i = 1 - blocked_i - Σ_j GR_ij/εA_i, any sign); ``eps_area``
+    (g,) m², ``blocked`` (g,) fractions, ``closed`` (g,) bool: the rows that traced rays of which none left to
+    space.  Afterwards (GR modified in place unless a row needs a new space entry):
+
+    * GR_ij ← d_i GR_ij d_j with d > 0, so the g x g block stays symmetric to the last bit and keeps its pattern;
+    * every ``closed`` row with εA > 0 sums to εA_i (1 - blocked_i) with space_i = 0 exactly;
+    * every other row with εA > 0 keeps d_i = 1 and closes through space, space_i = 1 - blocked_i - Σ_j GR_ij/εA_i,
+      unless that is negative: then it is scaled too, to space_i = 0;
+    * rows with 1 - blocked_i = 0 exchange nothing (d_i = 0); rows with εA = 0 are not constrained.
+
+    The scaling is the nearest multiplicative correction that keeps reciprocity: each closure residual is spread
+    over the row's REFs about in proportion to their size, shared with the rows they reach.  A row that must close
+    but exchanges nothing with the other groups (all its rays capped) cannot be closed; its sum stays below, as do
+    rows of an infeasible block (a pattern no consistent ray data produces, see :func:`_newton_scaling`).  When no
+    row needs scaling, GR and space are returned unchanged.
+    """
+    g = GR.shape[0]
+    eps_area = np.asarray(eps_area, float)
+    blocked = np.asarray(blocked, float)
+    pos = eps_area > 0
+    target = eps_area * (1.0 - blocked)
+    closed = np.asarray(closed, bool) & pos
+    dead = pos & ~(target > 0)
+    if not (closed | dead).any() and not (pos & (space < 0)).any():
+        return GR, space
+    GR.sort_indices()
+    d = np.where(dead, 0.0, 1.0)
+    every = np.arange(g)
+    R = np.empty(g)
+    _scaled_row_sums(GR.indptr, GR.indices, GR.data, d, g, every, R)
+    fixed = closed & ~dead & (R > 0)
+    capped = pos & ~closed & ~dead & (R > target)
+    for _ in range(10):  # active set: open rows enter when their space REF would be negative, leave when d > 1
+        rows = np.flatnonzero(fixed | capped)
+        if rows.size:
+            _newton_scaling(GR, d, rows, target[rows])
+        _scaled_row_sums(GR.indptr, GR.indices, GR.data, d, g, every, R)
+        leave = capped & (d > 1)
+        enter = pos & ~closed & ~dead & ~capped & (R > target * (1 + CLOSURE_RTOL))
+        if not (leave.any() or enter.any()):
+            break
+        d[leave] = 1.0
+        capped = (capped & ~leave) | enter
+    new_space = np.empty(g)
+    missing = _apply_scaling(GR.indptr, GR.indices, GR.data, d, g, eps_area, blocked, _inverse(eps_area),
+                             closed | capped | dead, new_space)
+    if missing:
+        GR = sp.hstack([GR[:, :g], sp.csr_matrix((eps_area * new_space)[:, None])], format="csr")
+    GR.eliminate_zeros()
+    return GR, new_space
 
 
 def smooth(F_raw: sp.spmatrix, eps_area: np.ndarray, rays: np.ndarray, blocked: np.ndarray | None = None,
