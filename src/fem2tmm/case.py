@@ -593,16 +593,16 @@ class _Parser:
         from .radiation.orbit import Attitude, Orbit, Planet
 
         w = "[orbit]"
-        keys = {"altitude", "semi_major_axis", "eccentricity", "inclination", "raan", "argument_of_perigee", "beta",
-                "sun_argument", "date", "solar_flux", "positions", "eclipse", "kinds", "rays_per_face", "fluxes_on",
-                "steady", "planet", "attitude"}
-        d = self.table(d, w, keys)
+        d = self.table(d, "[orbit]", {"altitude", "semi_major_axis", "eccentricity", "inclination", "raan",
+                                      "argument_of_perigee", "beta", "sun_argument", "date", "solar_flux", "positions",
+                                      "eclipse", "kinds", "rays_per_face", "fluxes_on", "steady", "planet",
+                                      "attitude"})
         if isinstance(environment, Mapping) and ("sun_direction" in environment or "solar_flux" in environment):
             raise self.err("[environment]", "sun_direction / solar_flux are set by [orbit] (the Sun by beta or date, "
                                             "[orbit] solar_flux); remove them from [environment]")
-        p = self.table(d.get("planet", {}), f"{w}.planet", {"radius", "mu", "albedo", "ir_temperature",
-                                                           "ir_emissivity", "ir_flux"})
-        wp = f"{w}.planet"
+        wp = "[orbit.planet]"
+        p = self.table(d.get("planet", {}), "[orbit.planet]", {"radius", "mu", "albedo", "ir_temperature",
+                                                              "ir_emissivity", "ir_flux"})
         ir_t = self.number(p, "ir_temperature", wp, default=288.0 - KELVIN, lo=ABSOLUTE_ZERO_C)
         planet = Planet(radius=self.number(p, "radius", wp, default=6_378_136.0, lo=0, lo_open=True),
                         mu=self.number(p, "mu", wp, default=3.986004418e14, lo=0, lo_open=True),
@@ -629,9 +629,9 @@ class _Parser:
                                beta=num("beta"), sun_argument=num("sun_argument", 0.0), date=date, solar_flux=flux,
                                positions=positions, eclipse=self.string(d, "eclipse", w, default="cylindrical"),
                                where=f"{self.src}: {w}")
-            a = self.table(d.get("attitude", {}), f"{w}.attitude", {"kind", "primary", "secondary", "axes",
-                                                                     "rotation"})
-            attitude = Attitude.make(self.string(a, "kind", f"{w}.attitude", default="nadir"), a.get("primary"),
+            a = self.table(d.get("attitude", {}), "[orbit.attitude]", {"kind", "primary", "secondary", "axes",
+                                                                        "rotation"})
+            attitude = Attitude.make(self.string(a, "kind", "[orbit.attitude]", default="nadir"), a.get("primary"),
                                      a.get("secondary"), a.get("axes"), a.get("rotation"),
                                      where=f"{self.src}: [orbit.attitude]")
         except (TypeError, ValueError) as exc:
