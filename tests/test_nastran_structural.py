@@ -171,7 +171,8 @@ def test_cquad8_ctria6_area_capacity_and_linear_patch(tmp_path):
     for T in (res.T_detailed_nodes, res.T_recovered_nodes):
         np.testing.assert_allclose(T - KELVIN, 50.0 * x, rtol=0, atol=1e-9)
     # heat through the plate: k t W ΔT / L = 200 · 0.002 · 1 · 100 / 2 = 20 W
-    assert res.summary["detailed"]["heat_into_fixed_W"]["hot"] == pytest.approx(20.0, rel=1e-9)  # the heat "hot" supplies
+    # heat_into_fixed_W is positive into the boundary (docs/case-file.md): the cold edge takes +20 W
+    assert res.summary["detailed"]["heat_into_fixed_W"][case.boundaries[0].name] == pytest.approx(20.0, rel=1e-9)
 
 
 # ------------------------------------------------------------------------------------------- composites, MAT5
@@ -206,8 +207,8 @@ def test_mat5_orthotropic_plate(tmp_path, axis):
                      {"kind": "temperature", "nodes": hi, "value": 100.0, "name": "hi"}])
     res = quiet(run, case)
     k = 100.0 if axis == "x" else 10.0
-    # heat_into_fixed_W: the heat each boundary supplies to the model
-    assert res.summary["detailed"]["heat_into_fixed_W"]["hi"] == pytest.approx(k * 0.002 * 1.0 * 100.0, rel=1e-9)
+    # heat_into_fixed_W is positive into the boundary (docs/case-file.md): the cold edge takes k t W ΔT / L
+    assert res.summary["detailed"]["heat_into_fixed_W"]["lo"] == pytest.approx(k * 0.002 * 1.0 * 100.0, rel=1e-9)
 
 
 # ------------------------------------------------------------------------------------------- syntax, includes
@@ -321,3 +322,54 @@ def test_nastran95_washer_d01_12_1a(tmp_path):
         assert np.abs(ours - nastran)[wedge].max() < 0.01
     # the flux input: 288.5 W/m² x the inner face (r = 1, 4 degrees, 0.1 deep) = 2.0141 W (published OLOAD 4 x 0.5034)
     assert res.summary["detailed"]["loads_W"]["deck flux (QBDY/QHBDY)"] == pytest.approx(4 * 5.034252e-01, rel=1e-6)
+
+
+# ------------------------------------------------------------------------------------------- inspect, outputs
+def test_inspect_counts_regions(tmp_path, capsys):
+    from fem2tmm.cli import main
+
+    # PID 1: a U channel folded at 90 degrees twice (3 regions at the 30 degree default); PID 2: a flat plate
+    lines = []
+    xs, zs = [0.0, 0.0, 1.0, 1.0], [1.0, 0.0, 0.0, 1.0]  # the U profile in the xz plane, extruded along y
+    for j, y in enumerate((0.0, 0.5, 1.0)):
+        for i, (x, z) in enumerate(zip(xs, zs)):
+            lines.append(card("GRID", 1 + i + 4 * j, "", x, y, z))
+    for j in range(2):
+        for i in range(3):
+            g = 1 + i + 4 * j
+            lines.append(card("CQUAD4", 1 + i + 3 * j, 1, g, g + 1, g + 5, g + 4))
+    lines += plate_cards(5.0, 101, 101, 2)
+    lines += [card("PSHELL", 1, 10, 0.001), card("PSHELL", 2, 10, 0.002), card("MAT4", 10, 1.0),
+              card("SPC1", 1, 1, 101, "THRU", 103), card("CBUSH", 500, 9, 8, 101), card("PARAM", "POST", -1),
+              card("RBAR", 501, 5, 6, 123456)]
+    deck = write(tmp_path, lines)
+    assert main(["inspect", str(deck)]) == 0
+    text = capsys.readouterr().out
+    assert re.search(r"PID 1\s+shell\s+6\s+3\s+3 m2", text), text  # 3 regions, area 3 m²
+    assert re.search(r"PID 2\s+shell\s+4\s+1\s+1 m2\s+0.002 m \(PSHELL\)", text), text
+    assert "consistent" in text and "cards refused" in text and "RBAR (1)" in text and "PARAM (1)" in text
+    # one piece: the CBUSH joins the channel to the plate; it touches the joint and the SPC1
+    assert "connected pieces (elements and joints): 1" in text and "joint: yes, SPC: yes" in text
+
+
+def test_line_part_clusters_and_vtu(tmp_path):
+    # a chain of 12 CRODs between the two plates, clustered into 3 contiguous super nodes; outputs hold line cells
+    lines = two_plates([])
+    for i in range(11):
+        lines.append(card("GRID", 1000 + i, "", 1.0 + (i + 1) / 12, 0.5, 0.0))
+    chain = [6, *range(1000, 1011), 104]
+    lines += [card("CROD", 900 + i, 3, a, b) for i, (a, b) in enumerate(zip(chain[:-1], chain[1:]))]
+    lines += [card("PROD", 3, 30, 1e-4), card("MAT4", 30, 100.0, 900.0, 2700.0)]
+    deck = write(tmp_path, lines)
+    case = case_for(deck, [*PLATES, {"name": "rod", "groups": ["PID 3"], "super_nodes": 3}], HEAT_FIX)
+    res = quiet(run, case, out=tmp_path / "out")
+    rep = next(p for p in res.summary["reduced"]["clustering"]["parts"] if p["name"] == "rod")
+    assert rep["kind"] == "line" and rep["clusters"] == 3 and rep["contiguous"]
+    i6, i104 = res.mesh.node_index([6, 104], where="test")
+    T = res.T_recovered_nodes
+    # closed form: 5 W through a rod of L = 1 m, A = 1e-4 m², k = 100: ΔT = 5 / (100 · 1e-4) = 500 K
+    assert T[i6] - T[i104] == pytest.approx(500.0, rel=1e-9)
+    import meshio
+
+    vtu = meshio.read(tmp_path / "out" / "temperatures.vtu")
+    assert sum(len(c.data) for c in vtu.cells if c.type == "line") == 12

@@ -1,4 +1,4 @@
-"""Command line: ``fem2tmm run | demo | bench | network reduce | --version``.
+"""Command line: ``fem2tmm run | demo | bench | inspect | network reduce | --version``.
 
 Exit status: 0 success, 2 user error (:class:`~fem2tmm.errors.Fem2TmmError`: one message, no traceback),
 1 internal error (:class:`~fem2tmm.errors.InternalError`: a bug, to be reported).
@@ -28,6 +28,11 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--quiet", action="store_true")
     b = sub.add_parser("bench", help="benchmarks; one JSON object per line")
     b.add_argument("names", nargs="*", help="benchmarks to run (default: all); 'list' lists them")
+    i = sub.add_parser("inspect", help="what a mesh holds: groups, regions, pieces, cards (before writing a case)")
+    i.add_argument("mesh", help="mesh file (Nastran bulk data or Gmsh .msh)")
+    i.add_argument("--unit", default="m", help="length unit of the file (default m)")
+    i.add_argument("--unit-system", default=None, help="Nastran unit system of material values (e.g. mm-t-s)")
+    i.add_argument("--json", action="store_true", help="print the report as JSON")
     _network_parser(sub)
     return p
 
@@ -79,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
                 return run_demo(out=args.out, quiet=args.quiet)
             if args.command == "network":
                 return _network(args)
+            if args.command == "inspect":
+                return _inspect(args)
             if args.command == "bench":
                 from .bench import main as bench_main
 
@@ -95,6 +102,16 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     finally:
         warnings.formatwarning = old_format
+    return 0
+
+
+def _inspect(args) -> int:
+    import json
+
+    from .inspection import inspect_mesh, inspection_text
+
+    rep = inspect_mesh(args.mesh, unit=args.unit, unit_system=args.unit_system)
+    print(json.dumps(rep, indent=2) if args.json else inspection_text(rep))
     return 0
 
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..mesh import Mesh
 
-_MESHIO = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "hexahedron", "wedge6": "wedge"}
+_MESHIO = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "hexahedron", "wedge6": "wedge", "line2": "line"}
 
 
 def write_vtu(path: str | Path, mesh: Mesh, point_data: dict[str, np.ndarray] | None = None,

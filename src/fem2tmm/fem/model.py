@@ -586,6 +586,9 @@ def _deck_fixed(mesh: Mesh, case_fixed: np.ndarray, in_model: np.ndarray) -> lis
     nodes, vals = dl.fixed_nodes, dl.fixed_values
     keep = ~case_fixed[nodes] & in_model[nodes]
     nodes, vals = nodes[keep], vals[keep]
+    if np.isnan(vals).any():
+        raise Fem2TmmError(f"{mesh.source}: SPC1 GRIDs {format_ids(mesh.node_ids[nodes[np.isnan(vals)]])} have no TEMP "
+                           "(or TEMPD) value to be held at; add TEMP cards, or fix them in the case file")
     out = []
     for v in np.unique(vals):
         out.append((f"SPC {v - 273.15:g} C", float(v), np.unique(nodes[vals == v])))

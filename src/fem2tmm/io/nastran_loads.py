@@ -119,6 +119,8 @@ def read_loads(deck, grids, blocks, points, cards: set[str], factors: dict | Non
                            "[mesh] nastran_loads")
 
     def temperature(v: float, where: str) -> float:
+        if np.isnan(v):
+            return v
         if temperature_unit is None:
             raise Fem2TmmError(f"{where}: the deck gives temperatures: set [mesh] temperature_unit "
                                "(\"K\", \"C\", \"F\" or \"R\") so that they can be read")
@@ -151,9 +153,7 @@ def read_loads(deck, grids, blocks, points, cards: set[str], factors: dict | Non
         where = deck.where(q)
         for g in _id_list(f[2:], where):
             v = temp_of.get(g, tempd)
-            if v is None:
-                raise Fem2TmmError(f"{where}: SPC1 GRID {g} has no TEMP (or TEMPD) value to be held at")
-            fixed[g] = (v, where)
+            fixed[g] = (np.nan if v is None else v, where)  # NaN: no TEMP/TEMPD (an error if the model uses it)
         counts["SPC1"] += 1
     fixed_ids = np.array(sorted(fixed), np.int64)
     _, is_grid = grids.find(fixed_ids)

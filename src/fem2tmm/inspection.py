@@ -1,0 +1,168 @@
+"""``fem2tmm inspect MESH``: what a user needs to know about a mesh before writing a case file.
+
+:func:`inspect_mesh` returns a JSON-serialisable report; :func:`inspection_text` formats it.  For every group
+(Nastran PID, Gmsh physical group): element types and counts, area / volume / length, thickness and where it
+comes from, the number of regions the clustering splits it into at the default feature angle (the smallest
+number of super nodes the group can take), and whether its shell normals are consistently oriented.  For the
+whole mesh: its connected pieces (elements and joints together) and whether each touches a joint or a deck
+SPC, and every card the reader modelled, ignored or refused.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from .case import ClusteringSettings
+from .cluster.adjacency import dual_graph
+from .cluster.regions import regions as split_regions
+from .errors import Fem2TmmError
+from .fem.elements import DIM, LINE_TYPES, SHELL_TYPES
+from .mesh import Mesh
+
+_KIND = {1: "line", 2: "shell", 3: "solid"}
+
+
+def _group_report(mesh: Mesh, name: str, feature_angle: float) -> dict:
+    g = mesh.groups[name]
+    el = g.elements
+    types = mesh.element_types[el]
+    names = {}
+    for t, c, _ in mesh.iter_blocks(el):
+        names[t] = names.get(t, 0) + len(c)
+    kind = _KIND[int(mesh.element_dims[el].max())]
+    rep = {"group": name, "kind": kind, "elements": int(len(el)), "types": names}
+    prop = mesh.properties.get(name)
+    if kind == "shell":
+        area = mesh.element_areas(el)
+        rep["area_m2"] = float(np.nansum(area))
+        t = None if prop is None else prop.thickness
+        rep["thickness_m"] = t
+        rep["thickness_source"] = (prop.card if (prop is not None and t is not None) else "none: set the part's "
+                                   "'thickness'")
+        rep["volume_m3"] = None if t is None else float(np.nansum(area) * t)
+    elif kind == "solid":
+        rep["volume_m3"] = float(np.nansum(mesh.element_volumes(elements=el)))
+    else:
+        rep["length_m"] = float(np.nansum(mesh.element_lengths(el)))
+        a = None if mesh.section_area is None else mesh.section_area[el]
+        rep["section_area_m2"] = None if a is None or np.isnan(a).all() else float(np.nanmean(a))
+        rep["section_source"] = prop.card if prop is not None and prop.card else None
+    if prop is not None:
+        rep["conductivity"] = prop.conductivity if prop.conductivity_tensor is None else list(prop.conductivity_tensor)
+    cells = mesh.padded_cells[el]
+    if len(el) > 1 or kind != "line":
+        graph = dual_graph(mesh.points, cells, types, kind)
+        normals = mesh.element_normals(el) if kind == "shell" else None
+        region, _ = split_regions(graph, len(el), kind, normals, None, feature_angle)
+        rep["regions"] = int(region.max()) + 1 if len(el) else 0
+        if kind == "shell":
+            bad = int(np.count_nonzero(~graph.consistent))
+            rep["normals"] = "consistent" if bad == 0 else f"inconsistent across {bad} edges"
+    else:
+        rep["regions"] = 1
+    return rep
+
+
+def _pieces(mesh: Mesh, spc_nodes: np.ndarray) -> list[dict]:
+    """Connected pieces of elements and joints (through shared nodes)."""
+    n = mesh.n_nodes
+    pc = mesh.padded_cells
+    a = np.repeat(pc[:, :1], pc.shape[1], axis=1)
+    ok = pc >= 0
+    ea, eb = [a[ok]], [pc[ok]]
+    joint = np.zeros(n, bool)
+    for j in mesh.joints:
+        ea.append(j.pairs[:, 0])
+        eb.append(j.pairs[:, 1])
+        joint[j.pairs.ravel()] = True
+    ea, eb = np.concatenate(ea), np.concatenate(eb)
+    _, comp = connected_components(sp.csr_matrix((np.ones(len(ea)), (ea, eb)), shape=(n, n)), directed=False)
+    used = mesh.used_nodes() | joint
+    el_comp = comp[pc[:, 0]]
+    out = []
+    for c in np.unique(comp[used]):
+        els = np.flatnonzero(el_comp == c)
+        nodes = (comp == c) & used
+        groups = sorted(name for name, g in mesh.groups.items() if len(g.elements) and np.isin(g.elements, els).any())
+        out.append({"elements": int(len(els)), "nodes": int(nodes.sum()), "groups": groups,
+                    "touches_joint": bool(joint[nodes].any()), "touches_spc": bool(np.isin(np.flatnonzero(nodes),
+                                                                                            spc_nodes).any())})
+    out.sort(key=lambda p: -p["elements"])
+    return out
+
+
+def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, **options) -> dict:
+    """Report on the mesh file ``path`` (see the module docstring); ``options`` go to the reader.
+
+    Unmodelled structural cards are listed (not refused); the deck's SPC/SPC1 GRIDs are read to tell which
+    pieces are held.
+    """
+    from .io import mesh_format, read_mesh
+
+    path = Path(path)
+    if not path.exists():
+        raise Fem2TmmError(f"mesh file {path} does not exist")
+    feature_angle = ClusteringSettings().feature_angle if feature_angle is None else feature_angle
+    spc = np.zeros(0, np.int64)
+    if path.suffix.lower() != ".msh" and mesh_format(path) == "nastran":
+        options = {"strict": False, **options}
+        try:
+            mesh = read_mesh(path, unit=unit, loads=("SPC", "SPC1"), temperature_unit=options.pop(
+                "temperature_unit", None) or "K", **options)
+            spc = mesh.loads.fixed_nodes if mesh.loads is not None else spc
+        except Fem2TmmError:  # several SPC sets, SPC1 without TEMP ...: inspect without them
+            mesh = read_mesh(path, unit=unit, **options)
+    else:
+        mesh = read_mesh(path, unit=unit)
+    groups = [_group_report(mesh, name, feature_angle) for name in sorted(mesh.groups)
+              if len(mesh.groups[name].elements)]
+    cards = {k: dict(v) for k, v in (mesh.cards or {}).items()}
+    return {"file": str(path), "unit": unit, "nodes": int(mesh.n_nodes), "elements": int(mesh.n_elements),
+            "feature_angle_deg": feature_angle, "groups": groups, "pieces": _pieces(mesh, spc),
+            "joints": {j.card: int(len(j.ids)) for j in mesh.joints},
+            "midside_nodes": 0 if mesh.midside is None else int(len(mesh.midside)), "cards": cards}
+
+
+def inspection_text(rep: dict) -> str:
+    """The report as plain text tables."""
+    lines = [f"{rep['file']}: {rep['nodes']} nodes, {rep['elements']} elements (unit {rep['unit']})", "",
+             f"groups (regions at the default feature angle {rep['feature_angle_deg']:g} deg = the fewest super "
+             "nodes a part of that group can take):"]
+    lines.append(f"  {'group':<18} {'kind':<6} {'elements':>8} {'regions':>7}  {'size':<22} {'thickness / section':<30} "
+                 "normals / types")
+    for g in rep["groups"]:
+        if g["kind"] == "shell":
+            size = f"{g['area_m2']:.6g} m2"
+            t = g.get("thickness_m")
+            th = f"{t:.6g} m ({g['thickness_source']})" if t is not None else g["thickness_source"]
+        elif g["kind"] == "solid":
+            size, th = f"{g['volume_m3']:.6g} m3", "-"
+        else:
+            size = f"{g['length_m']:.6g} m"
+            a = g.get("section_area_m2")
+            th = f"A {a:.6g} m2 ({g.get('section_source')})" if a is not None else "no area: set the part's 'area'"
+        types = ", ".join(f"{t} {n}" for t, n in g["types"].items())
+        extra = g.get("normals", "")
+        lines.append(f"  {g['group']:<18} {g['kind']:<6} {g['elements']:>8} {g['regions']:>7}  {size:<22} {th:<30} "
+                     f"{(extra + '; ') if extra else ''}{types}")
+    lines += ["", f"connected pieces (elements and joints): {len(rep['pieces'])}"]
+    for i, p in enumerate(rep["pieces"]):
+        lines.append(f"  {i + 1}: {p['elements']} elements, {p['nodes']} nodes, groups {', '.join(p['groups']) or '-'}; "
+                     f"joint: {'yes' if p['touches_joint'] else 'no'}, SPC: {'yes' if p['touches_spc'] else 'no'}")
+    if rep["joints"]:
+        lines += ["", "joints (need [[joints]] entries): " + ", ".join(f"{c} {n}" for c, n in rep["joints"].items())]
+    if rep["midside_nodes"]:
+        lines.append(f"quadratic elements: {rep['midside_nodes']} mid-side nodes (interpolated in the outputs)")
+    for key, word in (("modelled", "cards modelled"), ("ignored", "cards ignored"),
+                      ("refused", "cards refused (structural, not modelled: [mesh] ignore_cards drops them)")):
+        c = rep["cards"].get(key)
+        if c:
+            lines.append(f"{word}: " + ", ".join(f"{k} ({v})" for k, v in sorted(c.items())))
+    return "\n".join(lines)
+
+
+__all__ = ["inspect_mesh", "inspection_text"]
