@@ -186,14 +186,17 @@ def test_allocation_follows_area_for_wide_regions_and_length_for_strips():
     plate = meshes.plate(1, 1, 10, 10)
     strip = meshes.plate(2.0, 0.01, 200, 1, origin=(0, 3, 0))
     m = meshes.merge(plate, strip)
-    labels, regions = partition(m.points, cells_of(m), 21, return_regions=True)
+    labels, regions = partition(m.points, cells_of(m), 21, return_regions=True, balance=False)
     per_region = [len(np.unique(labels[regions == r])) for r in range(2)]
-    # quotas 1/h² (plate) and L/h = 2/h (strip) add to 21: x = 1/h = -1 + sqrt(22) (quadratic), rounded
+    # the thesis' scheme (balance=False): quotas 1/h² (plate) and L/h = 2/h (strip) add to 21: x = 1/h = -1 + sqrt(22) (quadratic), rounded
     # by largest remainder: x² = 13.62 -> 14, 2x = 7.38 -> 7 (area alone would give the strip 1)
     x = -1 + np.sqrt(22.0)
     assert x**2 + 2 * x == pytest.approx(21.0)
     assert per_region == [14, 7]
     assert_partition_ok(m.points, cells_of(m), labels, 21)
+    # balanced (default): in proportion to area, 1 m² and 0.02 m² -> 20.6 and 0.41 -> 20 and 1 (at least one)
+    labels, regions = partition(m.points, cells_of(m), 21, return_regions=True)
+    assert [len(np.unique(labels[regions == r])) for r in range(2)] == [20, 1]
     # two wide regions: exactly proportional to area, 1 m² and 3 m² -> 10 and 30
     n = allocate(40, "shell", np.array([1.0, 3.0]), np.array([4.0, 8.0]), np.array([100, 300]))
     assert n.tolist() == [10, 30]
@@ -242,6 +245,70 @@ def test_weighted_seeding_gives_even_areas_on_a_locally_refined_plate():
     assert cv_w < 0.25  # issue 3 acceptance (thesis Fig. 4.3); measured 0.10
     assert cv_u > 3 * cv_w  # unweighted k-means crowds the fine quarter; measured 0.70
     assert_partition_ok(pts, cells, lw, 20)
+
+
+def test_balanced_clusters_have_even_areas_within_regions_and_never_cross_an_edge():
+    # issue 21 acceptance: area CV <= 0.05 within a region, as METIS (k-way, area weights) gives 0.015-0.02
+    pts, cells, area = graded_plate()
+    for seed in range(2):
+        lab = partition(pts, cells, 20, seed=seed)
+        a = np.bincount(lab, area)
+        assert a.std() / a.mean() <= 0.05  # measured 0.028-0.031 (thesis scheme, balance=False: 0.11-0.16)
+        assert_partition_ok(pts, cells, lab, 20)
+    box = meshes.box(1.0, 0.6, 0.3, 40, 24, 12)  # six faces = six regions (90° edges), ~60 quads per cluster
+    c = box.padded_cells[:, :4]
+    lab, reg = partition(box.points, c, 40, return_regions=True)
+    assert_partition_ok(box.points, c, lab, 40)
+    assert all(len(np.unique(reg[lab == k])) == 1 for k in range(40))  # no cluster crosses a sharp edge
+    a = np.bincount(lab, box.element_areas())
+    for r in range(6):
+        ar = a[np.unique(lab[reg == r])]
+        assert ar.std() / ar.mean() <= 0.05  # within each face; across faces integer quotas decide
+        # area-proportional allocation: 40 x face area / total, largest remainder
+    faces = np.bincount(reg, box.element_areas())
+    n_r = np.array([len(np.unique(lab[reg == r])) for r in range(6)])
+    assert np.abs(n_r - 40 * faces / faces.sum()).max() < 1.0
+
+
+def test_metis_method_gives_contiguous_balanced_clusters_inside_regions():
+    pytest.importorskip("pymetis")
+    box = meshes.box(1.0, 0.6, 0.3, 40, 24, 12)
+    c = box.padded_cells[:, :4]
+    lab, reg = partition(box.points, c, 40, return_regions=True, method="metis")
+    assert_partition_ok(box.points, c, lab, 40)  # contiguity checked with networkx
+    assert all(len(np.unique(reg[lab == k])) == 1 for k in range(40))  # regions as with the default method
+    a = np.bincount(lab, box.element_areas())
+    for r in range(6):
+        ar = a[np.unique(lab[reg == r])]
+        # METIS' own imbalance tolerance is 3 % by default (ufactor 30), plus the granularity of one quad
+        # (0.000625 m² in ~0.05 m² clusters, 1.3 %)
+        assert ar.std() / ar.mean() <= 0.05
+
+
+def test_metis_repair_merges_stray_pieces_and_refills_empty_clusters():
+    from fem2tmm.cluster.metis import repair
+
+    plate = meshes.plate(1.0, 1.0, 6, 1)  # a row of 6 quads 0-1-2-3-4-5
+    c = plate.padded_cells[:, :4]
+    g = nx.Graph(list(naive_links(plate.points, c, "shell")))
+    A = nx.to_scipy_sparse_array(g, nodelist=range(6), format="csr")
+    lengths = np.ones(A.nnz)
+    cen = plate.element_centroids()
+    # cluster 0 in two pieces (0 and 3), cluster 2 empty: the stray piece 3 joins a neighbour, 2 is refilled
+    lab = repair(A.indptr, A.indices, lengths, cen, np.array([0, 1, 1, 0, 1, 1]), 3)
+    assert sorted(np.bincount(lab, minlength=3) > 0) == [True] * 3
+    assert_partition_ok(plate.points, c, lab, 3)
+
+
+def test_metis_method_missing_pymetis_is_a_clear_error(monkeypatch):
+    import fem2tmm.cluster.metis as mt
+
+    monkeypatch.setattr(mt, "available", lambda: False)
+    plate = meshes.plate(1.0, 1.0, 4, 4)
+    with pytest.raises(Fem2TmmError, match="pymetis"):
+        partition(plate.points, plate.padded_cells[:, :4], 4, method="metis")
+    with pytest.raises(Fem2TmmError, match="method"):
+        partition(plate.points, plate.padded_cells[:, :4], 4, method="kmeans")
 
 
 # ------------------------------------------------------------------------------------------ smoothing
@@ -401,3 +468,44 @@ def test_bad_input_gives_clear_errors():
     q = shell_part(p, 2)
     with pytest.raises(Fem2TmmError, match="more than one part"):
         cluster_parts(p.points, [q, q], 9)
+
+
+# ------------------------------------------------------------------------------------------ user labels
+
+
+def test_user_labels_route_into_run_validated_and_equal_to_the_same_partition_computed():
+    import warnings
+
+    from conftest import make_case
+    from fem2tmm.pipeline import run
+
+    plate = meshes.plate(0.4, 0.2, 20, 10)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+                       "back": "black", "super_nodes": 6}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
+                     environment={"sink_temperature": -100.0}, radiation={"enabled": False},
+                     reference={"detailed": False})
+    ours = run(case, mesh=plate)
+    lab = ours.clustering.labels.copy()
+    # the same partition fed back: identical reduced model
+    again = run(case, mesh=plate, labels=lab)
+    assert np.array_equal(again.clustering.labels, lab)
+    assert np.allclose(again.reduced_solution.T, ours.reduced_solution.T, rtol=0, atol=1e-9)
+    # a user partition with another count: 4 vertical strips of 5 columns (METIS-like input)
+    col = (plate.element_centroids()[:, 0] // 0.1).astype(np.int64)
+    strips = run(case, mesh=plate, labels=col)
+    assert strips.summary["reduced"]["super_nodes"] == 4
+    assert strips.summary["reduced"]["clustering"]["parts"][0]["contiguous"] is True
+    with pytest.raises(Fem2TmmError, match="200 integer cluster labels"):
+        run(case, mesh=plate, labels=col[:-1])
+    with pytest.raises(Fem2TmmError, match="not used"):
+        run(case, mesh=plate, labels=np.where(col == 1, 7, col))  # 1 unused, 7 used
+    with pytest.raises(Fem2TmmError, match="without a cluster label"):
+        run(case, mesh=plate, labels=np.where(col == 1, -1, col))
+    # a non-contiguous cluster: the two outer strips share a label -> a warning, the reduction still runs
+    split = np.array([0, 1, 2, 0])[col]
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = run(case, mesh=plate, labels=split)
+    assert any("not connected" in str(x.message) for x in w)
+    assert res.summary["reduced"]["clustering"]["parts"][0]["contiguous"] is False

@@ -373,3 +373,23 @@ def test_line_part_clusters_and_vtu(tmp_path):
 
     vtu = meshio.read(tmp_path / "out" / "temperatures.vtu")
     assert sum(len(c.data) for c in vtu.cells if c.type == "line") == 12
+
+
+def test_case_overrides_deck_loads(tmp_path):
+    # the washer with only its QBDY1 taken from the deck and the outer face held at 10 °C by the case instead of
+    # the deck's SPC at 0: the problem is linear, so every temperature moves by exactly +10 K
+    base = {"file": "d01121a.inp", "temperature_unit": "C"}
+    parts = [{"name": "washer", "groups": ["PID 200"], "super_nodes": 3}]
+    a = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": True}, "parts": parts},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    b = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": ["QBDY1"]}, "parts": parts,
+                                   "boundary": [{"kind": "temperature", "nodes": [11, 22, 111, 122], "value": 10.0}]},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    np.testing.assert_allclose(b.T_detailed_nodes - a.T_detailed_nodes, 10.0, rtol=0, atol=1e-9)
+    assert [g.name for g in a.model.fixed] == ["SPC 0 C"] and len(b.model.fixed) == 1
+    # all deck loads on, and the case's boundary on the same GRIDs: the case wins over the deck's SPC
+    c = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": True}, "parts": parts,
+                                   "boundary": [{"kind": "temperature", "nodes": [11, 22, 111, 122], "value": 10.0}]},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    np.testing.assert_allclose(c.T_detailed_nodes, b.T_detailed_nodes, rtol=0, atol=1e-9)
+    assert len(c.model.fixed) == 1

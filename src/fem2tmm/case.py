@@ -132,6 +132,9 @@ class ReductionSettings:
     capacitance: str = "cluster"  # cluster | equivalent
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
+    # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve
+    radiation_aware: bool = False
+    outer_iterations: int = 4  # re-linearisations about T_ref (each: reduction, network solve, recovery)
     network: str = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
 
 
@@ -140,6 +143,8 @@ class ClusteringSettings:
     feature_angle: float = 30.0
     seed: int = 0
     smoothing_layers: int = 2
+    balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
+    method: str = "growing"  # growing | metis (pymetis on each region)
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun
     solar_aware: bool | None = None
@@ -153,6 +158,9 @@ class ReferenceSettings:
     detailed: bool = True
     rays_per_face: int | None = None
     ray_density: float | None = None
+    # estimate the reference's own ray noise: two independent half-budget references (REFs; detailed solar in
+    # "super_faces" mode), the reference is their mean and its noise RMS(T_a - T_b)/2
+    noise: bool = True
 
 
 @dataclass(frozen=True)
@@ -667,35 +675,44 @@ class _Parser:
 
     def reduction(self, d) -> ReductionSettings:
         w = "[reduction]"
-        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network"})
+        d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network", "radiation_aware",
+                              "outer_iterations"})
+        if d.get("radiation_aware") is True and d.get("network", "exact") == "positive":
+            raise self.err(w, "radiation_aware = true needs network = \"exact\" (the radiation-aware network is "
+                              "K'_SN - diag(H_SN) with a correction load; the positive fit is not defined for it)")
         return ReductionSettings(
             enabled=self.boolean(d, "enabled", w, True),
             method=self.string(d, "method", w, default="local", choices=("local", "global")),
             capacitance=self.string(d, "capacitance", w, default="cluster", choices=("cluster", "equivalent")),
             filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
+            radiation_aware=self.boolean(d, "radiation_aware", w, False),
+            outer_iterations=self.number(d, "outer_iterations", w, default=4, lo=1, integer=True),
             network=self.string(d, "network", w, default="exact", choices=("exact", "positive")),
         )
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"
-        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware"})
+        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method"})
         aware = d.get("solar_aware")
         return ClusteringSettings(
             solar_aware=None if aware is None else self.boolean(d, "solar_aware", w, None),
             feature_angle=self.number(d, "feature_angle", w, default=30.0, lo=0, hi=180),
             seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
             smoothing_layers=self.number(d, "smoothing_layers", w, default=2, lo=0, integer=True),
+            balance=self.boolean(d, "balance", w, True),
+            method=self.string(d, "method", w, default="growing", choices=("growing", "metis")),
         )
 
     def reference(self, d) -> ReferenceSettings:
         w = "[reference]"
-        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density"})
+        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density", "noise"})
         rpf = self.number(d, "rays_per_face", w, lo=1, integer=True)
         dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
-        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, True), rays_per_face=rpf, ray_density=dens)
+        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, True), rays_per_face=rpf, ray_density=dens,
+                                 noise=self.boolean(d, "noise", w, True))
 
     def solver(self, d) -> SolverSettings:
         w = "[solver]"

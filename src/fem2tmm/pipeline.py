@@ -11,6 +11,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
+
 from .case import Case
 from .errors import Fem2TmmError
 from .export.output import check_output_place, write_outputs
@@ -24,9 +26,10 @@ from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
 from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_orbit, detailed_problem,
-                     detailed_radiation, detailed_solar, orbit_average, orbit_positions_detailed,
-                     orbit_positions_reduced, positive_reduced, quadric_scene, radiation_surface, reduced_problem,
-                     reduced_radiation, solar_prepass, super_face_orbit, super_face_solar)
+                     detailed_radiation, detailed_solar, mean_faced, orbit_average, orbit_positions_detailed,
+                     orbit_positions_reduced, positive_reduced, quadric_scene, radiation_aware_network,
+                     radiation_surface, reduced_problem, reduced_radiation, reference_noise, solar_prepass,
+                     super_face_orbit, super_face_solar)
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
@@ -41,23 +44,31 @@ def load_mesh(case: Case) -> Mesh:
 
 
 def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, quiet: bool = True,
-        reference: bool | None = None) -> Result:
+        reference: bool | None = None, labels: np.ndarray | None = None) -> Result:
     """Run ``case``; write the output folder ``out`` (if given) only once everything succeeded.
 
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
-    overrides ``[reference] detailed``.
+    overrides ``[reference] detailed``.  ``labels`` (n_elements,) int: your own partition into super nodes
+    (e.g. from METIS or another tool), one cluster per mesh element (-1 outside the parts), numbered 0 … K−1
+    with every number used and each cluster within one part; it replaces the clustering (and the parts'
+    ``super_nodes``).  Non-contiguous clusters are accepted with a warning.
     """
     out = None if out is None else check_output_place(out)  # before any computation
     prog = Progress(quiet=quiet)
     with reporting(prog.callback()):
-        result = _run(case, prog, mesh, reference)
+        result = _run(case, prog, mesh, reference, labels)
     if out is not None:
         with prog.stage("write", f"writing the outputs to {out}"):
             result.out = write_outputs(result, out, timings=prog.timings)
     return result
 
 
-def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) -> Result:
+def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
+         labels: np.ndarray | None = None) -> Result:
+    if case.clustering.method == "metis" and labels is None:
+        from .cluster.metis import require
+
+        require()  # the optional dependency, before any long computation
     with prog.stage("read", "reading the mesh"):
         mesh = load_mesh(case) if mesh is None else mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
@@ -88,7 +99,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                 flux = solar_prepass(model, case, surface, scene=scene)
         with prog.stage("cluster", "clustering"):
             result.clustering = cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"),
-                                              flux=flux)
+                                              flux=flux, labels=labels)
 
     # the ray scene: quadrics where the case asks for them, flat triangles elsewhere
     if surface is not None and any(p.quadric for p in case.parts):
@@ -121,6 +132,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                     model, rm, case, surface, scene=scene, sf=sf)
                 rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
         q_recover = model.Q
+        q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
         if sun:
             if case.environment.solar_on == "detailed":
                 # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
@@ -132,6 +144,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
                 if result.absorbed_solar_elements is None:
                     result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(
                         model, result.solar_super_faces)
+                q_lumped = q_sn
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
             result.solar_on = case.environment.solar_on
         q_sn_orbit = None  # (k, n_SN) W per position
@@ -145,9 +158,12 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
             result.orbit_on = orbit.fluxes_on
         rm_base, q_recover_base = rm, q_recover
         if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
-            rm = dataclasses.replace(rm, Q=rm.Q + orbit_average(result, q_sn_orbit))
-            if q_orbit is not None and orbit.fluxes_on == "detailed":
+            q_sn_avg = orbit_average(result, q_sn_orbit)
+            rm = dataclasses.replace(rm, Q=rm.Q + q_sn_avg)
+            if orbit.fluxes_on == "detailed":
                 q_recover = q_recover + orbit_average(result, q_orbit)
+            else:
+                q_lumped = q_lumped + q_sn_avg
         result.reduced = rm
         with prog.stage("solve_reduced", "solving the reduced model"):
             result.reduced_solution = solve_steady(reduced_problem(rm), tol=case.solver.tolerance,
@@ -160,27 +176,62 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None) 
             result.T_recovered_exact = rm.reduction.recover(exact.T, q_recover)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
+        if case.reduction.radiation_aware:
+            with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
+                result.thesis_T_recovered = result.T_recovered
+                result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
+                    radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
+                                            result.T_recovered))
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
                 result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,
                                                                    q_orbit if orbit.fluxes_on == "detailed" else None,
                                                                    result.reduced_solution.T, case)
 
-    # detailed reference model
+    # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:
+        noise = do_ref and case.reduction.enabled and case.reference.noise
+        halves = []  # the problems of the two half references, when the reference is noisy
         if trace:
             with prog.stage("radiation_detailed", "tracing FE-face exchange factors (detailed model)"):
-                faced, g_space, result.radiation_detailed = detailed_radiation(
-                    model, case, surface, rays_per_face=case.reference.rays_per_face,
-                    ray_density=case.reference.ray_density, scene=scene)
+                ref = case.reference
+                if noise:
+                    parts = [detailed_radiation(model, case, surface, rays_per_face=ref.rays_per_face,
+                                                ray_density=ref.ray_density, scene=scene, role=role, fraction=0.5)
+                             for role in ("reference", "reference_b")]
+                    halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
+                    faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
+                    result.radiation_detailed = parts[0][2]
+                    result.reference_halves = 2
+                else:
+                    faced, g_space, result.radiation_detailed = detailed_radiation(
+                        model, case, surface, rays_per_face=ref.rays_per_face, ray_density=ref.ray_density,
+                        scene=scene)
                 problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
-        if q_solar is not None:
-            problem = dataclasses.replace(problem, Q=problem.Q + q_solar)
-        base = problem
-        if q_orbit is not None:
-            problem = dataclasses.replace(problem, Q=problem.Q + orbit_average(result, q_orbit))
+        q_ref = q_solar
+        if q_solar is not None and noise and case.reduction.enabled and case.environment.solar_on != "detailed":
+            # the reference's own solar loads are noisy too: a second independent tracing
+            with prog.stage("solar_detailed_b", "tracing a second, independent detailed solar map (reference noise)"):
+                q_b, _ = detailed_solar(model, case, surface, scene=scene, role="reference_b")
+            halves = halves or [problem, problem]
+            halves = [dataclasses.replace(h, Q=h.Q + q) for h, q in zip(halves, (q_solar, q_b))]
+            q_ref = 0.5 * (q_solar + q_b)
+        elif q_solar is not None:
+            halves = [dataclasses.replace(h, Q=h.Q + q_solar) for h in halves]
+        if q_ref is not None:
+            problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
+        base = problem  # without the orbital loads
+        if q_orbit is not None:  # the steady case: orbit-averaged loads
+            q_avg = orbit_average(result, q_orbit)
+            problem = dataclasses.replace(problem, Q=problem.Q + q_avg)
+            halves = [dataclasses.replace(h, Q=h.Q + q_avg) for h in halves]
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+        if halves:
+            with prog.stage("reference_noise", "solving the two half references (reference noise)"):
+                Ta, Tb = (solve_steady(h, tol=case.solver.tolerance, max_iter=case.solver.max_iterations).T
+                          for h in halves)
+            result.reference_noise = reference_noise(model, Ta, Tb)
         if q_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
                 T = orbit_positions_detailed(base, q_orbit, result.detailed.T, case)

@@ -48,6 +48,12 @@ class Result:
     absorbed_solar_faces: np.ndarray | None = None
     absorbed_solar_elements: np.ndarray | None = None
     quadrics: list[dict] | None = None  # one fit report per quadric region (summary.json "quadrics")
+    # radiation-aware reduction: the thesis' pre-solve and the outer iterations
+    thesis_T_recovered: np.ndarray | None = None  # (n_dof,) K recovered by the thesis' reduction (pre-solve)
+    radiation_aware: list[dict] | None = None  # one dict per outer iteration (max_dT_K, rms_dT_K, correction_W)
+    # the reference's own noise: {"rms_K", "max_K"} from two independent half references, and their number
+    reference_noise: dict | None = None
+    reference_halves: int | None = None
     # orbit ([orbit]): fluxes traced on the FE faces (per face) and on the super faces (per side), how the reduced
     # model took them, the orbit-averaged loads, and per-position steady temperatures (k, n_dof) K
     orbit_detailed: OrbitalFluxes | None = None

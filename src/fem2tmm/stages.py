@@ -16,13 +16,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from .case import Case
-from .cluster import Clustering, PartInput, cluster_parts
+from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import InternalError
 from .fem.model import FEModel
 from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, determined_elements, kept_dofs, super_faces
+from .reduce.network import ReducedModel, build_reduced, determined_elements, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 
 PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
@@ -83,9 +83,12 @@ def describe_nodes(model: FEModel) -> Callable[[np.ndarray], str]:
 
 
 # ------------------------------------------------------------------------------------------- clustering
-def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | None = None) -> Clustering:
+def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | None = None,
+                  labels: np.ndarray | None = None) -> Clustering:
     """Cluster every part of ``model`` with its requested number of super nodes.
 
+    ``labels`` (n_elements,) int: a user partition instead (:func:`fem2tmm.cluster.from_labels`; the parts'
+    ``super_nodes`` are then ignored).
     Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
@@ -103,8 +106,12 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
                                flux=None if (flux is None or info.kind == "line")
                                else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
+    if labels is not None:
+        return from_labels(model.mesh.points, parts, model.mesh.n_elements, labels, feature_angle=cs.feature_angle,
+                           where="run(labels=...)")
     return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
-                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress)
+                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress,
+                         balance=cs.balance, method=cs.method)
 
 
 # -------------------------------------------------------------------------------------------- radiation
@@ -116,16 +123,30 @@ def radiation_surface(model: FEModel) -> Surface:
                    transmission_specular=f.transmission_specular, active=f.active)
 
 
+#: Random streams of a run, all derived from ``[radiation] seed``: the reduced model's tracings use the seed
+#: itself; every other role gets its own ``numpy.random.SeedSequence`` entropy ``(seed, role)``, so the reference
+#: never draws the reduced model's random numbers (issue 21: otherwise their ray noise is correlated and the
+#: error metric does not see it).
+SEED_ROLES = {"reduced": None, "reference": 1, "reference_b": 2, "prepass": 3, "absorption": 4}
+
+
+def role_seed(seed: int, role: str):
+    """The seed (an int, or SeedSequence entropy ``[seed, k]``) of one random-number role of a run."""
+    k = SEED_ROLES[role]
+    return int(seed) if k is None else [int(seed), k]
+
+
 def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: float | None = None,
-                    exchange: bool = True) -> dict:
+                    exchange: bool = True, role: str = "reduced", fraction: float = 1.0) -> dict:
     """Keyword arguments of :func:`~fem2tmm.radiation.trace_exchange` (``exchange``) or of
     :func:`~fem2tmm.radiation.solar.trace_solar` (not ``exchange``: no budget, no target) from the case's
     ``[radiation]`` section.
 
     The exchange budget is ``rays_per_face`` per group or ``ray_density`` rays/m² when one is given, else the
-    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``)."""
+    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``).  ``role`` picks the random stream
+    (:data:`SEED_ROLES`); ``fraction`` scales the exchange budget (two half-budget references)."""
     rs = case.radiation
-    kw = {"sampling": rs.sampling, "seed": rs.seed, "max_bounces": rs.max_bounces}
+    kw = {"sampling": rs.sampling, "seed": role_seed(rs.seed, role), "max_bounces": rs.max_bounces}
     if not exchange:
         return kw
     if rays_per_face is None and ray_density is None:
@@ -133,13 +154,18 @@ def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: f
             ray_density = float(rs.ray_density)
         else:
             rays_per_face = int(rs.rays_per_face or 1000)
+    if fraction != 1.0:
+        rays_per_face = None if rays_per_face is None else max(1, int(np.ceil(rays_per_face * fraction)))
+        ray_density = None if ray_density is None else ray_density * fraction
     return {**kw, "rays_per_group": rays_per_face, "ray_density": ray_density, "target_lse": rs.target_lse}
 
 
 def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = None, rays_per_face: int | None = None,
-                       ray_density: float | None = None, scene=None
+                       ray_density: float | None = None, scene=None, role: str = "reference", fraction: float = 1.0
                        ) -> tuple[FacedRadiation, np.ndarray, ExchangeResult]:
     """Face-to-face REFs of the detailed model: every active side is a REF node.
+
+    ``role``, ``fraction``: random stream and budget fraction (:func:`tracer_settings`).
 
     Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
     ``g_space`` (n_dof,) m² to the sink, and the :class:`~fem2tmm.radiation.ExchangeResult`.
@@ -149,13 +175,28 @@ def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = Non
     active = np.flatnonzero(f.active)
     groups = np.full(2 * f.n, -1, np.int64)
     groups[active] = np.arange(len(active))
-    res = trace_exchange(surface, groups, scene=scene, **tracer_settings(case, rays_per_face, ray_density))
+    res = trace_exchange(surface, groups, scene=scene,
+                         **tracer_settings(case, rays_per_face, ray_density, role=role, fraction=fraction))
     Ws = f.W[active // 2]  # each side takes its face's nodal weights
     g = len(active)
     GR = sp.csr_matrix(res.GR)
     faced = FacedRadiation(W=Ws.tocsr(), G=GR[:, :g].tocsr())
     g_space = np.asarray(Ws.T @ np.asarray(GR[:, g].todense()).ravel()).ravel()
     return faced, g_space, res
+
+
+def mean_faced(parts: list[FacedRadiation]) -> FacedRadiation:
+    """The mean of independent face-to-face radiation estimates of one model (same ``W``)."""
+    return FacedRadiation(W=parts[0].W, G=(sum(p.G for p in parts) / len(parts)).tocsr())
+
+
+def reference_noise(model: FEModel, Ta: np.ndarray, Tb: np.ndarray) -> dict:
+    """Noise of a reference that is the mean of two independent half references with solutions ``Ta``, ``Tb``
+    (n_dof,) K: the difference of two independent estimates has twice the variance of one, the mean half of
+    one, so the mean's error is estimated by ``(Ta − Tb)/2`` node by node (over the mesh nodes of the model).
+    Returns ``{"rms_K", "max_K"}``."""
+    d = 0.5 * (model.node_temperatures(Ta) - model.node_temperatures(Tb))[model.node_dof >= 0]
+    return {"rms_K": float(np.sqrt(np.mean(d**2))), "max_K": float(np.abs(d).max(initial=0.0))}
 
 
 def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
@@ -180,9 +221,10 @@ def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Sur
 
 
 # ------------------------------------------------------------------------------------------------ solar
-def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, scene=None
+def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, scene=None, role: str = "reference"
                    ) -> tuple[np.ndarray, SolarResult]:
-    """Solar power absorbed by every FE face side, traced on the detailed mesh.
+    """Solar power absorbed by every FE face side, traced on the detailed mesh (the reference's; with
+    ``solar_on = "detailed"`` the reduced model takes the same loads).  ``role``: random stream.
 
     Returns ``(q, result)``: nodal loads q (n_dof,) W (face power spread by the face's area shares) and the
     :class:`~fem2tmm.radiation.solar.SolarResult`.
@@ -190,7 +232,7 @@ def detailed_solar(model: FEModel, case: Case, surface: Surface | None = None, s
     surface = radiation_surface(model) if surface is None else surface
     env = case.environment
     res = trace_solar(surface, env.sun_direction, env.solar_flux, rays_per_group=env.solar_rays_per_face,
-                      scene=scene, **tracer_settings(case, exchange=False))
+                      scene=scene, **tracer_settings(case, exchange=False, role=role))
     q = np.asarray(model.faces.W.T @ res.absorbed_face).ravel()
     return q, res
 
@@ -205,7 +247,7 @@ def solar_prepass(model: FEModel, case: Case, surface: Surface | None = None, sc
     f = model.faces
     res = trace_solar(surface, env.sun_direction, env.solar_flux, groups=np.zeros(2 * f.n, np.int64),
                       rays_per_group=PREPASS_RAYS_PER_FACE * f.n, scene=scene,
-                      **tracer_settings(case, exchange=False))
+                      **tracer_settings(case, exchange=False, role="prepass"))
     return face_flux_per_element(model, res.absorbed_face)
 
 
@@ -371,3 +413,55 @@ def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clus
     report = [{"region": names[int(r)], "max_distance_m": float(q.max_distance), "rms_distance_m": float(q.rms_distance),
                "size_m": float(q.size)} for r, q in zip(sorted(names), quadrics)]
     return QuadricScene(surface, qof, quadrics), report
+
+
+# -------------------------------------------------------------------------------- radiation-aware reduction
+OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this
+
+
+def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
+                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray
+                            ) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
+    """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
+
+    Parameters
+    ----------
+    model, clustering, case : as for :func:`~fem2tmm.reduce.network.build_reduced`
+    rm : the thesis' reduced model with its radiation (``GR``, ``g_space``), whose couplings are kept
+    q_detailed : (n_dof,) W loads known on the detailed mesh (heaters, detailed solar): distributed by Y'
+    q_lumped : (n,) W loads already lumped per super node (super-face solar)
+    T_ref : (n_dof,) K the pre-solve's recovered field; the emission is linearised about it, then about each
+        outer iteration's field: at most ``[reduction] outer_iterations`` reductions and network solves, fewer
+        once the field moves less than :data:`OUTER_TOLERANCE`
+
+    Returns
+    -------
+    ``(rm', solution, T, history)``: the network (``K`` = K̃, ``Q`` = Y'q + q_lumped + Q_corr at the last
+    reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
+    (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
+    """
+    import dataclasses
+
+    from .reduce.conduction import blas_threads
+
+    e_sn = rm.g_space + (0.0 if rm.GR is None else np.asarray(rm.GR).sum(axis=1))
+    history: list[dict] = []
+    for it in range(max(int(case.reduction.outer_iterations), 1)):
+        # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically
+        ra_rm = dataclasses.replace(build_reduced(model, clustering, case, T_ref=T_ref), GR=rm.GR, g_space=rm.g_space)
+        ra = ra_rm.radiative
+        T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, ra_rm.supernodes.A @ T_ref)
+        corr = ra.correction(T_ref, T_sn_ref, e_sn)
+        ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
+        with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
+            sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+        T = ra.recover(sol.T, q_detailed, T_ref)
+        d = T - T_ref
+        history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
+                        "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
+                        "correction_W": float(np.abs(corr).sum())})
+        T_ref = T
+        if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
+            break
+    ra.history = history
+    return ra_rm, sol, T, history

@@ -8,11 +8,13 @@ Stages, each a module of plain functions on arrays:
 * :mod:`.seeding` — weighted k-means seeds;
 * :mod:`.growing` — greedy multi-source region growing;
 * :mod:`.smoothing` — pairwise min-cut boundary smoothing;
-* :mod:`.driver` — :func:`cluster_parts` (pipeline) and :func:`partition` (one mesh).
+* :mod:`.metis` — METIS on each region (optional pymetis), ``method="metis"``;
+* :mod:`.driver` — :func:`cluster_parts` (pipeline), :func:`partition` (one mesh) and :func:`from_labels`
+  (a user partition).
 """
 
 from __future__ import annotations
 
-from .driver import Clustering, PartInput, cluster_parts, partition
+from .driver import Clustering, PartInput, cluster_parts, from_labels, partition
 
-__all__ = ["Clustering", "PartInput", "cluster_parts", "partition"]
+__all__ = ["Clustering", "PartInput", "cluster_parts", "from_labels", "partition"]

@@ -9,6 +9,7 @@ Public entry points (re-exported by :mod:`fem2tmm.cluster`):
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
@@ -21,7 +22,8 @@ from ..fem import geometry
 from ..fem.elements import ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 from .adjacency import DualGraph, dual_graph, induced_csr, to_csr
 from .allocate import allocate
-from .growing import grow
+from .growing import grow, grow_balanced
+from .metis import metis_region, require as require_metis
 from .regions import regions as split_regions
 from .seeding import seed_elements, weighted_kmeans
 from .smoothing import smooth
@@ -219,7 +221,8 @@ def flux_feature(flux: np.ndarray, weights: np.ndarray, region: np.ndarray, n_cl
     return FLUX_CONTRAST * h * (flux - mean) / sigma, 1.0 + sr / sigma
 
 
-def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, feature_angle: float) -> _Prepared:
+def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, feature_angle: float,
+             balance: bool = True) -> _Prepared:
     times = dict.fromkeys(_STEPS, 0.0)
     t0 = time.perf_counter()
     measure, normals, centroids = _geometry(points, part)
@@ -252,25 +255,49 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
         centroids = np.hstack([centroids, feature[:, None]])
         reg_weight = reg_weight * density
     alloc = allocate(part.n_clusters, part.kind, reg_measure, np.maximum(boundary, 0),
-                     np.bincount(region, minlength=r), reg_weight, part=part.name, shape=feature is None)
+                     np.bincount(region, minlength=r), reg_weight, part=part.name,
+                     shape=feature is None and not balance)
     t3 = time.perf_counter()
     times.update(geometry=t1 - t0, regions=t2 - t1, allocation=t3 - t2)
     return _Prepared(part, weights, measure, centroids, graph, keep, region, alloc, times)
 
 
-def _cluster_region(ptr, ind, lengths, X, w, k, seed, smoothing_layers, times):
-    """Labels 0..k-1 of one connected region and the smoothing statistics."""
+METHODS = ("growing", "metis")
+_DIM = {"line": 1, "shell": 2, "solid": 3}  # dimension of the element weights (length, area, volume)
+BALANCE_TOL = 0.05  # clusters of a region within ±5 % of their mean weight where growing and smoothing allow
+
+
+def _cluster_region(ptr, ind, lengths, X, w, k, seed, smoothing_layers, times, balance=True, dim=2,
+                    method="growing"):
+    """Labels 0..k-1 of one connected region and the smoothing statistics.
+
+    ``method="metis"``: METIS k-way instead of seeds + growing + smoothing (:mod:`.metis`; its time is
+    reported under "growing").
+
+    ``balance``: grow clusters of equal weight (:func:`.growing.grow_balanced`); off when the clusters
+    follow a flux feature (their sizes are then meant to differ)."""
     n = len(X)
     if k == 1:
         return np.zeros(n, np.int64), None
     if k == n:
         return np.arange(n, dtype=np.int64), None
     t0 = time.perf_counter()
-    seeds = seed_elements(X, weighted_kmeans(X, w, k, seed=seed))
+    if method == "metis":
+        labels = metis_region(ptr, ind, lengths, X, w, k, seed=int(np.sum(seed)))
+        times["growing"] += time.perf_counter() - t0
+        return labels, None
+    # balanced growing moves the seeds itself (Lloyd steps on the mesh graph): one k-means++ start and a few
+    # Lloyd iterations are enough (the restarts cost 2/3 of the thesis scheme's time on the baffle)
+    kw = dict(n_init=1, max_iter=10) if balance else {}
+    seeds = seed_elements(X, weighted_kmeans(X, w, k, seed=seed, **kw))
     t1 = time.perf_counter()
-    labels = grow(ptr, ind, X, seeds)
+    if balance:
+        labels, seeds, _ = grow_balanced(ptr, ind, X, w, seeds, dim=dim, tol=BALANCE_TOL / 2)
+    else:
+        labels = grow(ptr, ind, X, seeds)
     t2 = time.perf_counter()
-    labels, stats = smooth(ptr, ind, lengths, labels, X, w, seeds, layers=smoothing_layers)
+    labels, stats = smooth(ptr, ind, lengths, labels, X, w, seeds, layers=smoothing_layers,
+                           balance_tol=BALANCE_TOL if balance else None)
     t3 = time.perf_counter()
     times["seeding"] += t1 - t0
     times["growing"] += t2 - t1
@@ -292,7 +319,8 @@ def _part_report(prep: _Prepared, labels: np.ndarray, k_offset: int, smoothing: 
     after = float(g.measure[prep.keep & ~same].sum())
     before = after + sum(s["boundary_before"] - s["boundary_after"] for s in smoothing)
     sm = {key: int(sum(s[key] for s in smoothing))
-          for key in ("pairs", "accepted", "rejected_longer", "rejected_disconnected", "moved")}
+          for key in ("pairs", "accepted", "rejected_longer", "rejected_disconnected", "rejected_unbalanced",
+                          "moved")}
     return {
         "name": part.name,
         "kind": part.kind,
@@ -334,7 +362,12 @@ def _total_report(parts: list[dict]) -> dict:
 
 def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[np.ndarray | None],
          feature_angle: float, seed: int, smoothing_layers: int,
-         progress: Callable[[int, int], None] | None) -> Clustering:
+         progress: Callable[[int, int], None] | None, balance: bool = True,
+         method: str = "growing") -> Clustering:
+    if method not in METHODS:
+        raise Fem2TmmError(f"clustering method must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "metis":
+        require_metis()
     points = np.asarray(points, float)
     if points.ndim != 2 or points.shape[1] != 3:
         raise Fem2TmmError(f"points must be an (n, 3) array, got shape {points.shape}")
@@ -350,7 +383,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
     if owner is not None and (owner > 1).any():
         raise Fem2TmmError(f"elements {format_ids(np.flatnonzero(owner > 1))} belong to more than one part")
 
-    prepared = [_prepare(points, p, w, feature_angle) for p, w in zip(parts, weights)]
+    prepared = [_prepare(points, p, w, feature_angle, balance) for p, w in zip(parts, weights)]
 
     labels = np.full(n_elements, -1, np.int64)
     region_out = np.full(n_elements, -1, np.int64)
@@ -372,7 +405,8 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
             ptr, ind, lengths = induced_csr(G.indptr, G.indices, G.data, el, scratch)
             lab, stats = _cluster_region(ptr, ind, lengths, pr.centroids[el], pr.weights[el], k,
                                          (int(seed), r), 0 if part.kind == "line" else int(smoothing_layers),
-                                         pr.times)
+                                         pr.times, balance=balance and pr.centroids.shape[1] == 3,
+                                         dim=_DIM[part.kind], method=method)
             local[el] = lab + k_reg
             if stats is not None:
                 smoothing.append(stats)
@@ -394,7 +428,8 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
 
 def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: int, feature_angle: float = 30.0,
                   seed: int = 0, smoothing_layers: int = 2,
-                  progress: Callable[[int, int], None] | None = None) -> Clustering:
+                  progress: Callable[[int, int], None] | None = None, balance: bool = True,
+                  method: str = "growing") -> Clustering:
     """Cluster every part of a mesh into its requested number of contiguous clusters (super nodes).
 
     Each part is split into regions (:mod:`.regions`), its super nodes are shared among them
@@ -411,6 +446,13 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
     seed : random seed; the same input and seed give identical labels
     smoothing_layers : band depth of the boundary smoothing on each side (0 disables smoothing)
     progress : optional ``progress(n_done, n_total)``, called after each region
+    balance : True (default): clusters of equal area (volume, or weight): the part's super nodes are shared
+        among its regions in proportion to area, the growing is capacity-constrained
+        (:func:`.growing.grow_balanced`) and smoothing keeps the balance; False: the thesis' scheme (regions
+        get clusters for their characteristic length too, plain growing).  Clusters that follow a flux
+        feature are never balanced (their sizes follow the flux on purpose)
+    method : "growing" (default: k-means seeds, region growing, min-cut smoothing) or "metis" (METIS k-way on
+        each region, contiguous, through the optional package pymetis; see :mod:`.metis`)
 
     Returns
     -------
@@ -423,12 +465,12 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
         has elements or fewer than it has regions (the message lists the regions).
     """
     return _run(points, parts, int(n_elements), [None] * len(parts), feature_angle, seed, smoothing_layers,
-                progress)
+                progress, balance, method)
 
 
 def partition(points: np.ndarray, cells: np.ndarray, n_clusters: int, kind: str = "shell",
               weights: np.ndarray | None = None, feature_angle: float = 30.0, seed: int = 0,
-              return_regions: bool = False):
+              return_regions: bool = False, balance: bool = True, method: str = "growing"):
     """Partition one mesh into ``n_clusters`` contiguous clusters (``fem2tmm.partition``, DESIGN §4.4).
 
     Parameters
@@ -442,6 +484,8 @@ def partition(points: np.ndarray, cells: np.ndarray, n_clusters: int, kind: str 
     feature_angle : degrees; shells are cut into regions at sharper edges (and at junctions)
     seed : random seed
     return_regions : also return the region of each element
+    balance : equal-weight clusters (default) or the thesis' scheme, see :func:`cluster_parts`
+    method : "growing" (default) or "metis", see :func:`cluster_parts`
 
     Returns
     -------
@@ -463,5 +507,97 @@ def partition(points: np.ndarray, cells: np.ndarray, n_clusters: int, kind: str 
     padded[:, : cells.shape[1]] = cells
     part = PartInput(name="mesh", kind=kind, elements=np.arange(m, dtype=np.int64), cells=padded,
                      types=np.full(m, TYPE_CODE[by_width[cells.shape[1]]], np.int8), n_clusters=n_clusters)
-    res = _run(points, [part], m, [weights], feature_angle, seed, 2, None)
+    res = _run(points, [part], m, [weights], feature_angle, seed, 2, None, balance, method)
     return (res.labels, res.regions) if return_regions else res.labels
+
+
+def from_labels(points: np.ndarray, parts: Sequence[PartInput], n_elements: int, labels: np.ndarray,
+                feature_angle: float = 30.0, where: str = "labels") -> Clustering:
+    """A :class:`Clustering` from a user partition (the ``labels=`` route of :func:`fem2tmm.run`).
+
+    Parameters
+    ----------
+    points : (n, 3) float node coordinates, m
+    parts : the parts to cluster (their ``n_clusters`` is ignored: the labels decide)
+    n_elements : number of elements of the mesh
+    labels : (n_elements,) int cluster of every mesh element; elements of the parts need a label >= 0, the
+        labels used by the parts must be exactly 0 … K−1 and each must stay within one part; other elements
+        are ignored
+    feature_angle : degrees; regions are still computed (report, quadric fitting)
+    where : what to call the labels in messages
+
+    Returns
+    -------
+    :class:`Clustering` with the given clusters, numbered as given.  A cluster that is not connected through
+    shared edges (faces), or that crosses a sharp edge or junction, is allowed (the reduction stays exact) but
+    reported and warned about.
+
+    Raises
+    ------
+    Fem2TmmError
+        wrong length or type, elements of a part without a label, unused label numbers, a label in two parts.
+    """
+    labels = np.asarray(labels)
+    if labels.shape != (n_elements,) or not np.issubdtype(labels.dtype, np.integer):
+        raise Fem2TmmError(f"{where}: expected {n_elements} integer cluster labels, one per mesh element "
+                           f"(-1 for elements outside the parts), got shape {labels.shape} and dtype {labels.dtype}")
+    labels = labels.astype(np.int64)
+    points = np.asarray(points, float)
+    parts = [PartInput(p.name, p.kind, np.asarray(p.elements, np.int64), np.asarray(p.cells, np.int64),
+                       np.asarray(p.types, np.int8), 1, p.attribute, p.ids, None) for p in parts]
+    for p in parts:
+        _check_part(points, p, n_elements)
+        bad = labels[p.elements] < 0
+        if bad.any():
+            raise Fem2TmmError(f"{where}: part {p.name!r} has elements without a cluster label (-1): "
+                               f"{_ids(p, np.flatnonzero(bad))}; give every element of the parts a label >= 0")
+    used = np.concatenate([labels[p.elements] for p in parts]) if parts else np.zeros(0, np.int64)
+    k = int(used.max()) + 1 if used.size else 0
+    missing = np.setdiff1d(np.arange(k), used)
+    if missing.size:
+        raise Fem2TmmError(f"{where}: labels must be 0 … K-1 with every number used; {format_ids(missing)} are not "
+                           "used by any element of the parts (renumber them consecutively)")
+    part_of = np.full(k, -1, np.int64)
+    for pi, p in enumerate(parts):
+        lab = np.unique(labels[p.elements])
+        clash = lab[part_of[lab] >= 0]
+        if clash.size:
+            raise Fem2TmmError(f"{where}: clusters {format_ids(clash)} span part {p.name!r} and another part; a "
+                               "super node belongs to one part")
+        part_of[lab] = pi
+    region_out = np.full(n_elements, -1, np.int64)
+    cluster_region = np.zeros(k, np.int64)
+    reports, r_off = [], 0
+    for pi, p in enumerate(parts):
+        prep = _prepare(points, p, None, feature_angle, balance=False) if len(p.elements) else None
+        local = labels[p.elements]
+        region_out[p.elements] = prep.region + r_off
+        cluster_region[local] = prep.region + r_off  # (one of) the region(s) each cluster covers
+        offset = int(local.min())
+        lab_p = np.unique(local)
+        renum = np.searchsorted(lab_p, local)
+        part = PartInput(p.name, p.kind, p.elements, p.cells, p.types, int(lab_p.size), p.attribute, p.ids)
+        prep = _Prepared(part, prep.weights, prep.measure, prep.centroids, prep.graph, prep.keep, prep.region,
+                         prep.alloc, prep.times)
+        rep = _part_report(prep, renum, 0, [])
+        # contiguity through every shared edge (face), not only inside regions, and region crossings
+        g = prep.graph
+        same = renum[g.a] == renum[g.b]
+        m = len(renum)
+        n_comp = connected_components(sp.csr_matrix((np.ones(int(same.sum()), np.int8), (g.a[same], g.b[same])),
+                                                    shape=(m, m)), directed=False)[0]
+        n_reg = int(prep.region.max()) + 1
+        spans = np.bincount(np.unique(renum * n_reg + prep.region) // n_reg, minlength=lab_p.size)
+        crossing = int(np.count_nonzero(spans > 1))
+        rep.update(contiguous=bool(n_comp == lab_p.size), clusters_crossing_regions=crossing, user_labels=True,
+                   first_label=offset)
+        if n_comp != lab_p.size:
+            warnings.warn(f"{where}: part {p.name!r}: {n_comp - lab_p.size} cluster piece(s) not connected to the "
+                          "rest of their cluster; the reduction stays exact, but such super nodes are not compact",
+                          stacklevel=2)
+        reports.append(rep)
+        r_off += int(prep.region.max()) + 1
+    report = {"parts": reports, "total": _total_report(reports), "source": where}
+    return Clustering(labels=np.where(np.isin(np.arange(n_elements), np.concatenate([p.elements for p in parts])),
+                                      labels, -1) if parts else np.full(n_elements, -1, np.int64),
+                      regions=region_out, cluster_part=part_of, cluster_region=cluster_region, report=report)

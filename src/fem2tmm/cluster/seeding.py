@@ -88,7 +88,8 @@ def kmeans_plusplus(X: np.ndarray, w: np.ndarray, k: int, rng: np.random.Generat
 
 
 def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[int] = 0, sample_size: int | None = None,
-                    n_init: int | None = None, full_iter: int = 5, tol: float = 1e-4) -> np.ndarray:
+                    n_init: int | None = None, full_iter: int = 5, tol: float = 1e-4,
+                    max_iter: int = 50) -> np.ndarray:
     """Weighted k-means centres.
 
     Parameters
@@ -104,6 +105,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
         elements, few when k is small and local minima are few)
     full_iter : most Lloyd iterations on the full set after the sample stage
     tol : relative improvement of the objective below which Lloyd iterations stop
+    max_iter : most Lloyd iterations of each restart on the sample
 
     Returns
     -------
@@ -126,7 +128,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
         n_init = int(np.clip(2e6 // (len(Xs) * k), 1, min(k, 10)))
     best, best_obj = None, np.inf
     for _ in range(n_init):
-        C, obj = _lloyd(Xs, ws, kmeans_plusplus(Xs, ws, k, rng), 50, tol)
+        C, obj = _lloyd(Xs, ws, kmeans_plusplus(Xs, ws, k, rng), max_iter, tol)
         if obj < best_obj:
             best, best_obj = C, obj
     if Xs is not X:

@@ -116,7 +116,7 @@ def pair_cut(indptr, indices, lengths, labels, band, n_in_A: int, A: int, B: int
 
 def smooth(indptr: np.ndarray, indices: np.ndarray, lengths: np.ndarray, labels: np.ndarray,
            centroids: np.ndarray, weights: np.ndarray, seeds: np.ndarray, layers: int = 2,
-           scale: float = 1e6) -> tuple[np.ndarray, dict]:
+           scale: float = 1e6, balance_tol: float | None = None) -> tuple[np.ndarray, dict]:
     """Smooth the boundaries between the clusters of one connected region.
 
     Parameters
@@ -129,19 +129,23 @@ def smooth(indptr: np.ndarray, indices: np.ndarray, lengths: np.ndarray, labels:
     seeds : (k,) seed element of each cluster (never moved)
     layers : band depth on each side of a boundary (>= 1)
     scale : integer units per unit cost in the max-flow (reduced if the capacities would overflow)
+    balance_tol : None, or a relative tolerance: a pair's new assignment is also rejected when it takes
+        either cluster's weight further than ``balance_tol`` from the mean *and* further than it was (so
+        smoothing does not undo :func:`.growing.grow_balanced`)
 
     Returns
     -------
     labels : (n,) int64 new labels (a copy)
     stats : dict with ``boundary_before``, ``boundary_after`` (m or m²), ``pairs``, ``accepted``,
-        ``rejected_longer``, ``rejected_disconnected``, ``moved`` (elements that changed cluster)
+        ``rejected_longer``, ``rejected_disconnected``, ``rejected_unbalanced``, ``moved`` (elements that
+        changed cluster)
     """
     lab = np.array(labels, dtype=np.int64)
     n = len(lab)
     k = int(lab.max()) + 1 if n else 0
     before = boundary_length(indptr, indices, lengths, lab)
     stats = {"boundary_before": before, "boundary_after": before, "pairs": 0, "accepted": 0,
-             "rejected_longer": 0, "rejected_disconnected": 0, "moved": 0}
+             "rejected_longer": 0, "rejected_disconnected": 0, "rejected_unbalanced": 0, "moved": 0}
     if k < 2 or layers < 1:
         return lab, stats
     W = np.bincount(lab, weights, minlength=k)
@@ -186,6 +190,14 @@ def smooth(indptr: np.ndarray, indices: np.ndarray, lengths: np.ndarray, labels:
         if len_new > len_old * (1 + 1e-12):
             stats["rejected_longer"] += 1
             continue
+        if balance_tol is not None:
+            mean = W.sum() / k
+            gain = float(np.dot(weights[band], new_A.astype(float) - old_A))  # weight A gains from B
+            dev_old = max(abs(W[A] - mean), abs(W[B] - mean))
+            dev_new = max(abs(W[A] + gain - mean), abs(W[B] - gain - mean))
+            if dev_new > max(balance_tol * mean, dev_old):
+                stats["rejected_unbalanced"] += 1
+                continue
         in_band[band] = True
         mB = members[B]
         newA = np.concatenate([mA[~in_band[mA]], band[new_A]])
@@ -196,6 +208,7 @@ def smooth(indptr: np.ndarray, indices: np.ndarray, lengths: np.ndarray, labels:
             continue
         lab[band] = new_lab_band
         members[A], members[B] = np.sort(newA), np.sort(newB)
+        W[A], W[B] = weights[members[A]].sum(), weights[members[B]].sum()
         stats["accepted"] += 1
         stats["moved"] += int((new_A != old_A).sum())
     stats["boundary_after"] = boundary_length(indptr, indices, lengths, lab)

@@ -71,13 +71,25 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             "iterations": rs.iterations,
             "heat_into_fixed_W": {str(rm.names[i]): -float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
             "to_space_W": float(rs.to_space.sum()),
+            "radiation_aware": None if rm.radiative is None else {
+                "outer_iterations": result.radiation_aware,
+                "H_W_per_K": float(rm.radiative.H[~rm.fixed].sum()),
+                "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
+                        "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
         if detailed is not None:
             ok = model.node_dof >= 0
-            err = (model.node_temperatures(result.T_recovered) - T)[ok]
-            s["accuracy"] = {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
-                             "nodes": int(ok.sum())}
+
+            def accuracy(T_rec: np.ndarray) -> dict:
+                err = (model.node_temperatures(T_rec) - T)[ok]
+                return {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
+                        "nodes": int(ok.sum())}
+
+            s["accuracy"] = accuracy(result.T_recovered)
+            if result.thesis_T_recovered is not None:
+                s["accuracy"]["thesis_method"] = accuracy(result.thesis_T_recovered)
+            s["accuracy"].update(_honesty(result))
     if result.positive is not None:
         s["positive_network"] = dict(result.positive)
         if detailed is not None and result.T_recovered_exact is not None:
@@ -158,6 +170,29 @@ def _radiation_summary(result: Result) -> dict:
     return out
 
 
+def _honesty(result: Result) -> dict:
+    """What the accuracy figures mean: the reference's own noise, the share of the heat radiation carries, and
+    the error sources the metric cannot see."""
+    det = result.detailed
+    out_fixed = float(np.clip(-det.heat_fixed, 0, None).sum())  # heat leaving through fixed-temperature nodes
+    space = float(det.to_space.sum())
+    noise = result.reference_noise
+    excludes = []
+    if result.solar_on == "detailed":
+        excludes.append("solar ray noise and shadow resolution: with solar_on = \"detailed\" the reduced model and "
+                        "the reference use the same detailed solar loads")
+    if noise is None and (result.radiation_detailed is not None or result.solar_detailed is not None):
+        excludes.append("the reference's own ray noise (not estimated: [reference] noise = false)")
+    return {
+        "reference_noise_rms_K": None if noise is None else noise["rms_K"],
+        "reference_noise_max_K": None if noise is None else noise["max_K"],
+        "reference_noise_method": None if noise is None else
+        "two independent half-budget references (own random streams); reference = their mean, noise = (Ta - Tb)/2",
+        "radiation_share": space / (space + out_fixed) if space + out_fixed > 0 else None,
+        "excludes": excludes,
+    }
+
+
 def _solar_summary(result: Result) -> dict | None:
     def one(r):
         return {"absorbed_W": float(r.absorbed), "incident_W": float(r.incident), "shadowed_W": float(r.shadowed),
@@ -224,7 +259,16 @@ def summary_table(s: dict) -> str:
     rows += temperature_rows(s)
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
-        rows.append(("reduced vs detailed", f"RMS {acc['rms_K']:.4f} K, max {acc['max_K']:.4f} K"))
+        noise = acc.get("reference_noise_rms_K")
+        beside = "" if noise is None else f" (reference noise RMS {noise:.2g} K)"
+        rows.append(("reduced vs detailed", f"RMS {acc['rms_K']:.4f} K, max {acc['max_K']:.4f} K{beside}"))
+        if acc.get("thesis_method"):
+            th = acc["thesis_method"]
+            rows.append(("thesis' reduction", f"RMS {th['rms_K']:.4f} K, max {th['max_K']:.4f} K (the pre-solve)"))
+        if acc.get("radiation_share") is not None:
+            rows.append(("heat out by radiation", f"{100 * acc['radiation_share']:.1f} % (detailed model)"))
+        for e in acc.get("excludes") or ():
+            rows.append(("not in the error", e))
     det = s.get("detailed") or {}
     loads = s.get("loads_W") or {}
     for name, w in (loads.get("boundaries") or {}).items():

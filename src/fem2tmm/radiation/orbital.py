@@ -94,8 +94,8 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     :func:`~fem2tmm.radiation.solar.trace_solar`; ``rays_per_group`` / ``ray_density`` the planet rays' budget,
     ``solar_rays_per_group`` the solar one (default the same).  ``per`` "side" (n = 2f), "face" (n = f, both sides
     summed) or "group" (n = groups).  ``focus`` "planet" (PFHS) or "hemisphere" (plain sampling, for
-    comparison).  Position j of the orbit traces with seed (``seed``, j') (j' the index of its
-    distinct true anomaly).  Returns :class:`OrbitalFluxes`.
+    comparison).  Position j of the orbit traces with the seed entropy [``seed``..., j'] (j' the index of its
+    distinct true anomaly; ``seed`` an int or a list of ints).  Returns :class:`OrbitalFluxes`.
     """
     kinds = check_kinds(kinds)
     if per not in ("side", "face", "group"):
@@ -125,6 +125,7 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     rays = {kind: np.zeros(k, np.int64) for kind in kinds}
     segments = 0
     distinct, first = np.unique(positions.true_anomaly, return_index=True)
+    base_seed = [int(x) for x in np.atleast_1d(seed)]  # an int or SeedSequence entropy [seed, k, ...]
     solar_budget = rays_per_group if solar_rays_per_group is None else solar_rays_per_group
     for jd, j0 in enumerate(first):  # loop over the distinct positions of the orbit
         rows = np.flatnonzero(positions.true_anomaly == distinct[jd])
@@ -134,13 +135,13 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
                 if not (lit > 0).any() or orbit.solar_flux == 0:
                     continue
                 res = trace_solar(surface, sun[j0], orbit.solar_flux, groups=groups, rays_per_group=solar_budget,
-                                  ray_density=ray_density, sampling=sampling, seed=(seed, jd),
+                                  ray_density=ray_density, sampling=sampling, seed=base_seed + [jd],
                                   max_bounces=max_bounces, scene=scene, threads=threads)
                 inc, ab = res.incident_side, res.absorbed_side
             else:
                 res = trace_planet(surface, pos[j0], sun[j0], kind=kind, planet=orbit.planet, groups=groups,
                                    rays_per_group=rays_per_group, ray_density=ray_density, sampling=sampling,
-                                   seed=(seed, jd), solar_flux=orbit.solar_flux, max_bounces=max_bounces,
+                                   seed=base_seed + [jd], solar_flux=orbit.solar_flux, max_bounces=max_bounces,
                                    scene=scene, threads=threads, focus=focus)
                 inc, ab = res.incident_side, res.absorbed_side
                 lit = np.ones(len(rows))

@@ -406,7 +406,7 @@ class _ExchangeTracer:
     """Everything one exchange-factor run needs, shared read-only by the batch workers."""
 
     def __init__(self, surface: Surface, groups: np.ndarray, n_groups: int, backend: str,
-                 scene: TriangleScene | None = None):
+                 scene: TriangleScene | None = None, per_side: bool = False):
         if scene is None:
             scene = TriangleScene(surface, backend)
         elif scene.surface is not surface:
@@ -418,6 +418,9 @@ class _ExchangeTracer:
         self.emitters = GroupEmitters.build(self.scene, groups, emit, n_groups)
         self.groups = groups
         self.g = n_groups
+        # tally columns: the absorbing side's group (REFs), or the side itself (per_side: absorbed-IR maps)
+        self.n_cols = 2 * surface.n_faces if per_side else n_groups
+        self.per_side = per_side
 
     def run(self, rays: np.ndarray, sampling: str, seed, stream: int, batch: int, threads: int, max_bounces: int):
         g = self.g
@@ -433,11 +436,12 @@ class _ExchangeTracer:
             offsets = setup.integers(0, HALTON_SKIP, size=g)
             # coordinates 5-6 (a first diffuse direction) only when some side scatters diffusely
             dims = HALTON_DIMS if self.optics.scatters_diffusely else 4
-        ncol = g + 3
+        ncol = self.n_cols + 3
         # column index type of the tally: int32 when it fits (scipy keeps such arrays without a copy)
         itmpl = np.empty(0, np.int32 if total < 2**31 - 1 and ncol < 2**31 - 1 else np.int64)
         # destination column of an absorbing side: its group, or "blocked" when it is not a REF node
-        side_col = np.where(self.groups >= 0, self.groups, g + 1)
+        side_col = (np.arange(self.groups.size) if self.per_side
+                    else np.where(self.groups >= 0, self.groups, g + 1))
         # the batch tallies go straight into one buffer, each at its batch's first ray (a batch has at most one
         # distinct entry per ray); allocated by the compiled code: 4 KB pages, see empty_pages
         cols_buf, vals_buf = empty_pages(total, itmpl), empty_pages(total, np.empty(0))
@@ -609,6 +613,34 @@ def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: f
     pilot = [(int(r.rays.sum()), r.lse_rms) for r in runs[:-1]]
     return _result(tracer, last.rays, last.tally, last.segments, reciprocity, exponent, kappa, pilot, engine,
                    sampling)
+
+
+def trace_absorption(surface: Surface, groups, rays_per_group=None, ray_density: float | None = None,
+                     sampling: str = "halton", seed: int = 0, max_bounces: int = MAX_BOUNCES, batch: int = BATCH,
+                     threads: int = 2, backend: str = "auto", scene: TriangleScene | None = None,
+                     stream: int = 7) -> tuple[sp.csr_matrix, np.ndarray]:
+    """Where each group's emitted IR is absorbed, side by side: the per-side counterpart of the REFs.
+
+    The groups (super faces) emit as in :func:`trace_exchange` (origins ∝ ε·A over the group, cosine directions,
+    the same estimator), but each ray is tallied on the *side* that absorbs it rather than on that side's group,
+    so the absorbed power can be placed on the detailed mesh where it lands (issue 21; the IR counterpart of
+    ``solar_on = "detailed"``).  ``stream`` keeps these rays independent of the REF tracing of the same groups.
+
+    Returns
+    -------
+    A : (g, 2f) csr, fraction of group i's emitted energy absorbed by side k (raw: ray counts / rays traced)
+    rest : (g, 3) fractions that escaped to space, were blocked by inactive sides, or were capped
+    """
+    if sampling not in ("halton", "random"):
+        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
+    groups, g = _check_groups(surface, groups)
+    tracer = _ExchangeTracer(surface, groups, g, backend, scene, per_side=True)
+    base = _budget(tracer.emitters, g, rays_per_group, ray_density)
+    rays, tally, _ = tracer.run(base, sampling, seed, stream, int(batch), int(threads), int(max_bounces))
+    inv_n = np.where(rays > 0, 1.0 / np.maximum(rays, 1), 0.0)
+    frac = sp.diags(inv_n) @ tally.tocsr()
+    ns = tracer.n_cols
+    return frac[:, :ns].tocsr(), np.asarray(frac[:, ns:].todense())
 
 
 def _per_face(value, m: int, name: str) -> np.ndarray:

@@ -9,6 +9,7 @@ from __future__ import annotations
 from .capacitance import cluster_capacitance, equivalent_capacitance, supernode_capacitance
 from .conduction import ConductiveReduction, reduce_conduction
 from .filters import filter_links, negative_links
+from .radiative import RadiationAware, emission_entries, emission_weights, split_radiative
 from .supernodes import SuperNodes, build_supernodes
 
 __all__ = [
@@ -21,4 +22,8 @@ __all__ = [
     "equivalent_capacitance",
     "filter_links",
     "negative_links",
+    "RadiationAware",
+    "emission_entries",
+    "emission_weights",
+    "split_radiative",
 ]

@@ -144,12 +144,15 @@ class ConductiveReduction:
             return self.operator.recover(T_sn, q)
 
 
-def _finish(raw: np.ndarray) -> tuple[np.ndarray, dict]:
-    """Symmetrise, reset the diagonal to zero row sums, and measure how far the raw matrix was from that."""
+def _finish(raw: np.ndarray, zero_row_sums: bool = True) -> tuple[np.ndarray, dict]:
+    """Symmetrise, reset the diagonal to zero row sums (unless ``zero_row_sums`` is False: an operator with
+    conductances to ground, see :mod:`.radiative`), and measure how far the raw matrix was from that."""
     scale = max(float(np.abs(np.diag(raw)).max(initial=0.0)), np.finfo(float).tiny)
-    diag = {"asymmetry": float(np.abs(raw - raw.T).max(initial=0.0) / scale),
-            "rowsum_residual": float(np.abs(raw.sum(axis=1)).max(initial=0.0) / scale)}
+    diag = {"asymmetry": float(np.abs(raw - raw.T).max(initial=0.0) / scale)}
     K = 0.5 * (raw + raw.T)
+    if not zero_row_sums:
+        return K, diag
+    diag["rowsum_residual"] = float(np.abs(raw.sum(axis=1)).max(initial=0.0) / scale)
     np.fill_diagonal(K, 0.0)
     np.fill_diagonal(K, -K.sum(axis=1))
     return K, diag
@@ -322,7 +325,8 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
 def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarray,
                       elements: np.ndarray | None = None, method: str = "local", *,
                       dense_below: int = DENSE_BELOW, factor_memory_mb: float = FACTOR_MEMORY_MB,
-                      batch: int = BATCH, blas: int | None = BLAS_THREADS) -> ConductiveReduction:
+                      batch: int = BATCH, blas: int | None = BLAS_THREADS,
+                      zero_row_sums: bool = True) -> ConductiveReduction:
     """Reduced conduction matrix between super nodes, ``K_SN = (A K⁺ Aᵀ)⁻¹``.
 
     Parameters
@@ -338,6 +342,8 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
         total stays under this many MiB; the others are recomputed at each call (local method).
     batch : right-hand sides solved at once by the global method (memory ``batch × n`` doubles).
     blas : BLAS threads during the reduction and in ``distribute`` / ``recover`` (None: leave as is).
+    zero_row_sums : reset K_SN's diagonal so that its rows sum to zero exactly (a conduction matrix); False
+        for an operator with conductances to ground such as ``K + diag(h)`` (:mod:`.radiative`).
 
     Returns
     -------
@@ -352,7 +358,7 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
             raw, op, info = _global(coo, supernodes, batch)
         else:
             raw, op, info = _local(coo, supernodes, labels, elements, dense_below, factor_memory_mb)
-    K, diag = _finish(raw)
+    K, diag = _finish(raw, zero_row_sums)
     diag.update(info)
     diag["blas_threads"] = blas
     diag["seconds"] = time.perf_counter() - t0

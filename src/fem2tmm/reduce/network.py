@@ -22,6 +22,7 @@ from ..fem.model import FEModel
 from .capacitance import equivalent_capacitance, supernode_capacitance
 from .conduction import ConductiveReduction, reduce_conduction
 from .filters import filter_links, negative_links
+from .radiative import RadiationAware, emission_entries, emission_weights, split_radiative
 from .supernodes import SuperNodes, build_supernodes
 
 @dataclass(frozen=True)
@@ -49,6 +50,7 @@ class ReducedModel:
     GR: np.ndarray | None = None
     area: np.ndarray | None = None  # (n,) m² radiating area of each super node (both sides, active)
     report: dict = field(default_factory=dict)
+    radiative: RadiationAware | None = None  # radiation-aware reduction (K is then K̃ = K'_SN − diag(H_SN))
 
     @property
     def n(self) -> int:
@@ -83,8 +85,13 @@ def kept_dofs(model: FEModel, case: Case) -> np.ndarray:
     return np.union1d(dofs, joint)
 
 
-def build_reduced(model: FEModel, clustering: Clustering, case: Case) -> ReducedModel:
-    """Super nodes, exact reduced conduction, capacitance, loads and (space-only) radiation."""
+def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.ndarray | None = None) -> ReducedModel:
+    """Super nodes, exact reduced conduction, capacitance, loads and (space-only) radiation.
+
+    ``T_ref`` (n_dof,) K: reduce ``K + diag(h)`` with the emission linearised about it (radiation-aware
+    reduction, :mod:`fem2tmm.reduce.radiative`): ``K`` is then K̃ (zero row sums) and ``radiative`` holds
+    H_SN, h and the reduction of K' for the correction load and the recovery.
+    """
     labels_all = clustering.labels[model.elements]
     boundary = np.array([g.dof for g in model.fixed], np.int64)
     kept = kept_dofs(model, case)
@@ -103,7 +110,18 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case) -> Reduced
     sn = build_supernodes(model.n_dof, ed[rows], shares[rows], labels, boundary=boundary, kept=kept,
                           n_clusters=n_cl)
     keep_entry = ~determined[model.coo.elem]
-    red = reduce_conduction(model.coo.select(keep_entry), sn, labels, elements=rows, method=case.reduction.method)
+    coo = model.coo.select(keep_entry)
+    h = None
+    if T_ref is not None:
+        elem_row = np.full(model.mesh.n_elements, -1, np.int64)
+        elem_row[model.elements] = np.arange(len(model.elements))
+        f = model.faces
+        face_row = elem_row[f.element]  # conduction entries are numbered by model element row
+        emis = emission_entries(f.W, face_row, f.eps_area, T_ref, keep_face=~determined[face_row])
+        h = np.bincount(emis.rows, emis.vals, minlength=model.n_dof)
+        coo = type(coo).concatenate([coo, emis])
+    red = reduce_conduction(coo, sn, labels, elements=rows, method=case.reduction.method,
+                            zero_row_sums=T_ref is None)
     K = red.K.copy()
     row_of_dof = _row_of_dof(sn, model.n_dof)
     if determined.any():
@@ -112,6 +130,11 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case) -> Reduced
     if model.links is not None:  # joints: their own conductances between one-node super nodes
         L = model.links
         np.add.at(K, (row_of_dof[L.rows], row_of_dof[L.cols]), L.vals)
+    radiative = None
+    if T_ref is not None:
+        K, H = split_radiative(K)
+        radiative = RadiationAware(reduction=red, K=K, H=H, e=emission_weights(model.faces.W, model.faces.eps_area),
+                                   h=h, T_sink=model.T_sink)
     report = {"method": red.method, "diagnostics": dict(red.diagnostics),
               "determined_elements": int(determined.sum()), "dropped_clusters": int(len(clustering.cluster_part) - n_cl)}
     if case.reduction.filter > 0:
@@ -160,7 +183,8 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case) -> Reduced
     report["negative_GL_W_per_K"] = float(gl.sum()) if len(gl) else 0.0
     return ReducedModel(names=np.array(names), kind=np.asarray(sn.kind), part=part, K=K, C=C, Q=Q,
                         g_space=g_space, fixed=fixed, T_fixed=T_fixed, T_sink=model.T_sink, supernodes=sn,
-                        reduction=red, element_cluster=element_cluster, GR=None, area=area, report=report)
+                        reduction=red, element_cluster=element_cluster, GR=None, area=area, report=report,
+                        radiative=radiative)
 
 
 def conductive_links(K: np.ndarray, rtol: float = 0.0) -> int:
