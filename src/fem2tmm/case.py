@@ -384,7 +384,16 @@ class _Parser:
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise self.err("[[parts]]", f"part names must be unique; repeated: {', '.join(dup)}")
-        transient = self.transient(top["transient"]) if "transient" in top else None
+        orbit = self.orbit(top["orbit"], top.get("environment", {})) if "orbit" in top else None
+        tr = top.get("transient")
+        if orbit is not None and isinstance(tr, Mapping) and tr.get("periodic") is True:
+            # a periodic orbit transient: the period is the orbit's, end = start + period
+            if "end" in tr:
+                raise self.err("[transient].end", "with [orbit] and periodic = true the period is the orbital period "
+                                                  f"({orbit.orbit.period:.3f} s): remove end")
+            start = self.number(tr, "start", "[transient]", default=0.0)
+            tr = {**tr, "end": start + orbit.orbit.period}
+        transient = self.transient(tr) if tr is not None else None
         self.t0 = transient.start if transient is not None else 0.0
         b_raw = top.get("boundary", [])
         if not isinstance(b_raw, list):
@@ -409,7 +418,7 @@ class _Parser:
             reference=self.reference(top.get("reference", {})),
             solver=self.solver(top.get("solver", {})),
             transient=transient,
-            orbit=self.orbit(top["orbit"], top.get("environment", {})) if "orbit" in top else None,
+            orbit=orbit,
             raw=dict(data),
         )
 

@@ -25,11 +25,11 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
-from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_orbit, detailed_problem,
-                     detailed_radiation, detailed_solar, mean_faced, orbit_average, orbit_positions_detailed,
-                     orbit_positions_reduced, positive_reduced, quadric_scene, radiation_aware_network,
-                     radiation_surface, reduced_problem, reduced_radiation, reference_noise, solar_prepass,
-                     super_face_orbit, super_face_solar)
+from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_model, describe_nodes, detailed_orbit,
+                     detailed_problem, detailed_radiation, detailed_solar, mean_faced, orbit_average,
+                     orbit_positions_detailed, orbit_positions_reduced, positive_reduced, quadric_scene,
+                     radiation_aware_network, radiation_surface, reduced_problem, reduced_radiation, reference_noise,
+                     run_transient, solar_prepass, super_face_orbit, super_face_solar)
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
@@ -73,6 +73,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
         mesh = load_mesh(case) if mesh is None else mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
+    check_transient(model, case)
     do_ref = case.reference.detailed if reference is None else reference
     problem = detailed_problem(model)
     check_solvable(problem, describe=describe_nodes(model))
@@ -117,6 +118,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
 
     # orbital loads (solar, albedo, planet IR at every position) on the detailed mesh
     q_orbit = None  # (k, n_dof) W per position
+    q_sn_orbit = None  # (k, n_SN) W per position
     if orbit is not None and (do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
         with prog.stage("orbit_detailed", "tracing orbital fluxes on the detailed mesh"):
             q_orbit, result.orbit_detailed = detailed_orbit(model, case, surface, scene=scene)
@@ -132,12 +134,14 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                     model, rm, case, surface, scene=scene, sf=sf)
                 rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
         q_recover = model.Q
+        result.q_recover = q_recover
         q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
         if sun:
             if case.environment.solar_on == "detailed":
                 # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
                 q_sn = rm.reduction.distribute(q_solar)
                 q_recover = model.Q + q_solar
+                result.q_recover = q_recover
             else:
                 with prog.stage("solar", "tracing solar rays on the super faces"):
                     q_sn, result.solar_super_faces, _ = super_face_solar(model, rm, case, surface, scene=scene, sf=sf)
@@ -147,7 +151,6 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                 q_lumped = q_sn
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
             result.solar_on = case.environment.solar_on
-        q_sn_orbit = None  # (k, n_SN) W per position
         if orbit is not None:
             if orbit.fluxes_on == "detailed":
                 q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
@@ -162,6 +165,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn_avg)
             if orbit.fluxes_on == "detailed":
                 q_recover = q_recover + orbit_average(result, q_orbit)
+                result.q_recover = q_recover
             else:
                 q_lumped = q_lumped + q_sn_avg
         result.reduced = rm
@@ -239,6 +243,19 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                     result.orbit_T_positions_detailed = T
                 else:
                     result.orbit_T_positions = T
+
+    # transient: the reduced model in time (recovered at every output time) and the detailed reference
+    if case.transient is not None:
+        with prog.stage("transient", "integrating the transient"):
+            rs, det = result.reduced_solution, result.detailed
+            orbit_loads = None
+            if q_orbit is not None or q_sn_orbit is not None:  # loads in time along the orbit
+                pos = result.orbit_fluxes.positions
+                orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_orbit, q_dof=q_orbit,
+                                         recover_dof=orbit.fluxes_on == "detailed")
+            result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
+                                             result.q_recover, problem if det is not None else None,
+                                             None if det is None else det.T, orbit=orbit_loads)
 
     result.summary = build_summary(result, prog.timings)
     return result

@@ -215,3 +215,41 @@ def periodic_values(times, values, period: float, t) -> np.ndarray:
     w = np.divide(x - tt[i], dt, out=np.zeros_like(x), where=dt > 0)
     w = w.reshape(w.shape + (1,) * (v.ndim - 1))
     return (1.0 - w) * v[i] + w * v[i + 1]
+
+
+def hat_basis(times, period: float, jump: float = 1e-6):
+    """The periodic piecewise-linear interpolation of a position table as a basis of hat functions.
+
+    ``times`` (k,) s non-decreasing in [0, period) (a repeated time is a jump: an eclipse boundary).  Returns
+    ``(nodes (m,) s strictly increasing from 0 to period, H (m, k))``: the value at node i of any table ``V`` (k,
+    ...) is ``H[i] @ V`` and values in between are linear, so ``H[:, j]`` sampled at ``nodes`` is the time function
+    of position j.  The second row of a jump is moved ``jump`` x period later (the load then ramps over that
+    time, ~6 ms for a 100-minute orbit); nodes at 0 and at the period close the table periodically (the segment
+    from the last position to the first one a period later)."""
+    t = np.array(times, float)
+    k = len(t)
+    _wrapped(t, np.zeros(k), period)  # validates
+    for i in range(1, k):  # loop over the positions: separate repeated times
+        if t[i] <= t[i - 1]:
+            t[i] = t[i - 1] + jump * period
+    if t[-1] >= period or (k > 1 and t[0] + period <= t[-1]):
+        raise Fem2TmmError("orbit table: the positions' times do not fit in one period")
+    eye = np.eye(k)
+    gap = t[0] + period - t[-1]
+    a = (period - t[-1]) / gap  # weight of the first position at time = period (and at 0)
+    edge = (1.0 - a) * eye[-1] + a * eye[0]
+    rows, nodes = [], []
+    if t[0] > 0:
+        nodes.append(0.0)
+        rows.append(edge)
+    nodes += list(t)
+    rows += list(eye)
+    nodes.append(period)
+    rows.append(edge if t[0] > 0 else eye[0])
+    return np.array(nodes), np.array(rows)
+
+
+def average_weights(times, period: float) -> np.ndarray:
+    """Weights (k,) with :func:`period_average` (times, V, period) = weights @ V for any table V (k, ...)."""
+    k = len(times)
+    return period_average(times, np.eye(k), period)
