@@ -376,10 +376,12 @@ def build_model(mesh: Mesh, case) -> FEModel:
     # ---- DOFs: nodes of thermal elements and joints; fixed-temperature groups and isothermal joints merged
     n_nodes = mesh.n_nodes
     iso_pairs, cond_pairs, cond_G, joint_report = _joint_links(mesh, case)
+    iso_pairs = _midside_isothermal(mesh, iso_pairs)
+    stencil, weights = _midside_stencil(mesh, cond_pairs)  # (l, 4) nodes and weights of each connection
     in_model = np.zeros(n_nodes, bool)
     in_model[cells[cells >= 0]] = True
     in_model[iso_pairs.ravel()] = True
-    in_model[cond_pairs.ravel()] = True
+    in_model[stencil.ravel()] = True
     node_boundary = np.full(n_nodes, -1, np.int64)
     fixed_specs = []
     specs = [(b.name, b.value, _boundary_nodes(mesh, case, b)) for b in case.boundaries if b.kind == "temperature"]
@@ -442,14 +444,21 @@ def build_model(mesh: Mesh, case) -> FEModel:
         coos.append(to_coo(element_dofs[sel, :nk], Ke, sel))
         vshares[sel, :nk] = volume_shares(mesh.points, c, t, thick, geom=geom)
     coo = ElementCOO.concatenate(coos)
-    links = ElementCOO(*(np.concatenate([a, b]) for a, b in zip(
-        (node_dof[cond_pairs[:, 0]], node_dof[cond_pairs[:, 1]], -cond_G, np.arange(len(cond_G))),
-        (node_dof[cond_pairs[:, 1]], node_dof[cond_pairs[:, 0]], -cond_G, np.arange(len(cond_G))))))
-    self_loop = links.rows == links.cols  # both ends merged (isothermal / fixed): no conductance
-    links = links.select(~self_loop)
-    diag = ElementCOO(links.rows, links.rows, -links.vals, links.elem)  # zero row sums
-    K = ElementCOO.concatenate([coo, links, diag]).tocsr(n_dof)
-    links = ElementCOO.concatenate([links, diag]) if len(links.rows) else None
+    # joint conductances: G wᵢ wⱼ over each connection's 4-node stencil (a mid-side end is the mean of its
+    # edge ends), zero row sums by construction
+    sd = node_dof[stencil]
+    i, j = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    vals = cond_G[:, None, None] * weights[:, :, None] * weights[:, None, :]
+    links = ElementCOO(sd[:, i].reshape(-1), sd[:, j].reshape(-1), vals.reshape(-1),
+                       np.repeat(np.arange(len(cond_G)), 16))
+    links = links.select(links.vals != 0)
+    lk = sp.csr_matrix((links.vals, (links.rows, links.cols)), shape=(n_dof, n_dof))
+    lk.sum_duplicates()
+    lk.eliminate_zeros()  # both ends merged (isothermal / fixed): no conductance left
+    lk = lk.tocoo()
+    links = ElementCOO(lk.row.astype(np.int64), lk.col.astype(np.int64), lk.data, np.zeros(lk.nnz, np.int64))
+    K = ElementCOO.concatenate([coo, links]).tocsr(n_dof)
+    links = links if len(links.rows) else None
     K.sum_duplicates()
     volume = scatter_shares(element_dofs, vshares, n_dof)
     rc = props["rho"][elements] * props["cp"][elements]
@@ -575,6 +584,59 @@ def _joint_links(mesh: Mesh, case):
     z = np.zeros((0, 2), np.int64)
     return (np.concatenate(iso) if iso else z, np.concatenate(cond) if cond else z,
             np.concatenate(G) if G else np.zeros(0), report)
+
+
+def _midside_map(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """(n_nodes,) edge ends a, b of each mid-side node (-1 elsewhere)."""
+    a = np.full(mesh.n_nodes, -1, np.int64)
+    b = np.full(mesh.n_nodes, -1, np.int64)
+    if mesh.midside is not None and len(mesh.midside):
+        a[mesh.midside[:, 0]] = mesh.midside[:, 1]
+        b[mesh.midside[:, 0]] = mesh.midside[:, 2]
+    return a, b
+
+
+def _midside_stencil(mesh: Mesh, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each conductance connection (p, q) as 4 nodes and weights w (Σw = 0): the connection's temperature
+    difference is w · T.  A mid-side end m (not solved for) is the mean of its edge ends: T_m = (T_a + T_b) / 2,
+    exact for the corner-node model of the quadratic element."""
+    a, b = _midside_map(mesh)
+    nodes = np.empty((len(pairs), 4), np.int64)
+    w = np.empty((len(pairs), 4))
+    for k, sign in ((0, 1.0), (1, -1.0)):
+        e = pairs[:, k]
+        mid = a[e] >= 0
+        nodes[:, 2 * k] = np.where(mid, a[e], e)
+        nodes[:, 2 * k + 1] = np.where(mid, b[e], e)
+        w[:, 2 * k] = sign * np.where(mid, 0.5, 1.0)
+        w[:, 2 * k + 1] = sign * np.where(mid, 0.5, 0.0)
+    return nodes, w
+
+
+def _midside_isothermal(mesh: Mesh, pairs: np.ndarray) -> np.ndarray:
+    """Isothermal connections with a mid-side end m replaced by connections to its edge ends a and b (exact when
+    the joint merges a and b too, as a spider over a whole hole edge does; otherwise a stronger constraint, with a
+    warning)."""
+    a, b = _midside_map(mesh)
+    mid = a[pairs] >= 0
+    if not mid.any():
+        return pairs
+    rows = np.flatnonzero(mid.any(axis=1))
+    extra = []
+    for k in (0, 1):
+        sel = rows[mid[rows, k]]
+        other = pairs[sel, 1 - k]
+        extra += [np.stack([other, a[pairs[sel, k]]], 1), np.stack([other, b[pairs[sel, k]]], 1)]
+    out = np.concatenate([pairs[~mid.any(axis=1)], *extra])
+    joined = np.zeros(mesh.n_nodes, bool)
+    joined[pairs.ravel()] = True
+    m = np.unique(pairs[mid])
+    loose = m[~(joined[a[m]] & joined[b[m]])]
+    if len(loose):
+        warnings.warn(f"{mesh.source}: isothermal joints reach mid-side GRIDs {format_ids(mesh.node_ids[loose])} whose "
+                      "edge ends they do not merge; those whole edges are merged instead (a stronger constraint)",
+                      stacklevel=3)
+    return out
 
 
 def _deck_fixed(mesh: Mesh, case_fixed: np.ndarray, in_model: np.ndarray) -> list:

@@ -1416,7 +1416,8 @@ def _lookup(keys: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarr
 
 
 def _check_midside(ms: np.ndarray, blocks, joints, gid: np.ndarray, source: str) -> np.ndarray:
-    """Unique mid-side rows; an error for mid-side GRIDs that are also corner nodes or joint nodes."""
+    """Unique mid-side rows; an error for mid-side GRIDs that are also corner nodes of other elements (bars
+    included; joints may reach mid-side GRIDs: the model expresses them through the edge ends)."""
     if not len(ms):
         return ms
     _, first = np.unique(ms[:, 0], return_index=True)
@@ -1424,14 +1425,12 @@ def _check_midside(ms: np.ndarray, blocks, joints, gid: np.ndarray, source: str)
     corner = np.zeros(len(gid), bool)
     for b in blocks:
         corner[b.cells.ravel()] = True
-    for j in joints:
-        corner[j.pairs.ravel()] = True
     clash = ms[corner[ms[:, 0]], 0]
     if len(clash):
         raise Fem2TmmError(
             f"{source}: GRIDs {format_ids(gid[clash])} are mid-side nodes of quadratic elements and also corner "
-            "nodes of other elements (bars, linear elements) or joint nodes; fem2tmm models quadratic elements by "
-            "their corner nodes, so connect those elements / joints to corner nodes"
+            "nodes of other elements (bars, linear elements); fem2tmm models quadratic elements by their corner "
+            "nodes, so connect those elements to corner nodes"
         )
     return ms
 
