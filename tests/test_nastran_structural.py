@@ -93,6 +93,8 @@ def test_plates_joined_by_a_cbar(tmp_path):
 def test_plates_joined_by_an_rbe2(tmp_path, treatment):
     # RBE2 from GRID 6 (plate A) to GRIDs 104 and 101 (plate B): two connections
     deck = write(tmp_path, two_plates([card("RBE2", 900, 6, 123456, 104, 101)]))
+    assert quiet(read_mesh, write(tmp_path, two_plates([card("RBE2", 900, 6, 123456, 101, "THRU", 104, 0.1)]),
+                                  name="thru.bdf")).joints[0].pairs.shape == (4, 2)  # 101 THRU 104, ALPHA 0.1
     joint = {"cards": ["RBE2"], "treatment": treatment}
     if treatment == "conductance":
         joint["conductance"] = 0.5
@@ -505,3 +507,20 @@ def test_isothermal_joint_over_a_quadratic_edge(tmp_path):
     deck = write(tmp_path, [*lines, card("RBE2", 50, 900, 1, 5)], name="d2.bdf")
     with pytest.warns(UserWarning, match=r"isothermal joints reach mid-side GRIDs 5 whose edge ends"):
         run(case_for(deck, [{"name": "p", "groups": ["PID 1"]}], bc, joints=joints))
+
+
+def test_nastran95_shell_aliases(tmp_path):
+    # NASTRAN-95 shells and CSHEAR with their property cards (PID, MID, T like PSHELL)
+    lines = [card("GRID", i + 1, "", float(i % 3), float(i // 3), 0.0) for i in range(9)]
+    pairs = [("CQUAD1", "PQUAD1"), ("CQUAD2", "PQUAD2"), ("CQDMEM", "PQDMEM"), ("CQDMEM1", "PQDMEM1"),
+             ("CQDMEM2", "PQDMEM2"), ("CSHEAR", "PSHEAR")]
+    for k, (c, p) in enumerate(pairs):
+        lines += [card(c, 10 + k, 10 + k, 1, 2, 5, 4), card(p, 10 + k, 1, 0.001 * (k + 1))]
+    for k, (c, p) in enumerate([("CTRIA1", "PTRIA1"), ("CTRIA2", "PTRIA2"), ("CTRMEM", "PTRMEM")]):
+        lines += [card(c, 20 + k, 20 + k, 2, 3, 6), card(p, 20 + k, 1, 0.01 * (k + 1))]
+    lines.append(card("MAT4", 1, 5.0))
+    mesh = quiet(read_nastran, write(tmp_path, lines))
+    for k, (c, p) in enumerate(pairs):
+        prop = mesh.properties[f"PID {10 + k}"]
+        assert (prop.card, prop.thickness, prop.conductivity) == (p, 0.001 * (k + 1), 5.0)
+    assert [b.type for b in mesh.blocks] == ["tri3", "quad4"] and mesh.properties["PID 22"].thickness == 0.03

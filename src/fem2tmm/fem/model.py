@@ -23,12 +23,13 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..case import Boundary, Case
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
 from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices, line_matrices,
                        scatter_shares, to_coo, volume_shares)
-from .elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
-from .geometry import cross, solid_jacobian
+from ..mesh.elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
+from ..mesh.geometry import cross, solid_jacobian
 
 _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
 
@@ -193,7 +194,7 @@ def _union(index_arrays, n: int) -> np.ndarray:
     return np.flatnonzero(mask)
 
 
-def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
+def _part_elements(mesh: Mesh, case: Case) -> tuple[list[PartInfo], np.ndarray]:
     owner = np.full(mesh.n_elements, -1, np.int64)
     parts = []
     for p in case.parts:
@@ -226,7 +227,7 @@ def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
     return parts, owner
 
 
-def _properties(mesh: Mesh, case, parts, owner) -> dict[str, np.ndarray]:
+def _properties(mesh: Mesh, case: Case, parts, owner) -> dict[str, np.ndarray]:
     """Per-element conductivity, density, specific heat, thickness from the case, else from the mesh."""
     m = mesh.n_elements
     props = {k: np.full(m, np.nan) for k in ("k", "rho", "cp", "t", "area")}
@@ -362,9 +363,8 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
 
 
 # ------------------------------------------------------------------------------------------ builder
-def build_model(mesh: Mesh, case) -> FEModel:
+def build_model(mesh: Mesh, case: Case) -> FEModel:
     """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring)."""
-    mesh.validate()
     parts, owner = _part_elements(mesh, case)
     props = _properties(mesh, case, parts, owner)
     elements = np.flatnonzero(owner >= 0)
@@ -528,7 +528,7 @@ def build_model(mesh: Mesh, case) -> FEModel:
                    extra_space=extra_space)
 
 
-def _joint_links(mesh: Mesh, case):
+def _joint_links(mesh: Mesh, case: Case):
     """Decide every joint element's treatment from ``case.joints``.
 
     Returns ``(iso_pairs (q, 2), cond_pairs (l, 2), cond_G (l,) W/K, report)``; raises one error listing the
@@ -689,7 +689,7 @@ def _deck_nodal_loads(mesh: Mesh, dl, elements: np.ndarray, vshares: np.ndarray)
     return out, eps_area
 
 
-def _check_load_on_fixed(mesh: Mesh, case, b, q: np.ndarray, fixed, fixed_dofs: np.ndarray) -> None:
+def _check_load_on_fixed(mesh: Mesh, case: Case, b: Boundary, q: np.ndarray, fixed, fixed_dofs: np.ndarray) -> None:
     """A power/flux load ``q`` (n_dof,) W that lands on fixed-temperature nodes goes straight into the boundary:
     an error when all of it does (it cannot heat anything: surely a wrong group), a warning with the watts when
     more than 1 % does (a heated panel with a fixed edge legitimately puts the edge nodes' share there)."""
@@ -713,20 +713,20 @@ def _check_load_on_fixed(mesh: Mesh, case, b, q: np.ndarray, fixed, fixed_dofs: 
                   f"{names} and flow straight into it", stacklevel=3)
 
 
-def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:
+def _boundary_nodes(mesh: Mesh, case: Case, b: Boundary) -> np.ndarray:
     nodes = [mesh.group(g, where=f"{case.source}: [[boundary]] {b.name!r}.groups").nodes for g in b.groups]
     if b.nodes:
         nodes.append(mesh.node_index(b.nodes, where=f"{case.source}: [[boundary]] {b.name!r}.nodes"))
     return np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
 
 
-def boundary_load(model: FEModel, case, b) -> np.ndarray:
+def boundary_load(model: FEModel, case: Case, b: Boundary) -> np.ndarray:
     """Nodal loads (n_dof,) W of one power or flux boundary ``b`` of ``case`` (with its ``value``) on ``model``;
     with ``value = 1`` it is the load pattern a time table multiplies."""
     return _load_vector(model.mesh, case, b, model.node_dof, model.n_dof)
 
 
-def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
+def _load_vector(mesh: Mesh, case: Case, b: Boundary, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
     """Nodal loads (n_dof,) W of a power or flux boundary."""
     where = f"{case.source}: [[boundary]] {b.name!r} ({b.kind})"
     el = _union([mesh.group(g, where=where).elements for g in b.groups], mesh.n_elements)
@@ -763,7 +763,7 @@ def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.nd
     return np.bincount(node_dof[ok], weights=nodal[ok], minlength=n_dof)
 
 
-def _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof, blocks) -> Faces:
+def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, node_dof, n_dof, blocks) -> Faces:
     shell = np.isin(types, [TYPE_CODE[t] for t in SHELL_TYPES])
     pos = np.arange(len(elements))
     sf = cells[shell, :4].copy()

@@ -8,8 +8,8 @@ Each case runs in a fresh Python subprocess so that its peak resident memory (``
 
 Goals (issue 3): 10⁶ -> 1000 in < 60 s and < 4 GB, 10⁵ -> 100 in < 5 s.
 
-:func:`bench_seeding` compares weighted k-means variants (the choice made in :mod:`.seeding`).
-Command line: ``python -m fem2tmm.cluster.benchmarks [1e5 1e6 tet3e5]`` or ``... seeding``.
+:func:`bench_seeding` compares weighted k-means variants (the choice made in :mod:`fem2tmm.cluster.seeding`).
+Command line: ``python -m benchmarks.cluster [1e5 1e6 tet3e5]`` or ``... seeding`` (repository root).
 """
 
 from __future__ import annotations
@@ -29,13 +29,13 @@ CASES = {
 _CHILD = r"""
 import json, resource, sys, time
 import numpy as np
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.cluster import PartInput, cluster_parts
 kind, n, k = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 if kind == "shell":
-    mesh = meshes.plate(1.0, 1.0, n, n)
+    mesh = shapes.plate(1.0, 1.0, n, n)
 else:
-    mesh = meshes.box(1.0, 1.0, 1.0, n, n, n, kind="solid", element="tet4")
+    mesh = shapes.box(1.0, 1.0, 1.0, n, n, n, kind="solid", element="tet4")
 rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 part = PartInput("bench", kind, np.arange(mesh.n_elements), mesh.padded_cells, mesh.element_types, k)
 t = time.perf_counter()
@@ -112,7 +112,7 @@ def bench_seeding(cases=((300_000, 1000), (1_000_000, 1000)), methods=("weighted
 
     from scipy.spatial import cKDTree
 
-    from .seeding import weighted_kmeans
+    from fem2tmm.cluster.seeding import weighted_kmeans
 
     rows = []
     for n, k in cases:
