@@ -13,7 +13,7 @@ from scipy.integrate import quad
 
 from fem2tmm import Fem2TmmError, meshes
 from fem2tmm.constants import SIGMA
-from fem2tmm.radiation.orbit import (ASTRONOMICAL_UNIT, EARTH, SUN_RADIUS, Attitude, Orbit, Planet, julian_date,
+from fem2tmm.orbit import (ASTRONOMICAL_UNIT, EARTH, SUN_RADIUS, Attitude, Orbit, Planet, julian_date,
                                      sun_ephemeris)
 from fem2tmm.radiation.orbital import orbital_fluxes, trace_orbit
 from fem2tmm.radiation.planet import planet_fluxes, planet_rays

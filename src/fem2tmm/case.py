@@ -206,8 +206,8 @@ class OrbitSettings:
     """``[orbit]`` (with ``[orbit.planet]`` and ``[orbit.attitude]``): the orbit, the planet, the Sun, the
     spacecraft's attitude and how the orbital fluxes are traced and used (DESIGN §4.5, issue 18).
 
-    ``orbit`` an :class:`~fem2tmm.radiation.orbit.Orbit` (positions, eclipses, Sun), ``attitude`` an
-    :class:`~fem2tmm.radiation.orbit.Attitude`; ``kinds`` of fluxes among solar, albedo, ir; ``rays_per_face``
+    ``orbit`` an :class:`~fem2tmm.orbit.Orbit` (positions, eclipses, Sun), ``attitude`` an
+    :class:`~fem2tmm.orbit.Attitude`; ``kinds`` of fluxes among solar, albedo, ir; ``rays_per_face``
     rays per FE face side and position (planet and solar; per FE face of each super face on super faces);
     ``fluxes_on`` "detailed" (traced on the FE faces, the reduced model takes them through the exact power
     distribution) or "super_faces" (traced on the super faces, uniform over each super node); ``steady``
@@ -631,7 +631,7 @@ class _Parser:
                                                            default=_default(Environment, "solar_rays_per_face")))
 
     def orbit(self, d, environment) -> OrbitSettings:
-        from .radiation.orbit import Attitude, Orbit, Planet
+        from .orbit import Attitude, Orbit, Planet
 
         w = "[orbit]"
         d = self.table(d, "[orbit]", {"altitude", "semi_major_axis", "eccentricity", "inclination", "raan",

@@ -3,7 +3,7 @@ the solar disc in penumbra), planet albedo and planet infrared (planet-focused H
 multiple reflections by the spacecraft itself (thesis §2.4).
 
 One position at a time the Sun, the spacecraft's position and the nadir are expressed in the mesh frame through
-the :class:`~fem2tmm.radiation.orbit.Attitude`, and the tracers of :mod:`~fem2tmm.radiation.solar` and
+the :class:`~fem2tmm.orbit.Attitude`, and the tracers of :mod:`~fem2tmm.radiation.solar` and
 :mod:`~fem2tmm.radiation.planet` run on one ray scene.  Each distinct true anomaly is traced once: the two rows of
 an eclipse boundary share their albedo and infrared, and their solar power is the lit one scaled by the lit
 fraction (the solar tracer is linear in the flux).
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import Fem2TmmError
-from .orbit import Attitude, Orbit, OrbitPositions
+from ..orbit import Attitude, Orbit, OrbitPositions
 from .planet import optics_surface, trace_planet
 from .solar import trace_solar
 from .surfaces import Surface, TriangleScene, pad_faces
@@ -29,7 +29,7 @@ KINDS = ("solar", "albedo", "ir")
 class OrbitalFluxes:
     """Heat fluxes at the k positions of an orbit on n emitting units (sides, faces or groups), all powers in W.
 
-    ``positions`` the orbit's :class:`~fem2tmm.radiation.orbit.OrbitPositions` (true anomaly, time, lit fraction,
+    ``positions`` the orbit's :class:`~fem2tmm.orbit.OrbitPositions` (true anomaly, time, lit fraction,
     eclipse flag, event); ``sun`` (k, 3) and ``nadir`` (k, 3) unit vectors in the mesh frame, ``position`` (k, 3)
     m the mesh origin from the planet centre in the mesh frame, ``attitude`` (k, 3, 3) mesh -> inertial rotations.
     ``incident[kind]`` (k, n) power arriving directly from the source (Sun, lit planet, planet IR) and
@@ -163,8 +163,8 @@ def orbital_fluxes(points, faces, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     """Solar, albedo and planet-infrared powers on the front side of each face along an orbit (DESIGN §4.5).
 
     ``points`` (n, 3) m, ``faces`` (m, 3) or (m, 4) int (front side = right-hand normal; front sides absorb and
-    reflect, back sides stop rays).  ``orbit`` an :class:`~fem2tmm.radiation.orbit.Orbit` (``Orbit.make``),
-    ``attitude`` an :class:`~fem2tmm.radiation.orbit.Attitude` (``Attitude.make``).  ``kinds`` any of "solar",
+    reflect, back sides stop rays).  ``orbit`` an :class:`~fem2tmm.orbit.Orbit` (``Orbit.make``),
+    ``attitude`` an :class:`~fem2tmm.orbit.Attitude` (``Attitude.make``).  ``kinds`` any of "solar",
     "albedo", "ir".  ``absorptivity`` (solar band: direct solar and albedo), ``emissivity`` (infrared band: planet
     IR), ``specular`` fraction of the reflected energy: scalars or (m,).  ``rays_per_face`` origins per face and
     position (or ``ray_density`` rays per m²); ``sampling`` "halton" or "random"; ``seed``.

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from ..constants import SIGMA
-from ..errors import Fem2TmmError
+from .constants import SIGMA
+from .errors import Fem2TmmError
 
 #: m, IAU 2012
 ASTRONOMICAL_UNIT = 149_597_870_700.0
