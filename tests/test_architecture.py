@@ -157,3 +157,9 @@ def test_bench_outside_a_checkout_is_a_clear_user_error(tmp_path, monkeypatch, c
     (tmp_path / "benchmarks").mkdir()
     (tmp_path / "benchmarks" / "run.py").write_text("")
     assert cli._checkout() == tmp_path  # found from the working directory
+
+
+def test_only_the_pipeline_imports_the_stage_adapters():
+    users = sorted({str(p.relative_to(SRC)) for p in PKG.rglob("*.py") for _, mod in _imports(SRC, p)
+                    if mod == "fem2tmm.stages" or mod.startswith("fem2tmm.stages.")})
+    assert users == ["fem2tmm/pipeline.py"], users
