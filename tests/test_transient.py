@@ -353,3 +353,28 @@ def test_transient_without_capacitance_is_refused_before_computing():
                      materials={"k": {"conductivity": 100.0}}, transient={"end": 10.0, "step": 1.0})
     with pytest.raises(Fem2TmmError, match=r"\[transient\] needs the capacitance.*'p'"):
         run(case, mesh=meshes.plate(0.1, 0.1, 2, 2))
+
+
+def test_pipeline_periodic_transient():
+    # [transient] periodic through `run`: a radiating plate under a sinusoidal flux (table) reaches its periodic
+    # state in both models; over the last period the stored energy returns to within the last period change
+    from fem2tmm.pipeline import run
+
+    P = 6000.0
+    t = np.linspace(0.0, P, 61)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 2e-3, "front": "black",
+                       "back": "black", "super_nodes": 2}],
+                     [{"kind": "flux", "groups": ["plate"],
+                       "value": [[float(a), float(300 * (1 + np.sin(2 * np.pi * a / P)))] for a in t]}],
+                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                     transient={"end": P, "step": 100.0, "output_every": 600.0, "periodic": True,
+                                "periodic_tolerance": 1e-3, "initial_temperature": 0.0})
+    res = run(case, mesh=meshes.plate(0.2, 0.1, 10, 5))
+    tr = res.summary["transient"]
+    assert tr["periods"] >= 3 and tr["period_changes_K"][-1] < 1e-3
+    for k in ("reduced", "detailed"):
+        e = tr["energy_balance"][k]
+        assert e["relative"] < ENERGY_RTOL and e["applied_J"] == pytest.approx(0.02 * 300 * P, rel=1e-12)
+        assert tr["solver"][k]["period_changes_K"][-1] < 1e-3
+        # C·ΔT over one period is bounded by the last period change (1e-3 K) times the capacitance (97 J/K)
+        assert abs(e["stored_J"]) < 2700 * 900 * 2e-3 * 0.02 * 1e-3

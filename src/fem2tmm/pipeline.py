@@ -83,7 +83,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
     sun = case.has_sun and radiating
     orbit = case.orbit if radiating else None
     surface = radiation_surface(model) if (trace or sun or orbit) else None
-    if surface is not None:
+    if trace:  # the exchange-factor kernels (a Sun-only run compiles fewer and is not announced)
         seconds = compile_estimate()
         if seconds > 0:
             prog.note(f"compiling the ray tracer's kernels (first run after an install, ~{seconds:.0f} s)")

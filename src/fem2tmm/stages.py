@@ -523,19 +523,32 @@ def fixed_series(T_fixed: np.ndarray, rows: dict[str, int], case: Case) -> Serie
     return Series(base, tuple(pats), tuple(tabs))
 
 
+class _Clock:
+    """Wall and CPU time of one part of a stage into ``timings[name]`` and ``timings[name + "_cpu"]`` (s)."""
+
+    def __init__(self, timings: dict, name: str):
+        import time
+
+        self.timings, self.name, self.time = timings, name, time
+        self.wall, self.cpu = time.perf_counter(), time.process_time()
+
+    def stop(self) -> None:
+        self.timings[self.name] = self.time.perf_counter() - self.wall
+        self.timings[self.name + "_cpu"] = self.time.process_time() - self.cpu
+
+
 def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_reduced: np.ndarray | None = None,
                   q_recover: np.ndarray | None = None, detailed: SteadyProblem | None = None,
                   T_detailed: np.ndarray | None = None, orbit: "OrbitLoads | None" = None) -> TransientRun:
     """The ``[transient]`` stage: the reduced model in time with recovery at every output time, and the detailed
-    model when ``detailed`` (its steady problem, radiation and solar loads included) is given.
+    model when ``detailed`` (its steady problem, radiation and solar loads included) is given.  ``timings`` get
+    the wall and CPU seconds of each part (``reduced``, ``recover``, ``detailed``, and ``..._cpu``).
 
     ``T_reduced`` / ``T_detailed`` (K) the steady solutions, used when ``initial_temperature = "steady"``;
     ``q_recover`` (n_dof,) W the detailed loads at the start that the recovery uses (applied + detailed solar).
     ``orbit``: the orbital loads (:class:`OrbitLoads`); the steady loads hold their orbit average, the transient
     follows them in time (periodic with the orbital period from ``[transient] start``).
     """
-    import time
-
     from .fem.model import consistent_capacity
 
     spec = case.transient
@@ -548,7 +561,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
         return T_steady if spec.initial_temperature == "steady" else spec.initial_temperature
 
     if rm is not None:
-        t0 = time.perf_counter()
+        clock = _Clock(run.timings, "reduced")
         rows = {str(rm.names[i]): int(i) for i in np.flatnonzero(rm.fixed)}
         Q_sn = load_series(rm.Q, tables, rm.reduction.distribute)
         if orbit is not None:
@@ -558,17 +571,17 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
                                 GR=rm.GR, names=tuple(rm.names))
         run.reduced_problem = prob
         run.reduced = solve_transient(prob, settings, initial(T_reduced))
-        run.timings["reduced"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
+        clock.stop()
+        clock = _Clock(run.timings, "recover")
         q = load_series(model.Q if q_recover is None else q_recover, tables)
         if orbit is not None and orbit.recover_dof:
             q = orbit.add(q, orbit.q_dof, spec.start)
         if settings.periodic:
             q = q.periodic(settings.start, settings.end - settings.start)
         run.T_recovered = recover_series(rm.reduction.recover, run.reduced.T, q, run.times)
-        run.timings["recover"] = time.perf_counter() - t0
+        clock.stop()
     if detailed is not None:
-        t0 = time.perf_counter()
+        clock = _Clock(run.timings, "detailed")
         C = model.capacity if spec.capacitance == "lumped" else consistent_capacity(model)
         rows = {g.name: g.dof for g in model.fixed}
         Q_det = load_series(detailed.Q, tables)
@@ -578,7 +591,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
                                 T_fixed=fixed_series(detailed.T_fixed, rows, case), g_space=detailed.g_space,
                                 T_sink=sink, GR=detailed.GR, faced=detailed.faced)
         run.detailed = solve_transient(prob, settings, initial(T_detailed))
-        run.timings["detailed"] = time.perf_counter() - t0
+        clock.stop()
     return run
 
 

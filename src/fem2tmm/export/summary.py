@@ -283,6 +283,17 @@ def summary_table(s: dict) -> str:
     for k in ("detailed", "reduced"):
         if eb.get(k):
             rows.append((f"energy balance ({k})", f"{eb[k]['imbalance_W']:.3e} W (relative {eb[k]['relative']:.1e})"))
+    tr = s.get("transient") or {}
+    if tr:
+        rows.append(("transient", f"{tr['method']}, {tr['start_s']:g} to {tr['end_s']:g} s, {len(tr['times_s'])} output "
+                     "times" + (f", periodic after {tr['periods']} periods" if tr.get("periods") else "")))
+        t_acc = tr.get("accuracy") or {}
+        if t_acc:
+            rows.append(("transient: reduced vs detailed", f"RMS {t_acc['rms_K']:.4f} K, max {t_acc['max_K']:.4f} K at "
+                         f"t = {t_acc['time_of_max_s']:g} s (over space and time)"))
+        for k, e in (tr.get("energy_balance") or {}).items():
+            rows.append((f"transient energy ({k})", f"stored {e['stored_J']:.4g} J, imbalance {e['imbalance_J']:.2e} J "
+                         f"(relative {e['relative']:.1e})"))
     t = s.get("timings_s") or {}
     if t:
         rows.append(("time", ", ".join(f"{k} {v:.2f} s" for k, v in t.items())))
