@@ -20,6 +20,8 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
+
 import numpy as np
 
 from .._version import __version__
@@ -121,21 +123,47 @@ def check_output_place(out: str | Path) -> Path:
     return out
 
 
-def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = None) -> Path:
-    """Write every output into a temporary sibling folder, then move it to ``out`` atomically.
+def write_folder(out: str | Path, fill: Callable[[Path], None]) -> Path:
+    """Write an output folder atomically: ``fill(tmp)`` writes every file into a temporary sibling folder, which
+    gets the ``.fem2tmm`` marker and then replaces ``out`` (a folder fem2tmm wrote) or becomes it.
 
-    ``out`` must pass :func:`check_output_place` (checked again here, just before anything is replaced).
-    ``timings`` (stage -> s) receives ``"write"``: the time spent writing (the report and ``summary.json``
-    show the same figure, measured just before they are composed)."""
+    ``out`` must pass :func:`check_output_place` (checked again just before anything is replaced); on any error the
+    temporary folder is removed and ``out`` is untouched.  Returns ``out`` absolute."""
     out = check_output_place(out)
     parent = out.parent
     parent.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
     umask = os.umask(0)
     os.umask(umask)
     os.chmod(tmp, 0o777 & ~umask)
     try:
+        fill(tmp)
+        (tmp / MARKER).write_text(json.dumps({"version": __version__, "files": _entries(tmp)}, indent=1),
+                                  encoding="utf-8")
+        check_output_place(out)  # nothing foreign appeared meanwhile
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
+            os.replace(out, old / "x")
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = None) -> Path:
+    """Write every output into a temporary sibling folder, then move it to ``out`` atomically
+    (:func:`write_folder`).
+
+    ``out`` must pass :func:`check_output_place` (checked again here, just before anything is replaced).
+    ``timings`` (stage -> s) receives ``"write"``: the time spent writing (the report and ``summary.json``
+    show the same figure, measured just before they are composed)."""
+    t0 = time.perf_counter()
+
+    def fill(tmp: Path) -> None:
         model, mesh = result.model, result.mesh
         T = result.T_nodes
         point_data = {"temperature": T - KELVIN}
@@ -156,27 +184,17 @@ def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = 
         write_orbit_npz(tmp, result)
         if result.transient is not None:
             write_transient(tmp, result)
+
         def written() -> None:  # the write time so far, into the report's and summary.json's timing tables
             result.summary.setdefault("timings_s", {})["write"] = time.perf_counter() - t0
 
         write_report(tmp, result, _case_text(result.case), before_html=written)
         written()
         (tmp / "summary.json").write_text(json.dumps(_jsonable(result.summary), indent=2), encoding="utf-8")
-        (tmp / MARKER).write_text(json.dumps({"version": __version__, "files": _entries(tmp)}, indent=1),
-                                  encoding="utf-8")
-        check_output_place(out)  # nothing foreign appeared meanwhile
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
-            os.replace(out, old / "x")
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-        if timings is not None:
-            timings["write"] = time.perf_counter() - t0
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+
+    out = write_folder(out, fill)
+    if timings is not None:
+        timings["write"] = time.perf_counter() - t0
     return out
 
 

@@ -204,6 +204,16 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
         rows.append(("recovered vs detailed", f"RMS {acc['rms_K']:.4g} K, max {acc['max_K']:.4g} K over {acc['nodes']:,} nodes"))
+    pn = s.get("positive_network")
+    if pn:
+        text = (f"{pn['links']} positive GL between touching super nodes (exact: {pn['exact_links']} GL, "
+                f"{pn['exact_negative_links']} negative); max {pn['T_vs_exact_K']['max']:.3g} K from the exact "
+                f"reduction; criteria {'met' if pn['criteria']['met'] else 'NOT met'}")
+        err = pn.get("recovered_error_K")
+        if err:
+            text += (f"; recovered RMS {err['positive']['rms']:.4g} K against {err['exact']['rms']:.4g} K for the "
+                     "exact reduction")
+        rows.append(("positive network", text))
     tr = s.get("transient") or {}
     if tr:
         t_acc = tr.get("accuracy") or {}

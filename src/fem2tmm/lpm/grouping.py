@@ -94,14 +94,11 @@ def sizing_matrix(GL: sp.spmatrix, C: np.ndarray, coordinates: np.ndarray | None
 
 def dimensionless(GL: sp.spmatrix, KS: sp.spmatrix) -> sp.csr_matrix:
     """K̃ = GL / K^S element-wise where K^S > 0 (eq. 35), (n, n) sparse symmetric."""
-    KS = sp.csr_matrix(KS)
-    GLc = sp.csr_matrix(GL)
-    mask = KS.copy()
-    mask.data = np.ones_like(mask.data)
-    num = GLc.multiply(mask).tocsr()
-    coo = num.tocoo()
-    ks = np.asarray(KS[coo.row, coo.col]).ravel()
-    return sp.csr_matrix((coo.data / ks, (coo.row, coo.col)), shape=GLc.shape)
+    inv = sp.csr_matrix(KS, dtype=float, copy=True)
+    inv.data = 1.0 / inv.data
+    out = sp.csr_matrix(GL, dtype=float).multiply(inv).tocsr()
+    out.eliminate_zeros()
+    return out
 
 
 def isolate_boundaries(Kt: sp.spmatrix, GL: sp.spmatrix, boundary: np.ndarray,
@@ -430,7 +427,9 @@ def sweep(grouper: Grouper, pf_values, dtmax_values) -> Sweep:
     return Sweep(pf=pf_values, dtmax=dt_values, ratio=ratio, passed=passed, max_delta=md, n_c=nc, best=best)
 
 
-__all__ = ["Criteria", "CaseCheck", "Grouper", "Grouping", "MU_DEFAULT", "Sweep", "adjacency", "assemble_reduced", "check_case",
-           "compact", "compact_case", "components", "dimensionless", "flow_errors", "group", "isolate_boundaries",
-           "known_positions", "prepare", "reduction_ratio", "restriction", "sizing_matrix", "sum_couplings", "sweep",
-           "weighted_mean"]
+__all__ = [
+    "Criteria", "CaseCheck", "Grouper", "Grouping", "MU_DEFAULT", "Sweep", "adjacency", "assemble_reduced",
+    "check_case", "compact", "compact_case", "components", "dimensionless", "flow_errors", "group",
+    "isolate_boundaries", "known_positions", "prepare", "reduction_ratio", "restriction", "sizing_matrix",
+    "sum_couplings", "sweep", "weighted_mean",
+]
