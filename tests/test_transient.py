@@ -378,3 +378,21 @@ def test_pipeline_periodic_transient():
         assert tr["solver"][k]["period_changes_K"][-1] < 1e-3
         # C·ΔT over one period is bounded by the last period change (1e-3 K) times the capacitance (97 J/K)
         assert abs(e["stored_J"]) < 2700 * 900 * 2e-3 * 0.02 * 1e-3
+
+
+def test_consistent_capacitance_of_a_bar(tmp_path):
+    # a CBAR (A = 3e-4 m², L = 1 m, ρc = 2700·900) between two Nastran plates: its consistent block is
+    # ρ c A L / 6 [[2, 1], [1, 2]] (exact ∫NᵢNⱼ of linear shape functions) and every row sums to the lumped value
+    from fem2tmm.io import read_mesh
+    from test_nastran_structural import HEAT_FIX, PLATES, card, case_for, quiet, two_plates, write
+
+    deck = write(tmp_path, two_plates([card("CBAR", 900, 3, 6, 104, 0.0, 0.0, 1.0), card("PBAR", 3, 30, 3e-4),
+                                       card("MAT4", 30, 150.0, 900.0, 2700.0)]))
+    mesh = quiet(read_mesh, deck)
+    model = build_model(mesh, case_for(deck, [*PLATES, {"name": "bar", "groups": ["PID 3"], "super_nodes": 1}],
+                                       HEAT_FIX))
+    C = consistent_capacity(model)
+    np.testing.assert_allclose(np.asarray(C.sum(axis=1)).ravel(), model.capacity, rtol=1e-13)
+    i6, i104 = model.node_dof[mesh.node_index([6, 104], where="test")]
+    # GRIDs 6 and 104 share only the bar (the plates do not touch), so their coupling is the bar's alone
+    assert C[i6, i104] == pytest.approx(2700.0 * 900.0 * 3e-4 * 1.0 / 6.0, rel=1e-12)

@@ -10,6 +10,7 @@ See DESIGN §4.2 for an annotated example.
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
@@ -202,6 +203,16 @@ class TransientSpec:
 
 
 @dataclass(frozen=True)
+class ComputeSettings:
+    """Where the work units run (``[compute]``, or ``fem2tmm run --scheduler``): ``scheduler`` "serial"
+    (in-process, no Dask), "local" (a ``dask.distributed.LocalCluster`` of ``workers`` processes, default one per
+    core) or the address of a running Dask scheduler ("tcp://host:8786")."""
+
+    scheduler: str = "serial"
+    workers: int | None = None
+
+
+@dataclass(frozen=True)
 class OrbitSettings:
     """``[orbit]`` (with ``[orbit.planet]`` and ``[orbit.attitude]``): the orbit, the planet, the Sun, the
     spacecraft's attitude and how the orbital fluxes are traced and used (DESIGN §4.5, issue 18).
@@ -257,9 +268,12 @@ class Case:
     clustering: ClusteringSettings = field(default_factory=ClusteringSettings)
     reference: ReferenceSettings = field(default_factory=ReferenceSettings)
     solver: SolverSettings = field(default_factory=SolverSettings)
+    compute: ComputeSettings = field(default_factory=ComputeSettings)
     transient: TransientSpec | None = None
     orbit: OrbitSettings | None = None
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    base_dir: Path = field(default=Path("."), repr=False, compare=False)  # relative paths of the file start here
+    name: str = ""  # the load case ([[cases]] name), "" for a single-case file
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Case":
@@ -385,8 +399,12 @@ class _Parser:
     def case(self, data: Mapping[str, Any]) -> Case:
         top = self.table(data, "case", {"mesh", "materials", "optics", "parts", "boundary", "environment",
                                         "radiation", "reduction", "clustering", "reference", "solver", "joints",
-                                        "transient", "orbit"},
+                                        "transient", "compute", "cases", "sweep", "orbit"},
                          {"parts"})
+        from .loadcases import expand, has_cases
+
+        if has_cases(top):
+            expand(top, self.src)  # names, merge addresses and sweep tables checked before any computation
         mesh = self.mesh(top.get("mesh", {}))
         materials = {}
         for name, m in self.table(top.get("materials", {}), "[materials]", set(top.get("materials", {}) or {})).items():
@@ -437,9 +455,11 @@ class _Parser:
             clustering=self.clustering(top.get("clustering", {})),
             reference=self.reference(top.get("reference", {})),
             solver=self.solver(top.get("solver", {})),
+            compute=self.compute(top.get("compute", {})),
             transient=transient,
             orbit=orbit,
             raw=dict(data),
+            base_dir=self.base,
         )
 
     def mesh(self, d) -> MeshSpec:
@@ -750,6 +770,13 @@ class _Parser:
         return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")), rays_per_face=rpf, ray_density=dens,
                                  noise=self.boolean(d, "noise", w, _default(ReferenceSettings, "noise")))
 
+    def compute(self, d) -> ComputeSettings:
+        w = "[compute]"
+        d = self.table(d, w, {"scheduler", "workers"})
+        return ComputeSettings(scheduler=check_scheduler(self.string(d, "scheduler", w, default="serial"),
+                                                         f"{self.src}: {w}.scheduler"),
+                               workers=self.number(d, "workers", w, lo=1, integer=True))
+
     def solver(self, d) -> SolverSettings:
         w = "[solver]"
         d = self.table(d, w, {"tolerance", "max_iterations"})
@@ -788,3 +815,14 @@ class _Parser:
             periodic_tolerance=self.number(d, "periodic_tolerance", w, default=_default(TransientSpec, "periodic_tolerance"),
                                            lo=0, lo_open=True),
         )
+
+
+_ADDRESS = re.compile(r"^(tcp|tls|ucx|ws|wss)://[^\s/]+:\d+/?$")
+
+
+def check_scheduler(value: str, where: str) -> str:
+    """``value`` if it names a scheduler: "serial", "local" or an address "tcp://host:port"."""
+    if value in ("serial", "local") or _ADDRESS.match(value):
+        return value
+    raise Fem2TmmError(f"{where}: expected 'serial', 'local' or a Dask scheduler address like "
+                       f"'tcp://host:8786', got {value!r}")

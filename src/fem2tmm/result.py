@@ -57,6 +57,7 @@ class Result:
     # the reference's own noise: {"rms_K", "max_K"} from two independent half references, and their number
     reference_noise: dict | None = None
     reference_halves: int | None = None
+    cache: dict[str, str] | None = None  # stage -> "computed" | "reused" (fem2tmm.cache; summary.json "cache")
     # orbit ([orbit]): fluxes traced on the FE faces (per face) and on the super faces (per side), how the reduced
     # model took them, the orbit-averaged loads, and per-position steady temperatures (k, n_dof) K
     orbit_detailed: OrbitalFluxes | None = None
@@ -84,3 +85,16 @@ class Result:
     def T_nodes(self) -> np.ndarray:
         """The result temperatures (K) of every mesh node: recovered when reduced, detailed otherwise."""
         return self.T_recovered_nodes if self.T_recovered is not None else self.T_detailed_nodes
+
+
+@dataclass
+class CasesResult:
+    """What a run of a case file with ``[[cases]]``/``[sweep]`` produced: ``results`` {case name: :class:`Result`}
+    in file order, ``parameters`` {case name: {dotted key: value}} set by a sweep, ``summary`` the dict written to
+    the top ``summary.json`` (per-case table, envelope), ``out`` the output folder."""
+
+    case: Case
+    results: dict[str, Result]
+    parameters: dict[str, dict] = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+    out: Path | None = None

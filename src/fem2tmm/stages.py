@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
+from .cache import digest
 from .case import Case, RadiationSettings
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import Fem2TmmError, InternalError
@@ -96,6 +97,16 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
     """
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
+    if labels is not None:
+        return from_labels(*args, labels, feature_angle=kw["feature_angle"], where="run(labels=...)")
+    return cluster_parts(*args, **kw, progress=progress)
+
+
+def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True
+                    ) -> tuple[tuple, dict]:
+    """The arguments of :func:`~fem2tmm.cluster.cluster_parts` for ``model`` (what the clustering depends on);
+    ``check_counts``: refuse impossible super-node counts first (:func:`_check_count`)."""
     kept = kept_dofs(model, case)
     determined = determined_elements(model, kept)
     one_node = np.zeros(model.n_dof, bool)  # DOFs that are super nodes of their own (fixed groups, kept nodes)
@@ -106,7 +117,7 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
         rows = np.flatnonzero((model.element_part == p) & ~determined)
         if not len(rows):
             continue  # the whole part is held at fixed temperatures
-        if labels is None:
+        if check_counts:
             _check_count(case, info, model.element_dofs[rows], one_node)
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
@@ -115,12 +126,9 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
                                flux=None if (flux is None or info.kind == "line")
                                else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
-    if labels is not None:
-        return from_labels(model.mesh.points, parts, model.mesh.n_elements, labels, feature_angle=cs.feature_angle,
-                           where="run(labels=...)")
-    return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
-                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress,
-                         balance=cs.balance, method=cs.method)
+    return ((model.mesh.points, parts, model.mesh.n_elements),
+            {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
+             "balance": cs.balance, "method": cs.method})
 
 
 def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarray) -> None:
@@ -435,6 +443,13 @@ def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clus
     """
     if not any(p.quadric for p in case.parts):
         return None, None
+    quadrics, qof, report = fit_quadrics(*quadric_regions(model, case, clustering))
+    return QuadricScene(surface, qof, quadrics), report
+
+
+def quadric_regions(model: FEModel, case: Case, clustering: Clustering | None = None):
+    """What the quadric fits depend on: ``(points (n, 3), faces (f, 4), region_of_face (f,) int (-1: flat),
+    names {region: label})`` (see :func:`quadric_scene`)."""
     f = model.faces
     mesh = model.mesh
     tagged_el = np.zeros(mesh.n_elements, bool)
@@ -457,10 +472,66 @@ def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clus
     for r in np.unique(region_of_face[region_of_face >= 0]):
         part = case.parts[int(f.part[np.flatnonzero(region_of_face == r)[0]])].name
         names[int(r)] = f"part {part!r} region {int(r)}"
-    quadrics, qof = fit_regions(model.mesh.points, f.nodes, region_of_face, names=names)
+    return model.mesh.points, f.nodes, region_of_face, names
+
+
+def fit_quadrics(points, faces, region_of_face, names):
+    """``(quadrics, quadric_of_face, report)``: one fitted quadric per region (:func:`quadric_regions`) and the
+    fit report of each (summary.json "quadrics")."""
+    quadrics, qof = fit_regions(points, faces, region_of_face, names=names)
     report = [{"region": names[int(r)], "max_distance_m": float(q.max_distance), "rms_distance_m": float(q.rms_distance),
                "size_m": float(q.size)} for r, q in zip(sorted(names), quadrics)]
-    return QuadricScene(surface, qof, quadrics), report
+    return quadrics, qof, report
+
+
+# ------------------------------------------------------------------------------------------- cache keys
+# Each key is a digest of exactly what the stage reads (fem2tmm.cache): its arrays as the stage receives them and
+# its settings, so a case-file key that changes none of them keeps the cached result, and any change that does
+# (including keys added to the case file or fields added to the model later) changes the key.
+#: FEModel fields that :func:`~fem2tmm.reduce.network.refresh_reduced` applies per case (not in the reduce key)
+_CASE_VALUES = {"Q", "loads", "T_sink", "fixed", "faces", "mesh"}
+#: face fields that are optics: per case (``refresh_reduced``: g_space, area)
+_FACE_OPTICS = {"emissivity", "absorptivity", "specular", "transmissivity", "transmission_specular", "active"}
+
+
+def geometry_key(model: FEModel) -> str:
+    """Digest of the radiating geometry: points, faces, the face -> element map and nodal weights."""
+    f = model.faces
+    return digest("geometry", model.mesh.points, f.nodes, f.element, f.W, model.mesh.n_elements)
+
+
+def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None) -> str:
+    """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes and flux, the
+    clustering settings and the user's ``labels``."""
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
+    return digest("cluster", *args, kw, labels)
+
+
+def reduce_key(model: FEModel, case: Case, clustering_key: str, T_ref: np.ndarray | None = None) -> str:
+    """Key of :func:`~fem2tmm.reduce.network.build_reduced` up to what
+    :func:`~fem2tmm.reduce.network.refresh_reduced` applies per case (loads, boundary temperatures, sink,
+    optics): the clustering and every other field of the FE model, the fixed groups' nodes, the kept nodes
+    and the ``[reduction]`` settings; for a radiation-aware reduction (``T_ref``) also T_ref, the faces' εA and
+    the sink, which its operator holds."""
+    fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.name not in _CASE_VALUES}
+    faces = {f.name: getattr(model.faces, f.name) for f in dataclasses.fields(model.faces)
+             if f.name not in _FACE_OPTICS}
+    fixed = [(g.name, g.dof, g.nodes) for g in model.fixed]
+    aware = None if T_ref is None else (T_ref, model.faces.eps_area, model.T_sink)
+    return digest("reduce", clustering_key, fields, faces, fixed, model.mesh.node_ids, kept_dofs(model, case),
+                  case.reduction, aware)
+
+
+def scene_key(fit: tuple | None) -> str:
+    """Digest of the ray scene's shape: flat triangles (``fit`` None) or the fitted quadrics ``(quadrics,
+    quadric_of_face, report)`` of :func:`fit_quadrics`."""
+    return "flat" if fit is None else digest("quadrics", list(fit[0]), fit[1])
+
+
+def trace_key(stage: str, geometry: str, optics, scene: str, *settings) -> str:
+    """Key of a ray-tracing stage: the geometry (:func:`geometry_key`), the band's per-side optics (a
+    :class:`~fem2tmm.radiation.surfaces.SideOptics`), the scene (:func:`scene_key`) and the stage's settings."""
+    return digest(stage, geometry, optics, scene, *settings)
 
 
 # -------------------------------------------------------------------------------------------- transient
