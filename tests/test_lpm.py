@@ -435,6 +435,8 @@ def test_cli_tmrt_case_with_ra_and_ce_post_processing(tmp_path):
     ra, ce = s["post_processing"]["RA_C"]["inner"], s["post_processing"]["CE_W"]["a_to_b"]
     assert abs(ra["recovered"] - ra["detailed"]) < 1e-8 and abs(ce["recovered"] - ce["detailed"]) < 1e-8
     assert s["criteria"]["met"] and s["cases"]["deck"]["criteria"]["max_delta_K"] < 1e-8
+    f = np.load(out / "tmrt_factors.npz")
+    assert f["PD"].shape == (s["nodes"]["reduced"], len(supp)) and np.allclose(f["TRt"].sum(axis=1), 1.0)
     bad = tmp_path / "bad.toml"
     bad.write_text('[[post.ra]]\nname = "x"\nnodes = [123456]\n')
     assert main(["network", "reduce", str(deck), "--case", str(bad), "--out", str(tmp_path / "o2")]) == 2

@@ -301,6 +301,14 @@ def summary_table(s: dict) -> str:
                      f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR"))
         if red["negative_links"]:
             rows.append(("", NEGATIVE_GL_NOTE))
+    pn = s.get("positive_network")
+    if pn:
+        err = pn.get("recovered_error_K")
+        vs = "" if not err else (f"; recovered RMS {err['positive']['rms']:.4f} K vs {err['exact']['rms']:.4f} K "
+                                 "exact")
+        rows.append(("positive network", f"{pn['links']} GL > 0 between touching super nodes (exact: "
+                     f"{pn['exact_negative_links']} negative of {pn['exact_links']}), max {pn['T_vs_exact_K']['max']:.3g} "
+                     f"K from the exact reduction, criteria {'met' if pn['criteria']['met'] else 'NOT met'}{vs}"))
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation", f"{rad['rays']:,} rays, RMS line-sum error {rad['lse_rms']:.2e}"))

@@ -273,6 +273,10 @@ def write_outputs(res: NetworkReduction, deck: str | Path, out: str | Path) -> P
         write_sinda(tmp / "model.sinda", d, submodel=Path(deck).stem)
         summary = build_summary(res, str(deck))
         write_report(tmp, res, summary)
+        if res.tmrt is not None:  # TMRT's power distribution and temperature recovery factors
+            t = res.tmrt
+            np.savez(tmp / "tmrt_factors.npz", suppressed=t.detailed.numbers[t.suppressed],
+                     reduced=t.reduced.numbers, PD=t.PD, TRt=t.TRt)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
 
     return write_folder(out, fill)

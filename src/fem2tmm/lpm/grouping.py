@@ -281,15 +281,16 @@ class CaseCheck:
 
 
 def check_case(net: Network, labels: np.ndarray, reduced: Network, case: LoadCase, detailed: NetworkSolution,
-               crit: Criteria, rcase: LoadCase | None = None) -> tuple[CaseCheck, NetworkSolution]:
+               crit: Criteria, rcase: LoadCase | None = None,
+               solution: NetworkSolution | None = None) -> tuple[CaseCheck, NetworkSolution]:
     """Solve the reduced network in ``case`` and compare with the detailed solution (eq. 48–51).
 
     ``labels`` (n_d,) reduced node of each detailed node (-1: none, e.g. a TMRT-suppressed node); ``rcase`` the load
-    case on the reduced network (default: :func:`compact_case`).
+    case on the reduced network (default: :func:`compact_case`); ``solution`` its solution when already known.
     """
     rcase = compact_case(case, labels, net.C) if rcase is None else rcase
     T0 = weighted_mean(detailed.T, net.C, labels, reduced.n)
-    sol = solve_network(reduced, rcase, T0=T0)
+    sol = solution if solution is not None else solve_network(reduced, rcase, T0=T0)
     target = T0
     b = reduced.boundary
     delta = np.where(b, 0.0, np.abs(target - sol.T))
@@ -336,8 +337,9 @@ class Grouper:
             return self.cache[key]
         reduced = compact(self.net, labels)
         checks, sols = [], []
+        identity = reduced.n == self.net.n  # nothing grouped: the reduced network is the detailed one
         for case, det in zip(self.cases, self.detailed):
-            chk, sol = check_case(self.net, labels, reduced, case, det, self.crit)
+            chk, sol = check_case(self.net, labels, reduced, case, det, self.crit, solution=det if identity else None)
             checks.append(chk)
             sols.append(sol)
         g = Grouping(labels=np.asarray(labels, np.int64), reduced=reduced, checks=checks, solutions=sols,
