@@ -29,10 +29,11 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .result import CasesResult, Result
 from .solve.steady import check_solvable, solve_steady
-from .stages import (absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
-                     detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key, mean_faced,
-                     positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
-                     reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
+from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
+                     detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key,
+                     mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced, positive_reduced,
+                     quadric_regions, radiation_aware_network, radiation_surface, reduce_key, reduced_problem,
+                     reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass, super_face_orbit,
                      super_face_solar, trace_key, tracer_settings)
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
@@ -162,7 +163,8 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     radiating = bool(model.faces.active.any())
     trace = case.radiation.enabled and radiating
     sun = case.has_sun and radiating
-    surface = radiation_surface(model) if (trace or sun) else None
+    orbit = case.orbit if radiating else None
+    surface = radiation_surface(model) if (trace or sun or orbit) else None
     if trace:  # the exchange-factor kernels (a Sun-only run compiles fewer and is not announced)
         seconds = compile_estimate()
         if seconds > 0:
@@ -209,6 +211,13 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             lambda: detailed_solar(model, case, surface, scene=scenes.main()))
         result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, result.solar_detailed)
 
+    # orbital loads (solar, albedo, planet IR at every position) on the detailed mesh
+    q_orbit = None  # (k, n_dof) W per position
+    q_sn_orbit = None  # (k, n_SN) W per position
+    if orbit is not None and (do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
+        with prog.stage("orbit_detailed", "tracing orbital fluxes on the detailed mesh"):
+            q_orbit, result.orbit_detailed = detailed_orbit(model, case, surface, scene=scenes.main())
+
     # reduced model: conduction, radiation, solar loads, solve, recovery
     if case.reduction.enabled:
         rm = _cached(prog, store, status, "reduce", "reducing conduction", lambda: reduce_key(model, case, ckey),
@@ -241,6 +250,23 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 q_lumped = q_sn
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
             result.solar_on = case.environment.solar_on
+        if orbit is not None:
+            if orbit.fluxes_on == "detailed":
+                q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
+            else:
+                with prog.stage("orbit", "tracing orbital fluxes on the super faces"):
+                    q_sn_orbit, result.orbit_super_faces = super_face_orbit(model, rm, case, surface, scene=scenes.main(),
+                                                                            sf=sf)
+            result.orbit_on = orbit.fluxes_on
+        rm_base, q_recover_base = rm, q_recover
+        if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
+            q_sn_avg = orbit_average(result, q_sn_orbit)
+            rm = dataclasses.replace(rm, Q=rm.Q + q_sn_avg)
+            if orbit.fluxes_on == "detailed":
+                q_recover = q_recover + orbit_average(result, q_orbit)
+                result.q_recover = q_recover
+            else:
+                q_lumped = q_lumped + q_sn_avg
         result.reduced = rm
         with prog.stage("solve_reduced", "solving the reduced model"):
             result.reduced_solution = _solve(reduced_problem(rm), case)
@@ -258,6 +284,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
                                             result.T_recovered))
+        if q_sn_orbit is not None and orbit.steady == "positions":
+            with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
+                result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,
+                                                                   q_orbit if orbit.fluxes_on == "detailed" else None,
+                                                                   result.reduced_solution.T, case)
 
     # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:
@@ -299,6 +330,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             halves = [dataclasses.replace(h, Q=h.Q + q_solar) for h in halves]
         if q_ref is not None:
             problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
+        base = problem  # without the orbital loads
+        if q_orbit is not None:  # the steady case: orbit-averaged loads
+            q_avg = orbit_average(result, q_orbit)
+            problem = dataclasses.replace(problem, Q=problem.Q + q_avg)
+            halves = [dataclasses.replace(h, Q=h.Q + q_avg) for h in halves]
         with prog.stage("solve_detailed", "solving the detailed model"):
             result.detailed = _solve(problem, case)
         if halves:
@@ -306,14 +342,26 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 Ta, Tb = (s.T for s in map_units(_solve_unit, halves, shared=_solver_settings(case),
                                                  what="steady solves"))
             result.reference_noise = reference_noise(model, Ta, Tb)
+        if q_orbit is not None and orbit.steady == "positions":
+            with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
+                T = orbit_positions_detailed(base, q_orbit, result.detailed.T, case)
+                if case.reduction.enabled:
+                    result.orbit_T_positions_detailed = T
+                else:
+                    result.orbit_T_positions = T
 
     # transient: the reduced model in time (recovered at every output time) and the detailed reference
     if case.transient is not None:
         with prog.stage("transient", "integrating the transient"):
             rs, det = result.reduced_solution, result.detailed
+            orbit_loads = None
+            if q_orbit is not None or q_sn_orbit is not None:  # loads in time along the orbit
+                pos = result.orbit_fluxes.positions
+                orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_orbit, q_dof=q_orbit,
+                                         recover_dof=orbit.fluxes_on == "detailed")
             result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
                                              result.q_recover, problem if det is not None else None,
-                                             None if det is None else det.T)
+                                             None if det is None else det.T, orbit=orbit_loads)
 
     result.summary = build_summary(result, prog.timings)
     return result

@@ -300,14 +300,121 @@ def super_face_solar(model: FEModel, rm: ReducedModel, case: Case, surface: Surf
                       rays_per_group=np.maximum(faces_per_group * env.solar_rays_per_face, 1), scene=scene,
                       **tracer_settings(case, exchange=False))
     # the power absorbed by each side, wherever its origin was, belongs to the super face of that side
-    side_power = res.absorbed_side
-    q_sn = np.zeros(rm.n)
+    return sides_to_super_nodes(res.absorbed_side, groups, owner, rm.n, "solar"), res, groups
+
+
+def sides_to_super_nodes(side_power: np.ndarray, groups: np.ndarray, owner: np.ndarray, n: int, what: str
+                         ) -> np.ndarray:
+    """Power absorbed per side ``side_power`` (2f,) or (k, 2f) W summed per super node (n,) or (k, n): the power
+    of each side, wherever its ray started, belongs to the super node owning its super face (``groups`` (2f,)
+    super face per side, ``owner`` super node per super face).  Power on a side outside every super face is
+    impossible (inactive sides block, they do not absorb): :class:`InternalError` naming ``what``."""
     ok = groups >= 0
-    np.add.at(q_sn, owner[groups[ok]], side_power[ok])
-    lost = side_power[~ok].sum()  # power absorbed by inactive sides is impossible (they block): keep the books
-    if lost > 1e-12 * max(side_power.sum(), 1e-300):
-        raise InternalError("solar power absorbed by a side outside every super face")
-    return q_sn, res, groups
+    side_power = np.asarray(side_power, float)
+    lost = np.abs(side_power[..., ~ok]).sum()
+    if lost > 1e-12 * max(np.abs(side_power).sum(), 1e-300):
+        raise InternalError(f"{what} power absorbed by a side outside every super face")
+    S = sp.csr_matrix((np.ones(int(ok.sum())), (np.flatnonzero(ok), owner[groups[ok]])), shape=(len(groups), n))
+    return np.asarray((S.T @ side_power.T).T)
+
+
+# ------------------------------------------------------------------------------------------------ orbit
+def _orbit_trace(model: FEModel, case: Case, surface: Surface | None, scene, groups, rays, per: str):
+    from .radiation.orbital import trace_orbit
+
+    surface = radiation_surface(model) if surface is None else surface
+    o = case.orbit
+    return trace_orbit(surface, o.orbit, o.attitude, kinds=o.kinds, groups=groups, rays_per_group=rays,
+                       scene=scene, per=per, **tracer_settings(case, exchange=False))
+
+
+def detailed_orbit(model: FEModel, case: Case, surface: Surface | None = None, scene=None):
+    """Orbital fluxes (``[orbit]``: solar, albedo, planet IR at every position) traced on the FE face sides.
+
+    Returns ``(q, fluxes)``: nodal absorbed power q (k, n_dof) W per position (face power spread by the face's
+    area shares) and the :class:`~fem2tmm.radiation.orbital.OrbitalFluxes` per FE face (incident and absorbed W
+    (k, n_faces) per kind)."""
+    active = model.faces.active
+    groups = np.where(active, np.arange(len(active)), -1)  # every active side its own group
+    fl = _orbit_trace(model, case, surface, scene, groups, case.orbit.rays_per_face, "face")
+    q = np.asarray(model.faces.W.T @ fl.total("absorbed").T).T
+    return q, fl
+
+
+def super_face_orbit(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                     sf: tuple[np.ndarray, np.ndarray] | None = None):
+    """Orbital fluxes traced on the super faces (origins over each super face as a whole, the same ray density as
+    the detailed tracing), absorbed power summed per super node (uniform over it).
+
+    Returns ``(q_sn, fluxes)``: q_sn (k, n) W per position and super node, and the
+    :class:`~fem2tmm.radiation.orbital.OrbitalFluxes` per side (k, 2 n_faces)."""
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
+    rays = np.maximum(faces_per_group * case.orbit.rays_per_face, 1)
+    fl = _orbit_trace(model, case, surface, scene, groups, rays, "side")
+    return sides_to_super_nodes(fl.total("absorbed"), groups, owner, rm.n, "orbital"), fl
+
+
+@dataclasses.dataclass(frozen=True)
+class OrbitLoads:
+    """Orbital loads in time for the transient: ``times`` (k,) s of the positions from perigee (repeated at
+    eclipse boundaries), ``period`` s, ``q_sn`` (k, n) W per super node, ``q_dof`` (k, n_dof) W on the detailed
+    mesh or None, ``recover_dof``: the recovery takes ``q_dof`` (loads traced on the FE faces and distributed
+    exactly) or not (super-face loads, uniform over each super node)."""
+
+    times: np.ndarray
+    period: float
+    q_sn: np.ndarray | None
+    q_dof: np.ndarray | None
+    recover_dof: bool
+
+    def add(self, series: Series, loads: np.ndarray, start: float) -> Series:
+        """``series`` whose base holds the orbit average of ``loads`` (k, n), turned into the loads in time: one
+        pattern per position with its periodic hat function (:func:`~fem2tmm.radiation.orbital.hat_basis`, the
+        orbit's time 0 at ``start``), the average taken out of the base."""
+        from .radiation.orbital import average_weights, hat_basis
+
+        nodes, H = hat_basis(self.times, self.period)
+        w = average_weights(self.times, self.period)
+        tables = tuple(Table(start + nodes, H[:, j], period=self.period, start=start) for j in range(len(w)))
+        return Series(series.base - w @ loads, series.patterns + tuple(loads), series.tables + tables)
+
+
+def orbit_average(result, q: np.ndarray) -> np.ndarray:
+    """Orbit average (n,) of loads ``q`` (k, n) given at the positions of the run's orbital fluxes (piecewise
+    linear in time, jumps at eclipse boundaries, :func:`~fem2tmm.radiation.orbital.period_average`)."""
+    from .radiation.orbital import period_average
+
+    fl = result.orbit_fluxes
+    return period_average(fl.positions.time, q, fl.positions.period)
+
+
+def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.ndarray, q_dof: np.ndarray | None,
+                            T0: np.ndarray, case: Case) -> np.ndarray:
+    """Steady reduced solves with the loads of each orbit position (``rm`` without orbital loads, ``q_sn`` (k, n)
+    W), recovered on the detailed mesh with ``q_recover`` + ``q_dof[j]`` (the exact distribution) or
+    ``q_recover`` alone (super-face loads, uniform over each super node).  Starts from ``T0``; returns (k, n_dof)
+    K."""
+    out = []
+    T = T0
+    for j in range(len(q_sn)):  # loop over the orbit positions (a few tens)
+        sol = solve_steady(reduced_problem(dataclasses.replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
+                           max_iter=case.solver.max_iterations)
+        T = sol.T
+        out.append(rm.reduction.recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))
+    return np.array(out)
+
+
+def orbit_positions_detailed(problem: SteadyProblem, q_dof: np.ndarray, T0: np.ndarray, case: Case) -> np.ndarray:
+    """Steady detailed solves with the loads ``q_dof`` (k, n_dof) W of each orbit position added to ``problem``;
+    starts from ``T0``; returns (k, n_dof) K."""
+    out = []
+    T = T0
+    for j in range(len(q_dof)):  # loop over the orbit positions
+        T = solve_steady(dataclasses.replace(problem, Q=problem.Q + q_dof[j]), T0=T, tol=case.solver.tolerance,
+                         max_iter=case.solver.max_iterations).T
+        out.append(T)
+    return np.array(out)
 
 
 def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:
@@ -503,13 +610,15 @@ class _Clock:
 
 def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_reduced: np.ndarray | None = None,
                   q_recover: np.ndarray | None = None, detailed: SteadyProblem | None = None,
-                  T_detailed: np.ndarray | None = None) -> TransientRun:
+                  T_detailed: np.ndarray | None = None, orbit: "OrbitLoads | None" = None) -> TransientRun:
     """The ``[transient]`` stage: the reduced model in time with recovery at every output time, and the detailed
     model when ``detailed`` (its steady problem, radiation and solar loads included) is given.  ``timings`` get
     the wall and CPU seconds of each part (``reduced``, ``recover``, ``detailed``, and ``..._cpu``).
 
     ``T_reduced`` / ``T_detailed`` (K) the steady solutions, used when ``initial_temperature = "steady"``;
     ``q_recover`` (n_dof,) W the detailed loads at the start that the recovery uses (applied + detailed solar).
+    ``orbit``: the orbital loads (:class:`OrbitLoads`); the steady loads hold their orbit average, the transient
+    follows them in time (periodic with the orbital period from ``[transient] start``).
     """
     from .fem.model import consistent_capacity
 
@@ -525,7 +634,10 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
     if rm is not None:
         clock = _Clock(run.timings, "reduced")
         rows = {str(rm.names[i]): int(i) for i in np.flatnonzero(rm.fixed)}
-        prob = TransientProblem(K=rm.K, C=rm.C, Q=load_series(rm.Q, tables, rm.reduction.distribute), fixed=rm.fixed,
+        Q_sn = load_series(rm.Q, tables, rm.reduction.distribute)
+        if orbit is not None:
+            Q_sn = orbit.add(Q_sn, orbit.q_sn, spec.start)
+        prob = TransientProblem(K=rm.K, C=rm.C, Q=Q_sn, fixed=rm.fixed,
                                 T_fixed=fixed_series(rm.T_fixed, rows, case), g_space=rm.g_space, T_sink=sink,
                                 GR=rm.GR, names=tuple(rm.names))
         run.reduced_problem = prob
@@ -533,6 +645,8 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
         clock.stop()
         clock = _Clock(run.timings, "recover")
         q = load_series(model.Q if q_recover is None else q_recover, tables)
+        if orbit is not None and orbit.recover_dof:
+            q = orbit.add(q, orbit.q_dof, spec.start)
         if settings.periodic:
             q = q.periodic(settings.start, settings.end - settings.start)
         run.T_recovered = recover_series(rm.reduction.recover, run.reduced.T, q, run.times)
@@ -541,7 +655,10 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
         clock = _Clock(run.timings, "detailed")
         C = model.capacity if spec.capacitance == "lumped" else consistent_capacity(model)
         rows = {g.name: g.dof for g in model.fixed}
-        prob = TransientProblem(K=detailed.K, C=C, Q=load_series(detailed.Q, tables), fixed=detailed.fixed,
+        Q_det = load_series(detailed.Q, tables)
+        if orbit is not None:
+            Q_det = orbit.add(Q_det, orbit.q_dof, spec.start)
+        prob = TransientProblem(K=detailed.K, C=C, Q=Q_det, fixed=detailed.fixed,
                                 T_fixed=fixed_series(detailed.T_fixed, rows, case), g_space=detailed.g_space,
                                 T_sink=sink, GR=detailed.GR, faced=detailed.faced)
         run.detailed = solve_transient(prob, settings, initial(T_detailed))

@@ -33,6 +33,7 @@ from ..result import Result
 from .esatan import Deck, node_numbers, write_esatan
 from .transient import deck_transient, write_transient
 from .nastran_temp import write_temp
+from .orbit import write_orbit_npz
 from .report import write_report
 from .sinda import write_sinda
 from .vtu import write_vtu
@@ -227,6 +228,7 @@ def write_case_folder(result: Result, folder: Path, t0: float | None = None) -> 
     write_temp(folder / "temperatures.bdf", mesh.node_ids, T - KELVIN)
     if result.reduced is not None:
         _write_reduced(folder, result)
+    write_orbit_npz(folder, result)
     if result.transient is not None:
         write_transient(folder, result)
 

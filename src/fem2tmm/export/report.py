@@ -17,6 +17,7 @@ import numpy as np
 
 from ..constants import KELVIN
 from .summary import NEGATIVE_GL_NOTE
+from .orbit import orbit_plots
 
 #: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
 MAX_FACES = 60_000
@@ -180,6 +181,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
         note = render_faces(folder / "solar.png", pts, f.nodes, solar, "Absorbed solar flux", "q [W/m²]",
                             cmap="viridis")
         images.append(("solar.png", "Absorbed solar flux per face" + note))
+    images += orbit_plots(folder, result)
     if result.radiation is not None:
         _histogram(folder / "lse.png", result.radiation.lse, "Line-sum error of the super-face REFs",
                    "|LSE| (before closure)")

@@ -9,6 +9,7 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
+from .orbit import orbit_summary
 
 
 def build_summary(result: Result, timings: dict[str, float]) -> dict:
@@ -45,6 +46,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         "loads_W": {"boundaries": dict(model.loads), "absorbed_solar": _absorbed_solar(result)},
         "energy_balance_W": {"reduced": None, "detailed": None if detailed is None else detailed.balance},
         "solar": _solar_summary(result),
+        "orbit": orbit_summary(result),
         "quadrics": result.quadrics,
         "cache": result.cache,
         "timings_s": dict(timings),
