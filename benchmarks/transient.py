@@ -7,6 +7,8 @@
 * ``transient_plate_1m``: the 10⁶-quad plate (1 m, 1 mm aluminium, black both sides, one edge at 20 °C, a flux
   following the same cosine) reduced to 1000 super nodes with radiation on; 1000 reduced steps of 60 s.
   Goal: < 10 s for the 1000 steps (issue 17).  The model build (pipeline up to the steady solve) is reported too.
+* ``transient_dense_1000``: 1000 steps of a 1000-node network with dense GL and GR (the worst case of a reduced
+  model with face-to-face radiation).
 
 Times are wall seconds unless ``_cpu`` (process CPU seconds: the machine is shared, the CPU time is what the
 solver itself costs).
@@ -90,9 +92,41 @@ def bench_transient_plate_1m(n: int = 1000, super_nodes: int = 1000, steps: int 
     return [row]
 
 
+def bench_transient_dense(n: int = 1000, steps: int = 1000, seed: int = 0) -> list[dict]:
+    """Worst case of a reduced model: n = 1000 nodes with a dense conduction matrix and dense node-to-node GR (a
+    seeded random symmetric network: 1 % of the GL links, every GR pair), one fixed node, εA to space on every node,
+    a sinusoidal load; ``steps`` Crank-Nicolson steps of 60 s.  The flat 10⁶-quad plate's super nodes only see
+    space, so this row times the dense radiative Newton (a modified Newton with a frozen factorisation)."""
+    from fem2tmm.solve.transient import TransientProblem, TransientSettings, solve_transient
+    from fem2tmm.timefunc import Series, Table
+
+    rng = np.random.default_rng(seed)
+    W = rng.random((n, n)) * (rng.random((n, n)) < 0.01)
+    W = W + W.T
+    np.fill_diagonal(W, 0.0)
+    GR = rng.random((n, n)) * 1e-4
+    GR = GR + GR.T
+    np.fill_diagonal(GR, 0.0)
+    fixed = np.zeros(n, bool)
+    fixed[0] = True
+    t = np.linspace(0.0, PERIOD, 101)
+    prob = TransientProblem(K=np.diag(W.sum(axis=1)) - W, C=np.full(n, 100.0),
+                            Q=Series(np.zeros(n), (np.full(n, 0.1),), (Table(t, 1 + np.sin(2 * np.pi * t / PERIOD)),)),
+                            fixed=fixed, T_fixed=Series(np.full(n, 293.15)), g_space=np.full(n, 1e-3),
+                            T_sink=Table.constant(3.0), GR=GR)
+    settings = TransientSettings(end=60.0 * steps, step=60.0, output_every=600.0)
+    w, c = time.perf_counter(), time.process_time()
+    sol = solve_transient(prob, settings, 293.15)
+    wall, cpu = time.perf_counter() - w, time.process_time() - c
+    return [{"bench": "transient_dense_1000", "nodes": n, "steps": sol.stats["steps"], "wall_s": round(wall, 2),
+             "cpu_s": round(cpu, 2), "factorizations": sol.stats["factorizations"],
+             "newton_iterations": sol.stats["newton_iterations"], "energy_relative": sol.energy["relative"],
+             "goal": f"{steps} reduced steps < 10 s (issue 17)"}]
+
+
 def bench_transient() -> list[dict]:
-    """Both measurements (see the module docstring)."""
-    return bench_transient_baffle() + bench_transient_plate_1m()
+    """Every measurement (see the module docstring)."""
+    return bench_transient_baffle() + bench_transient_plate_1m() + bench_transient_dense()
 
 
-__all__ = ["bench_transient", "bench_transient_baffle", "bench_transient_plate_1m"]
+__all__ = ["bench_transient", "bench_transient_baffle", "bench_transient_dense", "bench_transient_plate_1m"]
