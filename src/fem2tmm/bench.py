@@ -24,6 +24,8 @@ REGISTRY: dict[str, str] = {
     "pipeline_1m": "fem2tmm.bench:bench_pipeline_1m",
     "nastran": "fem2tmm.io.benchmarks:bench_nastran",
     "cluster": "fem2tmm.cluster.benchmarks:bench_cluster",
+    "cluster_metis": "fem2tmm.cluster.benchmarks:bench_cluster_metis",
+    "accuracy": "fem2tmm.reduce.benchmarks_accuracy:bench_accuracy",
     "reduce": "fem2tmm.reduce.benchmarks:bench_reduce",
     "rays": "fem2tmm.radiation.benchmarks:bench_rays",
     "solar": "fem2tmm.radiation.benchmarks_solar:bench_solar",

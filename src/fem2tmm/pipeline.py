@@ -26,7 +26,7 @@ from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
 from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_problem, detailed_radiation,
-                     detailed_solar, mean_faced, positive_reduced, quadric_scene, radiation_aware_network,
+                     detailed_solar, ir_absorption, mean_faced, positive_reduced, quadric_scene, radiation_aware_network,
                      radiation_surface, reduced_problem, reduced_radiation, reference_noise, solar_prepass,
                      super_face_solar)
 
@@ -152,11 +152,15 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if case.reduction.radiation_aware:
+            ir = None
+            if trace and case.radiation.ir_on == "detailed":
+                with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
+                    ir = ir_absorption(model, rm, case, surface, scene=scene, sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
                 result.thesis_T_recovered = result.T_recovered
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
-                                            result.T_recovered))
+                                            result.T_recovered, ir))
 
     # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:

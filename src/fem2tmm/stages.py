@@ -10,19 +10,22 @@ reads the case's settings and the FE model and returns arrays or the stage's own
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 
 from .case import Case
+from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import InternalError
 from .fem.model import FEModel
 from .radiation import ExchangeResult, Surface, trace_exchange
+from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, build_reduced, determined_elements, kept_dofs, super_faces
+from .reduce.network import ReducedModel, build_reduced, determined_elements, face_owner, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 
 PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
@@ -337,8 +340,41 @@ def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clus
 OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this
 
 
+@dataclass(frozen=True)
+class IRAbsorption:
+    """Where the super faces' IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"``).
+
+    ``A`` (n_sf, 2f) csr: fraction of super face s's emitted energy absorbed by FE side k; ``owner`` (n_sf,) the
+    super node of each super face; ``eps_area`` (n_sf,) m² its emitting εA.
+    """
+
+    A: sp.csr_matrix
+    owner: np.ndarray
+    eps_area: np.ndarray
+
+    def face_power(self, T_sn: np.ndarray, T_sink: float) -> np.ndarray:
+        """(f,) W absorbed by each FE face (both sides) when each super face emits σ εA (T_SN⁴ − T_sink⁴)."""
+        emitted = SIGMA * self.eps_area * (T_sn[self.owner] ** 4 - T_sink**4)
+        return np.asarray(self.A.T @ emitted).ravel().reshape(-1, 2).sum(axis=1)
+
+
+def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                  sf: tuple[np.ndarray, np.ndarray] | None = None) -> IRAbsorption:
+    """Trace the super faces once more (own random stream; ``[radiation] ir_rays_per_face`` rays per FE face of each
+    super face, so every FE side receives enough rays for its own absorbed power) and tally each ray on the FE side
+    that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`)."""
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
+    A, _, eps = trace_absorption(surface, groups, scene=scene,
+                                 rays_per_group=np.maximum(faces_per_group * case.radiation.ir_rays_per_face, 1),
+                                 **tracer_settings(case, exchange=False, role="absorption"))
+    return IRAbsorption(A=A, owner=np.asarray(owner, np.int64), eps_area=eps)
+
+
 def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
-                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray
+                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray,
+                            ir: IRAbsorption | None = None
                             ) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
     """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
 
@@ -351,6 +387,10 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     T_ref : (n_dof,) K the pre-solve's recovered field; the emission is linearised about it, then about each
         outer iteration's field: at most ``[reduction] outer_iterations`` reductions and network solves, fewer
         once the field moves less than :data:`OUTER_TOLERANCE`
+    ir : where the absorbed IR lands (``ir_on = "detailed"``), or None (thesis: uniform per super node).  Given,
+        the absorbed power of every FE face at the reference state, q_abs, goes through the exact power
+        distribution like a known load: ``Y' q_abs − S q_abs`` (S: sum per super node) is added to the network's
+        loads (it moves power within and between super nodes, the total is kept) and q_abs to the recovery
 
     Returns
     -------
@@ -358,22 +398,33 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
     (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
     """
-    import dataclasses
-
     from .reduce.conduction import blas_threads
 
-    e_sn = rm.g_space + (0.0 if rm.GR is None else np.asarray(rm.GR).sum(axis=1))
     history: list[dict] = []
+    f = model.faces
+    owner_face = None
     for it in range(max(int(case.reduction.outer_iterations), 1)):
         # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically
-        ra_rm = dataclasses.replace(build_reduced(model, clustering, case, T_ref=T_ref), GR=rm.GR, g_space=rm.g_space)
+        ra_rm = build_reduced(model, clustering, case, T_ref=T_ref)
+        # the super nodes' full emitting εA (the untraced g_space of build_reduced): the network's GR lacks the
+        # self-exchange of a concave super node, whose lumped absorption cancels it (module docstring)
+        e_sn = ra_rm.g_space
+        ra_rm = dataclasses.replace(ra_rm, GR=rm.GR, g_space=rm.g_space)
         ra = ra_rm.radiative
         T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, ra_rm.supernodes.A @ T_ref)
         corr = ra.correction(T_ref, T_sn_ref, e_sn)
+        q_rec = q_detailed
+        if ir is not None:
+            if owner_face is None:
+                owner_face = face_owner(model, ra_rm.supernodes, ra_rm.element_cluster)
+            p_face = ir.face_power(T_sn_ref, model.T_sink)
+            q_abs = np.asarray(f.W.T @ p_face).ravel()
+            corr = corr + ra.reduction.distribute(q_abs) - np.bincount(owner_face, p_face, minlength=ra_rm.n)
+            q_rec = q_detailed + q_abs
         ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
         with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
             sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
-        T = ra.recover(sol.T, q_detailed, T_ref)
+        T = ra.recover(sol.T, q_rec, T_ref)
         d = T - T_ref
         history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
                         "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
