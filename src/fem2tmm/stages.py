@@ -20,6 +20,7 @@ from .case import Case
 from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import InternalError
+from .fem.elements import SHELL_TYPES, TYPE_CODE
 from .fem.model import FEModel
 from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
@@ -372,6 +373,44 @@ def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface
     return IRAbsorption(A=A, owner=np.asarray(owner, np.int64), eps_area=eps)
 
 
+def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
+    """Biot numbers ``Bi = h_rad A / (k t)`` of the shell elements and of the clusters, from the linearised emission.
+
+    ``h_dof`` (n_dof,) W/K: the linearised emission 4σεA·T³ lumped to the DOFs (:class:`RadiationAware` ``h``).
+    An element's ``k t`` is read off its conduction matrix (a bilinear quad's diagonal is 2/3 k t, a linear
+    triangle's about the same: ``k t ≈ 1.5 · trace(K_e) / n_nodes``); its ``h_rad A`` is its nodes' h shared by
+    area.  A cluster's Bi is Σ h_rad A over its elements / its mean k t: ``(size / fin length)²``, the number the
+    uniform-load assumption of the thesis' reduction needs small.  Elements with Bi > 1 mean the mesh itself does
+    not resolve the fin length √(k t / h_rad).  Returns ``{"element_max", "elements_over_1", "cluster_max",
+    "cluster_median"}`` (shell elements only; None without any).
+    """
+    coo = model.coo
+    m = len(model.elements)
+    diag = coo.rows == coo.cols
+    trace = np.bincount(coo.elem[diag], coo.vals[diag], minlength=m)
+    n_nodes = np.count_nonzero(model.element_dofs >= 0, axis=1)
+    kt = 1.5 * trace / np.maximum(n_nodes, 1)
+    # h per element: each DOF's h shared among its elements by their nodal volume shares
+    shares = model.volume_shares
+    ed = model.element_dofs
+    ok = ed >= 0
+    tot = np.bincount(ed[ok], shares[ok], minlength=model.n_dof)
+    frac = np.where(ok, shares / np.where(ok, tot[np.maximum(ed, 0)], 1.0), 0.0)
+    h_el = (frac * np.where(ok, h_dof[np.maximum(ed, 0)], 0.0)).sum(axis=1)
+    shell = np.isin(model.element_types, [TYPE_CODE[t] for t in SHELL_TYPES])
+    live = shell & (kt > 0) & (rm.element_cluster >= 0)
+    if not live.any():
+        return {"element_max": None, "elements_over_1": 0, "cluster_max": None, "cluster_median": None}
+    bi_el = h_el[live] / kt[live]
+    cl = rm.element_cluster[live]
+    k = int(cl.max()) + 1
+    cnt = np.bincount(cl, minlength=k)
+    bi_cl = np.bincount(cl, h_el[live], minlength=k) / np.maximum(np.bincount(cl, kt[live], minlength=k) / np.maximum(cnt, 1), 1e-300)
+    bi_cl = bi_cl[cnt > 0]
+    return {"element_max": float(bi_el.max()), "elements_over_1": int((bi_el > 1).sum()),
+            "cluster_max": float(bi_cl.max()), "cluster_median": float(np.median(bi_cl))}
+
+
 def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
                             q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray,
                             ir: IRAbsorption | None = None
@@ -429,6 +468,15 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
                         "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
                         "correction_W": float(np.abs(corr).sum())})
+        if it == 0:
+            biot = biot_numbers(model, ra_rm, ra.h)
+            history[-1]["biot"] = biot
+            if biot["elements_over_1"]:
+                import warnings
+
+                warnings.warn(f"{biot['elements_over_1']} shell elements have a Biot number h_rad A/(k t) > 1 (max "
+                              f"{biot['element_max']:.3g}): the mesh does not resolve the fin length "
+                              "sqrt(k t / h_rad) of its thin radiating panels; refine it there", stacklevel=2)
         T_ref = T
         if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
             break
