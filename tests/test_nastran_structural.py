@@ -373,3 +373,95 @@ def test_line_part_clusters_and_vtu(tmp_path):
 
     vtu = meshio.read(tmp_path / "out" / "temperatures.vtu")
     assert sum(len(c.data) for c in vtu.cells if c.type == "line") == 12
+
+
+def test_case_overrides_deck_loads(tmp_path):
+    # the washer with only its QBDY1 taken from the deck and the outer face held at 10 °C by the case instead of
+    # the deck's SPC at 0: the problem is linear, so every temperature moves by exactly +10 K
+    base = {"file": "d01121a.inp", "temperature_unit": "C"}
+    parts = [{"name": "washer", "groups": ["PID 200"], "super_nodes": 3}]
+    a = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": True}, "parts": parts},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    b = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": ["QBDY1"]}, "parts": parts,
+                                   "boundary": [{"kind": "temperature", "nodes": [11, 22, 111, 122], "value": 10.0}]},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    np.testing.assert_allclose(b.T_detailed_nodes - a.T_detailed_nodes, 10.0, rtol=0, atol=1e-9)
+    assert [g.name for g in a.model.fixed] == ["SPC 0 C"] and len(b.model.fixed) == 1
+    # all deck loads on, and the case's boundary on the same GRIDs: the case wins over the deck's SPC
+    c = quiet(run, Case.from_dict({"mesh": {**base, "nastran_loads": True}, "parts": parts,
+                                   "boundary": [{"kind": "temperature", "nodes": [11, 22, 111, 122], "value": 10.0}]},
+                                  base_dir=N95, source=str(N95 / "case.toml")), reference=True)
+    np.testing.assert_allclose(c.T_detailed_nodes, b.T_detailed_nodes, rtol=0, atol=1e-9)
+    assert len(c.model.fixed) == 1
+
+
+# ------------------------------------------------------------------------------------------- units, solids
+def test_inch_lbf_second_fahrenheit_materials(tmp_path):
+    # MAT4 K = 1 lbf/(s °F) = 0.1129848 W / (0.0254 m · 5/9 K) = 8.006803 W/(m K) (1 in·lbf = 0.1129848 J);
+    # RHO = 1 lbf s²/in⁴ = 4.4482216 N s² / 0.0254⁴ m⁴... = 1.0686895e7 kg/m³; CP = 1 in²/(s² °F) = 0.0254²/(5/9)
+    lines = [*plate_cards(0.0, 1, 1, 1), card("PSHELL", 1, 10, 0.1), card("MAT4", 10, 1.0, 1.0, 1.0)]
+    deck = write(tmp_path, lines)
+    p = quiet(read_nastran, deck, unit_system="in-lbf-s", temperature_unit="F").properties["PID 1"]
+    assert p.conductivity == pytest.approx(0.1129848290276167 / (0.0254 * 5 / 9), rel=1e-12)
+    assert p.density == pytest.approx(1.0686895e7, rel=1e-7)
+    assert p.specific_heat == pytest.approx(0.0254**2 / (5 / 9), rel=1e-12)
+    assert p.thickness == pytest.approx(0.1 * 0.0254, rel=1e-15)
+    with pytest.raises(Fem2TmmError, match=r"unit system 'in-lbf-s' is ambiguous about temperature.*temperature_unit"):
+        quiet(read_nastran, deck, unit_system="in-lbf-s")
+    with pytest.raises(Fem2TmmError, match=r"\[mesh\]: unit = 'mm' contradicts unit_system = 'in-lbf-s'"):
+        Case.from_dict({"mesh": {"file": "x.bdf", "unit": "mm", "unit_system": "inch-lbf-s"},
+                        "parts": [{"name": "p", "groups": ["PID 1"]}]})
+
+
+def test_ignore_cards_lets_the_run_proceed(tmp_path):
+    deck = write(tmp_path, two_plates([card("RBAR", 900, 6, 104, 123456), card("CBUSH", 901, 7, 6, 104)]))
+    # the RBAR is dropped explicitly; the CBUSH (PID 7) conducts 2 W/K: drop = P / G = 5 / 2 K
+    case = case_for(deck, PLATES, HEAT_FIX, mesh={"ignore_cards": ["RBAR"]},
+                    joints=[{"pids": [7], "treatment": "conductance", "conductance": 2.0}])
+    res = quiet(run, case)
+    assert res.mesh.cards["ignored"] == {"RBAR": 1} and res.summary["mesh"]["joints"] == {"CBUSH": {"conductance": 1}}
+    assert res.summary["mesh"]["ignored_cards"] == {"RBAR": 1}
+    i6, i104 = res.mesh.node_index([6, 104], where="test")
+    assert res.T_recovered_nodes[i6] - res.T_recovered_nodes[i104] == pytest.approx(2.5, rel=1e-9)
+
+
+def test_chexa20_linear_patch_and_mat5_solid(tmp_path):
+    # a 2 x 1 x 1 m block of two CHEXA20 (mid-side GRIDs at edge midpoints), MAT5 KXX = 5, KYY = 7, KZZ = 11:
+    # volume exact, the linear field T = 30 x exact at every GRID, heat = KXX A ΔT / L = 5 · 1 · 60 / 2 = 150 W
+    X = {}
+
+    def gid(x, y, z):
+        key = (round(2 * x), round(2 * y), round(2 * z))
+        return X.setdefault(key, len(X) + 1)
+
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+    edges = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 5), (2, 6), (3, 7), (4, 5), (5, 6), (6, 7), (7, 4)]
+    lines = []
+    for e, x0 in enumerate((0.0, 1.0)):
+        c = [(x + x0, y, z) for x, y, z in corners]
+        m = [tuple((np.array(c[a]) + np.array(c[b])) / 2) for a, b in edges]
+        g = [gid(*p) for p in c + m]
+        lines += [card("CHEXA", 1 + e, 1, *g[:6], "+"), card("+", *g[6:14], "+"), card("+", *g[14:])]
+    lines = [card("GRID", i, "", k[0] / 2, k[1] / 2, k[2] / 2) for k, i in X.items()] + lines
+    lines += [card("PSOLID", 1, 10), card("MAT5", 10, 5.0, "", "", 7.0, "", 11.0)]
+    deck = write(tmp_path, lines)
+    mesh = quiet(read_mesh, deck)
+    assert len(mesh.midside) == 20 and np.nansum(mesh.element_volumes()) == pytest.approx(2.0, rel=1e-14)
+    lo = mesh.node_ids[mesh.points[:, 0] == 0.0].tolist()
+    hi = mesh.node_ids[mesh.points[:, 0] == 2.0].tolist()
+    case = case_for(deck, [{"name": "b", "groups": ["PID 1"], "super_nodes": 1}],
+                    [{"kind": "temperature", "nodes": lo, "value": 0.0, "name": "lo"},
+                     {"kind": "temperature", "nodes": hi, "value": 60.0, "name": "hi"}])
+    res = quiet(run, case, mesh=mesh)
+    for T in (res.T_detailed_nodes, res.T_recovered_nodes):
+        np.testing.assert_allclose(T - KELVIN, 30.0 * mesh.points[:, 0], rtol=0, atol=1e-9)
+    assert res.summary["detailed"]["heat_into_fixed_W"]["lo"] == pytest.approx(150.0, rel=1e-9)
+
+
+def test_pcompg_plies(tmp_path):
+    # PCOMPG: one ply per continuation line (GPLYID MID T THETA SOUT); plies 0.2 / 0.3 / 0.5 mm
+    lines = [*plate_cards(0.0, 1, 1, 1), card("PCOMPG", 1, "", "", "", "", "", "", "", "+"),
+             card("+", 1, 10, 0.2, 0.0, "", "", "", "", "+"), card("+", 2, 10, 0.3, 45.0, "", "", "", "", "+"),
+             card("+", 3, 10, 0.5, 90.0), card("MAT4", 10, 100.0)]
+    p = quiet(read_nastran, write(tmp_path, lines), unit="mm").properties["PID 1"]
+    assert p.thickness == pytest.approx(1.0e-3, rel=1e-14) and p.conductivity == pytest.approx(100.0, rel=1e-14)

@@ -270,3 +270,86 @@ def test_factored_face_radiation_reaches_the_steady_solution():
     sol = balanced(solve_transient(prob, TransientSettings(end=2e5, tolerance=1e-3, method="bdf2"), 250.0))
     steady = solve_steady(prob.steady_problem(0.0), tol=1e-12)
     assert np.abs(sol.T[-1] - steady.T).max() < 1e-6
+
+
+# ------------------------------------------------------------------------------------------- pipeline
+def test_pipeline_transient_beam_reproduces_the_thesis_error():
+    # the same thesis beam through `run` with [transient]: the summary's accuracy over space and time is the
+    # 2.6 K of thesis Fig. 4.12 (1 super node, within 0.15 K), both models' books balance
+    from fem2tmm.pipeline import run
+
+    case = beam_case(1)
+    case = make_case([p for p in case.raw["parts"]], case.raw["boundary"], environment={"sink_temperature": -100.0},
+                     clustering={"feature_angle": 91.0}, reference={"detailed": True},
+                     transient={"end": 36000.0, "step": 30.0, "output_every": 600.0, "initial_temperature": 20.0})
+    res = run(case, mesh=square_tube_beam(1000, 1.0, 0.01))
+    tr = res.summary["transient"]
+    assert tr["accuracy"]["max_K"] == pytest.approx(2.6, abs=0.15)
+    assert 20 * 60 <= tr["accuracy"]["time_of_max_s"] <= 120 * 60
+    for k in ("reduced", "detailed"):
+        assert tr["energy_balance"][k]["relative"] < ENERGY_RTOL
+    # 1 W for 10 h: applied energy 36 kJ exactly, in both models
+    assert tr["energy_balance"]["reduced"]["applied_J"] == pytest.approx(36000.0, rel=1e-12)
+    assert tr["energy_balance"]["detailed"]["applied_J"] == pytest.approx(36000.0, rel=1e-12)
+
+
+def test_pipeline_transient_tables_and_outputs(tmp_path):
+    # a plate whose edge temperature ramps 20 -> 40 °C and whose flux follows a triangle 100 -> 400 -> 100 W/m²
+    # (time tables); the outputs: transient.npz, the ParaView series, Nastran TEMP with one SID per output time,
+    # decks with the interpolation arrays; the applied energy is the scheme's integral of the table (the kinks lie
+    # on step boundaries, where the trapezoidal rule of Crank-Nicolson is exact)
+    import json
+
+    from fem2tmm.pipeline import run
+
+    mesh = meshes.plate(0.2, 0.1, 20, 10)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+                       "back": "black", "super_nodes": 4}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": [[0, 20.0], [3000, 40.0]], "name": "edge"},
+                      {"kind": "flux", "groups": ["plate"], "value": [[0, 100.0], [1500, 400.0], [3000, 100.0]]}],
+                     environment={"sink_temperature": -100.0}, radiation={"enabled": False},
+                     transient={"end": 3000.0, "step": 60.0, "output_every": 300.0})
+    with pytest.warns(UserWarning):  # part of the flux falls on the fixed edge
+        res = run(case, mesh=mesh, out=tmp_path / "out")
+    out = tmp_path / "out"
+    tr = json.loads((out / "summary.json").read_text())["transient"]
+    times = np.arange(0.0, 3001.0, 300.0)
+    np.testing.assert_allclose(tr["times_s"], times)
+    assert tr["nastran_sid_time_s"] == {str(k + 1): t for k, t in enumerate(times)}
+    for k in ("reduced", "detailed"):
+        e = tr["energy_balance"][k]
+        assert e["relative"] < ENERGY_RTOL
+        # ∫ q A dt = 0.02 m² · (100 + 400)/2 W/m² · 3000 s (the part on the fixed edge included), plus what the
+        # scheme adds: Crank-Nicolson starts with two backward-Euler steps that take the end value of the rising
+        # load, (h/2)·ΔQ each with ΔQ = 0.02 m² · 0.2 W/(m² s) · 60 s
+        assert e["applied_J"] == pytest.approx(0.02 * 250.0 * 3000.0 + 2 * 30.0 * 0.02 * 0.2 * 60.0, rel=1e-12)
+    assert tr["accuracy"]["max_K"] > 0 and tr["accuracy"]["rms_K"] <= tr["accuracy"]["max_K"]
+    data = np.load(out / "transient.npz")
+    ok = res.model.node_dof >= 0
+    np.testing.assert_array_equal(data["node_id"], mesh.node_ids[ok])
+    assert data["temperature"].shape == (len(times), ok.sum()) == data["reference_temperature"].shape
+    assert data["sn_temperature"].shape == (len(times), res.reduced.n)
+    edge = np.isin(data["node_id"], mesh.node_ids[mesh.groups["xmin"].nodes])
+    ramp = (20.0 + 20.0 * times / 3000.0)[:, None]
+    assert np.abs(data["temperature"][:, edge] - ramp).max() < 1e-9
+    assert np.abs(data["reference_temperature"][:, edge] - ramp).max() < 1e-9
+    pvd = (out / "temperatures.pvd").read_text()
+    assert pvd.count("<DataSet") == len(times) and (out / "transient" / "temperatures_0010.vtu").is_file()
+    bdf = (out / "temperatures_transient.bdf").read_text()
+    assert "$   SID 11 = 3000 s" in bdf and bdf.count("TEMPD*") == len(times)
+    esatan, sinda = (out / "model.esatan").read_text(), (out / "model.sinda").read_text()
+    assert "QTAB1(6) = 0.0, 100.0, 1500.0, 400.0, 3000.0, 100.0;" in esatan and "SLCRNC;" in esatan
+    assert "TTAB1(4) = 0.0, 20.0, 3000.0, 40.0;" in esatan and "DTIMEI = 60.0;" in esatan
+    assert "CALL TRANSIENT" in sinda and "D1DEG1(TIMEM, A1)" in sinda
+    assert (out / "transient_temperatures.png").is_file() and (out / "transient_error.png").is_file()
+
+
+def test_transient_without_capacitance_is_refused_before_computing():
+    from fem2tmm.errors import Fem2TmmError
+    from fem2tmm.pipeline import run
+
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "k", "thickness": 1e-3}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
+                     materials={"k": {"conductivity": 100.0}}, transient={"end": 10.0, "step": 1.0})
+    with pytest.raises(Fem2TmmError, match=r"\[transient\] needs the capacitance.*'p'"):
+        run(case, mesh=meshes.plate(0.1, 0.1, 2, 2))

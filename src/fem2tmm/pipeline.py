@@ -25,10 +25,10 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, super_faces
 from .result import Result
 from .solve.steady import check_solvable, solve_steady
-from .stages import (absorbed_solar_maps, cluster_model, describe_nodes, detailed_problem, detailed_radiation,
-                     detailed_solar, ir_absorption, mean_faced, positive_reduced, quadric_scene, radiation_aware_network,
-                     radiation_surface, reduced_problem, reduced_radiation, reference_noise, solar_prepass,
-                     super_face_solar)
+from .stages import (absorbed_solar_maps, check_transient, cluster_model, describe_nodes, detailed_problem,
+                     detailed_radiation, detailed_solar, ir_absorption, mean_faced, positive_reduced, quadric_scene,
+                     radiation_aware_network, radiation_surface, reduced_problem, reduced_radiation, reference_noise,
+                     run_transient, solar_prepass, super_face_solar)
 
 __all__ = ["Result", "detailed_problem", "load_mesh", "run"]
 
@@ -72,6 +72,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
         mesh = load_mesh(case) if mesh is None else mesh.validate()
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
+    check_transient(model, case)
     do_ref = case.reference.detailed if reference is None else reference
     problem = detailed_problem(model)
     check_solvable(problem, describe=describe_nodes(model))
@@ -124,12 +125,14 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                     model, rm, case, surface, scene=scene, sf=sf)
                 rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
         q_recover = model.Q
+        result.q_recover = q_recover
         q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
         if sun:
             if case.environment.solar_on == "detailed":
                 # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
                 q_sn = rm.reduction.distribute(q_solar)
                 q_recover = model.Q + q_solar
+                result.q_recover = q_recover
             else:
                 with prog.stage("solar", "tracing solar rays on the super faces"):
                     q_sn, result.solar_super_faces, _ = super_face_solar(model, rm, case, surface, scene=scene, sf=sf)
@@ -201,6 +204,14 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                 Ta, Tb = (solve_steady(h, tol=case.solver.tolerance, max_iter=case.solver.max_iterations).T
                           for h in halves)
             result.reference_noise = reference_noise(model, Ta, Tb)
+
+    # transient: the reduced model in time (recovered at every output time) and the detailed reference
+    if case.transient is not None:
+        with prog.stage("transient", "integrating the transient"):
+            rs, det = result.reduced_solution, result.detailed
+            result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
+                                             result.q_recover, problem if det is not None else None,
+                                             None if det is None else det.T)
 
     result.summary = build_summary(result, prog.timings)
     return result

@@ -15,6 +15,7 @@ from .radiation import ExchangeResult
 from .radiation.solar import SolarResult
 from .reduce.network import ReducedModel
 from .solve.steady import SteadySolution
+from .solve.transient import TransientRun
 
 
 @dataclass
@@ -47,6 +48,8 @@ class Result:
     absorbed_solar_faces: np.ndarray | None = None
     absorbed_solar_elements: np.ndarray | None = None
     quadrics: list[dict] | None = None  # one fit report per quadric region (summary.json "quadrics")
+    q_recover: np.ndarray | None = None  # (n_dof,) W detailed loads the recovery uses (applied + detailed solar)
+    transient: TransientRun | None = None  # [transient]: both models in time, recovered temperatures
     # radiation-aware reduction: the thesis' pre-solve and the outer iterations
     thesis_T_recovered: np.ndarray | None = None  # (n_dof,) K recovered by the thesis' reduction (pre-solve)
     radiation_aware: list[dict] | None = None  # one dict per outer iteration (max_dT_K, rms_dT_K, correction_W)

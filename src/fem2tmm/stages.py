@@ -19,15 +19,18 @@ import scipy.sparse as sp
 from .case import Case
 from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
-from .errors import InternalError
+from .errors import Fem2TmmError, InternalError
 from .fem.elements import SHELL_TYPES, TYPE_CODE
-from .fem.model import FEModel
+from .fem.model import FEModel, boundary_load
 from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
 from .reduce.network import ReducedModel, build_reduced, determined_elements, face_owner, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
+from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
+                              solve_transient)
+from .timefunc import Series, Table
 
 PREPASS_RAYS_PER_FACE = 5  # measured on the baffle: 2, 5 and 20 give the same clusters' errors within 0.05 K
 
@@ -335,6 +338,115 @@ def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clus
     report = [{"region": names[int(r)], "max_distance_m": float(q.max_distance), "rms_distance_m": float(q.rms_distance),
                "size_m": float(q.size)} for r, q in zip(sorted(names), quadrics)]
     return QuadricScene(surface, qof, quadrics), report
+
+
+# -------------------------------------------------------------------------------------------- transient
+def check_transient(model: FEModel, case: Case) -> None:
+    """Refuse a ``[transient]`` whose model has no capacitance (before any long computation)."""
+    if case.transient is None:
+        return
+    if case.reduction.enabled and case.reduction.radiation_aware:
+        raise Fem2TmmError(f"{case.source}: [transient] with [reduction] radiation_aware = true is not available "
+                           "(its network carries a correction linearised about one steady field); set "
+                           "radiation_aware = false for the transient")
+    if model.capacity is not None:
+        return
+    missing = sorted({p.name for p in case.parts if p.material is None or case.materials[p.material].density is None
+                      or case.materials[p.material].specific_heat is None})
+    raise Fem2TmmError(f"{case.source}: [transient] needs the capacitance of every part: give density and "
+                       f"specific_heat to the materials of parts {', '.join(map(repr, missing)) or '(from the mesh)'}")
+
+
+def transient_settings(case: Case) -> TransientSettings:
+    """The solver settings of ``[transient]``."""
+    t = case.transient
+    return TransientSettings(end=t.end, start=t.start, step=t.step, tolerance=t.tolerance,
+                             output_every=t.output_every, method=t.method, periodic=t.periodic,
+                             periodic_tolerance=t.periodic_tolerance)
+
+
+def load_tables(model: FEModel, case: Case) -> list[tuple[np.ndarray, Table, float]]:
+    """(pattern (n_dof,) W per unit value, table, value at start) of every power/flux boundary whose value is a
+    time table."""
+    out = []
+    for b in case.boundaries:
+        if b.table is not None and b.kind != "temperature":
+            out.append((boundary_load(model, case, dataclasses.replace(b, value=1.0)), b.table, b.value))
+    return out
+
+
+def load_series(Q_start: np.ndarray, tables, distribute=None) -> Series:
+    """Loads in time from the loads at the start ``Q_start`` (which hold every table at its start value) and the
+    ``tables`` of :func:`load_tables`; ``distribute`` maps detailed patterns to super nodes (Y)."""
+    pats = [p if distribute is None else distribute(p) for p, _, _ in tables]
+    base = np.array(Q_start, float)
+    for p, (_, _, v) in zip(pats, tables):
+        base -= v * p
+    return Series(base, tuple(pats), tuple(t for _, t, _ in tables))
+
+
+def fixed_series(T_fixed: np.ndarray, rows: dict[str, int], case: Case) -> Series:
+    """Fixed temperatures in time (K): ``T_fixed`` at the start with each table boundary's row (``rows``: boundary
+    name -> row) following its table."""
+    base = np.array(T_fixed, float)
+    pats, tabs = [], []
+    for b in case.boundaries:
+        if b.table is not None and b.kind == "temperature" and b.name in rows:
+            e = np.zeros_like(base)
+            e[rows[b.name]] = 1.0
+            base[rows[b.name]] = 0.0
+            pats.append(e)
+            tabs.append(b.table)
+    return Series(base, tuple(pats), tuple(tabs))
+
+
+def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_reduced: np.ndarray | None = None,
+                  q_recover: np.ndarray | None = None, detailed: SteadyProblem | None = None,
+                  T_detailed: np.ndarray | None = None) -> TransientRun:
+    """The ``[transient]`` stage: the reduced model in time with recovery at every output time, and the detailed
+    model when ``detailed`` (its steady problem, radiation and solar loads included) is given.
+
+    ``T_reduced`` / ``T_detailed`` (K) the steady solutions, used when ``initial_temperature = "steady"``;
+    ``q_recover`` (n_dof,) W the detailed loads at the start that the recovery uses (applied + detailed solar).
+    """
+    import time
+
+    from .fem.model import consistent_capacity
+
+    spec = case.transient
+    settings = transient_settings(case)
+    tables = load_tables(model, case)
+    sink = case.environment.sink_table or Table.constant(model.T_sink)
+    run = TransientRun(times=settings.output_times(), settings=settings)
+
+    def initial(T_steady):
+        return T_steady if spec.initial_temperature == "steady" else spec.initial_temperature
+
+    if rm is not None:
+        t0 = time.perf_counter()
+        rows = {str(rm.names[i]): int(i) for i in np.flatnonzero(rm.fixed)}
+        prob = TransientProblem(K=rm.K, C=rm.C, Q=load_series(rm.Q, tables, rm.reduction.distribute), fixed=rm.fixed,
+                                T_fixed=fixed_series(rm.T_fixed, rows, case), g_space=rm.g_space, T_sink=sink,
+                                GR=rm.GR, names=tuple(rm.names))
+        run.reduced_problem = prob
+        run.reduced = solve_transient(prob, settings, initial(T_reduced))
+        run.timings["reduced"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        q = load_series(model.Q if q_recover is None else q_recover, tables)
+        if settings.periodic:
+            q = q.periodic(settings.start, settings.end - settings.start)
+        run.T_recovered = recover_series(rm.reduction.recover, run.reduced.T, q, run.times)
+        run.timings["recover"] = time.perf_counter() - t0
+    if detailed is not None:
+        t0 = time.perf_counter()
+        C = model.capacity if spec.capacitance == "lumped" else consistent_capacity(model)
+        rows = {g.name: g.dof for g in model.fixed}
+        prob = TransientProblem(K=detailed.K, C=C, Q=load_series(detailed.Q, tables), fixed=detailed.fixed,
+                                T_fixed=fixed_series(detailed.T_fixed, rows, case), g_space=detailed.g_space,
+                                T_sink=sink, GR=detailed.GR, faced=detailed.faced)
+        run.detailed = solve_transient(prob, settings, initial(T_detailed))
+        run.timings["detailed"] = time.perf_counter() - t0
+    return run
 
 
 # -------------------------------------------------------------------------------- radiation-aware reduction

@@ -22,6 +22,42 @@ from ..errors import Fem2TmmError
 
 
 @dataclass(frozen=True)
+class DeckTransient:
+    """The time-dependent part of a deck: what the thermal tool needs to run the same transient.
+
+    ``loads``: (pattern (n,) W per unit of the table, times (k,) s, values (k,)) — node i receives
+    ``Q_i + Σ pattern_i (table(t) − table(start))``; ``temperatures``: (node index, times s, values K) of boundary
+    nodes that follow a table; ``sink``: (times s, values K) or None; ``start``, ``end``, ``step`` (s; None when the
+    run was adaptive), ``output`` (s), ``periodic`` (the tables repeat with period end − start).
+    """
+
+    loads: tuple = ()
+    temperatures: tuple = ()
+    sink: tuple | None = None
+    start: float = 0.0
+    end: float = 0.0
+    step: float | None = None
+    output: float | None = None
+    periodic: bool = False
+
+    def tables(self) -> list[tuple[str, np.ndarray, np.ndarray, str]]:
+        """(array name, times, values, what) of every table, values in deck units (°C for temperatures)."""
+        out = [(f"QTAB{k + 1}", t, v, "load multiplier") for k, (_, t, v) in enumerate(self.loads)]
+        out += [(f"TTAB{k + 1}", t, v - KELVIN, "boundary temperature degC") for k, (_, t, v) in enumerate(self.temperatures)]
+        if self.sink is not None:
+            out.append(("TSINK", self.sink[0], self.sink[1] - KELVIN, "sink temperature degC"))
+        return out
+
+    def load_terms(self, i: int) -> list[tuple[str, float, float]]:
+        """(array name, coefficient, table value at start) of the time-dependent loads of node ``i``."""
+        out = []
+        for k, (p, t, v) in enumerate(self.loads):
+            if p[i] != 0:
+                out.append((f"QTAB{k + 1}", float(p[i]), float(np.interp(self.start, t, v))))
+        return out
+
+
+@dataclass(frozen=True)
 class Deck:
     """A thermal network as read from / written to a deck.  Temperatures K, C J/K, A m², GL W/K, GR m².
 
@@ -44,6 +80,7 @@ class Deck:
     Q: np.ndarray
     space: int
     T_space: float
+    transient: DeckTransient | None = None
 
 
 def node_numbers(part: np.ndarray, n_parts: int) -> tuple[np.ndarray, int]:
@@ -94,12 +131,35 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     nzs = np.flatnonzero(deck.GR_space != 0)
     for a in nzs:
         lines.append(f"GR({deck.numbers[a]}, {deck.space}) = {_fmt(deck.GR_space[a])};")
+    tr = deck.transient
+    if tr is not None:
+        lines.append("$ARRAYS")
+        lines.append("# doublet arrays (time s, value), read by linear interpolation in time (INTRP1), constant "
+                     "outside" + ("; periodic with period TIMEND - TIMEO" if tr.periodic else ""))
+        for name, t, v, what in tr.tables():
+            pairs = ", ".join(f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(t, v))
+            lines.append(f"    {name}({2 * len(t)}) = {pairs};  # {what}")
     lines.append("$CONSTANTS")
+    if tr is not None:
+        lines.append(f"    TIMEO = {_fmt(tr.start)};")
+        lines.append(f"    TIMEND = {_fmt(tr.end)};")
+        if tr.step is not None:
+            lines.append(f"    DTIMEI = {_fmt(tr.step)};")
+        lines.append(f"    OUTINT = {_fmt(tr.output if tr.output is not None else tr.end - tr.start)};")
     lines.append("$VARIABLES1")
-    for i in np.flatnonzero(deck.Q != 0):
-        lines.append(f"QI{deck.numbers[i]} = {_fmt(deck.Q[i])};")
+    for i in range(n):
+        terms = [] if tr is None else tr.load_terms(i)
+        if deck.Q[i] != 0 or terms:
+            rhs = "".join(f" {'-' if c < 0 else '+'} {_fmt(abs(c))} * (INTRP1(TIMEM, {a}) - {_fmt(v0)})"
+                          for a, c, v0 in terms)
+            lines.append(f"QI{deck.numbers[i]} = {_fmt(deck.Q[i])}{rhs};")
+    if tr is not None:
+        for k, (i, _, _) in enumerate(tr.temperatures):
+            lines.append(f"T{deck.numbers[i]} = INTRP1(TIMEM, TTAB{k + 1});")
+        if tr.sink is not None:
+            lines.append(f"T{deck.space} = INTRP1(TIMEM, TSINK);")
     lines.append("$EXECUTION")
-    lines.append("    SOLVFM;")
+    lines.append("    SLCRNC;" if tr is not None else "    SOLVFM;")
     lines.append("$ENDMODEL")
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
     return {"nodes": n, "GL": int(nz.sum()), "GR": int(nzr.sum() + len(nzs)), "negative_GL": negative}
@@ -107,7 +167,7 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
 
 _NODE = re.compile(r"^([DB])(\d+)\s*=\s*'([^']*)'\s*,(.*);\s*$")
 _COND = re.compile(r"^(GL|GR)\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*([^;]+);")
-_QI = re.compile(r"^QI(\d+)\s*=\s*([^;]+);")
+_QI = re.compile(r"^QI(\d+)\s*=\s*([-+0-9.eE]+)[^;]*;")  # the value at the start (time terms follow)
 
 
 def read_esatan(path: str | Path) -> Deck:

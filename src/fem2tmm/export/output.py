@@ -30,6 +30,7 @@ from ..constants import KELVIN
 from ..errors import Fem2TmmError
 from ..fem.model import FEModel
 from .esatan import Deck, node_numbers, write_esatan
+from .transient import deck_transient, write_transient
 from .nastran_temp import write_temp
 from .report import write_report
 from .sinda import write_sinda
@@ -155,6 +156,8 @@ def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = 
         write_temp(tmp / "temperatures.bdf", mesh.node_ids, T - KELVIN)
         if result.reduced is not None:
             _write_reduced(tmp, result)
+        if result.transient is not None:
+            write_transient(tmp, result)
         def written() -> None:  # the write time so far, into the report's and summary.json's timing tables
             result.summary.setdefault("timings_s", {})["write"] = time.perf_counter() - t0
 
@@ -247,6 +250,7 @@ def _write_reduced(folder: Path, result: Result) -> None:
     eps = np.divide(rm.g_space, area, out=np.zeros(n), where=area > 0)
     deck = Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
                 alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
-                GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink)
+                GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
+                transient=None if result.transient is None else deck_transient(result.transient))
     write_esatan(folder / "model.esatan", deck, title=Path(result.case.source).stem)
     write_sinda(folder / "model.sinda", deck, submodel=Path(result.case.source).stem)

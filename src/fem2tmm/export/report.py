@@ -184,6 +184,10 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
         _histogram(folder / "lse.png", result.radiation.lse, "Line-sum error of the super-face REFs",
                    "|LSE| (before closure)")
         images.append(("lse.png", "Exchange-factor line-sum errors (super faces)"))
+    if result.transient is not None:
+        from .transient import transient_plots
+
+        images += transient_plots(folder, result)
 
     if before_html is not None:
         before_html()
@@ -198,6 +202,17 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
         rows.append(("recovered vs detailed", f"RMS {acc['rms_K']:.4g} K, max {acc['max_K']:.4g} K over {acc['nodes']:,} nodes"))
+    tr = s.get("transient") or {}
+    if tr:
+        t_acc = tr.get("accuracy") or {}
+        rows.append(("transient", f"{tr['method']}, {tr['start_s']:g} to {tr['end_s']:g} s, {len(tr['times_s'])} output "
+                     f"times" + (f", {tr['periods']} periods" if tr.get("periods") else "")
+                     + (f"; recovered vs detailed RMS {t_acc['rms_K']:.4g} K, max {t_acc['max_K']:.4g} K at "
+                        f"{t_acc['time_of_max_s']:g} s" if t_acc else "")))
+        for k, eb in (tr.get("energy_balance") or {}).items():
+            rows.append((f"transient energy ({k})", f"stored {eb['stored_J']:.6g} J = applied {eb['applied_J']:.6g} J − "
+                         f"to space {eb['to_space_J']:.6g} J − into fixed {eb['into_fixed_J']:.6g} J "
+                         f"(imbalance {eb['relative']:.1e} relative)"))
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation (reduced)", f"{rad['rays']:,} rays, RMS LSE {rad['lse_rms']:.3g}"))

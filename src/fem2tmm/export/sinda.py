@@ -49,10 +49,46 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
         cid += 1
         rad += 1
         out.append(f"      -{cid}, {deck.numbers[a]}, {deck.space}, {float(deck.GR_space[a])!r}")
+    tr = deck.transient
     if np.any(deck.Q):
         out.append(f"HEADER SOURCE DATA, {sub}")
         for i in np.flatnonzero(deck.Q):
             out.append(f"      {deck.numbers[i]}, {float(deck.Q[i])!r}")
+    if tr is not None:
+        _transient_blocks(out, deck, sub)
     out.append("END OF DATA")
     Path(path).write_text("\n".join(out) + "\n", encoding="ascii", errors="replace")
     return {"nodes": n + 1, "linear": lin, "radiation": rad}
+
+
+def _transient_blocks(out: list[str], deck: Deck, sub: str) -> None:
+    """Doublet arrays of the time tables, the time-dependent sources and boundary temperatures (linear
+    interpolation D1DEG1 in VARIABLES 1), the transient control constants and ``CALL TRANSIENT``."""
+    tr = deck.transient
+    tables = tr.tables()
+    ids = {name: k + 1 for k, (name, _, _, _) in enumerate(tables)}
+    out.append(f"HEADER ARRAY DATA, {sub}")
+    for name, t, v, what in tables:
+        pairs = ", ".join(f"{float(a)!r}, {float(b)!r}" for a, b in zip(t, v))
+        out.append(f"      {ids[name]} = {pairs}    $ {name}: {what} (time s, value)")
+        out.append("      END")
+    out.append(f"HEADER VARIABLES 1, {sub}")
+    for i in range(len(deck.numbers)):
+        terms = tr.load_terms(i)
+        if terms:
+            rhs = "".join(f" {'-' if c < 0 else '+'} {abs(c)!r} * (D1DEG1(TIMEM, A{ids[a]}) - {v0!r})"
+                          for a, c, v0 in terms)
+            out.append(f"      Q{deck.numbers[i]} = {float(deck.Q[i])!r}{rhs}")
+    for k, (i, _, _) in enumerate(tr.temperatures):
+        out.append(f"      T{deck.numbers[i]} = D1DEG1(TIMEM, A{ids[f'TTAB{k + 1}']})")
+    if tr.sink is not None:
+        out.append(f"      T{deck.space} = D1DEG1(TIMEM, A{ids['TSINK']})")
+    out.append("HEADER CONTROL DATA, GLOBAL")
+    out.append(f"      TIMEO  = {float(tr.start)!r}")
+    out.append(f"      TIMEND = {float(tr.end)!r}")
+    if tr.step is not None:
+        out.append(f"      DTIMEI = {float(tr.step)!r}")
+    out.append(f"      OUTPUT = {float(tr.output if tr.output is not None else tr.end - tr.start)!r}")
+    out.append("HEADER OPERATIONS DATA")
+    out.append("      BUILD ALL")
+    out.append("      CALL TRANSIENT")

@@ -50,7 +50,12 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         "solar": _solar_summary(result),
         "quadrics": result.quadrics,
         "timings_s": dict(timings),
+        "transient": None,
     }
+    if result.transient is not None:
+        from .transient import transient_summary
+
+        s["transient"] = transient_summary(result)
     rm, rs = result.reduced, result.reduced_solution
     if rm is not None:
         n_links_space = int(np.count_nonzero(rm.g_space > 0))

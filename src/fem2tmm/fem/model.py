@@ -658,6 +658,12 @@ def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:
     return np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
 
 
+def boundary_load(model: FEModel, case, b) -> np.ndarray:
+    """Nodal loads (n_dof,) W of one power or flux boundary ``b`` of ``case`` (with its ``value``) on ``model``;
+    with ``value = 1`` it is the load pattern a time table multiplies."""
+    return _load_vector(model.mesh, case, b, model.node_dof, model.n_dof)
+
+
 def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
     """Nodal loads (n_dof,) W of a power or flux boundary."""
     where = f"{case.source}: [[boundary]] {b.name!r} ({b.kind})"

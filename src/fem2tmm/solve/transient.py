@@ -530,6 +530,41 @@ def solve_transient(problem: TransientProblem, settings: TransientSettings, init
     return TransientSolution(times=times, T=out, steps=steps, energy=energy, stats=stats)
 
 
+@dataclass
+class TransientRun:
+    """The transient stage's output.
+
+    ``times`` (n_t,) s; ``reduced`` / ``detailed`` the :class:`TransientSolution` of each model (None when not
+    run); ``T_recovered`` (n_t, n_dof) K recovered on every FE DOF at every output time (None without reduced
+    model); ``settings`` the :class:`TransientSettings`; ``timings`` s per part (reduced, recover, detailed).
+    """
+
+    times: np.ndarray
+    settings: TransientSettings
+    reduced: TransientSolution | None = None
+    detailed: TransientSolution | None = None
+    T_recovered: np.ndarray | None = None
+    timings: dict = field(default_factory=dict)
+    reduced_problem: TransientProblem | None = None  # its time-dependent inputs go into the ESATAN/SINDA decks
+
+    @property
+    def T_result(self) -> np.ndarray:
+        """(n_t, n_dof) K: recovered when reduced, detailed otherwise."""
+        return self.T_recovered if self.T_recovered is not None else self.detailed.T
+
+    def accuracy(self) -> dict | None:
+        """RMS and max of recovered − detailed over every DOF and output time (K), the time (s) and DOF of the
+        max, and the max per output time; None without both models."""
+        if self.T_recovered is None or self.detailed is None:
+            return None
+        err = self.T_recovered - self.detailed.T
+        k = int(np.argmax(np.abs(err)))
+        i, j = np.unravel_index(k, err.shape)
+        return {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(abs(err[i, j])),
+                "time_of_max_s": float(self.times[i]), "dof_of_max": int(j),
+                "max_per_time_K": np.abs(err).max(axis=1)}
+
+
 def recover_series(recover, T_sn: np.ndarray, q: Series | None, times: np.ndarray,
                    max_bytes: float = 256e6) -> np.ndarray:
     """Recovered detailed temperatures at several times: ``T(t) = X q(t) + Yᵀ T_SN(t)`` (n_t, n_dof).
@@ -554,5 +589,5 @@ def recover_series(recover, T_sn: np.ndarray, q: Series | None, times: np.ndarra
     return out
 
 
-__all__ = ["METHODS", "TransientProblem", "TransientSettings", "TransientSolution", "solve_transient",
+__all__ = ["METHODS", "TransientProblem", "TransientSettings", "TransientSolution", "TransientRun", "solve_transient",
            "initial_temperatures", "recover_series"]
