@@ -17,12 +17,12 @@ import pytest
 import scipy.sparse as sp
 from scipy.spatial import Delaunay
 
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.cluster import PartInput, cluster_parts, partition
 from fem2tmm.cluster.allocate import allocate, equivalent_width
 from fem2tmm.cluster.smoothing import pair_cut
 from fem2tmm.errors import Fem2TmmError
-from fem2tmm.fem.elements import TYPE_CODE
+from fem2tmm.mesh.elements import TYPE_CODE
 
 # ------------------------------------------------------------------------------------------ references
 
@@ -86,7 +86,7 @@ def cut_length(points, cells, labels, kind="shell"):
 
 
 def test_box_surface_has_six_regions_one_per_face():
-    box = meshes.box(1.0, 2.0, 3.0, 4, 5, 6)
+    box = shapes.box(1.0, 2.0, 3.0, 4, 5, 6)
     labels, regions = partition(box.points, cells_of(box), 12, return_regions=True)
     assert regions.max() + 1 == 6  # issue 3 acceptance: a box surface gives 6 regions
     for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax"):
@@ -100,10 +100,10 @@ def test_box_surface_has_six_regions_one_per_face():
 
 
 def test_t_of_three_plates_is_split_at_the_junction_even_where_flat():
-    a = meshes.plate(1, 1, 4, 4, origin=(-1, 0, 0))
-    b = meshes.plate(1, 1, 4, 4)  # coplanar with a: only the junction separates them
-    c = meshes.transform(meshes.plate(1, 1, 4, 4), meshes.rotation("y", -90))
-    t = meshes.merge(a, b, c)
+    a = shapes.plate(1, 1, 4, 4, origin=(-1, 0, 0))
+    b = shapes.plate(1, 1, 4, 4)  # coplanar with a: only the junction separates them
+    c = shapes.transform(shapes.plate(1, 1, 4, 4), shapes.rotation("y", -90))
+    t = shapes.merge(a, b, c)
     _, regions = partition(t.points, cells_of(t), 3, return_regions=True, feature_angle=179.0)
     assert regions.max() + 1 == 3  # issue 3: three plates meeting on one edge give 3 regions
     for k in range(3):
@@ -112,9 +112,9 @@ def test_t_of_three_plates_is_split_at_the_junction_even_where_flat():
 
 @pytest.mark.parametrize("feature_angle", [30.0, 179.0])
 def test_tube_with_four_annular_vanes_is_split_at_every_junction(feature_angle):
-    tube = meshes.cylinder(0.05, 0.5, n_theta=24, n_z=10)
-    vanes = [meshes.annulus(0.05, 0.1, 3, 24, z=z) for z in (0.1, 0.2, 0.3, 0.4)]
-    m = meshes.merge(tube, *vanes)
+    tube = shapes.cylinder(0.05, 0.5, n_theta=24, n_z=10)
+    vanes = [shapes.annulus(0.05, 0.1, 3, 24, z=z) for z in (0.1, 0.2, 0.3, 0.4)]
+    m = shapes.merge(tube, *vanes)
     _, regions = partition(m.points, cells_of(m), 20, return_regions=True, feature_angle=feature_angle)
     # 4 junction circles cut the tube into 5 bands, plus the 4 vanes (with 179° only junctions act)
     assert regions.max() + 1 == 9
@@ -126,26 +126,26 @@ def test_tube_with_four_annular_vanes_is_split_at_every_junction(feature_angle):
 
 
 def test_orientation_flips_do_not_cut_but_a_hairpin_fold_does():
-    p = meshes.plate(1, 1, 6, 6)
+    p = shapes.plate(1, 1, 6, 6)
     cells = cells_of(p).copy()
     cells[::2] = cells[::2, ::-1]  # every other element locally flipped
     _, reg = partition(p.points, cells, 4, return_regions=True)
     assert reg.max() == 0  # consistent surface: no false sharp edge
     # a sheet folded back onto itself: the surfaces meet at 170°, i.e. only 10° apart in |cos| terms
-    a = meshes.plate(1, 1, 4, 4)
-    b = meshes.transform(meshes.plate(1, 1, 4, 4, origin=(-1, 0, 0)), meshes.rotation("y", 170))
-    fold = meshes.merge(a, b)
+    a = shapes.plate(1, 1, 4, 4)
+    b = shapes.transform(shapes.plate(1, 1, 4, 4, origin=(-1, 0, 0)), shapes.rotation("y", 170))
+    fold = shapes.merge(a, b)
     _, reg = partition(fold.points, cells_of(fold), 2, return_regions=True)
     assert reg.max() + 1 == 2
 
 
 def test_attribute_changes_split_regions_shell_and_solid():
-    p = meshes.plate(2, 1, 8, 4)
+    p = shapes.plate(2, 1, 8, 4)
     x = p.element_centroids()[:, 0]
     res = cluster_parts(p.points, [shell_part(p, 4, attribute=(x > 1).astype(int))], p.n_elements)
     assert res.regions.max() + 1 == 2
     assert (res.regions == (x > 1)).all()
-    s = meshes.box(1, 1, 1, 4, 4, 4, kind="solid")
+    s = shapes.box(1, 1, 1, 4, 4, 4, kind="solid")
     xs = s.element_centroids()[:, 0]
     part = PartInput("s", "solid", np.arange(s.n_elements), s.padded_cells, s.element_types, 4,
                      attribute=(xs > 0.5).astype(int))
@@ -154,9 +154,9 @@ def test_attribute_changes_split_regions_shell_and_solid():
 
 
 def test_two_disjoint_solids_are_two_regions():
-    a = meshes.box(1, 1, 1, 3, 3, 3, kind="solid", element="tet4")
-    b = meshes.transform(a, translation=(5, 0, 0))
-    m = meshes.merge(a, b)
+    a = shapes.box(1, 1, 1, 3, 3, 3, kind="solid", element="tet4")
+    b = shapes.transform(a, translation=(5, 0, 0))
+    m = shapes.merge(a, b)
     labels, regions = partition(m.points, cells_of(m), 6, kind="solid", return_regions=True)
     assert regions.max() + 1 == 2
     assert_partition_ok(m.points, cells_of(m), labels, 6, kind="solid")
@@ -183,9 +183,9 @@ def test_equivalent_width_closed_forms():
 
 
 def test_allocation_follows_area_for_wide_regions_and_length_for_strips():
-    plate = meshes.plate(1, 1, 10, 10)
-    strip = meshes.plate(2.0, 0.01, 200, 1, origin=(0, 3, 0))
-    m = meshes.merge(plate, strip)
+    plate = shapes.plate(1, 1, 10, 10)
+    strip = shapes.plate(2.0, 0.01, 200, 1, origin=(0, 3, 0))
+    m = shapes.merge(plate, strip)
     labels, regions = partition(m.points, cells_of(m), 21, return_regions=True, balance=False)
     per_region = [len(np.unique(labels[regions == r])) for r in range(2)]
     # the thesis' scheme (balance=False): quotas 1/h² (plate) and L/h = 2/h (strip) add to 21: x = 1/h = -1 + sqrt(22) (quadratic), rounded
@@ -217,7 +217,7 @@ def test_allocation_caps_at_region_size_and_gives_one_per_small_region():
 
 
 def test_too_few_clusters_for_the_regions_names_part_minimum_and_regions():
-    box = meshes.box(1, 1, 1, 2, 2, 2)
+    box = shapes.box(1, 1, 1, 2, 2, 2)
     with pytest.raises(Fem2TmmError, match=r"part 'lid'.*6 regions.*at least 6.*region 0: 4 elements"):
         cluster_parts(box.points, [shell_part(box, 5, name="lid")], box.n_elements)
 
@@ -255,7 +255,7 @@ def test_balanced_clusters_have_even_areas_within_regions_and_never_cross_an_edg
         a = np.bincount(lab, area)
         assert a.std() / a.mean() <= 0.05  # measured 0.028-0.031 (thesis scheme, balance=False: 0.11-0.16)
         assert_partition_ok(pts, cells, lab, 20)
-    box = meshes.box(1.0, 0.6, 0.3, 40, 24, 12)  # six faces = six regions (90° edges), ~60 quads per cluster
+    box = shapes.box(1.0, 0.6, 0.3, 40, 24, 12)  # six faces = six regions (90° edges), ~60 quads per cluster
     c = box.padded_cells[:, :4]
     lab, reg = partition(box.points, c, 40, return_regions=True)
     assert_partition_ok(box.points, c, lab, 40)
@@ -272,7 +272,7 @@ def test_balanced_clusters_have_even_areas_within_regions_and_never_cross_an_edg
 
 def test_metis_method_gives_contiguous_balanced_clusters_inside_regions():
     pytest.importorskip("pymetis")
-    box = meshes.box(1.0, 0.6, 0.3, 40, 24, 12)
+    box = shapes.box(1.0, 0.6, 0.3, 40, 24, 12)
     c = box.padded_cells[:, :4]
     lab, reg = partition(box.points, c, 40, return_regions=True, method="metis")
     assert_partition_ok(box.points, c, lab, 40)  # contiguity checked with networkx
@@ -288,7 +288,7 @@ def test_metis_method_gives_contiguous_balanced_clusters_inside_regions():
 def test_metis_repair_merges_stray_pieces_and_refills_empty_clusters():
     from fem2tmm.cluster.metis import repair
 
-    plate = meshes.plate(1.0, 1.0, 6, 1)  # a row of 6 quads 0-1-2-3-4-5
+    plate = shapes.plate(1.0, 1.0, 6, 1)  # a row of 6 quads 0-1-2-3-4-5
     c = plate.padded_cells[:, :4]
     g = nx.Graph(list(naive_links(plate.points, c, "shell")))
     A = nx.to_scipy_sparse_array(g, nodelist=range(6), format="csr")
@@ -304,7 +304,7 @@ def test_metis_method_missing_pymetis_is_a_clear_error(monkeypatch):
     import fem2tmm.cluster.metis as mt
 
     monkeypatch.setattr(mt, "available", lambda: False)
-    plate = meshes.plate(1.0, 1.0, 4, 4)
+    plate = shapes.plate(1.0, 1.0, 4, 4)
     with pytest.raises(Fem2TmmError, match="pymetis"):
         partition(plate.points, plate.padded_cells[:, :4], 4, method="metis")
     with pytest.raises(Fem2TmmError, match="method"):
@@ -339,7 +339,7 @@ def test_smoothing_shortens_a_disc_cut_in_two():
 
 def test_pair_cut_is_the_exact_minimum_of_eq_4_1_by_enumeration():
     rng = np.random.default_rng(3)
-    p = meshes.plate(1, 1, 5, 4)
+    p = shapes.plate(1, 1, 5, 4)
     pts = p.points + np.c_[rng.uniform(-0.05, 0.05, (len(p.points), 2)), np.zeros(len(p.points))]
     cells = cells_of(p)
     links = naive_links(pts, cells, "shell")
@@ -380,7 +380,7 @@ def test_pair_cut_is_the_exact_minimum_of_eq_4_1_by_enumeration():
 
 
 def test_circular_fin_50_clusters_edges_as_in_the_thesis():
-    fin = meshes.annulus(0.05, 0.15, n_r=20, n_theta=120)
+    fin = shapes.annulus(0.05, 0.15, n_r=20, n_theta=120)
     labels = partition(fin.points, cells_of(fin), 50)
     assert_partition_ok(fin.points, cells_of(fin), labels, 50)
     r = np.hypot(*fin.element_centroids()[:, :2].T)
@@ -397,9 +397,9 @@ def test_circular_fin_50_clusters_edges_as_in_the_thesis():
 
 
 def test_cluster_parts_numbering_progress_report_and_determinism():
-    plate = meshes.plate(1, 1, 8, 8)
-    box = meshes.transform(meshes.box(1, 1, 1, 3, 3, 3, kind="solid"), translation=(3, 0, 0))
-    m = meshes.merge(plate, box)
+    plate = shapes.plate(1, 1, 8, 8)
+    box = shapes.transform(shapes.box(1, 1, 1, 3, 3, 3, kind="solid"), translation=(3, 0, 0))
+    m = shapes.merge(plate, box)
     # elements 0..63 quads, 64..90 hexes; element 5 is in no part
     shell_el = np.setdiff1d(np.arange(64), [5])
     solid_el = np.arange(64, 91)
@@ -425,7 +425,7 @@ def test_cluster_parts_numbering_progress_report_and_determinism():
 
 
 def test_same_seed_same_labels_partition():
-    fin = meshes.annulus(0.05, 0.15, n_r=10, n_theta=60)
+    fin = shapes.annulus(0.05, 0.15, n_r=10, n_theta=60)
     a = partition(fin.points, cells_of(fin), 17, seed=4)
     b = partition(fin.points, cells_of(fin), 17, seed=4)
     assert np.array_equal(a, b)
@@ -435,7 +435,7 @@ def test_same_seed_same_labels_partition():
 
 
 def test_bad_input_gives_clear_errors():
-    p = meshes.plate(1, 1, 3, 3)
+    p = shapes.plate(1, 1, 3, 3)
     c = cells_of(p)
     with pytest.raises(Fem2TmmError, match=r"10 super nodes requested but the part has only 9 elements"):
         partition(p.points, c, 10)
@@ -462,7 +462,7 @@ def test_bad_input_gives_clear_errors():
     with pytest.raises(Fem2TmmError, match=r"isolated elements .*element indices 9"):
         partition(pts2, c2, 3)
     # wrong element kind for the part, overlapping parts
-    s = meshes.box(1, 1, 1, 2, 2, 2, kind="solid")
+    s = shapes.box(1, 1, 1, 2, 2, 2, kind="solid")
     with pytest.raises(Fem2TmmError, match="shell part but contains hex8"):
         cluster_parts(s.points, [PartInput("x", "shell", np.arange(8), s.padded_cells, s.element_types, 2)], 8)
     q = shell_part(p, 2)
@@ -479,7 +479,7 @@ def test_user_labels_route_into_run_validated_and_equal_to_the_same_partition_co
     from conftest import make_case
     from fem2tmm.pipeline import run
 
-    plate = meshes.plate(0.4, 0.2, 20, 10)
+    plate = shapes.plate(0.4, 0.2, 20, 10)
     case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
                        "back": "black", "super_nodes": 6}],
                      [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],

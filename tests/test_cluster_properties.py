@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.spatial import Delaunay
 
 from fem2tmm.cluster import PartInput, cluster_parts, partition
-from fem2tmm.fem.elements import TYPE_CODE
+from fem2tmm.mesh.elements import TYPE_CODE
 from test_cluster import assert_partition_ok, cut_length
 
 SETTINGS = settings(max_examples=25, deadline=None)

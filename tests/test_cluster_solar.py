@@ -10,7 +10,7 @@ import pytest
 
 from fem2tmm import Case, Fem2TmmError
 from fem2tmm.cluster import PartInput, cluster_parts
-from fem2tmm.fem.elements import TYPE_CODE
+from fem2tmm.mesh.elements import TYPE_CODE
 
 
 def strip(profile, ny, width=1.0):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import beam_reference, fin_reference, make_case
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import detailed_problem
 from fem2tmm.solve.steady import solve_steady
@@ -31,7 +31,7 @@ def fin_case():
 
 
 def fin_errors(n_r, n_theta, element="quad4"):
-    mesh = meshes.annulus(0.05, 0.15, n_r, n_theta, element=element)
+    mesh = shapes.annulus(0.05, 0.15, n_r, n_theta, element=element)
     _, _, T = solve(mesh, fin_case())
     ref = fin_reference()
     r = np.hypot(mesh.points[:, 0], mesh.points[:, 1])
@@ -70,7 +70,7 @@ def test_fin_triangles():
 @pytest.mark.parametrize("T0", [3.0, 1000.0])
 def test_newton_converges_from_any_start(T0):
     # issue 2: converge from any start between 3 K and 1000 K, to the same solution
-    mesh = meshes.annulus(0.05, 0.15, 10, 60)
+    mesh = shapes.annulus(0.05, 0.15, 10, 60)
     model = build_model(mesh, fin_case())
     ref = solve_steady(detailed_problem(model))
     sol = solve_steady(detailed_problem(model), T0=T0)
@@ -84,13 +84,13 @@ def square_tube_beam(n=1000, L=1.0, w=0.01):
     With strip thickness w/4 the conduction section is 4·w·(w/4) = w² and the radiating perimeter 4w,
     exactly the beam of thesis eq. 4.16 (temperature uniform over the section by symmetry).
     """
-    strip = meshes.beam(L, w, n)
-    Rx = meshes.rotation
-    top = meshes.transform(strip, translation=(0, 0, w))
-    bottom = meshes.transform(strip, Rx("x", 180), translation=(0, w, 0))
-    side0 = meshes.transform(strip, Rx("x", 90))
-    side1 = meshes.transform(strip, Rx("x", -90), translation=(0, w, w))
-    return meshes.merge(top, bottom, side0, side1)
+    strip = shapes.beam(L, w, n)
+    Rx = shapes.rotation
+    top = shapes.transform(strip, translation=(0, 0, w))
+    bottom = shapes.transform(strip, Rx("x", 180), translation=(0, w, 0))
+    side0 = shapes.transform(strip, Rx("x", 90))
+    side1 = shapes.transform(strip, Rx("x", -90), translation=(0, w, w))
+    return shapes.merge(top, bottom, side0, side1)
 
 
 def test_conductive_radiative_beam_against_ode():
@@ -122,7 +122,7 @@ def test_plate_parabola_exact(element):
     # k t T'' = -q between two fixed edges: T = T1 + (T2 - T1) x/L + q x (L - x)/(2 k t); linear elements
     # with consistent loads are nodally exact for this quadratic (1e-9 relative, issue 2)
     L, k, t, q, T1, T2 = 1.0, 170.0, 2e-3, 50.0, 20.0, 45.0
-    mesh = meshes.plate(L, 0.4, 16, 5, element=element)
+    mesh = shapes.plate(L, 0.4, 16, 5, element=element)
     case = make_case(
         [{"name": "plate", "groups": ["plate"], "material": "al", "thickness": t}],
         [{"kind": "temperature", "groups": ["xmin"], "value": T1},
@@ -138,7 +138,7 @@ def test_plate_parabola_exact(element):
 @pytest.mark.parametrize("element", ["hex8", "tet4", "wedge6"])
 def test_solid_bar_linear_profile(element):
     # pure conduction in a bar with fixed end faces: exact linear profile for any linear element
-    mesh = meshes.box(1.0, 0.2, 0.1, 10, 2, 2, kind="solid", element=element)
+    mesh = shapes.box(1.0, 0.2, 0.1, 10, 2, 2, kind="solid", element=element)
     case = make_case(
         [{"name": "bar", "groups": ["box"], "material": "al"}],
         [{"kind": "temperature", "groups": ["xmin"], "value": 0.0},
@@ -155,9 +155,9 @@ def test_solid_bar_linear_profile(element):
 def test_mixed_shell_and_solid_model():
     # a solid block with a shell plate sharing its top face nodes: both conduct in one model.
     # Series conduction check: plate strip along x on top of the bar, ends fixed -> linear profile.
-    bar = meshes.box(1.0, 0.2, 0.1, 10, 2, 2, kind="solid")
-    top = meshes.plate(1.0, 0.2, 10, 2, origin=(0, 0, 0.1), name="skin")
-    mesh = meshes.merge(bar, top)
+    bar = shapes.box(1.0, 0.2, 0.1, 10, 2, 2, kind="solid")
+    top = shapes.plate(1.0, 0.2, 10, 2, origin=(0, 0, 0.1), name="skin")
+    mesh = shapes.merge(bar, top)
     case = make_case(
         [{"name": "bar", "groups": ["box"], "material": "al"},
          {"name": "skin", "groups": ["skin"], "material": "al", "thickness": 1e-3}],
@@ -174,7 +174,7 @@ def test_mixed_shell_and_solid_model():
 def test_isothermal_group_is_one_dof_and_radiation_is_lumped_exactly():
     # plate radiating from both sides, one edge fixed: the edge nodes merge into one DOF and the
     # total εA to space equals ε · 2 · area
-    mesh = meshes.plate(0.3, 0.2, 6, 4)
+    mesh = shapes.plate(0.3, 0.2, 6, 4)
     case = make_case(
         [{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3, **BLACK_BOTH}],
         [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from conftest import make_case
-from fem2tmm import Fem2TmmError, meshes
+from fem2tmm import Fem2TmmError
+from fem2tmm.mesh import shapes
 from fem2tmm.case import Case
 from fem2tmm.cli import main
 from fem2tmm.fem.model import build_model
@@ -24,7 +25,7 @@ EDGE_T = {"kind": "temperature", "groups": ["xmin"], "value": 20.0}
 
 
 def write_plate_msh(path, quad=True, extra=None):
-    m = meshes.plate(1.0, 1.0, 2, 2)
+    m = shapes.plate(1.0, 1.0, 2, 2)
     cells = [("quad", m.blocks[0].cells)]
     phys = [np.full(len(m.blocks[0].cells), 1)]
     if extra is not None:
@@ -54,27 +55,27 @@ front = "black"
 
 def test_part_without_material():
     with pytest.raises(Fem2TmmError, match=r"'plate' has no material"):
-        build_model(meshes.plate(), make_case([{**PLATE_PART, "material": None} if False else
+        build_model(shapes.plate(), make_case([{**PLATE_PART, "material": None} if False else
                                                {k: v for k, v in PLATE_PART.items() if k != "material"}], [EDGE_T]))
 
 
 def test_shell_part_without_thickness():
     with pytest.raises(Fem2TmmError, match=r"shell part without thickness"):
-        build_model(meshes.plate(), make_case([{k: v for k, v in PLATE_PART.items() if k != "thickness"}], [EDGE_T]))
+        build_model(shapes.plate(), make_case([{k: v for k, v in PLATE_PART.items() if k != "thickness"}], [EDGE_T]))
 
 
 def test_group_missing_from_mesh():
     with pytest.raises(Fem2TmmError, match=r"group 'plat' is not in mesh .*available groups: .*'plate'"):
-        build_model(meshes.plate(), make_case([{**PLATE_PART, "groups": ["plat"]}], [EDGE_T]))
+        build_model(shapes.plate(), make_case([{**PLATE_PART, "groups": ["plat"]}], [EDGE_T]))
 
 
 def test_boundary_group_missing_from_mesh():
     with pytest.raises(Fem2TmmError, match=r"\[\[boundary\]\] 'temperature_0'.*group 'edge'"):
-        build_model(meshes.plate(), make_case([PLATE_PART], [{**EDGE_T, "groups": ["edge"]}]))
+        build_model(shapes.plate(), make_case([PLATE_PART], [{**EDGE_T, "groups": ["edge"]}]))
 
 
 def test_zero_area_element_names_ids():
-    m = meshes.plate(1.0, 1.0, 2, 2)
+    m = shapes.plate(1.0, 1.0, 2, 2)
     # a fifth quad on four collinear new nodes: zero area
     line = np.column_stack([np.linspace(2, 3, 4), np.zeros(4), np.zeros(4)])
     pts = np.concatenate([m.points, line])
@@ -89,7 +90,7 @@ def test_zero_area_element_names_ids():
 
 
 def test_bowtie_quad_names_ids():
-    m = meshes.plate(1.0, 1.0, 2, 2)
+    m = shapes.plate(1.0, 1.0, 2, 2)
     c = m.blocks[0].cells.copy()
     c[1] = c[1][[0, 2, 1, 3]]  # crossed (bow-tie) node order
     bad = Mesh(m.points, (ElementBlock("quad4", c, m.blocks[0].ids),), m.groups)
@@ -98,7 +99,7 @@ def test_bowtie_quad_names_ids():
 
 
 def test_inverted_hex_names_ids():
-    m = meshes.box(1, 1, 1, 2, 2, 2, kind="solid")
+    m = shapes.box(1, 1, 1, 2, 2, 2, kind="solid")
     pts = m.points.copy()
     cells = m.blocks[0].cells
     # push node 6 of element 1 through the opposite face: the Jacobian changes sign inside the element
@@ -111,7 +112,7 @@ def test_inverted_hex_names_ids():
 
 
 def test_nan_coordinate_names_node():
-    m = meshes.plate(1.0, 1.0, 2, 2)
+    m = shapes.plate(1.0, 1.0, 2, 2)
     pts = m.points.copy()
     pts[4, 1] = np.nan
     with pytest.raises(Fem2TmmError, match=r"non-finite .* node ids 5"):
@@ -148,7 +149,7 @@ def test_unsupported_element_type_lists_supported(tmp_path):
 
 
 def test_element_referencing_missing_node():
-    m = meshes.plate(1.0, 1.0, 1, 1)
+    m = shapes.plate(1.0, 1.0, 1, 1)
     c = m.blocks[0].cells.copy()
     c[0, 2] = 99
     with pytest.raises(Fem2TmmError, match=r"quad4 elements 1 reference nodes that do not exist"):
@@ -159,7 +160,7 @@ def test_floating_part_without_boundary_or_radiation():
     # a conductive plate with no fixed temperature and no active side: its temperature is undetermined
     case = make_case([{**PLATE_PART, "front": "none"}], [{"kind": "power", "groups": ["plate"], "value": 1.0}])
     with pytest.raises(Fem2TmmError, match=r"neither a fixed temperature nor radiation.*'plate'"):
-        run(case, mesh=meshes.plate())
+        run(case, mesh=shapes.plate())
 
 
 def test_unknown_case_key_and_missing_material():
@@ -172,7 +173,7 @@ def test_unknown_case_key_and_missing_material():
 def test_overlapping_temperature_boundaries():
     case = make_case([PLATE_PART], [EDGE_T, {"kind": "temperature", "groups": ["ymin"], "value": 30.0}])
     with pytest.raises(Fem2TmmError, match=r"are in two temperature boundaries"):
-        build_model(meshes.plate(), case)
+        build_model(shapes.plate(), case)
 
 
 # ----------------------------------------------------------------------------------------------- CLI

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import make_case
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.export.esatan import deck_matrices, read_esatan
 from fem2tmm.pipeline import run
 from fem2tmm.solve.steady import SteadyProblem, solve_steady
@@ -19,7 +19,7 @@ from fem2tmm.solve.steady import SteadyProblem, solve_steady
 @pytest.fixture(scope="module")
 def fin_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("fin") / "out"
-    mesh = meshes.annulus(0.05, 0.15, 10, 60)
+    mesh = shapes.annulus(0.05, 0.15, 10, 60)
     case = make_case(
         [{"name": "fin", "groups": ["annulus"], "material": "al", "thickness": 1e-3, "front": "black",
           "back": "black", "super_nodes": 12}],

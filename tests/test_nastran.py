@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from fem2tmm.errors import Fem2TmmError
-from fem2tmm.io.benchmarks import write_plate_deck
+from scenarios import write_plate_deck
 from fem2tmm.io.nastran import _parse_int, _parse_real, read_nastran
 
 DATA = Path(__file__).parent / "data"
@@ -359,7 +359,7 @@ ERRORS = {
     "stray_continuation": ([sf("+C", 1, 2), *SQUARE, Q], [r"deck\.bdf:1: continuation line with no card before it"]),
     "free_field_too_long": ([*SQUARE, "CHEXA,1,1,1,2,3,4,1,2,3,4"], [r"deck\.bdf:5: free-field line has 10 data fields; at most 8"]),
     "pshell_on_solid": ([*SQUARE, sf("CTETRA", 1, 1, 1, 2, 3, 4), sf("PSHELL", 1, 1, ".1")], [r"deck\.bdf:6: PSHELL 1 is used by solid elements"]),
-    "pid_shell_and_solid": ([*SQUARE, Q, sf("CTETRA", 2, 1, 1, 2, 3, 4)], [r"property ids 1 are used by both shell and solid elements"]),
+    "pid_shell_and_solid": ([*SQUARE, Q, sf("CTETRA", 2, 1, 1, 2, 3, 4)], [r"property ids 1 are used by elements of different kinds \(bars, shells, solids\)"]),
     "two_grdsets": ([sf("GRDSET", "", 0), sf("GRDSET", "", 0), *SQUARE, Q], [r"more than one GRDSET card: \S*:1 and \S*:2"]),
     "duplicate_pid": ([*SQUARE, Q, sf("PSHELL", 1, 1, ".1"), sf("PSOLID", 1, 1)], [r"property id 1 is defined twice: \S*:6 and \S*:7"]),
     "duplicate_mat4": ([*SQUARE, Q, sf("MAT4", 1, "1."), sf("MAT4", 1, "2.")], [r"MAT4 1 is defined twice"]),
@@ -403,7 +403,7 @@ def test_file_and_unit_errors(tmp_path):
 def test_benchmark_million_quads(request):
     if "slow" not in (request.config.getoption("markexpr") or ""):
         pytest.skip("long measurement (about a minute): run with -m slow")
-    from fem2tmm.io.benchmarks import bench_nastran
+    from benchmarks.io import bench_nastran
 
     (res,) = bench_nastran(n_side=1000, repeats=1)
     assert res["elements"] == 1_000_000 and res["nodes"] == 1001**2

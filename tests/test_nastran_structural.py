@@ -93,6 +93,8 @@ def test_plates_joined_by_a_cbar(tmp_path):
 def test_plates_joined_by_an_rbe2(tmp_path, treatment):
     # RBE2 from GRID 6 (plate A) to GRIDs 104 and 101 (plate B): two connections
     deck = write(tmp_path, two_plates([card("RBE2", 900, 6, 123456, 104, 101)]))
+    assert quiet(read_mesh, write(tmp_path, two_plates([card("RBE2", 900, 6, 123456, 101, "THRU", 104, 0.1)]),
+                                  name="thru.bdf")).joints[0].pairs.shape == (4, 2)  # 101 THRU 104, ALPHA 0.1
     joint = {"cards": ["RBE2"], "treatment": treatment}
     if treatment == "conductance":
         joint["conductance"] = 0.5
@@ -465,3 +467,60 @@ def test_pcompg_plies(tmp_path):
              card("+", 3, 10, 0.5, 90.0), card("MAT4", 10, 100.0)]
     p = quiet(read_nastran, write(tmp_path, lines), unit="mm").properties["PID 1"]
     assert p.thickness == pytest.approx(1.0e-3, rel=1e-14) and p.conductivity == pytest.approx(100.0, rel=1e-14)
+
+
+def test_joint_on_mid_side_nodes(tmp_path):
+    # a CBUSH from a free GRID 900 to the mid-side GRID 5 of a CQUAD8 edge 1-2: T_5 = (T_1 + T_2) / 2 (the
+    # corner-node model of the quadratic element); 5 W into GRID 900 flow through G = 0.5 W/K and across the plate
+    # to its edge x = 0 held at 20 °C: the joint drops P / G = 10 K exactly, and 5 W reach the edge
+    lines = [card("GRID", i + 1, "", x, y, 0.0) for i, (x, y) in enumerate(
+        [(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0), (1, 0.5), (0.5, 1), (0, 0.5)])]
+    lines += [card("CQUAD8", 1, 1, 1, 2, 3, 4, 5, 6, "+"), card("+", 7, 8), card("PSHELL", 1, 10, 0.002),
+              card("MAT4", 10, 200.0), card("GRID", 900, "", 0.5, -1.0, 0.0), card("CBUSH", 50, 7, 900, 5)]
+    deck = write(tmp_path, lines)
+    case = case_for(deck, [{"name": "p", "groups": ["PID 1"]}],
+                    [{"kind": "temperature", "nodes": [1, 4, 8], "value": 20.0, "name": "edge"},
+                     {"kind": "power", "nodes": [900], "value": 5.0}],
+                    joints=[{"cards": ["CBUSH"], "treatment": "conductance", "conductance": 0.5}])
+    res = quiet(run, case)
+    i900, i1, i2, i5 = res.mesh.node_index([900, 1, 2, 5], where="test")
+    for T in (res.T_detailed_nodes, res.T_recovered_nodes):
+        assert T[i5] == pytest.approx((T[i1] + T[i2]) / 2, rel=1e-14) and T[i2] > T[i1] + 1.0
+        assert T[i900] - T[i5] == pytest.approx(10.0, rel=1e-9)
+    assert res.summary["detailed"]["heat_into_fixed_W"]["edge"] == pytest.approx(5.0, rel=1e-9)
+
+
+def test_isothermal_joint_over_a_quadratic_edge(tmp_path):
+    # an RBE2 spider over the whole edge 1-5-2 of a CQUAD8 (corners and mid-side): merging is exact, GRID 900
+    # and the edge share one temperature; a spider to the mid-side GRID alone merges the edge (warning)
+    lines = [card("GRID", i + 1, "", x, y, 0.0) for i, (x, y) in enumerate(
+        [(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0), (1, 0.5), (0.5, 1), (0, 0.5)])]
+    lines += [card("CQUAD8", 1, 1, 1, 2, 3, 4, 5, 6, "+"), card("+", 7, 8), card("PSHELL", 1, 10, 0.002),
+              card("MAT4", 10, 200.0), card("GRID", 900, "", 0.5, -1.0, 0.0)]
+    bc = [{"kind": "temperature", "nodes": [3, 4, 7], "value": 20.0}, {"kind": "power", "nodes": [900], "value": 5.0}]
+    joints = [{"cards": ["RBE2"], "treatment": "isothermal"}]
+    deck = write(tmp_path, [*lines, card("RBE2", 50, 900, 1, 1, 5, 2)])
+    res = quiet(run, case_for(deck, [{"name": "p", "groups": ["PID 1"]}], bc, joints=joints))
+    T = res.T_detailed_nodes
+    i900, i1, i2, i5 = res.mesh.node_index([900, 1, 2, 5], where="test")
+    assert T[i900] == T[i1] == T[i2] == T[i5]
+    deck = write(tmp_path, [*lines, card("RBE2", 50, 900, 1, 5)], name="d2.bdf")
+    with pytest.warns(UserWarning, match=r"isothermal joints reach mid-side GRIDs 5 whose edge ends"):
+        run(case_for(deck, [{"name": "p", "groups": ["PID 1"]}], bc, joints=joints))
+
+
+def test_nastran95_shell_aliases(tmp_path):
+    # NASTRAN-95 shells and CSHEAR with their property cards (PID, MID, T like PSHELL)
+    lines = [card("GRID", i + 1, "", float(i % 3), float(i // 3), 0.0) for i in range(9)]
+    pairs = [("CQUAD1", "PQUAD1"), ("CQUAD2", "PQUAD2"), ("CQDMEM", "PQDMEM"), ("CQDMEM1", "PQDMEM1"),
+             ("CQDMEM2", "PQDMEM2"), ("CSHEAR", "PSHEAR")]
+    for k, (c, p) in enumerate(pairs):
+        lines += [card(c, 10 + k, 10 + k, 1, 2, 5, 4), card(p, 10 + k, 1, 0.001 * (k + 1))]
+    for k, (c, p) in enumerate([("CTRIA1", "PTRIA1"), ("CTRIA2", "PTRIA2"), ("CTRMEM", "PTRMEM")]):
+        lines += [card(c, 20 + k, 20 + k, 2, 3, 6), card(p, 20 + k, 1, 0.01 * (k + 1))]
+    lines.append(card("MAT4", 1, 5.0))
+    mesh = quiet(read_nastran, write(tmp_path, lines))
+    for k, (c, p) in enumerate(pairs):
+        prop = mesh.properties[f"PID {10 + k}"]
+        assert (prop.card, prop.thickness, prop.conductivity) == (p, 0.001 * (k + 1), 5.0)
+    assert [b.type for b in mesh.blocks] == ["tri3", "quad4"] and mesh.properties["PID 22"].thickness == 0.03

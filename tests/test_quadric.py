@@ -12,10 +12,10 @@ from math import factorial
 import numpy as np
 import pytest
 
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.errors import Fem2TmmError
 from fem2tmm.radiation import HAS_EMBREE, Surface, exchange_factors, trace_exchange
-from fem2tmm.radiation.benchmarks_quadric import cylinder_super_faces, cylinder_surface, read_cylinders
+from scenarios import cylinder_super_faces, cylinder_surface, read_cylinders
 from fem2tmm.radiation.quadric import (RULE7, Quadric, QuadricScene, face_frames, fit_quadric, fit_regions,
                                        subdivided_rule)
 from fem2tmm.radiation.smoothing import convergence_rate
@@ -35,7 +35,7 @@ def icosphere(subdivisions: int, radius: float = 1.0, center=(0.0, 0.0, 0.0)):
 
 def paraboloid(n: int, element: str = "tri3"):
     """z = (x² + y²)/4 over [-1, 1]² (2 m square, f = 1), n x n cells; front side +z (the concave side)."""
-    m = meshes.plate(2, 2, n, n, element=element, origin=(-1, -1, 0))
+    m = shapes.plate(2, 2, n, n, element=element, origin=(-1, -1, 0))
     p = m.points.copy()
     p[:, 2] = (p[:, 0] ** 2 + p[:, 1] ** 2) / 4
     return p, m.blocks[0].cells
@@ -52,8 +52,8 @@ def exact_surfaces():
     rng = np.random.default_rng(1)
     R = random_rotation(rng)
     t = np.array([0.3, -1.2, 2.0])
-    cyl = meshes.cylinder(0.05, 0.5, 24, 10)
-    cone = meshes.cone(0.05, 0.15, 0.3, 36, 12)
+    cyl = shapes.cylinder(0.05, 0.5, 24, 10)
+    cone = shapes.cone(0.05, 0.15, 0.3, 36, 12)
     sph_p, sph_f = icosphere(2, 0.7, (3.0, 2.0, 1.0))
     par_p, par_f = paraboloid(12)
 
@@ -103,7 +103,7 @@ def test_fit_of_exact_meshes_recovers_the_surface(name, points, faces, sampler):
 def test_fit_without_normals_needs_an_unambiguous_region():
     # a 90° strip of the 12 x 20 cylinder, 3 elements wide: its 4 generators lie on a family of quadrics
     # (a + b cos θ + c sin θ + d cos 2θ + e sin 2θ vanishes on 4 angles), so Taubin alone is ambiguous
-    m = meshes.cylinder(0.05, 0.5, 12, 5)
+    m = shapes.cylinder(0.05, 0.5, 12, 5)
     faces = m.blocks[0].cells
     cen, nrm = face_frames(m.points, faces)
     strip = np.flatnonzero(np.arctan2(cen[:, 1], cen[:, 0]) % (2 * np.pi) < np.pi / 2)
@@ -116,7 +116,7 @@ def test_fit_without_normals_needs_an_unambiguous_region():
     p = np.c_[0.05 * np.cos(th), 0.05 * np.sin(th), np.linspace(0, 0.5, 50)]
     assert np.max(np.abs(q.value(p))) < 1e-12
     # a plane: z(a + bx + cy) = 0 fits any planar vertex set; the normals pick the plane itself, f = z (unit ∇f)
-    pl = meshes.plate(1, 1, 4, 4)
+    pl = shapes.plate(1, 1, 4, 4)
     c2, n2 = face_frames(pl.points, pl.blocks[0].cells)
     qp = fit_quadric(pl.points, n2, c2, name="plate")
     np.testing.assert_allclose(qp.world_coefficients, [0, 0, 0, 1, 0, 0, 0, 0, 0, 0], atol=1e-12)
@@ -201,7 +201,7 @@ def test_radon_rule_and_patch_areas():
     sc = QuadricScene.from_regions(Surface(pts, faces), np.zeros(len(faces), int))
     assert sc.tri_area.sum() == pytest.approx(np.pi, rel=1e-8)  # quadrature error 5e-9 (module docstring)
     assert sc.tri_area_fe.sum() < 0.95 * np.pi
-    cyl = meshes.cylinder(0.05, 0.5, 12, 20)  # the thesis' 12 x 20 cylinder: facets 1.1 % short of 2πRL
+    cyl = shapes.cylinder(0.05, 0.5, 12, 20)  # the thesis' 12 x 20 cylinder: facets 1.1 % short of 2πRL
     sc = QuadricScene.from_regions(Surface(cyl.points, cyl.blocks[0].cells), np.zeros(240, int))
     assert sc.tri_area.sum() == pytest.approx(2 * np.pi * 0.05 * 0.5, rel=2e-9)  # measured 5e-10
     # a cone frustum's free end rings: the patch ends where the cone normal through the FE chord meets it, and
@@ -210,7 +210,7 @@ def test_radon_rule_and_patch_areas():
     true = np.pi * 0.2 * np.hypot(0.1, 0.3)  # lateral area π (r0 + r1) slant
     deficit = []
     for n in (24, 48):
-        cone = meshes.cone(0.05, 0.15, 0.3, n, 6)
+        cone = shapes.cone(0.05, 0.15, 0.3, n, 6)
         sc = QuadricScene.from_regions(Surface(cone.points, cone.blocks[0].cells), np.zeros(6 * n, int))
         deficit.append(1 - sc.tri_area.sum() / true)
         assert 0 < deficit[-1] < 0.4 * (1 - sc.tri_area_fe.sum() / true)
@@ -289,7 +289,7 @@ def test_closed_sphere_of_several_regions_is_watertight_and_exact():
 def test_second_root_through_a_hole():
     # cylinder r = 0.05 with a window (faces removed): a ray through the window meets the near wall's quadric
     # outside the patch (first root rejected) and hits the far wall at the second root
-    m = meshes.cylinder(0.05, 0.5, 24, 10)
+    m = shapes.cylinder(0.05, 0.5, 24, 10)
     f = m.blocks[0].cells
     cen, _ = face_frames(m.points, f)
     window = (np.abs(np.arctan2(cen[:, 1], cen[:, 0])) < 0.3) & (np.abs(cen[:, 2] - 0.25) < 0.06)
@@ -401,8 +401,8 @@ def test_curvature_in_refs_concentric_spheres():
 
 # ----------------------------------------------------------------------------- perpendicular cylinders (§5.4)
 def built_cylinders(n_theta, n_z):
-    """The same two cylinders built finer with meshes.cylinder (nodes on the true circle, angle 0 included)."""
-    m = meshes.cylinder(0.05, 0.5, n_theta, n_z)
+    """The same two cylinders built finer with shapes.cylinder (nodes on the true circle, angle 0 included)."""
+    m = shapes.cylinder(0.05, 0.5, n_theta, n_z)
     p, c = m.points, m.blocks[0].cells
     a = np.c_[p[:, 0] - 0.075, p[:, 2] - 0.25, -p[:, 1]]  # a rotation: axis z -> y, outward normals kept
     b = np.c_[p[:, 0] + 0.075, p[:, 1], p[:, 2] - 0.25]

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 
 from numba import njit
 
-from fem2tmm.radiation.kernels import cos_sin_turn, random_state, uniform
+from fem2tmm.radiation._tracer_kernels import cos_sin_turn, random_state, uniform
 from fem2tmm.radiation.sampling import ScrambledHalton
 from fem2tmm.radiation.smoothing import enforce_reciprocity, smooth
 from fem2tmm.radiation.tracer import _batch_tally, _first_hit_numbers, runs_to_csr

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fem2tmm.radiation.reference import (TWO_QUADS, ball_indicator_errors, gebhart_polygons,
-                                         jittered_view_factor_errors, parallel_rectangles_view_factor,
-                                         perpendicular_rectangles_view_factor, point_polygon_view_factor, point_rectangle_view_factor, polygon_view_factor,
-                                         two_quads_ref, view_factor_estimates)
+from benchmarks.kappa import ball_indicator_errors, jittered_view_factor_errors, view_factor_estimates
+from fem2tmm.radiation.reference import (TWO_QUADS, gebhart_polygons, parallel_rectangles_view_factor,
+                                         perpendicular_rectangles_view_factor, point_polygon_view_factor,
+                                         point_rectangle_view_factor, polygon_view_factor, two_quads_ref)
 
 
 def rect_z(x0, y0, a, b, z, up=True):

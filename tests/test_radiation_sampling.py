@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from fem2tmm.radiation.kernels import cosine_directions
+from fem2tmm.radiation._tracer_kernels import cosine_directions
 from fem2tmm.radiation.sampling import HALTON_BASES, ScrambledHalton
 from fem2tmm.radiation.surfaces import Surface, TriangleScene
 

@@ -486,7 +486,7 @@ def test_supernode_rows_and_weights():
 
 def test_benchmark_problem_local_equals_global():
     """The benchmark path on a small closed cylinder (Voronoi clusters, merged fixed ring): same K_SN."""
-    from fem2tmm.reduce.benchmarks import bench_local_vs_global
+    from benchmarks.reduce import bench_local_vs_global
 
     (row,) = bench_local_vs_global(n_sn=(6,), n_theta=24, n_z=10, repeats=1)
     assert row["super_nodes"] == 7 and row["nodes"] == 264

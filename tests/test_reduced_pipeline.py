@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import beam_reference, fin_reference, make_case
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.pipeline import run
 from test_detailed import square_tube_beam
 
@@ -61,7 +61,7 @@ def test_circular_fin_convergence_and_better_than_detailed():
     # thesis §4.4.3 / Fig. 4.14: RMS error against the ODE for n_SN in {1, 5, 10, 20, 50, 100, 200};
     # 1 and 5 super nodes give the same error (one super node radially); the reduced model beats the
     # detailed 2400-element FE model for n_SN > 100.
-    mesh = meshes.annulus(0.05, 0.15, 20, 120)
+    mesh = shapes.annulus(0.05, 0.15, 20, 120)
     ref = fin_reference()
     r = np.hypot(mesh.points[:, 0], mesh.points[:, 1])
     exact = ref.sol(r)[0]
@@ -90,9 +90,9 @@ def test_half_shadowed_super_node_detailed_solar_beats_super_faces():
     # solar_on = "detailed" (fluxes traced on the FE faces, exact power distribution q_SN = Y q and X q kept
     # in the recovery) the recovered field is closer to the detailed model than with the thesis' uniform
     # super-face fluxes.  Both errors are reported in the assertion message.
-    plate = meshes.plate(0.2, 0.1, 20, 10, name="plate")
-    shade = meshes.plate(0.1, 0.1, 10, 10, origin=(0.0, 0.0, 0.05), name="shade")
-    mesh = meshes.merge(plate, shade)
+    plate = shapes.plate(0.2, 0.1, 20, 10, name="plate")
+    shade = shapes.plate(0.1, 0.1, 10, 10, origin=(0.0, 0.0, 0.05), name="shade")
+    mesh = shapes.merge(plate, shade)
     errs = {}
     for mode in ("detailed", "super_faces"):
         case = make_case(
@@ -120,7 +120,7 @@ def test_half_shadowed_super_node_detailed_solar_beats_super_faces():
 def test_kept_nodes_are_one_node_super_nodes_and_conduction_stays_exact():
     # [reduction] keep_nodes: each listed node becomes a one-node super node named after its id; without
     # radiation the reduction is exact for any load (DESIGN §3.2), so the recovered field is the detailed one
-    mesh = meshes.plate(0.2, 0.1, 10, 5)
+    mesh = shapes.plate(0.2, 0.1, 10, 5)
     case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "super_nodes": 4}],
                      [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
                       {"kind": "flux", "groups": ["plate"], "value": 300.0}],

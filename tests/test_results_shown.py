@@ -68,3 +68,25 @@ def test_case_written_as_toml_reads_back_the_same():
     text = to_toml(data)
     assert tomllib.loads(text) == data
     assert "[[parts]]" in text and "[environment]" in text and not text.startswith("{")
+
+
+def test_too_many_super_nodes_fail_before_clustering():
+    # 4 x 4 quads (25 nodes), the 5 nodes of the fixed edge merged into one boundary node: 20 nodes are unknown,
+    # so 21 super nodes over this part cannot be independent (21 rows of A in a 20 + 1-dimensional space with
+    # the boundary row); refused at once, naming the part and the largest possible count
+    import time
+
+    from fem2tmm import Fem2TmmError
+
+    part = {**HEATED_PLATE["parts"][0], "super_nodes": 21}
+    case = make_case([part], HEATED_PLATE["boundary"][:1], radiation={"enabled": False})
+    t = time.perf_counter()
+    with pytest.raises(Fem2TmmError, match=r"'plate' asks for 21 super nodes.*only 20 nodes with an unknown "
+                                           r"temperature \(21 nodes, 1 of them fixed or kept\).*at most 20"):
+        run(case, mesh=meshes.plate(1.0, 1.0, 4, 4))
+    assert time.perf_counter() - t < 1.0  # before any clustering or reduction
+    # 16 (one per element) is allowed by the count; the run says how many GL are negative and what they are
+    part["super_nodes"] = 16
+    s = run(make_case([part], HEATED_PLATE["boundary"][:1], radiation={"enabled": False}),
+            mesh=meshes.plate(1.0, 1.0, 4, 4)).summary
+    assert s["reduced"]["negative_links"] > 0 and "exact reduction" in summary_table(s)

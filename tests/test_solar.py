@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from fem2tmm import Fem2TmmError, meshes
-from fem2tmm.radiation.benchmarks_solar import PERIHELION_FLUX, SUN_10DEG, eui_cone
+from fem2tmm import Fem2TmmError
+from fem2tmm.mesh import shapes
+from scenarios import PERIHELION_FLUX, SUN_10DEG, eui_cone
 from fem2tmm.radiation.solar import solar_fluxes, sun_origins, sunlit_emitters, trace_solar
 from fem2tmm.radiation.surfaces import Surface, TriangleScene
 from fem2tmm.radiation.tracer import trace_paths
@@ -24,7 +25,7 @@ def sun_at(theta_deg: float, phi_deg: float = 0.0) -> np.ndarray:
 
 
 def plate(lx, ly, nx, ny, element="quad4", origin=(0.0, 0.0, 0.0)):
-    m = meshes.plate(lx, ly, nx, ny, element=element, origin=origin)
+    m = shapes.plate(lx, ly, nx, ny, element=element, origin=origin)
     return m.points, m.blocks[0].cells
 
 

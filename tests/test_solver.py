@@ -8,14 +8,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from conftest import make_case
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import detailed_problem
 from fem2tmm.solve.steady import FacedRadiation, solve_steady
 
 
 def test_faced_radiation_newton_krylov_equals_dense_newton():
-    mesh = meshes.plate(0.3, 0.2, 12, 8)
+    mesh = shapes.plate(0.3, 0.2, 12, 8)
     case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-4,
                        "front": "black", "back": "black"}],
                      [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},

@@ -11,14 +11,13 @@ Public API (DESIGN §4.4)::
 
 from __future__ import annotations
 
-from ._version import __version__  # noqa: I001  (first: stages name the version)
+from ._version import __version__
 
-from . import meshes
 from .case import Case
 from .cluster import partition
 from .errors import Fem2TmmError
 from .io import read_mesh
-from .mesh import ElementBlock, Group, Mesh
+from .mesh import ElementBlock, Group, Mesh, shapes
 from .pipeline import run
 from .result import Result
 from .radiation import exchange_factors
@@ -26,6 +25,8 @@ from .radiation.orbit import Attitude, Orbit, Planet
 from .radiation.orbital import orbital_fluxes
 from .radiation.planet import planet_fluxes
 from .radiation.solar import solar_fluxes
+
+meshes = shapes  # the former name of fem2tmm.mesh.shapes (``ft.meshes.plate(...)`` keeps working)
 
 __all__ = [
     "Attitude",
@@ -37,6 +38,7 @@ __all__ = [
     "Result",
     "__version__",
     "meshes",
+    "shapes",
     "Orbit",
     "orbital_fluxes",
     "Planet",

@@ -11,14 +11,25 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Literal, Mapping, get_args
 
 from .constants import ABSOLUTE_ZERO_C, KELVIN
 from .errors import Fem2TmmError
 from .io.units import LENGTH_UNITS, TEMPERATURE_UNITS, UNIT_SYSTEMS, unit_system_name
 from .timefunc import Table, parse_table
+
+
+BoundaryKind = Literal["temperature", "power", "flux"]
+SolarOn = Literal["detailed", "super_faces"]
+Sampling = Literal["halton", "random"]
+ReductionMethod = Literal["local", "global"]
+CapacitanceMethod = Literal["cluster", "equivalent"]
+ReducedNetwork = Literal["exact", "positive"]
+ClusteringMethod = Literal["growing", "metis"]
+TransientMethod = Literal["crank-nicolson", "backward-euler", "bdf2"]
+TransientCapacitance = Literal["lumped", "consistent"]
 
 
 @dataclass(frozen=True)
@@ -57,13 +68,14 @@ class Part:
     thickness: float | None  # m, shells; None: from the mesh (PSHELL)
     front: str  # optics name or "none"
     back: str
-    super_nodes: int
+    super_nodes: int = 1
     quadric: bool | tuple[str, ...] = False  # True: the whole part; a tuple: only these groups of the part
     index: int = 0
     area: float | None = None  # m², line parts (bars); overrides the mesh's PBAR/PROD/... area
 
 
-JOINT_TREATMENTS = ("conductance", "isothermal", "ignore")
+JointTreatment = Literal["conductance", "isothermal", "ignore"]
+JOINT_TREATMENTS = get_args(JointTreatment)
 JOINT_CARDS = ("RBE2", "RBE3", "CBUSH", "CELAS1", "CELAS2", "CGAP")
 
 
@@ -78,7 +90,7 @@ class Joint:
     over card types.
     """
 
-    treatment: str
+    treatment: JointTreatment
     cards: tuple[str, ...] = ()
     pids: tuple[int, ...] = ()
     elements: tuple[int, ...] = ()
@@ -95,7 +107,7 @@ class Boundary:
     ``[transient]`` start (0 s without a transient) when the value varies in time; ``table`` then holds the
     whole function of time (same units: K, W or W/m²)."""
 
-    kind: str  # temperature | power | flux
+    kind: BoundaryKind
     value: float  # K for temperature, W for power, W/m² for flux
     groups: tuple[str, ...] = ()
     nodes: tuple[int, ...] = ()  # original node (GRID) ids
@@ -109,7 +121,7 @@ class Environment:
     sink_temperature: float = 3.0  # K (at the [transient] start when it varies in time)
     sun_direction: tuple[float, float, float] | None = None  # unit vector from the model towards the Sun
     solar_flux: float = 0.0  # W/m²
-    solar_on: str = "detailed"  # detailed | super_faces
+    solar_on: SolarOn = "detailed"
     solar_rays_per_face: int = 100  # per FE face side (super_faces: per FE face of each super face)
     sink_table: Table | None = None  # K, time-dependent sink temperature; None = constant
 
@@ -119,7 +131,7 @@ class RadiationSettings:
     enabled: bool = True  # face-to-face REFs; False: every active side sees only space
     rays_per_face: int | None = 1000
     ray_density: float | None = None  # rays per m²
-    sampling: str = "halton"
+    sampling: Sampling = "halton"
     seed: int = 0
     max_bounces: int = 1000
     target_lse: float | None = None
@@ -132,14 +144,14 @@ class RadiationSettings:
 @dataclass(frozen=True)
 class ReductionSettings:
     enabled: bool = True
-    method: str = "local"
-    capacitance: str = "cluster"  # cluster | equivalent
+    method: ReductionMethod = "local"
+    capacitance: CapacitanceMethod = "cluster"
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
     # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve
     radiation_aware: bool = False
     outer_iterations: int = 4  # re-linearisations about T_ref (each: reduction, network solve, recovery)
-    network: str = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
+    network: ReducedNetwork = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
 
 
 @dataclass(frozen=True)
@@ -148,7 +160,7 @@ class ClusteringSettings:
     seed: int = 0
     smoothing_layers: int = 2
     balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
-    method: str = "growing"  # growing | metis (pymetis on each region)
+    method: ClusteringMethod = "growing"  # growing | metis (pymetis on each region)
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun
     solar_aware: bool | None = None
@@ -173,7 +185,7 @@ class SolverSettings:
     max_iterations: int = 200
 
 
-TRANSIENT_METHODS = ("crank-nicolson", "backward-euler", "bdf2")
+TRANSIENT_METHODS = get_args(TransientMethod)
 
 
 @dataclass(frozen=True)
@@ -187,8 +199,8 @@ class TransientSpec:
     tolerance: float | None = None
     output_every: float | None = None
     initial_temperature: float | str = "steady"
-    method: str = "crank-nicolson"
-    capacitance: str = "lumped"  # lumped | consistent (detailed FE model)
+    method: TransientMethod = "crank-nicolson"
+    capacitance: TransientCapacitance = "lumped"  # lumped | consistent (detailed FE model)
     periodic: bool = False
     periodic_tolerance: float = 0.01
 
@@ -271,6 +283,14 @@ class Case:
 
 
 # ---------------------------------------------------------------------------------------------- parser
+def _default(cls, name: str):
+    """The default of field ``name`` of the settings dataclass ``cls`` (the one place it is written)."""
+    for f in fields(cls):
+        if f.name == name:
+            return f.default if f.default is not MISSING else f.default_factory()
+    raise KeyError(name)
+
+
 class _Parser:
     def __init__(self, source: str, base: Path):
         self.src = source
@@ -407,7 +427,7 @@ class _Parser:
         d = self.table(d, w, {"file", "unit", "unit_system", "temperature_unit", "nastran_loads", "ignore_cards",
                               "load_set", "spc_set"})
         f = self.string(d, "file", w)
-        unit = self.string(d, "unit", w, default="m")
+        unit = self.string(d, "unit", w, default=_default(MeshSpec, "unit"))
         if unit.lower() not in LENGTH_UNITS:
             raise self.err("[mesh].unit", f"unknown length unit {unit!r}; expected one of {', '.join(LENGTH_UNITS)}")
         system = self.string(d, "unit_system", w)
@@ -478,7 +498,7 @@ class _Parser:
                        {"emissivity"})
         eps = self.number(d, "emissivity", w, lo=0, hi=1)
         alpha = self.number(d, "absorptivity", w, default=eps, lo=0, hi=1)
-        tau = self.number(d, "transmissivity", w, default=0.0, lo=0, hi=1)
+        tau = self.number(d, "transmissivity", w, default=_default(Optics, "transmissivity"), lo=0, hi=1)
         if eps + tau > 1 + 1e-12:
             raise self.err(w, f"emissivity + transmissivity = {eps + tau} exceeds 1")
         if alpha + tau > 1 + 1e-12:
@@ -487,9 +507,10 @@ class _Parser:
             name=name,
             emissivity=eps,
             absorptivity=alpha,
-            specular=self.number(d, "specular", w, default=0.0, lo=0, hi=1),
+            specular=self.number(d, "specular", w, default=_default(Optics, "specular"), lo=0, hi=1),
             transmissivity=tau,
-            transmission_specular=self.number(d, "transmission_specular", w, default=1.0, lo=0, hi=1),
+            transmission_specular=self.number(d, "transmission_specular", w, lo=0, hi=1,
+                                              default=_default(Optics, "transmission_specular")),
         )
 
     def part(self, i, d, materials, optics) -> Part:
@@ -517,7 +538,7 @@ class _Parser:
             thickness=self.number(d, "thickness", w, lo=0, lo_open=True),
             front=sides["front"],
             back=sides["back"],
-            super_nodes=self.number(d, "super_nodes", w, default=1, lo=1, integer=True),
+            super_nodes=self.number(d, "super_nodes", w, default=_default(Part, "super_nodes"), lo=1, integer=True),
             quadric=self.quadric(d, w, groups),
             index=i,
             area=self.number(d, "area", w, lo=0, lo_open=True),
@@ -537,7 +558,7 @@ class _Parser:
     def boundary(self, i, d) -> Boundary:
         w = f"[[boundary]][{i}]"
         d = self.table(d, w, {"kind", "groups", "nodes", "value", "name"}, {"kind", "value"})
-        kind = self.string(d, "kind", w, choices=("temperature", "power", "flux"))
+        kind = self.string(d, "kind", w, choices=get_args(BoundaryKind))
         groups, nodes = self.strings(d, "groups", w), self.ints(d, "nodes", w)
         if not groups and not nodes:
             raise self.err(w, "give 'groups' (mesh group names) and/or 'nodes' (original node ids)")
@@ -569,7 +590,8 @@ class _Parser:
             sink_table = self.time_table(d["sink_temperature"], f"{w}.sink_temperature", kelvin=True)
             sink = sink_table(self.t0)
         else:
-            sink = self.number(d, "sink_temperature", w, default=3.0 - KELVIN, lo=ABSOLUTE_ZERO_C) + KELVIN
+            sink = self.number(d, "sink_temperature", w, default=_default(Environment, "sink_temperature") - KELVIN,
+                               lo=ABSOLUTE_ZERO_C) + KELVIN
         sun = d.get("sun_direction")
         if sun is not None:
             if (not isinstance(sun, list) or len(sun) != 3
@@ -579,12 +601,14 @@ class _Parser:
             if not norm > 0:
                 raise self.err(f"{w}.sun_direction", "must not be the zero vector")
             sun = tuple(float(x) / norm for x in sun)
-        flux = self.number(d, "solar_flux", w, default=0.0, lo=0)
+        flux = self.number(d, "solar_flux", w, default=_default(Environment, "solar_flux"), lo=0)
         if flux > 0 and sun is None:
             raise self.err(w, "solar_flux is given but sun_direction is not")
         return Environment(sink_temperature=sink, sun_direction=sun, solar_flux=flux, sink_table=sink_table,
-                           solar_on=self.string(d, "solar_on", w, default="detailed", choices=("detailed", "super_faces")),
-                           solar_rays_per_face=self.number(d, "solar_rays_per_face", w, default=100, lo=1, integer=True))
+                           solar_on=self.string(d, "solar_on", w, default=_default(Environment, "solar_on"),
+                                                choices=get_args(SolarOn)),
+                           solar_rays_per_face=self.number(d, "solar_rays_per_face", w, lo=1, integer=True,
+                                                           default=_default(Environment, "solar_rays_per_face")))
 
     def radiation(self, d) -> RadiationSettings:
         w = "[radiation]"
@@ -595,14 +619,15 @@ class _Parser:
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
         if rpf is None and dens is None:
-            rpf = 1000
+            rpf = _default(RadiationSettings, "rays_per_face")
+        D = lambda name: _default(RadiationSettings, name)  # noqa: E731
         return RadiationSettings(
-            enabled=self.boolean(d, "enabled", w, True),
+            enabled=self.boolean(d, "enabled", w, D("enabled")),
             rays_per_face=rpf,
             ray_density=dens,
-            sampling=self.string(d, "sampling", w, default="halton", choices=("halton", "random")),
-            seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
-            max_bounces=self.number(d, "max_bounces", w, default=1000, lo=1, integer=True),
+            sampling=self.string(d, "sampling", w, default=D("sampling"), choices=get_args(Sampling)),
+            seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
+            max_bounces=self.number(d, "max_bounces", w, default=D("max_bounces"), lo=1, integer=True),
             target_lse=self.number(d, "target_lse", w, lo=0, lo_open=True),
             ir_on=self.string(d, "ir_on", w, default="super_faces", choices=("super_faces", "detailed")),
             ir_rays_per_face=self.number(d, "ir_rays_per_face", w, default=100, lo=1, integer=True),
@@ -615,28 +640,30 @@ class _Parser:
         if d.get("radiation_aware") is True and d.get("network", "exact") == "positive":
             raise self.err(w, "radiation_aware = true needs network = \"exact\" (the radiation-aware network is "
                               "K'_SN - diag(H_SN) with a correction load; the positive fit is not defined for it)")
+        D = lambda name: _default(ReductionSettings, name)  # noqa: E731
         return ReductionSettings(
-            enabled=self.boolean(d, "enabled", w, True),
-            method=self.string(d, "method", w, default="local", choices=("local", "global")),
-            capacitance=self.string(d, "capacitance", w, default="cluster", choices=("cluster", "equivalent")),
-            filter=self.number(d, "filter", w, default=0.0, lo=0, hi=1),
+            enabled=self.boolean(d, "enabled", w, D("enabled")),
+            method=self.string(d, "method", w, default=D("method"), choices=get_args(ReductionMethod)),
+            capacitance=self.string(d, "capacitance", w, default=D("capacitance"), choices=get_args(CapacitanceMethod)),
+            filter=self.number(d, "filter", w, default=D("filter"), lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
-            radiation_aware=self.boolean(d, "radiation_aware", w, False),
-            outer_iterations=self.number(d, "outer_iterations", w, default=4, lo=1, integer=True),
-            network=self.string(d, "network", w, default="exact", choices=("exact", "positive")),
+            radiation_aware=self.boolean(d, "radiation_aware", w, D("radiation_aware")),
+            outer_iterations=self.number(d, "outer_iterations", w, default=D("outer_iterations"), lo=1, integer=True),
+            network=self.string(d, "network", w, default=D("network"), choices=get_args(ReducedNetwork)),
         )
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"
         d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method"})
         aware = d.get("solar_aware")
+        D = lambda name: _default(ClusteringSettings, name)  # noqa: E731
         return ClusteringSettings(
             solar_aware=None if aware is None else self.boolean(d, "solar_aware", w, None),
-            feature_angle=self.number(d, "feature_angle", w, default=30.0, lo=0, hi=180),
-            seed=self.number(d, "seed", w, default=0, lo=0, integer=True),
-            smoothing_layers=self.number(d, "smoothing_layers", w, default=2, lo=0, integer=True),
-            balance=self.boolean(d, "balance", w, True),
-            method=self.string(d, "method", w, default="growing", choices=("growing", "metis")),
+            feature_angle=self.number(d, "feature_angle", w, default=D("feature_angle"), lo=0, hi=180),
+            seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
+            smoothing_layers=self.number(d, "smoothing_layers", w, default=D("smoothing_layers"), lo=0, integer=True),
+            balance=self.boolean(d, "balance", w, D("balance")),
+            method=self.string(d, "method", w, default=D("method"), choices=get_args(ClusteringMethod)),
         )
 
     def reference(self, d) -> ReferenceSettings:
@@ -646,20 +673,22 @@ class _Parser:
         dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
-        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, True), rays_per_face=rpf, ray_density=dens,
-                                 noise=self.boolean(d, "noise", w, True))
+        return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")), rays_per_face=rpf, ray_density=dens,
+                                 noise=self.boolean(d, "noise", w, _default(ReferenceSettings, "noise")))
 
     def solver(self, d) -> SolverSettings:
         w = "[solver]"
         d = self.table(d, w, {"tolerance", "max_iterations"})
-        return SolverSettings(tolerance=self.number(d, "tolerance", w, default=1e-9, lo=0, lo_open=True),
-                              max_iterations=self.number(d, "max_iterations", w, default=200, lo=1, integer=True))
+        D = lambda name: _default(SolverSettings, name)  # noqa: E731
+        return SolverSettings(tolerance=self.number(d, "tolerance", w, default=D("tolerance"), lo=0, lo_open=True),
+                              max_iterations=self.number(d, "max_iterations", w, default=D("max_iterations"), lo=1,
+                                                         integer=True))
 
     def transient(self, d) -> TransientSpec:
         w = "[transient]"
         d = self.table(d, w, {"end", "start", "step", "tolerance", "output_every", "initial_temperature", "method",
                               "capacitance", "periodic", "periodic_tolerance"}, {"end"})
-        start = self.number(d, "start", w, default=0.0)
+        start = self.number(d, "start", w, default=_default(TransientSpec, "start"))
         end = self.number(d, "end", w, required=True)
         if not end > start:
             raise self.err(f"{w}.end", f"must be after start ({start} s), got {end}")
@@ -678,8 +707,10 @@ class _Parser:
             end=end, start=start, step=step, tolerance=tol,
             output_every=self.number(d, "output_every", w, lo=0, lo_open=True),
             initial_temperature=init,
-            method=self.string(d, "method", w, default="crank-nicolson", choices=TRANSIENT_METHODS),
-            capacitance=self.string(d, "capacitance", w, default="lumped", choices=("lumped", "consistent")),
-            periodic=self.boolean(d, "periodic", w, False),
-            periodic_tolerance=self.number(d, "periodic_tolerance", w, default=0.01, lo=0, lo_open=True),
+            method=self.string(d, "method", w, default=_default(TransientSpec, "method"), choices=TRANSIENT_METHODS),
+            capacitance=self.string(d, "capacitance", w, default=_default(TransientSpec, "capacitance"),
+                                    choices=get_args(TransientCapacitance)),
+            periodic=self.boolean(d, "periodic", w, _default(TransientSpec, "periodic")),
+            periodic_tolerance=self.number(d, "periodic_tolerance", w, default=_default(TransientSpec, "periodic_tolerance"),
+                                           lo=0, lo_open=True),
         )

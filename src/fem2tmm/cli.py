@@ -9,8 +9,9 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from pathlib import Path
 
-from . import __version__
+from ._version import __version__
 from .errors import Fem2TmmError, InternalError
 
 
@@ -26,7 +27,7 @@ def _parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="built-in baffle study (no input files needed)")
     d.add_argument("--out", default="fem2tmm-demo", help="output folder (default: ./fem2tmm-demo)")
     d.add_argument("--quiet", action="store_true")
-    b = sub.add_parser("bench", help="benchmarks; one JSON object per line")
+    b = sub.add_parser("bench", help="benchmarks of a source checkout (benchmarks/); one JSON object per line")
     b.add_argument("names", nargs="*", help="benchmarks to run (default: all); 'list' lists them")
     i = sub.add_parser("inspect", help="what a mesh holds: groups, regions, pieces, cards (before writing a case)")
     i.add_argument("mesh", help="mesh file (Nastran bulk data or Gmsh .msh)")
@@ -87,9 +88,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.command == "inspect":
                 return _inspect(args)
             if args.command == "bench":
-                from .bench import main as bench_main
-
-                return bench_main(args.names)
+                return _bench(args.names)
     except Fem2TmmError as exc:
         print(f"fem2tmm: error: {exc}", file=sys.stderr)
         return 2
@@ -116,8 +115,6 @@ def _inspect(args) -> int:
 
 
 def _run(args) -> int:
-    from pathlib import Path
-
     from .case import Case
     from .export.output import check_output_place
 
@@ -134,6 +131,27 @@ def _run(args) -> int:
         print(summary_table(result.summary))
         print(f"outputs in {result.out}")
     return 0
+
+
+def _checkout() -> Path:
+    """The source checkout whose ``benchmarks/run.py`` ``fem2tmm bench`` runs: the first folder holding one, searched
+    upwards from the current directory, then from this package's source file."""
+    for start in (Path.cwd(), Path(__file__).resolve().parent):
+        for folder in (start, *start.parents):
+            if (folder / "benchmarks" / "run.py").is_file():
+                return folder
+    raise Fem2TmmError("fem2tmm bench runs the benchmarks of a source checkout (benchmarks/run.py), and none was "
+                       "found above the current directory or the installed package: run it from a source checkout "
+                       "of fem2tmm")
+
+
+def _bench(names: list[str]) -> int:
+    root = str(_checkout())
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from benchmarks.run import main as bench_main
+
+    return bench_main(names)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,6 +1,6 @@
 """``fem2tmm demo``: the built-in EUI-like baffle study, no input files needed.
 
-The parametric baffle of :func:`fem2tmm.meshes.baffle` (1 mm aluminium shell, polished aluminium on
+The parametric baffle of :func:`fem2tmm.mesh.shapes.baffle` (1 mm aluminium shell, polished aluminium on
 both sides, screw patches at 20 °C, sink at -100 °C, a 17.4 kW/m² Sun 45° off the axis) is reduced to 40
 super nodes, its radiation traced between super faces, solved, recovered on every node and checked
 against its detailed reference (FE-face exchange factors and solar fluxes).
@@ -38,7 +38,7 @@ def demo_case() -> Case:
 
 
 def run_demo(out: str | Path = "fem2tmm-demo", quiet: bool = False) -> int:
-    from .meshes import baffle
+    from .mesh.shapes import baffle
 
     check_output_place(out)  # before building the mesh
     t0 = time.perf_counter()

@@ -20,7 +20,6 @@ from .case import ClusteringSettings
 from .cluster.adjacency import dual_graph
 from .cluster.regions import regions as split_regions
 from .errors import Fem2TmmError
-from .fem.elements import DIM, LINE_TYPES, SHELL_TYPES
 from .mesh import Mesh
 
 _KIND = {1: "line", 2: "shell", 3: "solid"}

@@ -46,7 +46,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
         reference: bool | None = None, labels: np.ndarray | None = None) -> Result:
     """Run ``case``; write the output folder ``out`` (if given) only once everything succeeded.
 
-    ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.meshes`); ``reference``
+    ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.mesh.shapes`); ``reference``
     overrides ``[reference] detailed``.  ``labels`` (n_elements,) int: your own partition into super nodes
     (e.g. from METIS or another tool), one cluster per mesh element (-1 outside the parts), numbered 0 … K−1
     with every number used and each cluster within one part; it replaces the clustering (and the parts'
@@ -69,7 +69,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
 
         require()  # the optional dependency, before any long computation
     with prog.stage("read", "reading the mesh"):
-        mesh = load_mesh(case) if mesh is None else mesh.validate()
+        mesh = load_mesh(case) if mesh is None else mesh
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
     check_transient(model, case)

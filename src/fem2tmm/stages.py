@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .case import Case
+from .case import Case, RadiationSettings
 from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import Fem2TmmError, InternalError
@@ -100,12 +100,18 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
     """
-    determined = determined_elements(model, kept_dofs(model, case))
+    kept = kept_dofs(model, case)
+    determined = determined_elements(model, kept)
+    one_node = np.zeros(model.n_dof, bool)  # DOFs that are super nodes of their own (fixed groups, kept nodes)
+    one_node[[g.dof for g in model.fixed]] = True
+    one_node[kept] = True
     parts = []
     for p, info in enumerate(model.parts):
         rows = np.flatnonzero((model.element_part == p) & ~determined)
         if not len(rows):
             continue  # the whole part is held at fixed temperatures
+        if labels is None:
+            _check_count(case, info, model.element_dofs[rows], one_node)
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
@@ -119,6 +125,20 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
     return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
                          seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress,
                          balance=cs.balance, method=cs.method)
+
+
+def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarray) -> None:
+    """Refuse, before clustering, a super-node count that cannot give independent super nodes: the part's
+    clusters and the one-node super nodes among its DOFs all average over the part's DOFs, so more of them than
+    DOFs are linearly dependent."""
+    dofs = np.unique(element_dofs[element_dofs >= 0])
+    free = int(np.count_nonzero(~one_node[dofs]))
+    if info.super_nodes > free:
+        raise Fem2TmmError(
+            f"{case.source}: [[parts]] {info.name!r} asks for {info.super_nodes} super nodes, but its elements have "
+            f"only {free} nodes with an unknown temperature ({len(dofs)} nodes, {len(dofs) - free} of them fixed or "
+            f"kept): more super nodes than that repeat each other's mean temperature (linearly dependent).  Use at "
+            f"most {free}; a useful reduction has far fewer (each super node should hold several elements)")
 
 
 # -------------------------------------------------------------------------------------------- radiation
@@ -160,7 +180,7 @@ def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: f
         if rs.ray_density:
             ray_density = float(rs.ray_density)
         else:
-            rays_per_face = int(rs.rays_per_face or 1000)
+            rays_per_face = int(rs.rays_per_face or RadiationSettings.rays_per_face)
     if fraction != 1.0:
         rays_per_face = None if rays_per_face is None else max(1, int(np.ceil(rays_per_face * fraction)))
         ray_density = None if ray_density is None else ray_density * fraction

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.elements import ELEMENT_TYPES, SHELL_EDGES, SOLID_FACES, TYPE_CODE
+from ..mesh.elements import ELEMENT_TYPES, SHELL_EDGES, SOLID_FACES, TYPE_CODE
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
-from ..fem import geometry
-from ..fem.elements import ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
+from ..mesh import geometry
+from ..mesh.elements import ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 from .adjacency import DualGraph, dual_graph, induced_csr, to_csr
 from .allocate import allocate
 from .growing import grow, grow_balanced
@@ -45,7 +45,7 @@ class PartInput:
         along the bars, no boundary smoothing)
     elements : (m,) int64 global element indices of the part
     cells : (m, 8) int64 node indices padded with -1 (rows of ``Mesh.padded_cells``)
-    types : (m,) int8 type codes (:data:`fem2tmm.fem.elements.TYPE_CODE`); shells tri3/quad4, solids
+    types : (m,) int8 type codes (:data:`fem2tmm.mesh.elements.TYPE_CODE`); shells tri3/quad4, solids
         tet4/hex8/wedge6, mixed freely within the kind
     n_clusters : super nodes requested for the part
     attribute : (m,) int or None; elements with different values never share a region (material,

@@ -3,7 +3,7 @@
 Weighted k-means minimises ``Σ_k Σ_{i∈c_k} w_i ‖p_i − μ_k‖²`` with ``μ_k`` the weighted mean of its points;
 with area (volume) weights a refined patch of the mesh does not attract more clusters.
 
-Algorithm (chosen by measurement, see :mod:`fem2tmm.cluster.benchmarks`):
+Algorithm (chosen by measurement, see the checkout's ``benchmarks/cluster.py``):
 
 1. **Weighted subsample.**  When there are more than ``S = max(20 k, 10 000)`` points, S indices are drawn
    with replacement with probability ∝ w and the distinct ones are weighted by how often they were drawn
@@ -15,7 +15,7 @@ Algorithm (chosen by measurement, see :mod:`fem2tmm.cluster.benchmarks`):
 3. **A few Lloyd iterations on the full set** (``full_iter = 5``) to remove the sampling noise.
 
 Lloyd's assignment step uses a KD-tree on the k centres (``scipy.spatial.cKDTree``, O(n log k)), the update
-step weighted ``bincount``.  Measured with :func:`fem2tmm.cluster.benchmarks.bench_seeding` (plate with a 10x
+step weighted ``bincount``.  Measured with ``benchmarks.cluster.bench_seeding`` (plate with a 10x
 refined quarter, area weights, k = 1000, 2 shared cores, one run each):
 
 =========================  ==================  ====================

@@ -20,8 +20,6 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from .._version import __version__
@@ -29,15 +27,13 @@ from ..case import Case
 from ..constants import KELVIN
 from ..errors import Fem2TmmError
 from ..fem.model import FEModel
+from ..result import Result
 from .esatan import Deck, node_numbers, write_esatan
 from .transient import deck_transient, write_transient
 from .nastran_temp import write_temp
 from .report import write_report
 from .sinda import write_sinda
 from .vtu import write_vtu
-
-if TYPE_CHECKING:
-    from ..result import Result
 
 
 def _jsonable(x):

@@ -248,14 +248,16 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
             flows.append((f"energy imbalance ({k})", _fmt(eb["imbalance_W"], " W"), ""))
     timings = [(k, f"{v:.2f} s") for k, v in (s.get("timings_s") or {}).items()]
 
-    figs = "".join(f'<figure><img src="{name}" alt="{html.escape(cap)}"><figcaption>{html.escape(cap)}'
-                   f"</figcaption></figure>" for name, cap in images)
+    wide = {"temperature.png", "error.png"}  # two views side by side: the full page width
+    figs = "".join(f'<figure{" class=wide" if name in wide else ""}><img src="{name}" alt="{html.escape(cap)}">'
+                   f"<figcaption>{html.escape(cap)}</figcaption></figure>" for name, cap in images)
     doc = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>fem2tmm report</title>
 <style>
 body {{ font-family: sans-serif; margin: 2em; max-width: 1100px; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }} td, th {{ border: 1px solid #bbb; padding: 4px 10px; text-align: left; }}
-figure {{ display: inline-block; margin: 0.5em; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
+figure {{ display: inline-block; margin: 0.5em; vertical-align: top; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
+figure.wide {{ display: block; }} figure.wide img {{ max-width: 100%; }}
 pre {{ background: #f6f6f6; padding: 1em; overflow-x: auto; }}
 </style></head><body>
 <h1>fem2tmm report</h1>

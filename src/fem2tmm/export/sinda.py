@@ -32,19 +32,14 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
     out.append(f"HEADER CONDUCTOR DATA, {sub}")
     cid = 0
     iu, ju = np.triu_indices(n, 1)
-    lin = rad = 0
-    for a, b in zip(iu, ju):
-        g = deck.GL[a, b]
-        if g != 0:
+    count = {}
+    for kind, M, sign in (("linear", np.asarray(deck.GL), ""), ("radiation", np.asarray(deck.GR), "-")):
+        nz = np.flatnonzero(M[iu, ju] != 0)  # upper-triangle pairs, row by row
+        for a, b in zip(iu[nz], ju[nz]):
             cid += 1
-            lin += 1
-            out.append(f"      {cid}, {deck.numbers[a]}, {deck.numbers[b]}, {float(g)!r}")
-    for a, b in zip(iu, ju):
-        g = deck.GR[a, b]
-        if g != 0:
-            cid += 1
-            rad += 1
-            out.append(f"      -{cid}, {deck.numbers[a]}, {deck.numbers[b]}, {float(g)!r}")
+            out.append(f"      {sign}{cid}, {deck.numbers[a]}, {deck.numbers[b]}, {float(M[a, b])!r}")
+        count[kind] = len(nz)
+    lin, rad = count["linear"], count["radiation"]
     for a in np.flatnonzero(deck.GR_space):
         cid += 1
         rad += 1

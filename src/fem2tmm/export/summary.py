@@ -3,16 +3,12 @@ line prints from it (:func:`summary_table`)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
-
-if TYPE_CHECKING:
-    from ..result import Result
+from ..result import Result
 
 
 def build_summary(result: Result, timings: dict[str, float]) -> dict:

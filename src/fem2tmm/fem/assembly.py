@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .elements import RULES, SHELL_TYPES, SOLID_TYPES
-from .geometry import inverse3, shell_metric, solid_jacobian
+from ..mesh.elements import RULES, SHELL_TYPES, SOLID_TYPES
+from ..mesh.geometry import inverse3, shell_metric, solid_jacobian
 
 
 @dataclass(frozen=True)

@@ -23,12 +23,13 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..case import Boundary, Case
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import Mesh
 from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices, line_matrices,
                        scatter_shares, to_coo, volume_shares)
-from .elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
-from .geometry import cross, solid_jacobian
+from ..mesh.elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
+from ..mesh.geometry import cross, solid_jacobian
 
 _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
 
@@ -193,7 +194,7 @@ def _union(index_arrays, n: int) -> np.ndarray:
     return np.flatnonzero(mask)
 
 
-def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
+def _part_elements(mesh: Mesh, case: Case) -> tuple[list[PartInfo], np.ndarray]:
     owner = np.full(mesh.n_elements, -1, np.int64)
     parts = []
     for p in case.parts:
@@ -226,7 +227,7 @@ def _part_elements(mesh: Mesh, case) -> tuple[list[PartInfo], np.ndarray]:
     return parts, owner
 
 
-def _properties(mesh: Mesh, case, parts, owner) -> dict[str, np.ndarray]:
+def _properties(mesh: Mesh, case: Case, parts, owner) -> dict[str, np.ndarray]:
     """Per-element conductivity, density, specific heat, thickness from the case, else from the mesh."""
     m = mesh.n_elements
     props = {k: np.full(m, np.nan) for k in ("k", "rho", "cp", "t", "area")}
@@ -362,9 +363,8 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
 
 
 # ------------------------------------------------------------------------------------------ builder
-def build_model(mesh: Mesh, case) -> FEModel:
+def build_model(mesh: Mesh, case: Case) -> FEModel:
     """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring)."""
-    mesh.validate()
     parts, owner = _part_elements(mesh, case)
     props = _properties(mesh, case, parts, owner)
     elements = np.flatnonzero(owner >= 0)
@@ -376,10 +376,12 @@ def build_model(mesh: Mesh, case) -> FEModel:
     # ---- DOFs: nodes of thermal elements and joints; fixed-temperature groups and isothermal joints merged
     n_nodes = mesh.n_nodes
     iso_pairs, cond_pairs, cond_G, joint_report = _joint_links(mesh, case)
+    iso_pairs = _midside_isothermal(mesh, iso_pairs)
+    stencil, weights = _midside_stencil(mesh, cond_pairs)  # (l, 4) nodes and weights of each connection
     in_model = np.zeros(n_nodes, bool)
     in_model[cells[cells >= 0]] = True
     in_model[iso_pairs.ravel()] = True
-    in_model[cond_pairs.ravel()] = True
+    in_model[stencil.ravel()] = True
     node_boundary = np.full(n_nodes, -1, np.int64)
     fixed_specs = []
     specs = [(b.name, b.value, _boundary_nodes(mesh, case, b)) for b in case.boundaries if b.kind == "temperature"]
@@ -442,14 +444,21 @@ def build_model(mesh: Mesh, case) -> FEModel:
         coos.append(to_coo(element_dofs[sel, :nk], Ke, sel))
         vshares[sel, :nk] = volume_shares(mesh.points, c, t, thick, geom=geom)
     coo = ElementCOO.concatenate(coos)
-    links = ElementCOO(*(np.concatenate([a, b]) for a, b in zip(
-        (node_dof[cond_pairs[:, 0]], node_dof[cond_pairs[:, 1]], -cond_G, np.arange(len(cond_G))),
-        (node_dof[cond_pairs[:, 1]], node_dof[cond_pairs[:, 0]], -cond_G, np.arange(len(cond_G))))))
-    self_loop = links.rows == links.cols  # both ends merged (isothermal / fixed): no conductance
-    links = links.select(~self_loop)
-    diag = ElementCOO(links.rows, links.rows, -links.vals, links.elem)  # zero row sums
-    K = ElementCOO.concatenate([coo, links, diag]).tocsr(n_dof)
-    links = ElementCOO.concatenate([links, diag]) if len(links.rows) else None
+    # joint conductances: G wᵢ wⱼ over each connection's 4-node stencil (a mid-side end is the mean of its
+    # edge ends), zero row sums by construction
+    sd = node_dof[stencil]
+    i, j = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    vals = cond_G[:, None, None] * weights[:, :, None] * weights[:, None, :]
+    links = ElementCOO(sd[:, i].reshape(-1), sd[:, j].reshape(-1), vals.reshape(-1),
+                       np.repeat(np.arange(len(cond_G)), 16))
+    links = links.select(links.vals != 0)
+    lk = sp.csr_matrix((links.vals, (links.rows, links.cols)), shape=(n_dof, n_dof))
+    lk.sum_duplicates()
+    lk.eliminate_zeros()  # both ends merged (isothermal / fixed): no conductance left
+    lk = lk.tocoo()
+    links = ElementCOO(lk.row.astype(np.int64), lk.col.astype(np.int64), lk.data, np.zeros(lk.nnz, np.int64))
+    K = ElementCOO.concatenate([coo, links]).tocsr(n_dof)
+    links = links if len(links.rows) else None
     K.sum_duplicates()
     volume = scatter_shares(element_dofs, vshares, n_dof)
     rc = props["rho"][elements] * props["cp"][elements]
@@ -519,7 +528,7 @@ def build_model(mesh: Mesh, case) -> FEModel:
                    extra_space=extra_space)
 
 
-def _joint_links(mesh: Mesh, case):
+def _joint_links(mesh: Mesh, case: Case):
     """Decide every joint element's treatment from ``case.joints``.
 
     Returns ``(iso_pairs (q, 2), cond_pairs (l, 2), cond_G (l,) W/K, report)``; raises one error listing the
@@ -577,6 +586,59 @@ def _joint_links(mesh: Mesh, case):
             np.concatenate(G) if G else np.zeros(0), report)
 
 
+def _midside_map(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """(n_nodes,) edge ends a, b of each mid-side node (-1 elsewhere)."""
+    a = np.full(mesh.n_nodes, -1, np.int64)
+    b = np.full(mesh.n_nodes, -1, np.int64)
+    if mesh.midside is not None and len(mesh.midside):
+        a[mesh.midside[:, 0]] = mesh.midside[:, 1]
+        b[mesh.midside[:, 0]] = mesh.midside[:, 2]
+    return a, b
+
+
+def _midside_stencil(mesh: Mesh, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each conductance connection (p, q) as 4 nodes and weights w (Σw = 0): the connection's temperature
+    difference is w · T.  A mid-side end m (not solved for) is the mean of its edge ends: T_m = (T_a + T_b) / 2,
+    exact for the corner-node model of the quadratic element."""
+    a, b = _midside_map(mesh)
+    nodes = np.empty((len(pairs), 4), np.int64)
+    w = np.empty((len(pairs), 4))
+    for k, sign in ((0, 1.0), (1, -1.0)):
+        e = pairs[:, k]
+        mid = a[e] >= 0
+        nodes[:, 2 * k] = np.where(mid, a[e], e)
+        nodes[:, 2 * k + 1] = np.where(mid, b[e], e)
+        w[:, 2 * k] = sign * np.where(mid, 0.5, 1.0)
+        w[:, 2 * k + 1] = sign * np.where(mid, 0.5, 0.0)
+    return nodes, w
+
+
+def _midside_isothermal(mesh: Mesh, pairs: np.ndarray) -> np.ndarray:
+    """Isothermal connections with a mid-side end m replaced by connections to its edge ends a and b (exact when
+    the joint merges a and b too, as a spider over a whole hole edge does; otherwise a stronger constraint, with a
+    warning)."""
+    a, b = _midside_map(mesh)
+    mid = a[pairs] >= 0
+    if not mid.any():
+        return pairs
+    rows = np.flatnonzero(mid.any(axis=1))
+    extra = []
+    for k in (0, 1):
+        sel = rows[mid[rows, k]]
+        other = pairs[sel, 1 - k]
+        extra += [np.stack([other, a[pairs[sel, k]]], 1), np.stack([other, b[pairs[sel, k]]], 1)]
+    out = np.concatenate([pairs[~mid.any(axis=1)], *extra])
+    joined = np.zeros(mesh.n_nodes, bool)
+    joined[pairs.ravel()] = True
+    m = np.unique(pairs[mid])
+    loose = m[~(joined[a[m]] & joined[b[m]])]
+    if len(loose):
+        warnings.warn(f"{mesh.source}: isothermal joints reach mid-side GRIDs {format_ids(mesh.node_ids[loose])} whose "
+                      "edge ends they do not merge; those whole edges are merged instead (a stronger constraint)",
+                      stacklevel=3)
+    return out
+
+
 def _deck_fixed(mesh: Mesh, case_fixed: np.ndarray, in_model: np.ndarray) -> list:
     """Fixed-temperature specs ``(name, K, nodes)`` of the deck's SPC/TEMP (one per distinct value); nodes the
     case fixes itself are left to the case (the case overrides the deck)."""
@@ -627,7 +689,7 @@ def _deck_nodal_loads(mesh: Mesh, dl, elements: np.ndarray, vshares: np.ndarray)
     return out, eps_area
 
 
-def _check_load_on_fixed(mesh: Mesh, case, b, q: np.ndarray, fixed, fixed_dofs: np.ndarray) -> None:
+def _check_load_on_fixed(mesh: Mesh, case: Case, b: Boundary, q: np.ndarray, fixed, fixed_dofs: np.ndarray) -> None:
     """A power/flux load ``q`` (n_dof,) W that lands on fixed-temperature nodes goes straight into the boundary:
     an error when all of it does (it cannot heat anything: surely a wrong group), a warning with the watts when
     more than 1 % does (a heated panel with a fixed edge legitimately puts the edge nodes' share there)."""
@@ -651,20 +713,20 @@ def _check_load_on_fixed(mesh: Mesh, case, b, q: np.ndarray, fixed, fixed_dofs: 
                   f"{names} and flow straight into it", stacklevel=3)
 
 
-def _boundary_nodes(mesh: Mesh, case, b) -> np.ndarray:
+def _boundary_nodes(mesh: Mesh, case: Case, b: Boundary) -> np.ndarray:
     nodes = [mesh.group(g, where=f"{case.source}: [[boundary]] {b.name!r}.groups").nodes for g in b.groups]
     if b.nodes:
         nodes.append(mesh.node_index(b.nodes, where=f"{case.source}: [[boundary]] {b.name!r}.nodes"))
     return np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
 
 
-def boundary_load(model: FEModel, case, b) -> np.ndarray:
+def boundary_load(model: FEModel, case: Case, b: Boundary) -> np.ndarray:
     """Nodal loads (n_dof,) W of one power or flux boundary ``b`` of ``case`` (with its ``value``) on ``model``;
     with ``value = 1`` it is the load pattern a time table multiplies."""
     return _load_vector(model.mesh, case, b, model.node_dof, model.n_dof)
 
 
-def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
+def _load_vector(mesh: Mesh, case: Case, b: Boundary, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
     """Nodal loads (n_dof,) W of a power or flux boundary."""
     where = f"{case.source}: [[boundary]] {b.name!r} ({b.kind})"
     el = _union([mesh.group(g, where=where).elements for g in b.groups], mesh.n_elements)
@@ -701,7 +763,7 @@ def _load_vector(mesh: Mesh, case, b, node_dof: np.ndarray, n_dof: int) -> np.nd
     return np.bincount(node_dof[ok], weights=nodal[ok], minlength=n_dof)
 
 
-def _build_faces(mesh, case, parts, elements, types, cells, epart, node_dof, n_dof, blocks) -> Faces:
+def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, node_dof, n_dof, blocks) -> Faces:
     shell = np.isin(types, [TYPE_CODE[t] for t in SHELL_TYPES])
     pos = np.arange(len(elements))
     sf = cells[shell, :4].copy()

@@ -52,7 +52,7 @@ def read_mesh(path: str | Path, unit: str = "m", **options) -> Mesh:
         return read_gmsh(path, unit=unit)
     from .nastran import read_nastran
 
-    return read_nastran(path, unit=unit, **options).validate()
+    return read_nastran(path, unit=unit, **options)
 
 
 __all__ = ["read_mesh"]

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Fem2TmmError
-from ..fem.elements import ELEMENT_TYPES
+from ..mesh.elements import ELEMENT_TYPES
 from ..mesh import ElementBlock, Mesh, make_group, pad_cells
 from .units import length_scale
 
@@ -142,4 +142,4 @@ def read_gmsh(path: str | Path, unit: str = "m") -> Mesh:
             pc = padded[np.unique(el)]
             nd.append(pc[pc >= 0])
         groups[name] = make_group(name, dims[name], el, np.concatenate(nd) if nd else np.zeros(0, np.int64))
-    return Mesh(points=points, blocks=tuple(blocks), groups=groups, source=str(path)).validate()
+    return Mesh(points=points, blocks=tuple(blocks), groups=groups, source=str(path))

@@ -5,6 +5,21 @@
 
 Cards read
 ----------
+GRID                       ID, CP, X1-X3 (CP: coordinate system of the position; CD, PS, SEID ignored)
+GRDSET                     default CP (and CD, ignored) for GRIDs whose CP field is blank
+CORD2R, CORD2C, CORD2S     rectangular, cylindrical (r, theta deg, z), spherical (r, theta deg, phi deg)
+                           systems given by three points A, B, C in a reference system RID; RID chains
+                           of any depth and in any order in the file; blank coordinates are 0.0
+CTRIA3, CQUAD4             -> ``tri3``, ``quad4``; THETA/MCID, ZOFFS, TFLAG and T1-T4 are tolerated and
+                           ignored; a blank PID means PID = EID (Nastran's default)
+CTETRA, CHEXA, CPENTA      -> ``tet4``, ``hex8``, ``wedge6`` (4, 8, 6 nodes; Nastran's node order is the
+                           VTK order of :mod:`fem2tmm.mesh.elements`); quadratic variants are an error
+PSHELL                     PID, MID1 (the membrane material, the one heat transfer uses), T
+PSOLID                     PID, MID
+MAT4                       MID, K, CP, RHO
+MAT1                       MID, RHO (E, G, NU, ... ignored); MAT4 values win when both exist
+=========================  ==========================================================================
+=======
 Every card is either modelled, read as a thermal joint or load, listed as ignored (non-structural: PARAM,
 loads, SEQGP, CONM2, ...: one warning, ``Mesh.cards["ignored"]``, summary.json ``mesh.ignored_cards``), or
 refused: a structural card fem2tmm does not model (RBAR, RBE1, MPC, CELAS3, CQUADX, any other element card)
@@ -77,7 +92,7 @@ Output
 ------
 Points are kept in file order (GRIDs that no element uses are kept; the model builder ignores them),
 ``Mesh.node_ids`` holds the GRID ids, each block's ``ids`` the element ids, blocks follow
-:data:`fem2tmm.fem.elements.ELEMENT_TYPES` order with elements in file order.  Each property id becomes a
+:data:`fem2tmm.mesh.elements.ELEMENT_TYPES` order with elements in file order.  Each property id becomes a
 group ``"PID <n>"`` (dim 1 for bars, 2 for shells, 3 for solids) with its elements and their nodes.
 
 Implementation: one pass over the lines does only classification and slicing (a fixed-format card is
@@ -98,7 +113,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
-from ..fem.elements import DIM, ELEMENT_TYPES, MIDSIDE_EDGES
+from ..mesh.elements import DIM, ELEMENT_TYPES, MIDSIDE_EDGES
 from ..mesh import ElementBlock, Group, JointBlock, Mesh, PropertyData, unique_ints
 from .units import UNIT_SYSTEMS, length_scale, material_factors, unit_system_name
 
@@ -1200,14 +1215,21 @@ def _joints(deck: _Deck, grids: _Grids) -> tuple[list[JointBlock], Counter]:
             if eid is None:
                 raise Fem2TmmError(f"{where}: {card} EID {f[0].decode('latin-1')!r} is not an integer")
             if card == "RBE2":
-                a, pid, deps = _scalar_int(f[1]), 0, []
+                a, pid, deps, thru = _scalar_int(f[1]), 0, [], False
                 for x in f[3:]:
                     if not x.strip():
+                        continue
+                    if x.strip().upper() == b"THRU" and deps:
+                        thru = True
                         continue
                     v = _scalar_int(x)
                     if v is None:
                         break  # ALPHA / TREF (reals) end the node list
-                    deps.append(v)
+                    if thru:
+                        deps.extend(range(deps[-1] + 1, v + 1))
+                        thru = False
+                    else:
+                        deps.append(v)
             elif card == "RBE3":
                 a, pid, deps = _scalar_int(f[2]), 0, []
                 j, state = 4, "w"
@@ -1407,7 +1429,7 @@ def read_nastran(path, unit: str = "m", unit_system: str | None = None, temperat
         cards=cards,
         loads=deck_loads,
     )
-    return mesh.validate()
+    return mesh
 
 
 def _lookup(keys: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarray:
@@ -1416,7 +1438,8 @@ def _lookup(keys: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarr
 
 
 def _check_midside(ms: np.ndarray, blocks, joints, gid: np.ndarray, source: str) -> np.ndarray:
-    """Unique mid-side rows; an error for mid-side GRIDs that are also corner nodes or joint nodes."""
+    """Unique mid-side rows; an error for mid-side GRIDs that are also corner nodes of other elements (bars
+    included; joints may reach mid-side GRIDs: the model expresses them through the edge ends)."""
     if not len(ms):
         return ms
     _, first = np.unique(ms[:, 0], return_index=True)
@@ -1424,14 +1447,12 @@ def _check_midside(ms: np.ndarray, blocks, joints, gid: np.ndarray, source: str)
     corner = np.zeros(len(gid), bool)
     for b in blocks:
         corner[b.cells.ravel()] = True
-    for j in joints:
-        corner[j.pairs.ravel()] = True
     clash = ms[corner[ms[:, 0]], 0]
     if len(clash):
         raise Fem2TmmError(
             f"{source}: GRIDs {format_ids(gid[clash])} are mid-side nodes of quadratic elements and also corner "
-            "nodes of other elements (bars, linear elements) or joint nodes; fem2tmm models quadratic elements by "
-            "their corner nodes, so connect those elements / joints to corner nodes"
+            "nodes of other elements (bars, linear elements); fem2tmm models quadratic elements by their corner "
+            "nodes, so connect those elements to corner nodes"
         )
     return ms
 
@@ -1464,8 +1485,8 @@ def _pid_groups(blocks, pids, dims, n_nodes: int, source: str):
     mixed = np.flatnonzero(dmin != dmax)
     if len(mixed):
         raise Fem2TmmError(
-            f"{source}: property ids {format_ids(upid[mixed])} are used by both shell and solid elements; "
-            "give shells and solids different PIDs"
+            f"{source}: property ids {format_ids(upid[mixed])} are used by elements of different kinds (bars, "
+            "shells, solids); give each kind its own PIDs"
         )
     # node lists: unique (PID rank, node) pairs over every element corner
     offs = np.cumsum([0] + [len(b.cells) for b in blocks])

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..constants import KELVIN
 from ..errors import Fem2TmmError
 from . import grouping as G

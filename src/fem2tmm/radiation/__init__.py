@@ -4,7 +4,8 @@ Modules: ``engine`` (Embree / numpy closest hit), ``sampling`` (scrambled Halton
 cosine directions), ``surfaces`` (two-sided faces with optics, ray scene, super-face emission tables),
 ``tracer`` (bounce loop, exchange factors, accuracy control), ``smoothing`` (reciprocity, closure, LSE),
 ``quadric`` (Taubin fit, foot-point projection, ray-quadric roots, :class:`QuadricScene` for curved super faces),
-``benchmarks`` (``bench_rays``).
+``solar`` (solar fluxes), ``reference`` (closed-form view factors and REFs), ``_tracer_kernels`` (the compiled
+per-ray kernels).  The benchmarks live in the checkout's ``benchmarks/`` (``fem2tmm bench rays``).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Whether the ray tracer's compiled kernels are already in numba's on-disk cache.
 
-The kernels (``@njit(cache=True)`` in :mod:`engine`, :mod:`kernels`, :mod:`sampling`, :mod:`smoothing`,
+The kernels (``@njit(cache=True)`` in :mod:`engine`, :mod:`_tracer_kernels`, :mod:`sampling`, :mod:`smoothing`,
 :mod:`tracer`) are compiled on their first call after an install (or after their source changed) and cached next
 to the sources (or in ``NUMBA_CACHE_DIR``); later runs load them in well under a second.  The first run would
 otherwise sit silently at "ray batches: 0/…" while numba compiles, so the pipeline asks :func:`compile_estimate`
@@ -14,9 +14,9 @@ import importlib
 #: kernels every exchange-factor trace dispatches from Python (module, name); the helpers they call are compiled
 #: into them and have no cache entry of their own, so they cannot tell whether a run will compile
 KEY_KERNELS = (
-    ("kernels", "bounce"), ("kernels", "emit_groups"), ("kernels", "sample_points"),
-    ("kernels", "hit_sides"), ("kernels", "offset_points"), ("kernels", "cosine_directions"),
-    ("kernels", "empty_pages"), ("sampling", "_radical_inverse"), ("smoothing", "_column_counts"),
+    ("_tracer_kernels", "bounce"), ("_tracer_kernels", "emit_groups"), ("_tracer_kernels", "sample_points"),
+    ("_tracer_kernels", "hit_sides"), ("_tracer_kernels", "offset_points"), ("_tracer_kernels", "cosine_directions"),
+    ("_tracer_kernels", "empty_pages"), ("sampling", "_radical_inverse"), ("smoothing", "_column_counts"),
     ("smoothing", "_weigh_transpose"), ("smoothing", "_merge_rows"), ("smoothing", "dense_columns"),
     ("tracer", "_batch_rays"), ("tracer", "_batch_tally"), ("tracer", "runs_to_csr"),
 )

@@ -39,12 +39,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import _validation as check
 from ..errors import Fem2TmmError
 from .orbit import EARTH, SOLAR_CONSTANT, Planet
 from .sampling import HALTON_BASES, ScrambledHalton
-from .solar import arrivals, gather, sun_unit, triangle_emitters
+from .solar import RayBalance, arrivals, gather, sun_unit, triangle_emitters
 from .surfaces import Surface, TriangleScene, pad_faces
-from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, _budget, _check_groups, _per_face, map_batches
+from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
 #: Halton coordinates of a planet ray: origin (2), direction (2), first event (1), first diffuse direction (2)
 PLANET_DIMS = 7
@@ -52,7 +53,7 @@ KINDS = ("albedo", "ir")
 
 
 @dataclass(frozen=True, eq=False)
-class PlanetResult:
+class PlanetResult(RayBalance):
     """Planet albedo or infrared power on the sides of a surface, and its energy balance (all powers in W).
 
     ``incident_side`` (2f,) power arriving directly from the planet on each side (unshadowed), ``incident_face``
@@ -71,13 +72,6 @@ class PlanetResult:
     absorbed_face: np.ndarray
     absorbed_group: np.ndarray
     rays_group: np.ndarray
-    incident: float
-    shadowed: float
-    escaped: float
-    blocked: float
-    capped: float
-    rays: int
-    segments: int
     kind: str
     focus: str
     sampling: str
@@ -175,27 +169,16 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
     """
     if kind not in KINDS:
         raise Fem2TmmError(f"kind must be 'albedo' or 'ir', got {kind!r}")
-    if sampling not in ("halton", "random"):
-        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
-    if focus not in ("planet", "hemisphere"):
-        raise Fem2TmmError(f"focus must be 'planet' or 'hemisphere', got {focus!r}")
-    if not (isinstance(max_bounces, int | np.integer) and max_bounces >= 1):
-        raise Fem2TmmError(f"max_bounces must be a positive integer, got {max_bounces!r}")
-    flux = float(solar_flux)
-    if not (math.isfinite(flux) and flux >= 0.0):
-        raise Fem2TmmError(f"solar_flux must be a finite power density >= 0 W/m², got {solar_flux}")
+    check.choice("sampling", sampling, SAMPLINGS)
+    check.choice("focus", focus, ("planet", "hemisphere"))
+    check.positive_int("max_bounces", max_bounces)
+    flux = check.nonnegative("solar_flux", solar_flux, "power density (W/m²)")
     planet = EARTH if planet is None else planet
     position = check_position(position, planet)
     sun = sun_unit(sun_direction)
     f = surface.n_faces
-    if groups is None:
-        groups, g = np.arange(2 * f, dtype=np.int64), 2 * f
-    else:
-        groups, g = _check_groups(surface, groups)
-    if scene is None:
-        scene = TriangleScene(surface)
-    elif scene.surface is not surface:
-        raise Fem2TmmError("trace_planet: `scene` was built for another surface; pass the scene of this surface")
+    groups, g = check.side_groups(groups, f)
+    scene = TriangleScene.of(surface, scene, "trace_planet")
     optics = surface.optics("solar" if kind == "albedo" else "ir")
     # sides that can see the planet: the normal within 90° + θ_max of nadir (seen from the mesh origin; the
     # margin covers the mesh's extent); curved triangles are kept whole
@@ -207,7 +190,7 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
     sees = np.stack([cos_n > limit, -cos_n > limit], axis=1) if focus == "planet" else np.ones((len(cos_n), 2), bool)
     sees[scene._curved_triangles()] = True
     em = triangle_emitters(scene, groups, g, scene.tri_area[:, None] * sees)
-    rays = _budget(em, g, rays_per_group, ray_density)
+    rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     per_ray = np.divide(em.weight, rays, out=np.zeros(g), where=rays > 0)  # m² of side per origin
     start = np.concatenate([[0], np.cumsum(rays)])
     total = int(start[-1])
@@ -286,7 +269,7 @@ def optics_surface(points, faces, absorptivity, emissivity, specular, m: int) ->
     """A :class:`Surface` of front-active faces with per-face solar ``absorptivity``, IR ``emissivity`` and
     ``specular`` fraction (scalars or (m,)); back sides inactive (they stop rays)."""
     zero = np.zeros(m)
-    front = lambda v, name: np.stack([_per_face(v, m, name), zero], axis=1)  # noqa: E731
+    front = lambda v, name: np.stack([check.per_face(name, v, m), zero], axis=1)  # noqa: E731
     return Surface(points, faces, emissivity=front(emissivity, "emissivity"),
                    absorptivity=front(absorptivity, "absorptivity"), specular=front(specular, "specular"),
                    active=np.stack([np.ones(m, bool), np.zeros(m, bool)], axis=1))

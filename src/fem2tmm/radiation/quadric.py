@@ -43,6 +43,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -213,6 +214,31 @@ def _roots(A, b, c, x, d):
     return t1, t2
 
 
+class QuadricParts(NamedTuple):
+    """A quadric f(x) = xᵀAx + bᵀx + c0 in local coordinates x = p - center (m), with A = Q diag(ev) Qᵀ and
+    β = Qᵀb."""
+
+    A: np.ndarray  # (3, 3)
+    b: np.ndarray  # (3,)
+    c0: float
+    Q: np.ndarray  # (3, 3) eigenvectors of A (columns)
+    ev: np.ndarray  # (3,) eigenvalues of A
+    beta: np.ndarray  # (3,)
+
+
+class _Traced(NamedTuple):
+    """What the ray queries of one quadric use: its parts, cof(A) (3, 3) and its center (3,) m."""
+
+    A: np.ndarray
+    b: np.ndarray
+    c0: float
+    Q: np.ndarray
+    ev: np.ndarray
+    beta: np.ndarray
+    cof: np.ndarray
+    center: np.ndarray
+
+
 def _cofactor(H: np.ndarray) -> np.ndarray:
     """Cofactor matrix (3, 3) of a symmetric 3x3 matrix (= its adjugate)."""
     return np.stack([np.cross(H[1], H[2]), np.cross(H[2], H[0]), np.cross(H[0], H[1])])
@@ -278,12 +304,11 @@ class Quadric:
         object.__setattr__(self, "center", center)
 
     @cached_property
-    def parts(self):
-        """``(A (3, 3), b (3,), c0, Q (3, 3) eigenvectors of A, eigenvalues (3,), β = Qᵀb (3,))`` in local
-        coordinates."""
+    def parts(self) -> QuadricParts:
+        """The quadric's :class:`QuadricParts` (A, b, c0, Q, ev, β) in local coordinates."""
         A, b, c0 = _split(self.coef)
         ev, Q = np.linalg.eigh(A)
-        return A, b, c0, Q, ev, Q.T @ b
+        return QuadricParts(A, b, c0, Q, ev, Q.T @ b)
 
     @property
     def world_coefficients(self) -> np.ndarray:
@@ -512,8 +537,8 @@ class QuadricScene(TriangleScene):
         self.tri_quadric = self.quadric_of_face[self.tri_face]
         self.tri_area_fe = self.tri_area
         self._facing_cache = {}
-        # traced parameters per quadric (A, b, c0, Q, eigenvalues, β, cof(A), center); merged regions share them
-        self._params = [q.parts + (_cofactor(q.parts[0]), q.center) for q in self.quadrics]
+        # traced parameters per quadric; merged regions share them
+        self._params = [_Traced(*q.parts, _cofactor(q.parts.A), q.center) for q in self.quadrics]
         self._tol = [1e-14 * max(q.size, self.diagonal) for q in self.quadrics]
         # flat faces: a scene of their own (same triangle order as this one's flat triangles)
         self._flat_tri = np.flatnonzero(self.tri_quadric < 0)
@@ -568,7 +593,7 @@ class QuadricScene(TriangleScene):
         J = np.empty(len(p))
         dist = np.empty(len(p))
         for k, rows in self._by_quadric(prim):  # loop over quadrics
-            A, b, c0, Q, ev, beta, cof, o = self._params[k]
+            A, b, c0, Q, ev, beta, cof, o = self._params[k]  # a _Traced
             x = p[rows] - o
             qk, ok = _foot(Q, ev, beta, c0, x, self._tol[k])
             if check and not ok.all():
@@ -588,7 +613,7 @@ class QuadricScene(TriangleScene):
         """Unit front normals (r, 3) of quadric triangles ``prim`` (r,) at points p (r, 3) on their quadric."""
         n = np.empty_like(p)
         for k, rows in self._by_quadric(prim):  # loop over quadrics
-            A, b, o = self._params[k][0], self._params[k][1], self._params[k][7]
+            A, b, o = self._params[k].A, self._params[k].b, self._params[k].center
             n[rows] = _unit(_gradient(A, b, p[rows] - o))
         return n * self._tri_sign[prim][:, None]
 
@@ -634,7 +659,8 @@ class QuadricScene(TriangleScene):
         def fits(i, j):
             """Quadric j fits region i's probes as well as i's own quadric does."""
             pts = probe_pts[probe_k == i]
-            A, b, c0, o = self._params[j][0], self._params[j][1], self._params[j][2], self._params[j][7]
+            tq = self._params[j]
+            A, b, c0, o = tq.A, tq.b, tq.c0, tq.center
             x = pts - o
             d = np.abs(_value(A, b, c0, x)) / np.sqrt(_dot(*(2 * [_gradient(A, b, x)])))
             return float(d.max()) <= max(1e-9 * self.diagonal, 2.0 * self.quadrics[i].max_distance)
@@ -708,7 +734,7 @@ class QuadricScene(TriangleScene):
     def _member(self, s: int, q: np.ndarray) -> np.ndarray:
         """Triangle (r,) of traced surface s under points q (r, 3) on it along its normal line, -1 outside s."""
         k = int(self._surfaces[s])
-        A, b, o = self._params[k][0], self._params[k][1], self._params[k][7]
+        A, b, o = self._params[k].A, self._params[k].b, self._params[k].center
         n = _unit(_gradient(A, b, q - o))
         h = self.reach[s]
         hit, tm = self._facets.intersect(q - h * n, n)
@@ -748,7 +774,8 @@ class QuadricScene(TriangleScene):
                 if cand.size == 0:
                     continue
                 k = int(self._surfaces[s])
-                A, b, c0, o = self._params[k][0], self._params[k][1], self._params[k][2], self._params[k][7]
+                tq = self._params[k]
+                A, b, c0, o = tq.A, tq.b, tq.c0, tq.center
                 d = directions[cand]
                 for root in _roots(A, b, c0, origins[cand] - o, d):  # t1 then t2
                     with np.errstate(invalid="ignore"):

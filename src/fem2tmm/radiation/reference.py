@@ -1,5 +1,6 @@
 """Deterministic reference values for the ray tracer: view factors and radiative exchange factors (REFs) between a
-few mutually visible planar convex polygons, and an independent stratified estimator for the convergence rate κ.
+few mutually visible planar convex polygons (what the tests and the κ studies of the checkout's ``benchmarks/``
+compare against).
 
 Everything here is pure numpy/scipy and independent of the tracer (no Embree, no Halton, no ``Surface``).
 
@@ -17,8 +18,9 @@ Everything here is pure numpy/scipy and independent of the tracer (no Embree, no
   cosθ₁cosθ₂/(πr²) between all points of different polygons, one dense linear solve.  Exponentially convergent in
   the order when no two polygons touch (smooth kernel); the reflected radiance is resolved point-wise, not assumed
   uniform per face.
-* :func:`jittered_view_factor_errors`: mean |relative error| of a jittered (one uniform point per cell of an m^d grid)
-  or plain random estimator of the direct view factor of the two quadrangles, and the log-log slope κ.
+
+The κ studies that use these references (jittered and ball-indicator estimators) live in the checkout's
+``benchmarks/kappa.py``, not in the package.
 
 The thesis case (L. Jacques 2016, §2.3.5) is :data:`TWO_QUADS` with ε = 0.8, ρ = 0.2; :func:`two_quads_ref`.
 """
@@ -29,12 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .smoothing import fitted_rate
 
 __all__ = ["TWO_QUADS", "GebhartResult", "parallel_rectangles_view_factor", "perpendicular_rectangles_view_factor",
            "point_rectangle_view_factor", "point_polygon_view_factor", "polygon_quadrature", "polygon_view_factor",
-           "gebhart_polygons", "gebhart_convergence", "two_quads_ref", "view_factor_estimates",
-           "jittered_view_factor_errors"]
+           "gebhart_polygons", "gebhart_convergence", "two_quads_ref", "polygon_plane"]
 
 #: Thesis §2.3.5: face 1 (normal +z) and face 2 (normal +x), vertices in metres, counter-clockwise about the normal.
 TWO_QUADS = (
@@ -78,7 +78,7 @@ def point_rectangle_view_factor(a: float, b: float, c: float) -> float:
 # polygons
 # ----------------------------------------------------------------------------------------------------------------
 
-def _polygon(vertices) -> tuple[np.ndarray, np.ndarray, float]:
+def polygon_plane(vertices) -> tuple[np.ndarray, np.ndarray, float]:
     """Checked (k, 3) vertices, the unit right-hand normal and the area of a planar convex polygon."""
     v = np.asarray(vertices, float)
     if v.ndim != 2 or v.shape[1] != 3 or len(v) < 3:
@@ -105,7 +105,7 @@ def polygon_quadrature(vertices, order: int) -> tuple[np.ndarray, np.ndarray, np
     and v for a planar quad, so the area is exact); any other polygon is a fan of triangles, each a collapsed
     square (Duffy) x = a + u(b - a) + uv(c - b) with Jacobian 2 A u.  Exact for polynomials of degree 2·order - 1 in
     the parameters; spectrally accurate for smooth (analytic) integrands."""
-    v, n, _ = _polygon(vertices)
+    v, n, _ = polygon_plane(vertices)
     g, gw = np.polynomial.legendre.leggauss(int(order))
     g, gw = 0.5 * (g + 1), 0.5 * gw
     U, V = np.meshgrid(g, g, indexing="ij")
@@ -130,7 +130,7 @@ def point_polygon_view_factor(points, normals, vertices) -> np.ndarray:
     (Lambert: F = -1/(2π) Σ_k Γ_k n·(a_k x a_{k+1})/|a_k x a_{k+1}|, a_k = v_k - x, Γ_k the angle between them, for
     vertices counter-clockwise about the polygon's front normal).  Valid when the whole polygon is above the area's
     tangent plane and shows it its front side (no horizon clipping, no occlusion)."""
-    v, _, _ = _polygon(vertices)
+    v, _, _ = polygon_plane(vertices)
     x = np.atleast_2d(np.asarray(points, float))
     nrm = np.broadcast_to(np.asarray(normals, float), x.shape)
     a = v[None, :, :] - x[:, None, :]
@@ -199,8 +199,8 @@ def polygon_view_factor(poly1, poly2, order: int = 24) -> float:
     (``order`` points) on sub-intervals split where the edge comes within 1e-9 of an end point of the other edge,
     with a sigmoidal change of variable on the sub-intervals that touch the other edge: shared edges and vertices
     (integrable log singularities) cost no accuracy.  No occlusion: each polygon must lie in front of the other."""
-    v1, n1, A1 = _polygon(poly1)
-    v2, n2, _ = _polygon(poly2)
+    v1, n1, A1 = polygon_plane(poly1)
+    v2, n2, _ = polygon_plane(poly2)
     size = max(np.ptp(v1, axis=0).max(), np.ptp(v2, axis=0).max())
     if ((v2 - v1[0]) @ n1).min() < -1e-9 * size or ((v1 - v2[0]) @ n2).min() < -1e-9 * size:
         raise ValueError("the polygons are not fully in front of each other")
@@ -286,7 +286,7 @@ def gebhart_polygons(polygons, emissivity, reflectance, order: int = 32) -> Gebh
     weights, R = diag(ρ), one dense solve for all n emitters (N = Σ points, memory 8 N² bytes).  The discrete
     result obeys the reciprocity ε_i A_i ℱ_ij = ε_j A_j ℱ_ji to round-off (K symmetric).  No occlusion test: the
     caller guarantees full mutual visibility (checked: every polygon in front of every other)."""
-    polys = [_polygon(p) for p in polygons]
+    polys = [polygon_plane(p) for p in polygons]
     n = len(polys)
     eps = np.broadcast_to(np.asarray(emissivity, float), (n,)).copy()
     rho = np.broadcast_to(np.asarray(reflectance, float), (n,)).copy()
@@ -350,157 +350,3 @@ def gebhart_convergence(polygons, emissivity, reflectance, orders=(8, 12, 16, 20
 def two_quads_ref(order: int = 40, emissivity: float = 0.8, reflectance: float = 0.2) -> GebhartResult:
     """:func:`gebhart_polygons` on the thesis' two quadrangles (§2.3.5; ℱ₁₂ = ``.ref[0, 1]``)."""
     return gebhart_polygons(TWO_QUADS, emissivity, reflectance, order=order)
-
-
-# ----------------------------------------------------------------------------------------------------------------
-# κ oracle: stratified estimators of the direct view factor of the two quadrangles
-# ----------------------------------------------------------------------------------------------------------------
-
-def _frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    t = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    t /= np.linalg.norm(t)
-    return t, np.cross(n, t)
-
-
-def _hits(origins: np.ndarray, dirs: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Whether rays (origin (r, 3) or (3,), direction (r, 3)) hit the front of the convex polygon ``target``."""
-    v, n, _ = _polygon(target)
-    den = dirs @ n
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = ((v[0] - origins) @ n) / den
-    ok = (den < 0) & (t > 0)
-    p = origins + np.where(ok, t, 0.0)[:, None] * dirs
-    for k in range(len(v)):
-        edge = v[(k + 1) % len(v)] - v[k]
-        ok &= np.cross(edge, p - v[k]) @ n >= 0
-    return ok
-
-
-def _samples(rng: np.random.Generator, m: int, dim: int, sampling: str) -> np.ndarray:
-    """m^dim points in [0, 1)^dim: one uniform point in each cell of the m^dim grid (``jittered``), or iid."""
-    count = m**dim
-    if sampling == "random":
-        return rng.random((count, dim))
-    if sampling != "jittered":
-        raise ValueError("sampling is 'jittered' or 'random'")
-    cells = np.indices((m,) * dim).reshape(dim, -1).T
-    return (cells + rng.random((count, dim))) / m
-
-
-def _quad_origins(u0: np.ndarray, u1: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Uniform points on a convex quadrangle from (u0, u1) in [0,1)²: u0 picks triangle (v0 v1 v2) or (v0 v2 v3)
-    in proportion to area and is rescaled to [0, 1) inside it, then the area-preserving map
-    x = a + √s (1 - t)(b - a) + √s t (c - a) (thesis eq. 2.18).  Measure-preserving: the estimator is unbiased."""
-    A1 = 0.5 * np.linalg.norm(np.cross(v[1] - v[0], v[2] - v[0]))
-    A2 = 0.5 * np.linalg.norm(np.cross(v[2] - v[0], v[3] - v[0]))
-    f = A1 / (A1 + A2)
-    first = u0 < f
-    s = np.where(first, u0 / f, (u0 - f) / (1 - f))
-    b = np.where(first[:, None], v[1], v[2])
-    c = np.where(first[:, None], v[2], v[3])
-    r = np.sqrt(s)[:, None]
-    return v[0] + r * (1 - u1)[:, None] * (b - v[0]) + r * u1[:, None] * (c - v[0])
-
-
-def _malley(u: np.ndarray, w: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Cosine-distributed directions about n: disc point r = √u, φ = 2πw, lifted to the hemisphere."""
-    t1, t2 = _frame(n)
-    r, phi = np.sqrt(u), 2 * np.pi * w
-    z = np.sqrt(np.maximum(1 - r * r, 0.0))
-    return (r * np.cos(phi))[:, None] * t1 + (r * np.sin(phi))[:, None] * t2 + z[:, None] * n
-
-
-def view_factor_estimates(m: int, seeds, sampling: str = "jittered", emitter: str = "face",
-                          polygons=TWO_QUADS) -> np.ndarray:
-    """Estimates of the direct view factor from ``polygons[0]`` to ``polygons[1]`` with n = m⁴ rays, one per seed.
-
-    ``emitter="face"``: 4-D sampling (origin on face 1 by :func:`_quad_origins`, direction by Malley), ``sampling``
-    jittered on the m⁴ grid or iid.  ``emitter="point"``: the emitter shrunk to the centroid of face 1 (only the
-    direction matters, a 2-D integrand), jittered on the (m²)² grid, same n; the exact value is then
-    :func:`point_polygon_view_factor` at the centroid."""
-    v1, n1, _ = _polygon(polygons[0])
-    out = []
-    for seed in np.atleast_1d(seeds):
-        rng = np.random.default_rng(int(seed))
-        if emitter == "face":
-            U = _samples(rng, m, 4, sampling)
-            o = _quad_origins(U[:, 0], U[:, 1], v1)
-            d = _malley(U[:, 2], U[:, 3], n1)
-        elif emitter == "point":
-            U = _samples(rng, m * m, 2, sampling)
-            o = v1.mean(axis=0)[None, :]
-            d = _malley(U[:, 0], U[:, 1], n1)
-        else:
-            raise ValueError("emitter is 'face' or 'point'")
-        out.append(_hits(o, d, polygons[1]).mean())
-    return np.array(out)
-
-
-def jittered_view_factor_errors(ms=(4, 6, 8, 11, 16), seeds=range(200), sampling: str = "jittered",
-                                emitter: str = "face") -> dict:
-    """Mean |relative error| over ``seeds`` of :func:`view_factor_estimates` for n = m⁴ rays, against the exact
-    direct view factor of the two quadrangles (:func:`polygon_view_factor`; for ``emitter="point"`` the Lambert
-    value at the centroid of face 1), with the fitted log-log slope κ (error ∝ n^-κ), its bootstrap standard error
-    over the seeds (``kappa_se``) and the local slopes.  ``sampling="random"``: iid points instead (same n).
-    About 10 s for the defaults (200 seeds, n = 256 ... 65536).
-
-    Expected: jittered 4-D κ → 1/2 + 1/8 = 0.625 (variance O(n^-(1+1/d)) for an indicator with a piecewise smooth
-    boundary), random κ = 0.5, jittered 2-D (``emitter="point"``) κ → 0.75."""
-    v1, n1, _ = _polygon(TWO_QUADS[0])
-    if emitter == "point":
-        exact = float(point_polygon_view_factor(v1.mean(axis=0), n1, TWO_QUADS[1])[0])
-    else:
-        exact = polygon_view_factor(*TWO_QUADS, order=32)
-    seeds = list(seeds)
-    ns = np.array([m**4 for m in ms], float)
-    errs, means, sems, per_seed = [], [], [], []
-    for m in ms:
-        est = view_factor_estimates(m, seeds, sampling, emitter)
-        per_seed.append(np.abs(est / exact - 1))
-        errs.append(float(per_seed[-1].mean()))
-        means.append(float(est.mean()))
-        sems.append(float(est.std(ddof=1) / np.sqrt(len(est))))
-    kappa, local = fitted_rate(ns, errs)
-    # bootstrap over the seeds (independently per n) for the standard error of the fitted slope
-    boot = np.random.default_rng(12345)
-    kb = [fitted_rate(ns, [e[boot.integers(0, len(e), len(e))].mean() for e in per_seed])[0] for _ in range(200)]
-    return {"sampling": sampling, "emitter": emitter, "dim": 4 if emitter == "face" else 2, "exact": exact,
-            "m": list(ms), "n": [int(x) for x in ns], "seeds": len(seeds), "mean_rel_error": errs,
-            "mean_estimate": means, "sem_estimate": sems, "kappa": kappa, "kappa_se": float(np.std(kb, ddof=1)),
-            "kappa_local": local}
-
-
-def ball_indicator_errors(dim: int, ns=(250, 1000, 4000, 16000, 64000, 256000), seeds=range(100),
-                          radius: float = 0.4) -> dict:
-    """The sampler alone, on an integrand with a known integral: mean |relative error| over ``seeds`` of the
-    fraction of n points of the unit cube inside the ``dim``-ball of ``radius`` at its centre (volume
-    π^(d/2) r^d / Γ(d/2 + 1)), for the tracer's scrambled Halton points (:class:`~fem2tmm.radiation.sampling.
-    ScrambledHalton`, first ``dim`` coordinates, a random start in the sequence per seed as the tracer draws for each
-    group) and for iid uniform points, with the fitted log-log slopes κ.  Like the hit/miss integrand of ray
-    tracing, an indicator with a smooth curved boundary: the best rate any sampling that does not know the set can
-    reach is n^-(1/2 + 1/(2d)) (0.625 in 4-D, 0.75 in 2-D), and this measures where our sampler stands against it
-    with no ray tracer involved."""
-    from math import gamma, pi
-
-    from .sampling import HALTON_BASES, ScrambledHalton
-
-    exact = pi ** (dim / 2) * radius**dim / gamma(dim / 2 + 1)
-    ns = list(ns)
-    out = {}
-    for sampling in ("halton", "random"):
-        errs = []
-        for n in ns:
-            e = []
-            for s in seeds:
-                rng = np.random.default_rng(np.random.SeedSequence(s, spawn_key=(n,)))
-                if sampling == "halton":
-                    h = ScrambledHalton(rng, bases=HALTON_BASES[:dim])
-                    U = h.points(rng.integers(0, 1 << 20) + np.arange(n))
-                else:
-                    U = rng.random((n, dim))
-                inside = np.count_nonzero(((U - 0.5) ** 2).sum(axis=1) < radius**2)
-                e.append(abs(inside / n / exact - 1))
-            errs.append(float(np.mean(e)))
-        kappa, local = fitted_rate(ns, errs)
-        out[sampling] = {"mean_rel_error": errs, "kappa": kappa, "kappa_local": local}
-    return {"dim": dim, "radius": radius, "exact": exact, "n": ns, "seeds": len(list(seeds)), **out}

@@ -1,6 +1,6 @@
 """Scrambled Halton points for the ray tracer (thesis §2.2.4, coupled 4-D sampling §2.3.2).  The maps that turn
 them into origins and directions (area-preserving triangle map eq. 2.18, Malley's cosine law §2.2.1) are the
-compiled kernels of :mod:`fem2tmm.radiation.kernels`.
+compiled kernels of :mod:`fem2tmm.radiation._tracer_kernels`.
 
 The scrambled Halton generator is written
 here (instead of one ``scipy.stats.qmc.Halton`` object per super face) because a model may have 10^4-10^5 emitting

@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-from .kernels import empty_pages
+from ._tracer_kernels import empty_pages
 
 RECIPROCITY_METHODS = ("linear", "fractional_variance")
 
@@ -439,15 +439,8 @@ SCALE_BOUND = 8.0
 
 @njit(cache=True, nogil=True)
 def _scaled_row_sums(indptr, indices, data, d, g, rows, out):
-    """out[k] = d_r Σ_{j<g} GR_rj d_j for r = rows[k] (GR in CSR form)."""
-    for k in range(rows.shape[0]):
-        r = rows[k]
-        s = 0.0
-        for q in range(indptr[r], indptr[r + 1]):
-            j = indices[q]
-            if j < g:
-                s += data[q] * d[j]
-        out[k] = d[r] * s
+    """out[k] = d_r Σ_{j<g} GR_rj d_j for r = rows[k] (GR in CSR form): :func:`_scaled_matvec` with v = 1."""
+    _scaled_matvec(indptr, indices, data, d, g, rows, np.ones(g), out)
 
 
 @njit(cache=True, nogil=True)

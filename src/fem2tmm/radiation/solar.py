@@ -30,21 +30,38 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from types import SimpleNamespace
+from typing import NamedTuple
 
 import numpy as np
 
+from .. import _validation as check
 from ..errors import Fem2TmmError
 from .sampling import HALTON_BASES, ScrambledHalton
-from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene, pad_faces
-from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, _budget, _check_groups, _per_face, map_batches
+from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene, TriangleWeights, pad_faces
+from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
 #: coordinates of the Halton point of a solar ray: origin (2), first event (1), first diffuse direction (2)
 SOLAR_DIMS = 5
 
 
 @dataclass(frozen=True, eq=False)
-class SolarResult:
+class RayBalance:
+    """The energy balance of one tracing of an external source (W): ``incident`` lit power arriving on the sampled
+    sides, ``shadowed`` hidden by the model itself, ``escaped`` left to space after reflections/transmissions,
+    ``blocked`` reaching inactive sides, ``capped`` left in rays stopped early; incident = absorbed + escaped +
+    blocked + capped.  ``rays`` origins traced, ``segments`` intersection queries (shadow rays included)."""
+
+    incident: float
+    shadowed: float
+    escaped: float
+    blocked: float
+    capped: float
+    rays: int
+    segments: int
+
+
+@dataclass(frozen=True, eq=False)
+class SolarResult(RayBalance):
     """Absorbed solar power and the energy balance of one solar tracing (all powers in W).
 
     ``absorbed_side`` (2f,) per side (2i front, 2i+1 back), ``absorbed_face`` (f,) both sides summed,
@@ -64,13 +81,6 @@ class SolarResult:
     absorbed_group: np.ndarray
     power_group: np.ndarray
     rays_group: np.ndarray
-    incident: float
-    shadowed: float
-    escaped: float
-    blocked: float
-    capped: float
-    rays: int
-    segments: int
     sun_direction: np.ndarray
     solar_flux: float
     engine: str
@@ -115,7 +125,7 @@ def triangle_emitters(scene: TriangleScene, groups: np.ndarray, n_groups: int, w
     the weights of each group; ``entry_prim`` are triangle ids of ``scene``."""
     t = len(scene.tri_face)
     total = weights.sum(axis=1)
-    view = SimpleNamespace(tri_face=np.arange(t), tri_area=total)
+    view = TriangleWeights(tri_face=np.arange(t), tri_area=total)
     sid = 2 * np.repeat(scene.tri_face, 2) + np.tile([0, 1], t)  # side of the real face, per (triangle, side)
     share = np.divide(weights, total[:, None], out=np.zeros_like(weights), where=total[:, None] > 0).ravel()
     em = GroupEmitters.build(view, groups[sid], share, n_groups)
@@ -218,6 +228,17 @@ def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, 
     return sides, powers, escaped, blocked, capped, segments
 
 
+class Arrivals(NamedTuple):
+    """What one batch of source rays delivered (:func:`arrivals`): ``absorbed`` (2f,) W per side, ``incident`` (2f,) W
+    per side (lit arrivals), ``totals`` (5,) = (incident, shadowed, escaped, blocked, capped) W, ``segments``
+    intersection queries."""
+
+    absorbed: np.ndarray
+    incident: np.ndarray
+    totals: np.ndarray
+    segments: int
+
+
 def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None, rays_per_group=None,
                 ray_density: float | None = None, sampling: str = "halton", seed: int = 0,
                 max_bounces: int = MAX_BOUNCES, min_weight: float = 1e-12, scene: TriangleScene | None = None,
@@ -239,28 +260,18 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     ``batch`` rays per batch, ``threads`` batches in parallel; the result depends only on the inputs, ``seed`` and
     ``batch``.  Returns a :class:`SolarResult`.
     """
-    if sampling not in ("halton", "random"):
-        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
-    if not (isinstance(max_bounces, int | np.integer) and max_bounces >= 1):
-        raise Fem2TmmError(f"max_bounces must be a positive integer, got {max_bounces!r}")
+    check.choice("sampling", sampling, SAMPLINGS)
+    check.positive_int("max_bounces", max_bounces)
     if not 0.0 <= float(min_weight) < 1.0:
         raise Fem2TmmError(f"min_weight must lie in [0, 1), got {min_weight}")
-    flux = float(solar_flux)
-    if not (math.isfinite(flux) and flux >= 0.0):
-        raise Fem2TmmError(f"solar_flux must be a finite power density >= 0 W/m², got {solar_flux}")
+    flux = check.nonnegative("solar_flux", solar_flux, "power density (W/m²)")
     sun = sun_unit(sun_direction)
     f = surface.n_faces
-    if groups is None:
-        groups, g = np.arange(2 * f, dtype=np.int64), 2 * f
-    else:
-        groups, g = _check_groups(surface, groups)
-    if scene is None:
-        scene = TriangleScene(surface)
-    elif scene.surface is not surface:
-        raise Fem2TmmError("trace_solar: `scene` was built for another surface; pass the scene of this surface")
+    groups, g = check.side_groups(groups, f)
+    scene = TriangleScene.of(surface, scene, "trace_solar")
     optics = surface.optics("solar")
     em = sunlit_emitters(scene, groups, g, sun)
-    rays = _budget(em, g, rays_per_group, ray_density)
+    rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     power = flux * em.weight
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
     start = np.concatenate([[0], np.cumsum(rays)])
@@ -298,7 +309,7 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
 
 
 def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, travel, w0, lit, rng, qmc,
-             min_weight: float, max_bounces: int, queries: int):
+             min_weight: float, max_bounces: int, queries: int) -> Arrivals:
     """Energy bookkeeping of one batch of source rays (parallel sunlight, planet albedo or infrared) arriving at
     points ``p`` (r, 3) of primitives ``prim`` (r,) on sides ``side`` (r,) (front normals ``nrm`` (r, 3)), travelling
     along ``travel`` (r, 3) unit, carrying ``w0`` (r,) W; ``lit`` (r,) False where the shadow ray towards the source
@@ -307,8 +318,7 @@ def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, trave
     None: quasi-random numbers of the first event and its diffuse direction.  ``queries`` intersection queries
     already made for the batch (shadow rays).
 
-    Returns ``(absorbed (2f,) W per side, incident (2f,) W per side (lit arrivals), totals (5,) = (incident,
-    shadowed, escaped, blocked, capped) W, segments)``; incident = absorbed + escaped + blocked + capped."""
+    Returns :class:`Arrivals`; incident = absorbed + escaped + blocked + capped."""
     n_sides = len(optics.active)
     incident_side = np.bincount(side[lit], weights=w0[lit], minlength=n_sides)
     shadowed = float(w0[~lit].sum())
@@ -320,19 +330,20 @@ def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, trave
                   min_weight * w0[k], rng, None if qmc is None else qmc[k], max_bounces)
     sides, powers, escaped, blocked2, capped, segs = out
     absorbed = np.bincount(sides, weights=powers, minlength=n_sides)
-    return absorbed, incident_side, np.array([incident, shadowed, escaped, blocked + blocked2, capped]), segs + queries
+    return Arrivals(absorbed, incident_side, np.array([incident, shadowed, escaped, blocked + blocked2, capped]),
+                    segs + queries)
 
 
-def gather(parts: list, n_sides: int):
+def gather(parts: list[Arrivals], n_sides: int):
     """Sum the :func:`arrivals` of the batches, in batch order (deterministic sums): ``(absorbed (2f,), incident
     (2f,), totals (5,), segments)``."""
     absorbed, incident, totals = np.zeros(n_sides), np.zeros(n_sides), np.zeros(5)
     segments = 0
     for part in parts:  # loop over batches
-        absorbed += part[0]
-        incident += part[1]
-        totals += part[2]
-        segments += part[3]
+        absorbed += part.absorbed
+        incident += part.incident
+        totals += part.totals
+        segments += part.segments
     return absorbed, incident, totals, segments
 
 
@@ -351,7 +362,7 @@ def solar_fluxes(points, faces, sun_direction, solar_flux, absorptivity=0.2, spe
     faces = pad_faces(faces)
     m = len(faces)
     zero = np.zeros(m)
-    front = lambda v, name: np.stack([_per_face(v, m, name), zero], axis=1)  # noqa: E731
+    front = lambda v, name: np.stack([check.per_face(name, v, m), zero], axis=1)  # noqa: E731
     surface = Surface(points, faces, emissivity=0.0, absorptivity=front(absorptivity, "absorptivity"),
                       specular=front(specular, "specular"),
                       solar_transmissivity=front(transmissivity, "transmissivity"),

@@ -21,12 +21,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import Fem2TmmError, format_ids
 from .engine import MISS, make_engine
-from .kernels import (cosine_directions, emit_groups, emit_rays, locate_entries, offset_points,
+from ._tracer_kernels import (cosine_directions, emit_groups, emit_rays, locate_entries, offset_points,
                       sample_points)
 
 FRONT, BACK = 0, 1
@@ -222,13 +223,23 @@ class TriangleScene:
     (:meth:`_curved_triangles`), and the emission methods (:meth:`emit`, :meth:`emit_weighted`,
     :meth:`emit_group_rays`, :meth:`facing_areas`, :meth:`sample_facing`, for non-uniform sampling of their true
     area; see :class:`fem2tmm.radiation.quadric.QuadricScene`).  The per-ray work is done by the compiled kernels
-    of :mod:`fem2tmm.radiation.kernels`.
+    of :mod:`fem2tmm.radiation._tracer_kernels`.
 
     ``backend``: "auto" (Embree when importable), "embree", "embreex" or "numpy" (:func:`~.engine.make_engine`).
     Origins are offset by ``eps = ORIGIN_OFFSET x (bounding-box diagonal)`` along the normal of the side a ray
     leaves; a hit on the very triangle the ray leaves (float32 round-off) is rejected and re-traced from a 4x larger
     offset.
     """
+
+    @classmethod
+    def of(cls, surface: Surface, scene: "TriangleScene | None", caller: str, backend: str = "auto") -> "TriangleScene":
+        """``scene`` if it was built for ``surface``, a new scene of ``surface`` if it is None; an error naming
+        ``caller`` otherwise (the argument check of every tracer that accepts a ready scene)."""
+        if scene is None:
+            return cls(surface, backend)
+        if scene.surface is not surface:
+            raise Fem2TmmError(f"{caller}: `scene` was built for another surface; pass the scene of this surface")
+        return scene
 
     def __init__(self, surface: Surface, backend: str = "auto", *, engine: bool = True):
         """``engine=False`` skips building the ray engine over all triangles (``self.engine`` is None): for
@@ -286,7 +297,7 @@ class TriangleScene:
         picks the emitting triangle and side through the group's cumulative ε·A (:meth:`GroupEmitters.locate`; it
         is rescaled within the triangle), the rest as in :meth:`emit`.  Returns ``(origins (r, 3), directions
         (r, 3), triangles (r,), relative energies (r,) or None)``; here one compiled pass
-        (:func:`~fem2tmm.radiation.kernels.emit_groups`), every ray with the same energy."""
+        (:func:`~fem2tmm.radiation._tracer_kernels.emit_groups`), every ray with the same energy."""
         _, _, centroid, shrink = self.bounce_tables()
         o, d, prim = emit_groups(np.ascontiguousarray(group, dtype=np.int64), U, emitters.start, emitters.lo,
                                  emitters.hi, emitters.entry_prim, emitters.entry_side, self._geom, centroid, shrink,
@@ -311,7 +322,7 @@ class TriangleScene:
     def scatter(self, prim: np.ndarray, normals: np.ndarray, sign: np.ndarray, u: np.ndarray, v: np.ndarray):
         """Cosine-law directions (r, 3) about ``sign`` (r,) x the front normal of the hit primitives ``prim`` (r,)
         (diffuse reflection or transmission); ``normals`` (r, 3) are the unit front normals at the hit points, as
-        returned by :meth:`hit_geometry` (:func:`fem2tmm.radiation.kernels.cosine_directions`)."""
+        returned by :meth:`hit_geometry` (:func:`fem2tmm.radiation._tracer_kernels.cosine_directions`)."""
         r = len(prim)
         return cosine_directions(np.ascontiguousarray(normals, dtype=np.float64),
                                  np.ascontiguousarray(np.broadcast_to(np.asarray(sign, float), (r,))),
@@ -385,7 +396,7 @@ class TriangleScene:
         return self._tables
 
     def hit_rows(self, optics: SideOptics) -> np.ndarray:
-        """(t, 16) one row per triangle for the compiled bounce (:data:`~fem2tmm.radiation.kernels.HIT_ROW`): unit
+        """(t, 16) one row per triangle for the compiled bounce (:data:`~fem2tmm.radiation._tracer_kernels.HIT_ROW`): unit
         front normal, owning face, the optics rows of its front and back sides (``optics`` of the band traced,
         :attr:`SideOptics.rows`), centroid, shrink (see :meth:`bounce_tables`).  A hit reads one 128-byte row, which
         starts on a 128-byte boundary (two cache lines).  The last table built is kept for the same ``optics``."""
@@ -417,6 +428,14 @@ class TriangleScene:
 _NO_NORMALS = np.zeros((0, 3))
 
 
+class TriangleWeights(NamedTuple):
+    """Triangles as :meth:`GroupEmitters.build` reads them from a scene: ``tri_face`` (t,) the face of each triangle
+    and ``tri_area`` (t,) its area (m²) or weight."""
+
+    tri_face: np.ndarray
+    tri_area: np.ndarray
+
+
 @dataclass(frozen=True)
 class GroupEmitters:
     """Emission tables of groups of sides (super faces), sampled as a whole through their cumulative ε·A.
@@ -437,7 +456,8 @@ class GroupEmitters:
     start: np.ndarray
 
     @classmethod
-    def build(cls, scene: TriangleScene, groups: np.ndarray, emit: np.ndarray, n_groups: int) -> "GroupEmitters":
+    def build(cls, scene: TriangleScene | TriangleWeights, groups: np.ndarray, emit: np.ndarray,
+              n_groups: int) -> "GroupEmitters":
         """Tables for ``groups`` (2f,) int group per side (-1: none) with emissive power weights ``emit`` (2f,)
         (ε for IR, 0 on inactive sides)."""
         t = len(scene.tri_face)

@@ -33,17 +33,19 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from .. import _validation as check
 from ..errors import Fem2TmmError
 from ..progress import report
 from .sampling import HALTON_BASES, ScrambledHalton
 # the END_* constants are part of trace_paths' contract and re-exported here
-from .kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, empty_pages, hit_sides,  # noqa: F401
+from ._tracer_kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, empty_pages, hit_sides,  # noqa: F401
                       random_state, uniform)
 from .smoothing import (RECIPROCITY_METHODS, close_exchange, convergence_rate, dense_columns, refs_from_gr, rms,
                         scale_rows)
 from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
 
 MAX_BOUNCES = 1000
+SAMPLINGS = ("halton", "random")
 #: coordinates of the coupled Halton point of an emitted ray: origin (2), direction (2), and the direction of its
 #: first diffuse reflection or transmission (2)
 HALTON_DIMS = 6
@@ -67,7 +69,7 @@ def _first_hit_numbers(side, strata, st):
     random order), so each number is marginally U[0, 1) and the fraction of a pair's rays below any threshold p is
     within 1/m of p.  ``side`` (r,) the side each ray hit (-1: a miss, number 0), ``strata`` (r,) the
     non-decreasing source group of each ray, ``st`` the state of the kernels' generator
-    (:func:`~fem2tmm.radiation.kernels.uniform`).  Linear time, run by run of equal source group (no global sort):
+    (:func:`~fem2tmm.radiation._tracer_kernels.uniform`).  Linear time, run by run of equal source group (no global sort):
     the sides of a run are counted in an open-addressing table twice the run's length, the run is visited in a
     random (Fisher-Yates) order, and each ray gets the number of rays of its pair visited before it as its rank."""
     n = side.shape[0]
@@ -164,9 +166,9 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     ray's number stays marginally uniform, so the estimator is unchanged.  ``first_scatter`` (r, 2) uniform
     numbers give the direction of each ray's first diffuse reflection/transmission (the last two coordinates of the
     coupled Halton point); later events draw from a generator seeded from ``rng`` inside the compiled bounce
-    (:func:`~fem2tmm.radiation.kernels.uniform`).  Each bounce is one intersection query for the whole batch
+    (:func:`~fem2tmm.radiation._tracer_kernels.uniform`).  Each bounce is one intersection query for the whole batch
     (:meth:`TriangleScene.intersect`: compiled calls of Embree's C API where available, self hits re-traced) and
-    one compiled pass (:func:`fem2tmm.radiation.kernels.bounce`) that compacts the surviving rays in place.
+    one compiled pass (:func:`fem2tmm.radiation._tracer_kernels.bounce`) that compacts the surviving rays in place.
     (Fusing the query and the event of each ray in one loop, or following each ray to its end before the next,
     measured 1.5-2x slower per segment: the processor then cannot overlap the long latency chains of consecutive
     rays.  Sorting the surviving rays by triangle made the next query ~8 % faster, about what the sort costs.)
@@ -389,28 +391,12 @@ class ExchangeResult:
         return sp.csr_matrix((fv, fi, fp), shape=(g, g + 1))
 
 
-def _check_groups(surface: Surface, groups) -> tuple[np.ndarray, int]:
-    groups = np.asarray(groups)
-    if groups.shape != (2 * surface.n_faces,) or not np.issubdtype(groups.dtype, np.integer):
-        raise Fem2TmmError(
-            f"groups must be an int array with one entry per side ({2 * surface.n_faces},), got "
-            f"{groups.shape} {groups.dtype}"
-        )
-    groups = groups.astype(np.int64)
-    if groups.size and groups.min() < -1:
-        raise Fem2TmmError("group ids must be >= 0, or -1 for sides that are not REF nodes")
-    return groups, int(groups.max()) + 1 if groups.size else 0
-
-
 class _ExchangeTracer:
     """Everything one exchange-factor run needs, shared read-only by the batch workers."""
 
     def __init__(self, surface: Surface, groups: np.ndarray, n_groups: int, backend: str,
                  scene: TriangleScene | None = None, per_side: bool = False):
-        if scene is None:
-            scene = TriangleScene(surface, backend)
-        elif scene.surface is not surface:
-            raise Fem2TmmError("trace_exchange: `scene` was built for another surface; pass the scene of this surface")
+        scene = TriangleScene.of(surface, scene, "trace_exchange", backend)
         self.scene = scene
         self.optics = surface.optics("ir")
         scene.hit_rows(self.optics)  # built once here, not by the first batch of every worker thread
@@ -483,21 +469,6 @@ class _ExchangeTracer:
                 np.add.at(wsum, p[2][0], p[2][1])
             tally = scale_rows(tally, np.divide(rays, wsum, out=np.zeros(g), where=wsum > 0))
         return rays, tally, segments
-
-
-def _budget(emitters: GroupEmitters, g: int, rays_per_group, ray_density) -> np.ndarray:
-    if rays_per_group is not None and ray_density is not None:
-        raise Fem2TmmError("give either rays_per_group (rays_per_face) or ray_density, not both")
-    if ray_density is not None:
-        if not ray_density > 0:
-            raise Fem2TmmError(f"ray_density must be > 0 rays per m², got {ray_density}")
-        rays = np.ceil(ray_density * emitters.area).astype(np.int64)
-    else:
-        rays = np.broadcast_to(np.asarray(1000 if rays_per_group is None else rays_per_group), (g,))
-        if np.any(rays < 0) or not np.issubdtype(rays.dtype, np.integer) and np.any(rays != np.round(rays)):
-            raise Fem2TmmError("rays per group must be non-negative integers")
-        rays = rays.astype(np.int64)
-    return np.where(emitters.weight > 0, rays, 0)
 
 
 @njit(cache=True, nogil=True)
@@ -574,16 +545,14 @@ def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: f
     scaled so that the row still sums to the rays traced).
     Returns an :class:`ExchangeResult`.
     """
-    if sampling not in ("halton", "random"):
-        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
-    if reciprocity not in RECIPROCITY_METHODS:
-        raise Fem2TmmError(f"reciprocity must be one of {RECIPROCITY_METHODS}, got {reciprocity!r}")
-    if not (isinstance(max_bounces, int | np.integer) and max_bounces >= 1):
-        raise Fem2TmmError(f"max_bounces must be a positive integer, got {max_bounces!r}")
-    groups, g = _check_groups(surface, groups)
+    check.choice("sampling", sampling, SAMPLINGS)
+    check.choice("reciprocity", reciprocity, RECIPROCITY_METHODS)
+    check.positive_int("max_bounces", max_bounces)
+    groups, g = check.side_groups(groups, surface.n_faces)
     tracer = _ExchangeTracer(surface, groups, g, backend, scene)
     engine = tracer.scene.engine.name
-    base = _budget(tracer.emitters, g, rays_per_group, ray_density)
+    em = tracer.emitters
+    base = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     run = lambda rays, stream: tracer.run(rays, sampling, seed, stream, int(batch), int(threads), max_bounces)  # noqa: E731
     kappa, pilot = None, []
     if target_lse is None:
@@ -632,25 +601,16 @@ def trace_absorption(surface: Surface, groups, rays_per_group=None, ray_density:
     rest : (g, 3) fractions that escaped to space, were blocked by inactive sides, or were capped
     eps_area : (g,) m², the emitting εA of each group
     """
-    if sampling not in ("halton", "random"):
-        raise Fem2TmmError(f"sampling must be 'halton' or 'random', got {sampling!r}")
-    groups, g = _check_groups(surface, groups)
+    check.choice("sampling", sampling, SAMPLINGS)
+    groups, g = check.side_groups(groups, surface.n_faces)
     tracer = _ExchangeTracer(surface, groups, g, backend, scene, per_side=True)
-    base = _budget(tracer.emitters, g, rays_per_group, ray_density)
+    em = tracer.emitters
+    base = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     rays, tally, _ = tracer.run(base, sampling, seed, stream, int(batch), int(threads), int(max_bounces))
     inv_n = np.where(rays > 0, 1.0 / np.maximum(rays, 1), 0.0)
     frac = sp.diags(inv_n) @ tally.tocsr()
     ns = tracer.n_cols
     return frac[:, :ns].tocsr(), np.asarray(frac[:, ns:].todense()), tracer.emitters.weight.copy()
-
-
-def _per_face(value, m: int, name: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.ndim == 0:
-        return np.full(m, float(a))
-    if a.shape != (m,):
-        raise Fem2TmmError(f"{name} must be a scalar or one value per face ({m},), got shape {a.shape}")
-    return a
 
 
 def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity=0.0, super_faces=None,
@@ -673,13 +633,13 @@ def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity
 
     faces = pad_faces(faces)
     m = len(faces)
-    eps = _per_face(emissivity, m, "emissivity")
+    eps = check.per_face("emissivity", emissivity, m)
     zero = np.zeros(m)
     surface = Surface(
         points, faces,
         emissivity=np.stack([eps, zero], axis=1),
-        specular=np.stack([_per_face(specular, m, "specular"), zero], axis=1),
-        transmissivity=np.stack([_per_face(transmissivity, m, "transmissivity"), zero], axis=1),
+        specular=np.stack([check.per_face("specular", specular, m), zero], axis=1),
+        transmissivity=np.stack([check.per_face("transmissivity", transmissivity, m), zero], axis=1),
         active=np.stack([np.ones(m, bool), np.zeros(m, bool)], axis=1),
     )
     if super_faces is None:

@@ -27,7 +27,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, shortest_path
 
-from ..errors import Fem2TmmError
+from ..errors import Fem2TmmError, InternalError
 
 #: largest sub-graph bisected with a dense eigensolver (spectral); larger ones use breadth-first levels
 SPECTRAL_MAX = 2500
@@ -207,8 +207,7 @@ class Frontal:
         self.K = np.zeros((n_keep, n_keep))
         for idx, val in parts:
             if np.any(idx >= n_keep):
-                raise Fem2TmmError(f"{what}: unknowns {idx[idx >= n_keep][:10]} were never eliminated "
-                                   "(internal error)")
+                raise InternalError(f"{what}: unknowns {idx[idx >= n_keep][:10]} were never eliminated")
             self.K[np.ix_(idx, idx)] += val
 
     def forward(self, b: np.ndarray) -> np.ndarray:

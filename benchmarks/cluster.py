@@ -8,8 +8,8 @@ Each case runs in a fresh Python subprocess so that its peak resident memory (``
 
 Goals (issue 3): 10⁶ -> 1000 in < 60 s and < 4 GB, 10⁵ -> 100 in < 5 s.
 
-:func:`bench_seeding` compares weighted k-means variants (the choice made in :mod:`.seeding`).
-Command line: ``python -m fem2tmm.cluster.benchmarks [1e5 1e6 tet3e5]`` or ``... seeding``.
+:func:`bench_seeding` compares weighted k-means variants (the choice made in :mod:`fem2tmm.cluster.seeding`).
+Command line: ``python -m benchmarks.cluster [1e5 1e6 tet3e5]`` or ``... seeding`` (repository root).
 """
 
 from __future__ import annotations
@@ -29,13 +29,13 @@ CASES = {
 _CHILD = r"""
 import json, resource, sys, time
 import numpy as np
-from fem2tmm import meshes
+from fem2tmm.mesh import shapes
 from fem2tmm.cluster import PartInput, cluster_parts
 kind, n, k = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 if kind == "shell":
-    mesh = meshes.plate(1.0, 1.0, n, n)
+    mesh = shapes.plate(1.0, 1.0, n, n)
 else:
-    mesh = meshes.box(1.0, 1.0, 1.0, n, n, n, kind="solid", element="tet4")
+    mesh = shapes.box(1.0, 1.0, 1.0, n, n, n, kind="solid", element="tet4")
 rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 part = PartInput("bench", kind, np.arange(mesh.n_elements), mesh.padded_cells, mesh.element_types, k)
 t = time.perf_counter()
@@ -112,7 +112,7 @@ def bench_seeding(cases=((300_000, 1000), (1_000_000, 1000)), methods=("weighted
 
     from scipy.spatial import cKDTree
 
-    from .seeding import weighted_kmeans
+    from fem2tmm.cluster.seeding import weighted_kmeans
 
     rows = []
     for n, k in cases:
@@ -160,7 +160,7 @@ def _metis_whole(points, cells, types, weights, k, seed=0):
     import pymetis
     import scipy.sparse as sp
 
-    from .adjacency import dual_graph
+    from fem2tmm.cluster.adjacency import dual_graph
 
     g = dual_graph(points, cells, types, "shell")
     m = len(cells)
@@ -192,9 +192,13 @@ def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True) -> list[
     """
     import time
 
-    from ..bench import _repo_file
-    from ..io import read_mesh
-    from .driver import PartInput, cluster_parts
+    from fem2tmm.cluster import PartInput, cluster_parts
+    from fem2tmm.io import read_mesh
+
+    from .cases import REPO
+
+    def _repo_file(*parts):
+        return str(REPO.joinpath(*parts))
 
     rows = []
     if "baffle" in sizes or accuracy:
@@ -224,9 +228,9 @@ def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True) -> list[
         for r in rows:
             r["time_ratio_to_pymetis"] = r["median_s"] / base
     if "1e6" in sizes:
-        from .. import meshes
+        from fem2tmm.mesh import shapes
 
-        plate = meshes.plate(1.0, 1.0, 1000, 1000)
+        plate = shapes.plate(1.0, 1.0, 1000, 1000)
         m = plate.n_elements
         areas = plate.element_areas()
         part = PartInput("plate", "shell", np.arange(m), plate.padded_cells, plate.element_types, 1000)
@@ -241,8 +245,8 @@ def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True) -> list[
             rows.append({"bench": "cluster_metis", "mesh": "plate_1e6", "elements": m, "clusters": 1000,
                          "method": name, "wall_s": tt, "time_ratio_to_pymetis": tt / t_m, **_quality(lb, areas, zero, 1000)})
     if accuracy:
-        from ..case import Case
-        from ..pipeline import run
+        from fem2tmm.case import Case
+        from fem2tmm.pipeline import run
 
         case = Case.from_toml(_repo_file("examples", "baffle", "case_100.toml"))
         full = np.full(mesh.n_elements, -1, np.int64)

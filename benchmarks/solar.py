@@ -1,7 +1,7 @@
 """Solar ray-tracing benchmarks (``fem2tmm bench solar``): one dict per measurement, medians of repeated timings.
 
 * ``solar.throughput``: solar tracing (shadow rays + specular bounces, α = 0.2, specular reflectance 0.8) on the
-  ~18 k-element baffle-like cone shell with vanes of :func:`fem2tmm.radiation.benchmarks.baffle_surface`, 10° off
+  ~18 k-element baffle-like cone shell with vanes of :func:`benchmarks.cases.baffle_surface`, 10° off
   its axis, in intersection queries (segments) per second, against bare embreex closest-hit queries on as many rays
   of the same model: the solar shadow rays themselves (parallel, coherent) and cosine-law emission rays.
 * ``solar.super_faces``: solar tracing time with every active FE side its own group ("detailed") against ~100
@@ -14,30 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .benchmarks import _median_time, baffle_surface, raw_embree_runner
-from .smoothing import fitted_rate
-from .solar import sun_origins, sunlit_emitters, trace_solar
-from .surfaces import GroupEmitters, Surface, TriangleScene
+from fem2tmm.radiation.smoothing import fitted_rate
+from fem2tmm.radiation.solar import sun_origins, sunlit_emitters, trace_solar
+from fem2tmm.radiation.surfaces import GroupEmitters, TriangleScene
 
-#: Sun 10° off the baffle axis (thesis §3.3.3), towards +z
-SUN_10DEG = np.array([np.sin(np.radians(10.0)), 0.0, np.cos(np.radians(10.0))])
-PERIHELION_FLUX = 17400.0  # W/m², 0.28 AU (thesis §3.3.1)
-
-
-def eui_cone(n_theta: int = 12, n_z: int = 4, n_r: int = 1, r0: float = 0.02, r1: float = 0.035,
-             length: float = 0.08, r_hole: float = 0.004) -> Surface:
-    """EUI-like entrance baffle (thesis §3.3.2): a cone frustum about z (radius ``r0`` at z = 0 to ``r1`` at
-    z = ``length``, front side inwards) closed at its narrow end by an annulus (``r_hole`` to ``r0``, front side
-    +z, i.e. into the baffle).  Both sides of every face: solar α = 0.2 with a specular reflectance of 0.8 (polished
-    aluminium coating).  Faces: ``n_theta x (n_z + n_r)`` quads."""
-    from .. import meshes
-
-    c = meshes.cone(r0, r1, length, n_theta=n_theta, n_z=n_z, outward=False)
-    d = meshes.annulus(r_hole, r0, n_r=n_r, n_theta=n_theta)
-    pts = np.concatenate([c.points, d.points])
-    faces = np.concatenate([c.blocks[0].cells, d.blocks[0].cells + len(c.points)])
-    return Surface(pts, faces, absorptivity=0.2, specular=1.0)
-
+from .cases import PERIHELION_FLUX, SUN_10DEG, baffle_surface, eui_cone
+from .radiation import raw_embree_runner
+from .run import median_call
 
 def _shadow_rays(scene: TriangleScene, groups: np.ndarray, n: int, seed: int = 0):
     """``n`` solar shadow rays of the model: origins on the Sun-facing sides (pseudo-random, in proportion to the
@@ -65,12 +48,12 @@ def bench_solar_throughput(repeat: int = 3, threads: int = 2, ray_density: float
     scene = TriangleScene(surf)
     if scene.engine.name != "embree":
         return [{"bench": "solar.throughput", "skipped": "embreex not importable"}]
-    t_sol, c_sol, res = _median_time(lambda: trace_solar(surf, SUN_10DEG, PERIHELION_FLUX, groups=fe,
+    t_sol, c_sol, res = median_call(lambda: trace_solar(surf, SUN_10DEG, PERIHELION_FLUX, groups=fe,
                                                          ray_density=ray_density, scene=scene, threads=threads),
                                      repeat, cpu=True)
-    t_par, c_par, _ = _median_time(raw_embree_runner(scene, *_shadow_rays(scene, fe, res.segments), threads),
+    t_par, c_par, _ = median_call(raw_embree_runner(scene, *_shadow_rays(scene, fe, res.segments), threads),
                                    repeat, cpu=True)
-    t_cos, _, _ = _median_time(raw_embree_runner(scene, *_cosine_rays(scene, fe, res.segments), threads), repeat,
+    t_cos, _, _ = median_call(raw_embree_runner(scene, *_cosine_rays(scene, fe, res.segments), threads), repeat,
                                cpu=True)
     return [{
         "bench": "solar.throughput", "model": "baffle_18k", "triangles": len(scene.tri_face), "threads": threads,
@@ -90,7 +73,7 @@ def bench_solar_super_faces(repeat: int = 3, ray_density: float = 2.0e7, threads
     scene = TriangleScene(surf)
     rows = {}
     for label, groups in (("detailed", fe), ("super_faces", sf)):
-        t, res = _median_time(lambda: trace_solar(surf, SUN_10DEG, PERIHELION_FLUX, groups=groups,
+        t, res = median_call(lambda: trace_solar(surf, SUN_10DEG, PERIHELION_FLUX, groups=groups,
                                                   ray_density=ray_density, scene=scene, threads=threads), repeat)
         rows[label] = {"groups": len(res.power_group), "rays": res.rays, "segments": res.segments, "seconds": t,
                        "absorbed_W": res.absorbed}

@@ -31,10 +31,11 @@ STUDIES = {
 
 
 def _case(path: str, n: int, opts: dict):
-    from ..bench import _repo_file
-    from ..case import Case
+    from fem2tmm.case import Case
 
-    case = Case.from_toml(_repo_file(*path.split("/")))
+    from .cases import REPO
+
+    case = Case.from_toml(REPO.joinpath(*path.split("/")))
     parts = tuple(dataclasses.replace(p, super_nodes=n) if p.super_nodes > 1 else p for p in case.parts)
     case = dataclasses.replace(case, parts=parts)
     if "conductivity" in opts:
@@ -56,7 +57,7 @@ def slope_above_noise(n: list[int], rms: list[float], noise: float) -> float | N
 
 def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
     """One row per (study, n_SN) and one summary row per study (slopes above 3x the noise); writes the plot."""
-    from ..pipeline import run
+    from fem2tmm.pipeline import run
 
     rows, curves = [], {}
     for name in studies:

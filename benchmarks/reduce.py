@@ -1,7 +1,7 @@
-"""Benchmarks of the conductive reduction (wired into ``fem2tmm bench reduce`` by the CLI).
+"""Benchmarks of the conductive reduction (``fem2tmm bench reduce``).
 
 Each public ``bench_*`` function returns a list of dicts, one per measurement, with medians of repeated
-timings in seconds.  Problems: structured quad shells from :mod:`fem2tmm.meshes`, Voronoi clusters around
+timings in seconds.  Problems: structured quad shells from :mod:`fem2tmm.mesh.shapes`, Voronoi clusters around
 seeded random elements (contiguous, irregular, deterministic for a seed).
 
 * :func:`bench_local_vs_global` — ~18 k-node quad cylinder, bottom ring a fixed-temperature DOF, 10 and 100
@@ -15,7 +15,6 @@ seeded random elements (contiguous, irregular, deterministic for a seed).
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import time
@@ -24,11 +23,12 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.spatial import cKDTree
 
-from .. import meshes
-from ..bench import reset_peak, vm
-from ..fem.assembly import conduction_matrices, to_coo, volume_shares
-from .conduction import reduce_conduction
-from .supernodes import build_supernodes
+from fem2tmm.mesh import shapes
+from fem2tmm.fem.assembly import conduction_matrices, to_coo, volume_shares
+from fem2tmm.reduce.conduction import reduce_conduction
+from fem2tmm.reduce.supernodes import build_supernodes
+
+from .run import child_env, reset_peak, vm
 
 ALUMINIUM_K = 170.0  # W/(m K)
 THICKNESS = 1e-3  # m
@@ -92,21 +92,21 @@ def _compare(pts, cells, fixed_nodes, n_sn, repeats: int, seed: int, mesh: str) 
 def bench_local_vs_global(n_sn=(10, 100), n_theta: int = 180, n_z: int = 99, repeats: int = 3,
                           seed: int = 0) -> list[dict]:
     """Local against global reduction on a quad cylinder of n_theta·(n_z+1) nodes (default 18 000)."""
-    m = meshes.cylinder(0.5, 1.0, n_theta, n_z)
+    m = shapes.cylinder(0.5, 1.0, n_theta, n_z)
     return _compare(m.points, m.blocks[0].cells, m.groups["end0"].nodes, n_sn, repeats, seed,
                     f"cylinder {n_theta}x{n_z} quad4, bottom ring fixed")
 
 
 def bench_scaling(nx: int = 500, n_sn=(300,), repeats: int = 3, seed: int = 0) -> list[dict]:
     """Local against global on an nx × nx quad plate (default 2.5·10⁵ elements): the gap grows with size."""
-    m = meshes.plate(1.0, 1.0, nx, nx)
+    m = shapes.plate(1.0, 1.0, nx, nx)
     return _compare(m.points, m.blocks[0].cells, m.groups["xmin"].nodes, n_sn, repeats, seed,
                     f"plate {nx}x{nx} quad4, x=0 edge fixed")
 
 
 def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
     t0 = time.perf_counter()
-    m = meshes.plate(1.0, 1.0, nx, nx)
+    m = shapes.plate(1.0, 1.0, nx, nx)
     pts, cells, edge = m.points, m.blocks[0].cells, m.groups["xmin"].nodes
     del m
     coo, cdof, shares, n, fixed = shell_problem(pts, cells, edge)  # x = 0 edge fixed
@@ -133,8 +133,8 @@ def _large_once(nx: int, n_clusters: int, seed: int) -> dict:
 
 def _in_subprocess(call: str) -> dict:
     """Run ``call`` (an expression on this module returning a JSON-able dict) in a fresh Python process."""
-    code = f"import json; from fem2tmm.reduce import benchmarks as b; print(json.dumps(b.{call}))"
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env={**os.environ})
+    code = f"import json; from benchmarks import reduce as b; print(json.dumps(b.{call}))"
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=child_env())
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
@@ -157,7 +157,7 @@ def bench_large(nx: int = 1000, n_clusters: int = 997, repeats: int = 3, seed: i
 
 
 def _dense_once(n_theta: int, n_z: int, n_sn: int, seed: int) -> dict:
-    m = meshes.cylinder(0.5, 1.0, n_theta, n_z)
+    m = shapes.cylinder(0.5, 1.0, n_theta, n_z)
     pts, cells = m.points, m.blocks[0].cells
     coo, cdof, shares, n, fixed = shell_problem(pts, cells, m.groups["end0"].nodes)
     labels = voronoi_labels(pts, cells, n_sn, seed)

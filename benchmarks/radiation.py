@@ -20,97 +20,15 @@ import time
 
 import numpy as np
 
-from .smoothing import fitted_rate
-from .surfaces import GroupEmitters, Surface, TriangleScene
-from .engine import make_engine
-from .tracer import exchange_factors, map_batches, trace_exchange
+from fem2tmm.radiation.engine import make_engine
+from fem2tmm.radiation.reference import TWO_QUADS, two_quads_ref
+from fem2tmm.radiation.smoothing import fitted_rate
+from fem2tmm.radiation.surfaces import GroupEmitters, Surface, TriangleScene
+from fem2tmm.radiation.tracer import exchange_factors, map_batches, trace_exchange
 
-TWO_QUADS = (
-    np.array([[1, 0, 0], [6, -1, 0], [6, 5.5, 0], [1, 5, 0], [0, 0, 0.5], [0, 4, 0.5], [0, 5, 4.5], [0, -1, 4.5]],
-             float),
-    np.array([[0, 1, 2, 3], [4, 5, 6, 7]]),
-)
-TWO_QUADS_F12_THESIS = 0.0868  # thesis §2.3.5, ESARAD with 10^9 rays (4 digits)
-
-
-def sphere_surface(subdivisions: int = 5) -> tuple[Surface, np.ndarray]:
-    """Closed icosphere (radius 1 m) with its *inner* sides emitting (ε = 0.5, diffuse): (surface, groups)."""
-    import trimesh
-
-    m = trimesh.creation.icosphere(subdivisions)
-    faces = np.asarray(m.faces)[:, ::-1]  # reversed: the right-hand normal (front) points inwards
-    f = len(faces)
-    surf = Surface(np.asarray(m.vertices), faces, emissivity=0.5,
-                   active=np.stack([np.ones(f, bool), np.zeros(f, bool)], axis=1))
-    groups = np.stack([np.arange(f), np.full(f, -1)], axis=1).ravel()
-    return surf, groups
-
-
-def baffle_surface(n_circ: int = 240, n_axial: int = 60, n_vanes: int = 3, n_vane_rings: int = 6):
-    """Baffle-like quad shell: a cone frustum (radius 0.05 -> 0.15 m over 0.3 m, inner side active) with
-    ``n_vanes`` annular vanes inside (both sides active); ε = 0.1 with a specular reflectance of 0.9.
-
-    Returns ``(surface, fe_groups (2f,), super_groups (2f,), n_super)``: FE faces sides as groups, and super faces
-    made of angular/axial strips (cone: 16 sectors x 4 bands; each vane side: 6 sectors).
-    """
-    r0, r1, length = 0.05, 0.15, 0.3
-    th = np.linspace(0.0, 2 * np.pi, n_circ, endpoint=False)
-    z = np.linspace(0.0, length, n_axial + 1)
-    r = r0 + (r1 - r0) * z / length
-    cone_pts = np.stack([np.outer(r, np.cos(th)), np.outer(r, np.sin(th)), np.repeat(z[:, None], n_circ, 1)], -1)
-    pts = [cone_pts.reshape(-1, 3)]
-    ia = np.arange(n_axial)[:, None]
-    ic = np.arange(n_circ)[None, :]
-    nxt = (ic + 1) % n_circ
-    # node order (a, c), (a, c+1), (a+1, c+1), (a+1, c): right-hand normal points inwards
-    cone = np.stack([ia * n_circ + ic, ia * n_circ + nxt, (ia + 1) * n_circ + nxt, (ia + 1) * n_circ + ic], -1)
-    cone = cone.reshape(-1, 4)
-    faces = [cone]
-    cone_sector = (np.broadcast_to(ic, (n_axial, n_circ)) * 16 // n_circ).ravel()
-    cone_band = (np.broadcast_to(ia, (n_axial, n_circ)) * 4 // n_axial).ravel()
-    fe_sf_front = [cone_sector + 16 * cone_band]
-    fe_sf_back = [np.full(len(cone), -1)]
-    base = len(pts[0])
-    n_sf = 64
-    for k in range(n_vanes):
-        zk = length * (k + 1) / (n_vanes + 1)
-        rk = r0 + (r1 - r0) * zk / length
-        rad = np.linspace(0.55 * rk, rk, n_vane_rings + 1)
-        vp = np.stack([np.outer(rad, np.cos(th)), np.outer(rad, np.sin(th)), np.full((n_vane_rings + 1, n_circ), zk)], -1)
-        pts.append(vp.reshape(-1, 3))
-        ja = np.arange(n_vane_rings)[:, None]
-        vq = np.stack([ja * n_circ + ic, ja * n_circ + nxt, (ja + 1) * n_circ + nxt, (ja + 1) * n_circ + ic], -1)
-        faces.append(vq.reshape(-1, 4) + base)
-        base += len(pts[-1])
-        sector = (np.broadcast_to(ic, (n_vane_rings, n_circ)) * 6 // n_circ).ravel()
-        fe_sf_front.append(n_sf + sector)
-        fe_sf_back.append(n_sf + 6 + sector)
-        n_sf += 12
-    pts = np.concatenate(pts)
-    faces = np.concatenate(faces)
-    f = len(faces)
-    n_cone = len(cone)
-    active_back = np.ones(f, bool)
-    active_back[:n_cone] = False
-    surf = Surface(pts, faces, emissivity=0.1, specular=1.0, active=np.stack([np.ones(f, bool), active_back], 1))
-    active = np.stack([np.ones(f, bool), active_back], 1).ravel()
-    fe = np.where(active, np.cumsum(active) - 1, -1)  # one group per active side
-    sf = np.stack([np.concatenate(fe_sf_front), np.concatenate(fe_sf_back)], 1).ravel()
-    return surf, fe.astype(np.int64), sf.astype(np.int64), n_sf
-
-
-def _median_time(fn, repeat: int, cpu: bool = False):
-    """Median wall time of ``fn()`` over ``repeat`` calls (and the median CPU time of the process when ``cpu``)."""
-    wall, proc, out = [], [], None
-    for _ in range(repeat):
-        t, c = time.perf_counter(), time.process_time()
-        out = fn()
-        wall.append(time.perf_counter() - t)
-        proc.append(time.process_time() - c)
-    if cpu:
-        return float(np.median(wall)), float(np.median(proc)), out
-    return float(np.median(wall)), out
-
+from .cases import baffle_surface, sphere_surface
+from .kappa import ball_indicator_errors, jittered_view_factor_errors
+from .run import median_call
 
 def raw_embree_runner(scene: TriangleScene, origins: np.ndarray, directions: np.ndarray, threads: int,
                       direct: bool = False):
@@ -222,16 +140,14 @@ def bench_convergence(seeds: int = 100, rays=(250, 1000, 4000, 16000, 64000, 256
       discontinuous integrand, the case of the thesis' "κ approaching 0.75", l. 1083);
 
     the same scrambled Halton points (and iid ones) with no ray tracer, on the indicator of a 4-D and a 2-D ball of
-    known volume (:func:`fem2tmm.radiation.reference.ball_indicator_errors`); and, as the bound no sampling of these
+    known volume (:func:`benchmarks.kappa.ball_indicator_errors`); and, as the bound no sampling of these
     integrands can beat, the jittered (one uniform point per cell of an m^d grid) estimator of the two quadrangles'
     direct view factor in 4-D and from a point emitter in 2-D
-    (:func:`fem2tmm.radiation.reference.jittered_view_factor_errors`, an independent numpy implementation).  For
+    (:func:`benchmarks.kappa.jittered_view_factor_errors`, an independent numpy implementation).  For
     the indicator of a set with a smooth boundary in d dimensions, randomised QMC and stratified sampling converge
     at best as n^-(1/2 + 1/(2d)) (mean error; the variance of jittered sampling is O(n^-(1 + 1/d))): 0.625 for
     d = 4, 0.75 for d = 2.  The error is the mean over ``seeds`` of |estimate / reference - 1|."""
-    from .reference import jittered_view_factor_errors, two_quads_ref
-
-    pts, faces = TWO_QUADS
+    pts, faces = np.concatenate(TWO_QUADS), np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
     exact = float(two_quads_ref().ref[0, 1])
     surf_pw, groups_pw = _pointwise_scene()
     cases = (
@@ -253,8 +169,6 @@ def bench_convergence(seeds: int = 100, rays=(250, 1000, 4000, 16000, 64000, 256
                         "kappa_local": local, "seeds": seeds, "goal_kappa_halton": 0.75,
                         "best_rate_for_a_discontinuous_integrand": 0.5 + 0.5 / dim,
                         "seconds": time.perf_counter() - t})
-    from .reference import ball_indicator_errors
-
     for dim in (4, 2):  # the sampler alone, no ray tracer: the indicator of a ball of known volume
         t = time.perf_counter()
         r = ball_indicator_errors(dim, ns=rays, seeds=range(seeds))
@@ -286,7 +200,7 @@ def bench_super_faces(repeat: int = 3, ray_density: float = 1.0e7, threads: int 
     rows = {}
     for label, groups, dens in (("fe_faces", fe, ray_density), ("super_faces", sf, ray_density),
                                 ("super_faces_low", sf, ray_density / 30)):
-        t, res = _median_time(lambda: trace_exchange(surf, groups, ray_density=dens, threads=threads), repeat)
+        t, res = median_call(lambda: trace_exchange(surf, groups, ray_density=dens, threads=threads), repeat)
         rows[label] = {"groups": res.n_groups, "rays": int(res.rays.sum()), "seconds": t,
                        "nnz_GR": int(res.GR.nnz), "lse_rms": res.lse_rms}
     return [{"bench": "rays.super_faces", "model": "baffle_18k", "ray_density_per_m2": ray_density,

@@ -5,8 +5,8 @@ Every generator returns a :class:`~fem2tmm.mesh.Mesh` in metres.  Surface genera
 normal) is documented per generator.  Edge groups are node groups (dim 1), surface groups element
 groups (dim 2), volume groups element groups (dim 3).
 
->>> from fem2tmm import meshes
->>> m = meshes.annulus(0.05, 0.15, n_r=20, n_theta=120)
+>>> from fem2tmm.mesh import shapes
+>>> m = shapes.annulus(0.05, 0.15, n_r=20, n_theta=120)
 >>> sorted(m.groups)
 ['annulus', 'inner', 'outer']
 """
@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import Fem2TmmError
-from .mesh import ElementBlock, Mesh, make_group, pad_cells
+from ..errors import Fem2TmmError
+from .core import ElementBlock, Mesh, make_group, pad_cells
 
 
 def _build(points, cells_by_type: dict[str, np.ndarray], groups: dict, name: str) -> Mesh:
@@ -30,7 +30,7 @@ def _build(points, cells_by_type: dict[str, np.ndarray], groups: dict, name: str
     gr = {}
     for g, (dim, el, nd) in groups.items():
         gr[g] = make_group(g, dim, el, nd, mesh_cells=padded)
-    return Mesh(points=np.asarray(points, float), blocks=tuple(blocks), groups=gr, source=f"<meshes.{name}>").validate()
+    return Mesh(points=np.asarray(points, float), blocks=tuple(blocks), groups=gr, source=f"<shapes.{name}>")
 
 
 def _grid_quads(nu: int, nv: int, wrap_u: bool = False) -> np.ndarray:
@@ -84,7 +84,7 @@ def annulus(r_in: float = 0.05, r_out: float = 0.15, n_r: int = 20, n_theta: int
     """Flat annulus r_in <= r <= r_out in the plane z; front side +z.  Groups: ``name``, ``inner``, ``outer``."""
     _check(n_r=n_r, n_theta=n_theta)
     if not 0 <= r_in < r_out:
-        raise Fem2TmmError(f"meshes.annulus: need 0 <= r_in < r_out, got {r_in}, {r_out}")
+        raise Fem2TmmError(f"shapes.annulus: need 0 <= r_in < r_out, got {r_in}, {r_out}")
     th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
     r = np.linspace(r_in, r_out, n_r + 1)
     R, TH = np.meshgrid(r, th, indexing="ij")  # rows: radius index j, columns theta index i
@@ -106,7 +106,7 @@ def cone(r0: float = 0.05, r1: float = 0.05, length: float = 0.5, n_theta: int =
     """
     _check(n_theta=n_theta, n_z=n_z)
     if r0 < 0 or r1 < 0 or (r0 == 0 and r1 == 0) or length <= 0:
-        raise Fem2TmmError(f"meshes.cone: bad dimensions r0={r0}, r1={r1}, length={length}")
+        raise Fem2TmmError(f"shapes.cone: bad dimensions r0={r0}, r1={r1}, length={length}")
     th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
     zz = np.linspace(0, length, n_z + 1)
     Z, TH = np.meshgrid(zz, th, indexing="ij")
@@ -172,13 +172,13 @@ def box(lx: float = 1.0, ly: float = 1.0, lz: float = 1.0, nx: int = 4, ny: int 
                     h[:, [0, 7, 4, 6]], h[:, [0, 4, 5, 6]], h[:, [0, 5, 1, 6]]]
             cells = {"tet4": np.concatenate(tets)}
         else:
-            raise Fem2TmmError(f"meshes.box: solid element must be hex8, tet4 or wedge6, got {element!r}")
+            raise Fem2TmmError(f"shapes.box: solid element must be hex8, tet4 or wedge6, got {element!r}")
         m_el = sum(len(v) for v in cells.values())
         groups = {name: (3, np.arange(m_el), None)}
         groups.update({f: (2, None, v.ravel()) for f, v in faces.items()})
         return _build(pts, cells, groups, "box")
     if kind != "shell":
-        raise Fem2TmmError(f"meshes.box: kind must be 'shell' or 'solid', got {kind!r}")
+        raise Fem2TmmError(f"shapes.box: kind must be 'shell' or 'solid', got {kind!r}")
     element = element or "quad4"
     # quads of each face, oriented outward: grid (a, b) with a x b along the outward normal
     def face_quads(grid: np.ndarray, outward_flip: bool) -> np.ndarray:
@@ -296,7 +296,7 @@ def revolve(profile, n_theta: int = 48, name: str = "surface", flip: bool = Fals
     """
     prof = np.asarray(profile, float)
     if prof.ndim != 2 or prof.shape[1] != 2 or len(prof) < 2 or (prof[:, 0] <= 0).any():
-        raise Fem2TmmError("meshes.revolve: profile must be (p >= 2, 2) points (r > 0, z)")
+        raise Fem2TmmError("shapes.revolve: profile must be (p >= 2, 2) points (r > 0, z)")
     th = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
     R, TH = np.meshgrid(prof[:, 0], th, indexing="ij")
     Z = np.broadcast_to(prof[:, 1:2], R.shape)
@@ -355,7 +355,7 @@ def baffle(h: float = 3.0e-3, n_theta: int = 72, screw_radius: float = 2.5e-3) -
         c = 35 * mm * np.array([np.cos(a), np.sin(a), 0.0])
         near = flange[np.linalg.norm(m.points[flange] - c, axis=1) <= screw_radius]
         if not len(near):
-            raise Fem2TmmError("meshes.baffle: no flange node near a screw; use a finer mesh or a larger screw_radius")
+            raise Fem2TmmError("shapes.baffle: no flange node near a screw; use a finer mesh or a larger screw_radius")
         groups[f"screw_{k + 1}"] = (1, None, near)
         screws.append(near)
     groups["screw_rims"] = (1, None, np.concatenate(screws))

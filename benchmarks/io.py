@@ -1,4 +1,4 @@
-"""Benchmarks of the mesh readers (wired into ``fem2tmm bench``).
+"""Benchmarks of the mesh readers (``fem2tmm bench nastran``).
 
 Each function returns a list of dicts, one per measurement, with the median of repeated timings.
 """
@@ -14,36 +14,9 @@ import tracemalloc
 import warnings
 from pathlib import Path
 
-import numpy as np
+from .cases import write_plate_deck
 
-__all__ = ["bench_nastran", "write_plate_deck"]
-
-
-def write_plate_deck(path, nx: int, ny: int, size: float = 1.0) -> Path:
-    """Write a flat square plate of ``nx`` x ``ny`` CQUAD4 in small-field Nastran format.
-
-    GRID ids ``1 .. (nx+1)(ny+1)`` row by row (x fastest), element ids ``1 .. nx ny``, one PSHELL
-    (PID 1, t = 1e-3) and one MAT4 (MID 1, aluminium in SI).  ``size`` is the side length in deck
-    units.  Returns the path.
-    """
-    path = Path(path)
-    i, j = np.meshgrid(np.arange(nx + 1), np.arange(ny + 1))
-    x = (i.ravel() * (size / nx)).tolist()
-    y = (j.ravel() * (size / ny)).tolist()
-    n1 = nx + 1
-    with open(path, "w") as f:
-        f.write("BEGIN BULK\n")
-        f.write("PSHELL         1       1   0.001\n")
-        f.write("MAT4           1    170.    900.   2700.\n")
-        f.writelines(f"GRID    {k + 1:8d}        {a:8.6f}{b:8.6f}      0.\n" for k, (a, b) in enumerate(zip(x, y)))
-        e = np.arange(nx * ny)
-        r, c = np.divmod(e, nx)
-        g1 = (r * n1 + c + 1).tolist()
-        f.writelines(
-            f"CQUAD4  {k + 1:8d}       1{a:8d}{a + 1:8d}{a + n1 + 1:8d}{a + n1:8d}\n" for k, a in enumerate(g1)
-        )
-        f.write("ENDDATA\n")
-    return path
+__all__ = ["bench_nastran"]
 
 
 def bench_nastran(n_side: int = 1000, repeats: int = 3, trace_memory: bool = False, workdir=None) -> list[dict]:
@@ -55,7 +28,7 @@ def bench_nastran(n_side: int = 1000, repeats: int = 3, trace_memory: bool = Fal
     ``peak_traced_MB`` (peak of the memory traced by ``tracemalloc`` during one further read, numpy
     buffers included; ``fem2tmm bench`` reports the process's peak RSS anyway).
     """
-    from .nastran import read_nastran
+    from fem2tmm.io.nastran import read_nastran
 
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         deck = Path(tmp) / "plate.bdf"

@@ -4,7 +4,7 @@ against the planar FE facets, one dict per measurement, medians of repeated timi
 * ``cylinders``: the perpendicular cylinders of thesis §3.2/§5.4 (``meshes/cylinders.msh``, 2 x 240 shells), 16
   super faces per cylinder (4 around x 4 along), each fitted on its own vertices; IR exchange factors (ε = 0.5,
   reflected 50 % specular, inner sides inactive).
-* ``baffle``: the EUI-like baffle of :func:`fem2tmm.meshes.baffle` (5 184 quads) with its two cones (``main_cone``,
+* ``baffle``: the EUI-like baffle of :func:`fem2tmm.mesh.shapes.baffle` (5 184 quads) with its two cones (``main_cone``,
   ``front_cone``) fitted, one quadric per cone; 96 super faces (8 angular sectors per surface and side), both sides
   active, ε = 0.1 and the reflected 90 % all specular (a polished baffle: ~10 bounces per ray); IR exchange factors
   and solar fluxes with the Sun 10° off the axis.
@@ -17,59 +17,17 @@ patch areas, engines) and a physics figure of both runs.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
-from .benchmarks import _median_time
-from .quadric import QuadricScene, face_frames
-from .solar import trace_solar
-from .surfaces import Surface, TriangleScene
-from .tracer import trace_exchange
+from fem2tmm.mesh import shapes
+from fem2tmm.radiation.quadric import QuadricScene, face_frames
+from fem2tmm.radiation.solar import trace_solar
+from fem2tmm.radiation.surfaces import Surface, TriangleScene
+from fem2tmm.radiation.tracer import trace_exchange
 
-#: Sun 10° off the baffle axis (towards +z, the aperture)
-SUN_10DEG = np.array([np.sin(np.radians(10.0)), 0.0, np.cos(np.radians(10.0))])
-
-
-#: axis point and axis index (0 x, 1 y, 2 z) of the two cylinders of ``meshes/cylinders.msh`` (m)
-CYLINDER_AXES = ((np.array([-0.075, 0.0, 0.0]), 1), (np.array([0.075, 0.0, 0.0]), 2))
-
-
-def read_cylinders():
-    """The committed perpendicular cylinders: ``(points (n, 3) m, faces (480, 4), cylinder (480,) 1 or 2)``."""
-    from ..io import read_mesh
-
-    m = read_mesh(Path(__file__).resolve().parents[3] / "meshes" / "cylinders.msh", unit="mm")
-    cyl = np.zeros(m.n_elements, np.int64)
-    for c in (1, 2):
-        cyl[m.groups[f"cylinder_{c}"].elements] = c
-    return m.points, m.blocks[0].cells, cyl
-
-
-def cylinder_super_faces(points, faces, cylinder, n_around: int = 4, n_along: int = 4) -> np.ndarray:
-    """Super face (f,) of each face of the two cylinders (``cylinder`` (f,) 1 or 2): ``n_around`` angular sectors
-    (the first starting at angle 0 about the axis, a node angle of the meshes) x ``n_along`` bands of the 500 mm
-    length, numbered per cylinder."""
-    cen, _ = face_frames(points, faces)
-    sf = np.empty(len(faces), np.int64)
-    for c, (o, ax) in enumerate(CYLINDER_AXES):
-        mine = cylinder == c + 1
-        u, v = [i for i in range(3) if i != ax]
-        rel = cen[mine] - o
-        sector = np.floor((np.arctan2(rel[:, v], rel[:, u]) % (2 * np.pi)) / (2 * np.pi / n_around)).astype(np.int64)
-        band = np.clip(np.floor((rel[:, ax] + 0.25) / (0.5 / n_along)).astype(np.int64), 0, n_along - 1)
-        sf[mine] = c * n_around * n_along + band * n_around + sector
-    return sf
-
-
-def cylinder_surface(points, faces) -> Surface:
-    """Thesis §3.2 optics: ε = α = 0.5 on the outer (front) sides, the reflected 50 % specular, inner sides
-    inactive."""
-    f = len(faces)
-    one, zero = np.ones(f), np.zeros(f)
-    return Surface(points, faces, emissivity=np.c_[0.5 * one, zero], absorptivity=np.c_[0.5 * one, zero],
-                   specular=np.c_[one, zero], active=np.c_[one > 0, zero > 0])
-
+from .cases import SUN_10DEG, cylinder_super_faces, cylinder_surface, read_cylinders
+from .run import median_call
 
 def cylinders_model():
     """``(surface, groups (2f,), region_of_face (f,), n_super_faces)`` of the committed perpendicular cylinders:
@@ -80,11 +38,9 @@ def cylinders_model():
 
 
 def baffle_model(sectors: int = 8):
-    """``(surface, groups (2f,), region_of_face (f,), n_super_faces)``: :func:`fem2tmm.meshes.baffle` with both
+    """``(surface, groups (2f,), region_of_face (f,), n_super_faces)``: :func:`fem2tmm.mesh.shapes.baffle` with both
     sides active (ε = 0.1, specular), super faces = (surface, side, angular sector), the two cones as regions."""
-    from .. import meshes
-
-    m = meshes.baffle()
+    m = shapes.baffle()
     faces = m.blocks[0].cells
     f = len(faces)
     cen, _ = face_frames(m.points, faces)
@@ -122,9 +78,9 @@ def bench_quadric(repeat: int = 3, threads: int = 2, rays_cylinders: int = 20_00
         scene = QuadricScene.from_regions(surf, region)
         setup = time.perf_counter() - t0
         flat = TriangleScene(surf)
-        t_f, r_f = _median_time(lambda: trace_exchange(surf, groups, rays_per_group=rays, threads=threads,
+        t_f, r_f = median_call(lambda: trace_exchange(surf, groups, rays_per_group=rays, threads=threads,
                                                        scene=flat), repeat)
-        t_q, r_q = _median_time(lambda: trace_exchange(surf, groups, rays_per_group=rays, threads=threads,
+        t_q, r_q = median_call(lambda: trace_exchange(surf, groups, rays_per_group=rays, threads=threads,
                                                        scene=scene), repeat)
         extra = {"super_faces": n_sf, "planar_lse_rms": r_f.lse_rms, "quadric_lse_rms": r_q.lse_rms,
                  "planar_area_m2": float(r_f.area.sum()), "quadric_area_m2": float(r_q.area.sum())}
@@ -138,8 +94,8 @@ def bench_quadric(repeat: int = 3, threads: int = 2, rays_cylinders: int = 20_00
             g_sun = np.repeat(g_sun, 2)
             run = lambda sc: trace_solar(surf, SUN_10DEG, 17400.0, groups=g_sun,  # noqa: E731
                                          ray_density=rays_solar / 0.01, scene=sc, threads=threads)
-            t_f, s_f = _median_time(lambda: run(flat), repeat)
-            t_q, s_q = _median_time(lambda: run(scene), repeat)
+            t_f, s_f = median_call(lambda: run(flat), repeat)
+            t_q, s_q = median_call(lambda: run(scene), repeat)
             extra = {"planar_absorbed_W": s_f.absorbed, "quadric_absorbed_W": s_q.absorbed,
                      "planar_escaped_W": s_f.escaped, "quadric_escaped_W": s_q.escaped}
             out.append(_row(model, "solar", s_q.rays, t_f, t_q, s_f.segments, s_q.segments, setup, scene, extra))

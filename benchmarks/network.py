@@ -19,6 +19,17 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
+from fem2tmm.case import Case
+from fem2tmm.fem.model import build_model
+from fem2tmm.lpm import grouping as G
+from fem2tmm.lpm.network import Network
+from fem2tmm.lpm.solve import solve_network
+from fem2tmm.pipeline import load_mesh
+from fem2tmm.stages import detailed_radiation
+
+from .cases import REPO
+from .run import reset_peak, vm
+
 #: rays per FE face side of the detailed REFs behind the benchmark network's GR
 RAYS_PER_FACE = 8
 TARGET_NODES = 1000
@@ -28,8 +39,6 @@ def network_from_model(model, faced=None, g_space=None, T_sink: float = 3.0):
     """A :class:`~fem2tmm.lpm.network.Network` of a detailed FE model: one node per DOF (numbers 1..n_dof, positions
     the mean of the DOF's mesh nodes), GL = −offdiag(K), GR = Wᵀ G W of ``faced`` and a SPACE boundary node
     (number n_dof + 1, at ``T_sink`` K) coupled by ``g_space`` (n_dof,) m²."""
-    from .network import Network
-
     n = model.n_dof
     K = sp.csr_matrix(model.K)
     GL = -(K - sp.diags(K.diagonal()))
@@ -65,19 +74,11 @@ def network_from_model(model, faced=None, g_space=None, T_sink: float = 3.0):
 
 def bench_network() -> list[dict]:
     """Truss network (every FE DOF a node) grouped automatically to ~1 000 nodes."""
-    from ..bench import _repo_file, reset_peak, vm
-    from ..case import Case
-    from ..fem.model import build_model
-    from ..pipeline import load_mesh
-    from ..stages import detailed_radiation
-    from . import grouping as G
-    from .solve import solve_network
-
     t0 = time.perf_counter()
-    case = Case.from_toml(_repo_file("examples", "truss", "case.toml"))
+    case = Case.from_toml(REPO / "examples" / "truss" / "case.toml")
     model = build_model(load_mesh(case), case)
     faced, g_space, _ = detailed_radiation(model, case, rays_per_face=RAYS_PER_FACE)
-    net = network_from_model(model, faced, g_space, T_sink=case.environment.sink_temperature + 273.15)
+    net = network_from_model(model, faced, g_space, T_sink=case.environment.sink_temperature)  # K already
     del faced
     t_build = time.perf_counter() - t0
     t0 = time.perf_counter()

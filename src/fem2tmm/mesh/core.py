@@ -13,9 +13,9 @@ from typing import Mapping
 
 import numpy as np
 
-from .errors import Fem2TmmError, format_ids
-from .fem import geometry
-from .fem.elements import DIM, ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
+from ..errors import Fem2TmmError, InternalError, format_ids
+from . import geometry
+from .elements import DIM, ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 
 
 @dataclass(frozen=True)
@@ -145,6 +145,7 @@ class Mesh:
         if self.node_ids is None:
             object.__setattr__(self, "node_ids", np.arange(1, len(pts) + 1, dtype=np.int64))
         object.__setattr__(self, "blocks", tuple(self.blocks))
+        self._check()
 
     # ------------------------------------------------------------------ sizes and indexing
     @property
@@ -162,7 +163,7 @@ class Mesh:
 
     @cached_property
     def element_types(self) -> np.ndarray:
-        """(m,) int8 type code of each element (see :data:`fem2tmm.fem.elements.TYPE_CODE`)."""
+        """(m,) int8 type code of each element (see :data:`fem2tmm.mesh.elements.TYPE_CODE`)."""
         return np.concatenate(
             [np.full(len(b.cells), TYPE_CODE[b.type], np.int8) for b in self.blocks] or [np.zeros(0, np.int8)]
         )
@@ -295,6 +296,10 @@ class Mesh:
         return used
 
     def validate(self) -> "Mesh":
+        """The mesh itself: it was checked when it was built (kept for callers of the former API)."""
+        return self
+
+    def _check(self) -> None:
         """Check what every stage relies on; raises :class:`Fem2TmmError` naming the culprits."""
         if self.n_elements == 0:
             raise Fem2TmmError(f"{self.source}: the mesh has no supported elements ({', '.join(ELEMENT_TYPES)})")
@@ -311,7 +316,6 @@ class Mesh:
                 raise Fem2TmmError(
                     f"{self.source}: {b.type} elements {format_ids(badel)} reference nodes that do not exist"
                 )
-        return self
 
 
 def pad_cells(blocks) -> np.ndarray:
@@ -342,7 +346,7 @@ def make_group(name: str, dim: int, elements=None, nodes=None, mesh_cells: np.nd
     el = unique_ints(elements if elements is not None else [])
     if nodes is None:
         if mesh_cells is None:
-            raise ValueError("nodes or mesh_cells is needed")
+            raise InternalError("make_group: nodes or mesh_cells is needed")
         pc = mesh_cells[el]
         nodes = pc[pc >= 0]
     nd = unique_ints(nodes)

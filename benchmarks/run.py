@@ -1,0 +1,147 @@
+"""Benchmark runner: ``python -m benchmarks.run [NAME ...]`` from the repository root, or ``fem2tmm bench
+[NAME ...]`` from anywhere inside a source checkout; one JSON object per line.
+
+Each benchmark runs in a fresh subprocess so that its peak memory (``peak_rss_GB``, the child's
+maximum resident set size) is its own.  Timings are medians of repeated runs where stated
+(``repeats``).  Goals from the issues are checked as ratios against a baseline measured in the same
+run where the issue names one, because this machine is shared and noisy.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: name -> "module:function"; the function returns a list of JSON-serialisable dicts
+REGISTRY: dict[str, str] = {
+    "assemble": "benchmarks.pipeline:bench_assemble",
+    "solve": "benchmarks.pipeline:bench_solve",
+    "pipeline_baffle": "benchmarks.pipeline:bench_pipeline_baffle",
+    "pipeline_truss": "benchmarks.pipeline:bench_pipeline_truss",
+    "pipeline_1m": "benchmarks.pipeline:bench_pipeline_1m",
+    "nastran": "benchmarks.io:bench_nastran",
+    "cluster": "benchmarks.cluster:bench_cluster",
+    "cluster_metis": "benchmarks.cluster:bench_cluster_metis",
+    "accuracy": "benchmarks.accuracy:bench_accuracy",
+    "reduce": "benchmarks.reduce:bench_reduce",
+    "rays": "benchmarks.radiation:bench_rays",
+    "solar": "benchmarks.solar:bench_solar",
+    "quadric": "benchmarks.quadric:bench_quadric",
+    "network": "benchmarks.network:bench_network",
+}
+
+
+def median_time(fn: Callable[[], object], repeats: int = 3) -> tuple[float, list[float]]:
+    """Median wall time (s) of ``repeats`` calls and the individual times."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), times
+
+
+def median_call(fn, repeat: int, cpu: bool = False):
+    """Median wall time of ``fn()`` over ``repeat`` calls (and the median CPU time of the process when ``cpu``)."""
+    wall, proc, out = [], [], None
+    for _ in range(repeat):
+        t, c = time.perf_counter(), time.process_time()
+        out = fn()
+        wall.append(time.perf_counter() - t)
+        proc.append(time.process_time() - c)
+    if cpu:
+        return float(np.median(wall)), float(np.median(proc)), out
+    return float(np.median(wall)), out
+
+
+
+def vm(key: str) -> float:
+    """A /proc/self/status memory figure (VmHWM peak, VmRSS current) in MB (Linux), NaN elsewhere."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return float("nan")
+
+
+def reset_peak() -> bool:
+    """Reset the kernel's peak-RSS mark (VmHWM) of this process; False where that is not possible."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def _peak_rss_gb() -> float:
+    """This process' peak resident set size in GB (VmHWM: unlike ru_maxrss it is not inherited through exec)."""
+    v = vm("VmHWM")
+    if v == v:  # not NaN
+        return v * 2**20 / 1e9
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+
+
+def _child(name: str) -> None:
+    import importlib
+
+    mod, fn = REGISTRY[name].split(":")
+    rows = getattr(importlib.import_module(mod), fn)()
+    peak = _peak_rss_gb()
+    for r in rows:
+        r.setdefault("peak_rss_GB", round(peak, 3))
+        print("BENCH " + json.dumps(r), flush=True)
+
+
+def child_env() -> dict:
+    """The environment of a benchmark subprocess: this one's, with the repository root on ``PYTHONPATH`` (so that
+    ``import benchmarks`` works from any directory)."""
+    path = os.environ.get("PYTHONPATH")
+    return {**os.environ, "PYTHONPATH": str(REPO) + (os.pathsep + path if path else "")}
+
+
+def main(names: list[str] | None = None) -> int:
+    """Run the named benchmarks (all by default; ``list`` lists them), each in a fresh subprocess."""
+    from fem2tmm.errors import Fem2TmmError
+
+    names = list(names or [])
+    if names == ["list"]:
+        for k, v in REGISTRY.items():
+            print(f"{k:10s} {v}")
+        return 0
+    unknown = [n for n in names if n not in REGISTRY and n != "pipeline"]
+    if unknown:
+        raise Fem2TmmError(f"unknown benchmark(s) {', '.join(unknown)}; available: {', '.join(REGISTRY)}")
+    groups = {"pipeline": ["pipeline_baffle", "pipeline_truss", "pipeline_1m"]}
+    expanded = []
+    for n in names or list(REGISTRY):
+        expanded += groups.get(n, [n])
+    for name in expanded:
+        cmd = [sys.executable, "-c", f"from benchmarks.run import _child; _child({name!r})"]
+        p = subprocess.run(cmd, capture_output=True, text=True, env=child_env())
+        lines = [ln[6:] for ln in p.stdout.splitlines() if ln.startswith("BENCH ")]
+        if p.returncode != 0:
+            print(json.dumps({"bench": name, "error": (p.stderr.strip().splitlines() or ["failed"])[-1]}), flush=True)
+            continue
+        for ln in lines:
+            print(ln, flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,164 @@
+"""The package's layout rules, checked on the source text (``ast``), not by importing anything.
+
+* Imports go one way along the stage order (mesh, io, case, fem, cluster, reduce, radiation, solve, then the
+  run's result, the exporters that write it, and the orchestration: stages, pipeline, demo/cli): no module imports a later stage, and nothing imports the
+  package root or the benchmarks (only the ``fem2tmm bench`` entry of the CLI runs the checkout's benchmarks/).
+* The installed package holds only the product: no benchmark or study module, no path that leaves the package.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+PKG = SRC / "fem2tmm"
+
+#: rank of each top-level module or sub-package: a module may import only modules of a lower or equal rank
+#: (equal: inside its own package).  ``case`` (the TOML schema) sits above ``io`` because it checks the mesh unit.
+RANK = {
+    "_version": 0, "errors": 0, "constants": 0, "progress": 0, "linalg": 0, "_validation": 0, "timefunc": 0,
+    "mesh": 1,
+    "io": 2,
+    "case": 3,
+    "fem": 4,
+    "cluster": 5,
+    "reduce": 6,
+    "radiation": 7,
+    "solve": 8,
+    "result": 9,
+    "export": 10,
+    "stages": 11, "inspection": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
+    "pipeline": 12,
+    "demo": 13, "cli": 14,
+}
+#: the stage packages: never the orchestration, the CLI or a benchmark
+STAGES = ("mesh", "io", "fem", "cluster", "reduce", "radiation", "solve", "export")
+
+
+def _top(pkg: Path, path: Path) -> str:
+    """The top-level module or sub-package of ``path`` inside the package folder ``pkg``."""
+    return path.relative_to(pkg).with_suffix("").parts[0]
+
+
+def _imports(src: Path, path: Path) -> list[tuple[int, str]]:
+    """(line, absolute dotted module) of every import in ``path`` below ``src`` (function-level imports
+    included); ``from . import x`` yields ``package.x`` (x may be a module)."""
+    package = list(path.relative_to(src).with_suffix("").parts[:-1])
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - node.level + 1] if node.level else []
+            mod = ".".join(base + ([node.module] if node.module else []))
+            if node.module is None or mod == "fem2tmm":
+                out += [(node.lineno, f"{mod}.{a.name}") for a in node.names]
+            else:
+                out.append((node.lineno, mod))
+    return out
+
+
+def _violations(src: Path) -> list[str]:
+    """Every import of a later stage, of the package root or of the benchmarks in the package below ``src``."""
+    pkg = src / "fem2tmm"
+    bad = []
+    for path in sorted(pkg.rglob("*.py")):
+        me = _top(pkg, path)
+        if me == "__init__":
+            continue  # the package root re-exports the public API
+        where = path.relative_to(src)
+        for line, mod in _imports(src, path):
+            parts = mod.split(".")
+            if parts[0] == "benchmarks" and me != "cli":  # only ``fem2tmm bench`` runs the checkout's benchmarks
+                bad.append(f"{where}:{line} imports the benchmarks ({mod})")
+            if parts[0] != "fem2tmm":
+                continue
+            if len(parts) == 1 or parts[1] not in RANK:
+                bad.append(f"{where}:{line} imports {mod} (the package root or an unranked module)")
+            elif RANK[parts[1]] > RANK[me]:
+                bad.append(f"{where}:{line} ({me}, rank {RANK[me]}) imports {mod} (rank {RANK[parts[1]]})")
+    return bad
+
+
+def test_every_module_has_a_rank():
+    missing = {_top(PKG, p) for p in PKG.rglob("*.py")} - set(RANK) - {"__init__"}
+    assert not missing, f"place these modules in the stage order (RANK in {__file__}): {sorted(missing)}"
+
+
+def test_imports_follow_the_stage_order():
+    bad = _violations(SRC)
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_stage_packages_never_import_orchestration(stage):
+    later = ("pipeline", "cli", "stages", "demo")
+    bad = [f"{p.relative_to(SRC)}:{line} imports {mod}" for p in sorted((PKG / stage).rglob("*.py"))
+           for line, mod in _imports(SRC, p)
+           if mod.split(".")[0] == "benchmarks" or any(mod.startswith(f"fem2tmm.{x}") for x in later)]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_checker_reports_a_backward_import(tmp_path):
+    # the rule can fail: a mesh module importing the FE model (also lazily), the root, or a benchmark is reported
+    (tmp_path / "fem2tmm" / "mesh").mkdir(parents=True)
+    (tmp_path / "fem2tmm" / "mesh" / "bad.py").write_text(
+        "from ..fem.model import FEModel\nfrom .. import pipeline\n\n\ndef f():\n    import fem2tmm\n"
+        "    from benchmarks.run import main\n")
+    (tmp_path / "fem2tmm" / "fem").mkdir()
+    (tmp_path / "fem2tmm" / "fem" / "ok.py").write_text("from ..mesh import Mesh\nfrom ..errors import Fem2TmmError\n")
+    bad = _violations(tmp_path)
+    assert len(bad) == 4 and all(b.startswith("fem2tmm/mesh/bad.py") for b in bad), bad
+
+
+def test_package_holds_no_benchmark_and_no_path_out_of_it():
+    """What setuptools puts in the wheel (``packages.find`` under src/): no benchmark or study module, and no
+    source that climbs out of the package to find repository files."""
+    from setuptools import find_packages
+
+    packages = find_packages(where=str(SRC))
+    assert "fem2tmm" in packages and "fem2tmm.mesh" in packages
+    files = [p for pkg in packages for p in (SRC / pkg.replace(".", "/")).glob("*.py")]
+    assert len(files) > 40
+    named = [str(p.relative_to(SRC)) for p in files if re.search(r"bench|stud(y|ies)", p.name)]
+    assert not named, f"benchmark modules inside the package: {named}"
+    climbing = [f"{p.relative_to(SRC)}:{i}" for p in files
+                for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+                if re.search(r"parents\[\d\]|\.\./\.\.|__file__.*\bparent\.parent", line)]
+    assert not climbing, f"paths that leave the package: {climbing}"
+
+
+def test_internal_error_exits_1_and_asks_for_a_report(monkeypatch, capsys):
+    from fem2tmm import cli
+    from fem2tmm.errors import InternalError
+
+    def broken(args):
+        raise InternalError("an invariant")
+
+    monkeypatch.setattr(cli, "_run", broken)
+    assert cli.main(["run", "case.toml"]) == 1
+    err = capsys.readouterr().err
+    assert "internal error: an invariant" in err and "please report" in err
+
+
+def test_bench_outside_a_checkout_is_a_clear_user_error(tmp_path, monkeypatch, capsys):
+    # an installed wheel: neither the working directory nor the package lies in a checkout with benchmarks/run.py
+    from fem2tmm import cli
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(cli, "__file__", str(tmp_path / "site-packages" / "fem2tmm" / "cli.py"))
+    assert cli.main(["bench", "list"]) == 2
+    assert "run it from a source checkout" in capsys.readouterr().err
+    (tmp_path / "benchmarks").mkdir()
+    (tmp_path / "benchmarks" / "run.py").write_text("")
+    assert cli._checkout() == tmp_path  # found from the working directory
+
+
+def test_only_the_pipeline_imports_the_stage_adapters():
+    users = sorted({str(p.relative_to(SRC)) for p in PKG.rglob("*.py") for _, mod in _imports(SRC, p)
+                    if mod == "fem2tmm.stages" or mod.startswith("fem2tmm.stages.")})
+    assert users == ["fem2tmm/pipeline.py"], users
