@@ -20,7 +20,7 @@ from .case import Case, RadiationSettings
 from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import Fem2TmmError, InternalError
-from .fem.elements import SHELL_TYPES, TYPE_CODE
+from .mesh.elements import SHELL_TYPES, TYPE_CODE
 from .fem.model import FEModel, boundary_load
 from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
