@@ -38,6 +38,9 @@ REGISTRY: dict[str, str] = {
     "solar": "benchmarks.solar:bench_solar",
     "quadric": "benchmarks.quadric:bench_quadric",
     "network": "benchmarks.network:bench_network",
+    "cases": "benchmarks.loadcases:bench_cases",
+    "network_positive": "benchmarks.network:bench_network_positive",
+    "transient": "benchmarks.transient:bench_transient",
 }
 
 

@@ -21,9 +21,11 @@ PKG = SRC / "fem2tmm"
 #: (equal: inside its own package).  ``case`` (the TOML schema) sits above ``io`` because it checks the mesh unit.
 RANK = {
     "_version": 0, "errors": 0, "constants": 0, "progress": 0, "linalg": 0, "_validation": 0, "timefunc": 0,
+    "cache": 0, "compute": 0,  # stage cache (content hashes) and the executor (in-process or Dask): infrastructure
+    "orbit": 0,  # orbit mechanics (planet, Kepler orbit, Sun, eclipses, attitude): an input description, like timefunc
     "mesh": 1,
     "io": 2,
-    "case": 3,
+    "case": 3, "loadcases": 3,  # [[cases]]/[sweep] expansion: validated by case, checked from case
     "fem": 4,
     "cluster": 5,
     "reduce": 6,

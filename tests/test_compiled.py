@@ -1,5 +1,6 @@
 """First run after an install: the pipeline says when numba will compile the ray tracer's kernels (issue 15)."""
 
+import importlib
 import subprocess
 import sys
 
@@ -11,6 +12,10 @@ def test_cached_after_a_trace_and_cold_with_an_empty_cache(tmp_path):
     # after one trace in this process every kernel it used is cached (the in-tree cache is writable here)
     exchange_factors([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [0, 1, 1]],
                      [[0, 1, 2, 3], [0, 3, 5, 4]], emissivity=0.8, specular=0.3, rays_per_face=50)
+    # every key kernel is one that an exchange trace dispatches (so a run that traced leaves it cached) ...
+    for module, name in KEY_KERNELS:
+        assert getattr(importlib.import_module(f"fem2tmm.radiation.{module}"), name).signatures, (module, name)
+    # ... and after it all of them are in the cache
     assert kernels_cached() == (len(KEY_KERNELS), len(KEY_KERNELS)) and compile_estimate() == 0.0
     total = len(KEY_KERNELS)
     # a fresh process with an empty numba cache folder: nothing cached, the full estimate

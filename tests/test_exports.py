@@ -11,9 +11,8 @@ import pytest
 
 from conftest import make_case
 from fem2tmm.mesh import shapes
-from fem2tmm.export.esatan import deck_matrices, read_esatan
+from fem2tmm.lpm import read_esatan, solve_network
 from fem2tmm.pipeline import run
-from fem2tmm.solve.steady import SteadyProblem, solve_steady
 
 
 @pytest.fixture(scope="module")
@@ -33,16 +32,16 @@ def fin_run(tmp_path_factory):
 
 
 def test_esatan_deck_round_trip_solves_to_the_same_temperatures(fin_run):
-    # issue 8: written, read back, and solved by the reduced solver to the same temperatures (1e-9 K)
-    deck = read_esatan(fin_run.out / "model.esatan")
+    # issue 8: written, read back (fem2tmm.lpm's ESATAN reader), and solved to the same temperatures (1e-9 K)
+    net = read_esatan(fin_run.out / "model.esatan")
     rm, rs = fin_run.reduced, fin_run.reduced_solution
-    K, GR = deck_matrices(deck)
+    n = rm.n  # the deck's last node is SPACE
+    K = net.K().toarray()[:n, :n]
+    K[np.diag_indices(n)] -= np.asarray(net.GL[:n, n:].sum(axis=1)).ravel()  # links to space are GR only
     assert np.abs(K - rm.K).max() <= 1e-12 * np.abs(rm.K).max()
-    problem = SteadyProblem(K=K, Q=deck.Q, fixed=deck.boundary, T_fixed=deck.T, g_space=deck.GR_space,
-                            T_sink=deck.T_space, GR=GR)
-    sol = solve_steady(problem)
-    assert np.abs(sol.T - rs.T).max() < 1e-9
-    assert list(deck.labels) == list(rm.names)
+    sol = solve_network(net)
+    assert np.abs(sol.T[:n] - rs.T).max() < 1e-9
+    assert list(net.labels[:n]) == list(rm.names)
     text = (fin_run.out / "model.esatan").read_text()
     n_neg = fin_run.summary["reduced"]["negative_links"]
     assert f"{n_neg} are negative" in text and text.count("# negative") == n_neg

@@ -391,8 +391,13 @@ def test_cli_network_reduce_writes_decks_summary_and_report(ten_deck, tmp_path):
         sol = solve_network(net.active())
         got = dict(zip(net.numbers.tolist(), sol.T - KELVIN))
         assert all(abs(got[int(k)] - v) < 1e-6 for k, v in red_T.items()), name
-    # the output folder is never overwritten
+    # a folder fem2tmm wrote (its .fem2tmm marker) is replaced; one holding a file of the user's is refused
+    assert (out / ".fem2tmm").is_file()
+    with pytest.warns(UserWarning, match="no node has a position"):  # without --coordinates nothing is sized
+        assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 0
+    (out / "mine.txt").write_text("user file")
     assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 2
+    assert (out / "mine.txt").read_text() == "user file"
 
 
 def test_cli_bad_deck_exits_2_naming_file_and_line(tmp_path, capsys):
@@ -431,6 +436,23 @@ def test_cli_tmrt_case_with_ra_and_ce_post_processing(tmp_path):
     ra, ce = s["post_processing"]["RA_C"]["inner"], s["post_processing"]["CE_W"]["a_to_b"]
     assert abs(ra["recovered"] - ra["detailed"]) < 1e-8 and abs(ce["recovered"] - ce["detailed"]) < 1e-8
     assert s["criteria"]["met"] and s["cases"]["deck"]["criteria"]["max_delta_K"] < 1e-8
+    f = np.load(out / "tmrt_factors.npz")
+    assert f["PD"].shape == (s["nodes"]["reduced"], len(supp)) and np.allclose(f["TRt"].sum(axis=1), 1.0)
     bad = tmp_path / "bad.toml"
     bad.write_text('[[post.ra]]\nname = "x"\nnodes = [123456]\n')
     assert main(["network", "reduce", str(deck), "--case", str(bad), "--out", str(tmp_path / "o2")]) == 2
+
+
+def test_esatan_reader_takes_a_transient_deck_at_its_start_time(tmp_path):
+    # the shape fem2tmm's transient decks have: doublet arrays read by INTRP1(TIMEM, A) in $VARIABLES1
+    p = tmp_path / "tr.esatan"
+    p.write_text(ESATAN_DECK.replace("$VARIABLES1\nQI2 = 3.0;\n", """$ARRAYS
+    Q1(6) = 0.0, 1.0, 100.0, 5.0, 200.0, 9.0;  # doublets (time, value)
+    TTAB1(4) = 0.0, 10.0, 200.0, 30.0;
+$VARIABLES1
+QI2 = 3.0 + 2.0 * (INTRP1(TIMEM, Q1) - 1.0);
+T98 = INTRP1(TIMEM, TTAB1);
+""").replace("TIF = 10.0 + 5.0;", "TIF = 10.0 + 5.0;\nTIMEO = 50.0;"))
+    net = read_esatan(p)
+    # at TIMEO = 50 s: Q1 = 1 + (5 - 1)·50/100 = 3 -> QI2 = 3 + 2·2 = 7 W; TTAB1 = 10 + 20·50/200 = 15 °C
+    assert net.QI[1] == pytest.approx(7.0) and net.T[5] == pytest.approx(15.0 + KELVIN)

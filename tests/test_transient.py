@@ -353,3 +353,46 @@ def test_transient_without_capacitance_is_refused_before_computing():
                      materials={"k": {"conductivity": 100.0}}, transient={"end": 10.0, "step": 1.0})
     with pytest.raises(Fem2TmmError, match=r"\[transient\] needs the capacitance.*'p'"):
         run(case, mesh=meshes.plate(0.1, 0.1, 2, 2))
+
+
+def test_pipeline_periodic_transient():
+    # [transient] periodic through `run`: a radiating plate under a sinusoidal flux (table) reaches its periodic
+    # state in both models; over the last period the stored energy returns to within the last period change
+    from fem2tmm.pipeline import run
+
+    P = 6000.0
+    t = np.linspace(0.0, P, 61)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 2e-3, "front": "black",
+                       "back": "black", "super_nodes": 2}],
+                     [{"kind": "flux", "groups": ["plate"],
+                       "value": [[float(a), float(300 * (1 + np.sin(2 * np.pi * a / P)))] for a in t]}],
+                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                     transient={"end": P, "step": 100.0, "output_every": 600.0, "periodic": True,
+                                "periodic_tolerance": 1e-3, "initial_temperature": 0.0})
+    res = run(case, mesh=meshes.plate(0.2, 0.1, 10, 5))
+    tr = res.summary["transient"]
+    assert tr["periods"] >= 3 and tr["period_changes_K"][-1] < 1e-3
+    for k in ("reduced", "detailed"):
+        e = tr["energy_balance"][k]
+        assert e["relative"] < ENERGY_RTOL and e["applied_J"] == pytest.approx(0.02 * 300 * P, rel=1e-12)
+        assert tr["solver"][k]["period_changes_K"][-1] < 1e-3
+        # C·ΔT over one period is bounded by the last period change (1e-3 K) times the capacitance (97 J/K)
+        assert abs(e["stored_J"]) < 2700 * 900 * 2e-3 * 0.02 * 1e-3
+
+
+def test_consistent_capacitance_of_a_bar(tmp_path):
+    # a CBAR (A = 3e-4 m², L = 1 m, ρc = 2700·900) between two Nastran plates: its consistent block is
+    # ρ c A L / 6 [[2, 1], [1, 2]] (exact ∫NᵢNⱼ of linear shape functions) and every row sums to the lumped value
+    from fem2tmm.io import read_mesh
+    from test_nastran_structural import HEAT_FIX, PLATES, card, case_for, quiet, two_plates, write
+
+    deck = write(tmp_path, two_plates([card("CBAR", 900, 3, 6, 104, 0.0, 0.0, 1.0), card("PBAR", 3, 30, 3e-4),
+                                       card("MAT4", 30, 150.0, 900.0, 2700.0)]))
+    mesh = quiet(read_mesh, deck)
+    model = build_model(mesh, case_for(deck, [*PLATES, {"name": "bar", "groups": ["PID 3"], "super_nodes": 1}],
+                                       HEAT_FIX))
+    C = consistent_capacity(model)
+    np.testing.assert_allclose(np.asarray(C.sum(axis=1)).ravel(), model.capacity, rtol=1e-13)
+    i6, i104 = model.node_dof[mesh.node_index([6, 104], where="test")]
+    # GRIDs 6 and 104 share only the bar (the plates do not touch), so their coupling is the bar's alone
+    assert C[i6, i104] == pytest.approx(2700.0 * 900.0 * 3e-4 * 1.0 / 6.0, rel=1e-12)

@@ -21,7 +21,7 @@ from .mesh import ElementBlock, Group, Mesh, shapes
 from .pipeline import run
 from .result import Result
 from .radiation import exchange_factors
-from .radiation.orbit import Attitude, Orbit, Planet
+from .orbit import Attitude, Orbit, Planet
 from .radiation.orbital import orbital_fluxes
 from .radiation.planet import planet_fluxes
 from .radiation.solar import solar_fluxes

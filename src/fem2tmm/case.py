@@ -10,6 +10,7 @@ See DESIGN §4.2 for an annotated example.
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
@@ -206,6 +207,37 @@ class TransientSpec:
 
 
 @dataclass(frozen=True)
+class ComputeSettings:
+    """Where the work units run (``[compute]``, or ``fem2tmm run --scheduler``): ``scheduler`` "serial"
+    (in-process, no Dask), "local" (a ``dask.distributed.LocalCluster`` of ``workers`` processes, default one per
+    core) or the address of a running Dask scheduler ("tcp://host:8786")."""
+
+    scheduler: str = "serial"
+    workers: int | None = None
+
+
+@dataclass(frozen=True)
+class OrbitSettings:
+    """``[orbit]`` (with ``[orbit.planet]`` and ``[orbit.attitude]``): the orbit, the planet, the Sun, the
+    spacecraft's attitude and how the orbital fluxes are traced and used (DESIGN §4.5, issue 18).
+
+    ``orbit`` an :class:`~fem2tmm.orbit.Orbit` (positions, eclipses, Sun), ``attitude`` an
+    :class:`~fem2tmm.orbit.Attitude`; ``kinds`` of fluxes among solar, albedo, ir; ``rays_per_face``
+    rays per FE face side and position (planet and solar; per FE face of each super face on super faces);
+    ``fluxes_on`` "detailed" (traced on the FE faces, the reduced model takes them through the exact power
+    distribution) or "super_faces" (traced on the super faces, uniform over each super node); ``steady``
+    "average" (one steady solve with the orbit-averaged loads) or "positions" (plus one steady solve per
+    position)."""
+
+    orbit: Any
+    attitude: Any
+    kinds: tuple[str, ...] = ("solar", "albedo", "ir")
+    rays_per_face: int = 100
+    fluxes_on: str = "detailed"
+    steady: str = "average"
+
+
+@dataclass(frozen=True)
 class MeshSpec:
     file: Path | None
     unit: str = "m"
@@ -240,8 +272,12 @@ class Case:
     clustering: ClusteringSettings = field(default_factory=ClusteringSettings)
     reference: ReferenceSettings = field(default_factory=ReferenceSettings)
     solver: SolverSettings = field(default_factory=SolverSettings)
+    compute: ComputeSettings = field(default_factory=ComputeSettings)
     transient: TransientSpec | None = None
+    orbit: OrbitSettings | None = None
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    base_dir: Path = field(default=Path("."), repr=False, compare=False)  # relative paths of the file start here
+    name: str = ""  # the load case ([[cases]] name), "" for a single-case file
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Case":
@@ -367,8 +403,12 @@ class _Parser:
     def case(self, data: Mapping[str, Any]) -> Case:
         top = self.table(data, "case", {"mesh", "materials", "optics", "parts", "boundary", "environment",
                                         "radiation", "reduction", "clustering", "reference", "solver", "joints",
-                                        "transient"},
+                                        "transient", "compute", "cases", "sweep", "orbit"},
                          {"parts"})
+        from .loadcases import expand, has_cases
+
+        if has_cases(top):
+            expand(top, self.src)  # names, merge addresses and sweep tables checked before any computation
         mesh = self.mesh(top.get("mesh", {}))
         materials = {}
         for name, m in self.table(top.get("materials", {}), "[materials]", set(top.get("materials", {}) or {})).items():
@@ -386,7 +426,16 @@ class _Parser:
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise self.err("[[parts]]", f"part names must be unique; repeated: {', '.join(dup)}")
-        transient = self.transient(top["transient"]) if "transient" in top else None
+        orbit = self.orbit(top["orbit"], top.get("environment", {})) if "orbit" in top else None
+        tr = top.get("transient")
+        if orbit is not None and isinstance(tr, Mapping) and tr.get("periodic") is True:
+            # a periodic orbit transient: the period is the orbit's, end = start + period
+            if "end" in tr:
+                raise self.err("[transient].end", "with [orbit] and periodic = true the period is the orbital period "
+                                                  f"({orbit.orbit.period:.3f} s): remove end")
+            start = self.number(tr, "start", "[transient]", default=0.0)
+            tr = {**tr, "end": start + orbit.orbit.period}
+        transient = self.transient(tr) if tr is not None else None
         self.t0 = transient.start if transient is not None else 0.0
         b_raw = top.get("boundary", [])
         if not isinstance(b_raw, list):
@@ -418,8 +467,11 @@ class _Parser:
             clustering=self.clustering(top.get("clustering", {})),
             reference=self.reference(top.get("reference", {})),
             solver=self.solver(top.get("solver", {})),
+            compute=self.compute(top.get("compute", {})),
             transient=transient,
+            orbit=orbit,
             raw=dict(data),
+            base_dir=self.base,
         )
 
     def mesh(self, d) -> MeshSpec:
@@ -610,6 +662,63 @@ class _Parser:
                            solar_rays_per_face=self.number(d, "solar_rays_per_face", w, lo=1, integer=True,
                                                            default=_default(Environment, "solar_rays_per_face")))
 
+    def orbit(self, d, environment) -> OrbitSettings:
+        from .orbit import Attitude, Orbit, Planet
+
+        w = "[orbit]"
+        d = self.table(d, "[orbit]", {"altitude", "semi_major_axis", "eccentricity", "inclination", "raan",
+                                      "argument_of_perigee", "beta", "sun_argument", "date", "solar_flux", "positions",
+                                      "eclipse", "kinds", "rays_per_face", "fluxes_on", "steady", "planet",
+                                      "attitude"})
+        if isinstance(environment, Mapping) and ("sun_direction" in environment or "solar_flux" in environment):
+            raise self.err("[environment]", "sun_direction / solar_flux are set by [orbit] (the Sun by beta or date, "
+                                            "[orbit] solar_flux); remove them from [environment]")
+        wp = "[orbit.planet]"
+        p = self.table(d.get("planet", {}), "[orbit.planet]", {"radius", "mu", "albedo", "ir_temperature",
+                                                              "ir_emissivity", "ir_flux"})
+        ir_t = self.number(p, "ir_temperature", wp, default=288.0 - KELVIN, lo=ABSOLUTE_ZERO_C)
+        planet = Planet(radius=self.number(p, "radius", wp, default=6_378_136.0, lo=0, lo_open=True),
+                        mu=self.number(p, "mu", wp, default=3.986004418e14, lo=0, lo_open=True),
+                        albedo=self.number(p, "albedo", wp, default=0.3, lo=0, hi=1),
+                        ir_temperature=ir_t + KELVIN,
+                        ir_emissivity=self.number(p, "ir_emissivity", wp, default=1.0, lo=0, hi=1),
+                        ir_flux=self.number(p, "ir_flux", wp, lo=0))
+        date = d.get("date")
+        if date is not None and not isinstance(date, str) and not hasattr(date, "year"):
+            raise self.err(f"{w}.date", f"expected a date (2026-06-21T12:00:00 or a TOML date-time), got {date!r}")
+        flux = d.get("solar_flux", 1366.1)
+        if not (flux == "distance" or (isinstance(flux, (int, float)) and not isinstance(flux, bool))):
+            raise self.err(f"{w}.solar_flux", f"expected a flux in W/m² or \"distance\", got {flux!r}")
+        positions = d.get("positions", 24)
+        if not ((isinstance(positions, int) and not isinstance(positions, bool)) or (
+                isinstance(positions, list) and all(isinstance(x, (int, float)) for x in positions))):
+            raise self.err(f"{w}.positions", f"expected a number of positions or a list of true anomalies (deg), "
+                                             f"got {positions!r}")
+        num = lambda k, default=None: self.number(d, k, w, default=default)  # noqa: E731
+        try:
+            orbit = Orbit.make(planet, altitude=num("altitude"), semi_major_axis=num("semi_major_axis"),
+                               eccentricity=num("eccentricity", 0.0), inclination=num("inclination", 0.0),
+                               raan=num("raan", 0.0), argument_of_perigee=num("argument_of_perigee", 0.0),
+                               beta=num("beta"), sun_argument=num("sun_argument", 0.0), date=date, solar_flux=flux,
+                               positions=positions, eclipse=self.string(d, "eclipse", w, default="cylindrical"),
+                               where=f"{self.src}: {w}")
+            a = self.table(d.get("attitude", {}), "[orbit.attitude]", {"kind", "primary", "secondary", "axes",
+                                                                        "rotation"})
+            attitude = Attitude.make(self.string(a, "kind", "[orbit.attitude]", default="nadir"), a.get("primary"),
+                                     a.get("secondary"), a.get("axes"), a.get("rotation"),
+                                     where=f"{self.src}: [orbit.attitude]")
+        except (TypeError, ValueError) as exc:
+            raise self.err(w, f"invalid value: {exc}") from None
+        kinds = self.strings(d, "kinds", w) or ("solar", "albedo", "ir")
+        bad = [k for k in kinds if k not in ("solar", "albedo", "ir")]
+        if bad or len(set(kinds)) != len(kinds):
+            raise self.err(f"{w}.kinds", f"expected distinct names among solar, albedo, ir, got {list(kinds)}")
+        return OrbitSettings(orbit=orbit, attitude=attitude, kinds=tuple(kinds),
+                             rays_per_face=self.number(d, "rays_per_face", w, default=100, lo=1, integer=True),
+                             fluxes_on=self.string(d, "fluxes_on", w, default="detailed",
+                                                   choices=("detailed", "super_faces")),
+                             steady=self.string(d, "steady", w, default="average", choices=("average", "positions")))
+
     def radiation(self, d) -> RadiationSettings:
         w = "[radiation]"
         d = self.table(d, w, {"enabled", "rays_per_face", "ray_density", "sampling", "seed", "max_bounces", "target_lse",
@@ -676,6 +785,13 @@ class _Parser:
         return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")), rays_per_face=rpf, ray_density=dens,
                                  noise=self.boolean(d, "noise", w, _default(ReferenceSettings, "noise")))
 
+    def compute(self, d) -> ComputeSettings:
+        w = "[compute]"
+        d = self.table(d, w, {"scheduler", "workers"})
+        return ComputeSettings(scheduler=check_scheduler(self.string(d, "scheduler", w, default="serial"),
+                                                         f"{self.src}: {w}.scheduler"),
+                               workers=self.number(d, "workers", w, lo=1, integer=True))
+
     def solver(self, d) -> SolverSettings:
         w = "[solver]"
         d = self.table(d, w, {"tolerance", "max_iterations"})
@@ -714,3 +830,14 @@ class _Parser:
             periodic_tolerance=self.number(d, "periodic_tolerance", w, default=_default(TransientSpec, "periodic_tolerance"),
                                            lo=0, lo_open=True),
         )
+
+
+_ADDRESS = re.compile(r"^(tcp|tls|ucx|ws|wss)://[^\s/]+:\d+/?$")
+
+
+def check_scheduler(value: str, where: str) -> str:
+    """``value`` if it names a scheduler: "serial", "local" or an address "tcp://host:port"."""
+    if value in ("serial", "local") or _ADDRESS.match(value):
+        return value
+    raise Fem2TmmError(f"{where}: expected 'serial', 'local' or a Dask scheduler address like "
+                       f"'tcp://host:8786', got {value!r}")

@@ -24,6 +24,11 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default=None, help="output folder (default: <case name>-out next to the case)")
     r.add_argument("--no-reference", action="store_true", help="do not solve the detailed reference model")
     r.add_argument("--quiet", action="store_true", help="no progress output")
+    r.add_argument("--scheduler", default=None,
+                   help="where the work runs: serial (default, in-process), local (a Dask LocalCluster on this "
+                        "machine's cores) or a Dask scheduler address tcp://host:8786; overrides [compute] scheduler")
+    r.add_argument("--cache", default=None, metavar="DIR",
+                   help="stage cache folder shared by runs (default: <out>/.cache)")
     d = sub.add_parser("demo", help="built-in baffle study (no input files needed)")
     d.add_argument("--out", default="fem2tmm-demo", help="output folder (default: ./fem2tmm-demo)")
     d.add_argument("--quiet", action="store_true")
@@ -119,16 +124,23 @@ def _run(args) -> int:
     from .export.output import check_output_place
 
     case = Case.from_toml(args.case)
+    if args.scheduler is not None:
+        from dataclasses import replace
+
+        from .case import check_scheduler
+
+        case = replace(case, compute=replace(case.compute, scheduler=check_scheduler(args.scheduler, "--scheduler")))
     out = Path(args.out) if args.out else Path(args.case).with_name(Path(args.case).stem + "-out")
     check_output_place(out)  # within a second, before the heavy imports and any computation
 
     from .pipeline import run
 
-    result = run(case, out=out, quiet=args.quiet, reference=False if args.no_reference else None)
+    result = run(case, out=out, quiet=args.quiet, reference=False if args.no_reference else None,
+                 cache=Path(args.cache) if args.cache else None)
     if not args.quiet:
-        from .export.summary import summary_table
+        from .export.summary import cases_table, summary_table
 
-        print(summary_table(result.summary))
+        print(cases_table(result.summary) if "cases" in result.summary else summary_table(result.summary))
         print(f"outputs in {result.out}")
     return 0
 

@@ -9,28 +9,34 @@ write_outputs` writes a temporary folder next to it and renames it at the end).
 from __future__ import annotations
 
 import dataclasses
+import time
 from pathlib import Path
 
 import numpy as np
 
 from .case import Case
 from .errors import Fem2TmmError
-from .export.output import check_output_place, write_outputs
-from .export.summary import build_summary
+from .cache import digest
+from .compute import map_units
+from .export.output import check_output_place, write_cases_outputs, write_outputs
+from .export.summary import build_cases_summary, build_summary
 from .fem.model import build_model
 from .mesh import Mesh
 from .progress import Progress, report, reporting
 from .radiation.compiled import compile_estimate
+from .radiation.quadric import QuadricScene
 from .radiation.surfaces import TriangleScene
-from .reduce.network import build_reduced, super_faces
-from .result import Result
+from .reduce.network import build_reduced, refresh_reduced, super_faces
+from .result import CasesResult, Result
 from .solve.steady import check_solvable, solve_steady
-from .stages import (absorbed_solar_maps, check_transient, cluster_model, describe_nodes, detailed_problem,
-                     detailed_radiation, detailed_solar, ir_absorption, mean_faced, positive_reduced, quadric_scene,
-                     radiation_aware_network, radiation_surface, reduced_problem, reduced_radiation, reference_noise,
-                     run_transient, solar_prepass, super_face_solar)
+from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
+                     detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key,
+                     ir_absorption, mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced,
+                     positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
+                     reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
+                     super_face_orbit, super_face_solar, trace_key, tracer_settings)
 
-__all__ = ["Result", "detailed_problem", "load_mesh", "run"]
+__all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
 
 def load_mesh(case: Case) -> Mesh:
@@ -43,87 +49,187 @@ def load_mesh(case: Case) -> Mesh:
 
 
 def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, quiet: bool = True,
-        reference: bool | None = None, labels: np.ndarray | None = None) -> Result:
+        reference: bool | None = None, labels: np.ndarray | None = None,
+        cache: str | Path | bool | None = None) -> Result | CasesResult:
     """Run ``case``; write the output folder ``out`` (if given) only once everything succeeded.
 
     ``mesh`` overrides ``[mesh] file`` (e.g. a mesh built with :mod:`fem2tmm.mesh.shapes`); ``reference``
     overrides ``[reference] detailed``.  ``labels`` (n_elements,) int: your own partition into super nodes
     (e.g. from METIS or another tool), one cluster per mesh element (-1 outside the parts), numbered 0 … K−1
     with every number used and each cluster within one part; it replaces the clustering (and the parts'
-    ``super_nodes``).  Non-contiguous clusters are accepted with a warning.
+    ``super_nodes``).  Non-contiguous clusters are accepted with a warning.  A case file with ``[[cases]]`` or ``[sweep]``
+    (:mod:`fem2tmm.loadcases`) runs every case and returns a :class:`~fem2tmm.result.CasesResult`
+    (outputs: one folder per case in ``out`` and the envelope over the cases); otherwise a
+    :class:`~fem2tmm.result.Result`.  Stage results are shared between cases and runs through the stage cache
+    (:mod:`fem2tmm.cache`): ``cache`` a folder, default ``<out>/.cache`` (memory only without ``out``), False
+    for none.  The work units run where ``[compute] scheduler`` says (:mod:`fem2tmm.compute`).
     """
+    from .cache import CACHE_DIR, StageCache
+    from .compute import executing
+    from .loadcases import load_cases
+
     out = None if out is None else check_output_place(out)  # before any computation
-    prog = Progress(quiet=quiet)
-    with reporting(prog.callback()):
-        result = _run(case, prog, mesh, reference, labels)
+    cases = load_cases(case)  # every case validated before any computation
+    explicit = cache not in (None, True, False)
+    store = None if cache is False else StageCache(Path(cache) if explicit else None)
+    if store is not None and not explicit and out is not None:
+        store.folder = Path(out) / CACHE_DIR  # read from the previous run's outputs, written with the new ones
+    meshes = {}
+    results = []
+    t0 = time.perf_counter()
+    with executing(case.compute.scheduler, case.compute.workers) as ex:
+        workers = ex.workers
+        for name, c, _ in cases:
+            prog = Progress(quiet=quiet, label=name or None)
+            key = repr(c.mesh)  # the file and every reader option: cases that share it read it once
+            if mesh is None and key not in meshes:
+                with prog.stage("read", "reading the mesh"):
+                    meshes[key] = load_mesh(c)
+            with reporting(prog.callback()):
+                results.append(_run(c, prog, mesh if mesh is not None else meshes[key], reference, store,
+                                    labels))
+    if len(cases) == 1 and not cases[0][0]:
+        result = results[0]
+        if out is not None:
+            with prog.stage("write", f"writing the outputs to {out}"):
+                result.out = write_outputs(result, out, timings=prog.timings, cache=None if explicit else store)
+        if explicit:
+            store.commit()
+        return result
+    multi = CasesResult(case=case, results={n: r for (n, _, _), r in zip(cases, results)},
+                        parameters={n: p for n, _, p in cases})
+    multi.summary = build_cases_summary(multi, {"scheduler": case.compute.scheduler, "workers": workers},
+                                        time.perf_counter() - t0)
     if out is not None:
+        prog = Progress(quiet=quiet)
         with prog.stage("write", f"writing the outputs to {out}"):
-            result.out = write_outputs(result, out, timings=prog.timings)
-    return result
+            multi.out = write_cases_outputs(multi, out, cache=None if explicit else store)
+    if explicit:
+        store.commit()
+    return multi
 
 
-def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
+def _cached(prog: Progress, store, status: dict, stage: str, label: str, key, compute):
+    """Stage ``stage``, timed: its value from the stage cache ``store`` under ``key()`` or ``compute()``d (and
+    cached); records "computed" or "reused" in ``status``."""
+    with prog.stage(stage, label):
+        if store is None:
+            value, how = compute(), "computed"
+        else:
+            value, how = store.get_or_compute(stage, key(), compute)
+    status[stage] = how
+    return value
+
+
+class _Scenes:
+    """The case's ray scenes, each built on first use (a stage whose result is cached needs none)."""
+
+    def __init__(self, surface):
+        self.surface = surface
+        self.fit = None  # (quadrics, quadric_of_face, report) when parts are traced against quadrics
+        self._flat = self._main = None
+
+    def flat(self) -> TriangleScene:
+        if self._flat is None:
+            self._flat = TriangleScene(self.surface)
+        return self._flat
+
+    def main(self) -> TriangleScene:
+        """Quadrics where the case asks for them, flat triangles elsewhere."""
+        if self.fit is None:
+            return self.flat()
+        if self._main is None:
+            self._main = QuadricScene(self.surface, self.fit[1], self.fit[0])
+        return self._main
+
+
+def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, store=None,
          labels: np.ndarray | None = None) -> Result:
     if case.clustering.method == "metis" and labels is None:
         from .cluster.metis import require
 
         require()  # the optional dependency, before any long computation
-    with prog.stage("read", "reading the mesh"):
-        mesh = load_mesh(case) if mesh is None else mesh
+    if mesh is None:
+        with prog.stage("read", "reading the mesh"):
+            mesh = load_mesh(case)
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
     check_transient(model, case)
     do_ref = case.reference.detailed if reference is None else reference
     problem = detailed_problem(model)
     check_solvable(problem, describe=describe_nodes(model))
-    result = Result(case=case, mesh=mesh, model=model)
+    result = Result(case=case, mesh=mesh, model=model, cache={})
+    status = result.cache
     radiating = bool(model.faces.active.any())
     trace = case.radiation.enabled and radiating
     sun = case.has_sun and radiating
-    surface = radiation_surface(model) if (trace or sun) else None
-    if surface is not None:
+    orbit = case.orbit if radiating else None
+    surface = radiation_surface(model) if (trace or sun or orbit) else None
+    if trace:  # the exchange-factor kernels (a Sun-only run compiles fewer and is not announced)
         seconds = compile_estimate()
         if seconds > 0:
             prog.note(f"compiling the ray tracer's kernels (first run after an install, ~{seconds:.0f} s)")
+    scenes = _Scenes(surface)  # the ray scenes, built when a stage traces (a cached stage needs none)
+    geometry = geometry_key(model) if surface is not None else None
+    ir = surface.optics("ir") if surface is not None else None
+    solar = surface.optics("solar") if surface is not None else None
+    env = case.environment
+
+    def sun_key(stage: str, scene: str, role: str, *more) -> str:
+        return trace_key(stage, geometry, solar, scene, env.sun_direction, env.solar_flux, env.solar_rays_per_face,
+                         tracer_settings(case, exchange=False, role=role), *more)
+
     q_solar = None  # detailed solar nodal loads (n_dof,) W
-    scene = None  # one ray scene (Embree BVH) shared by every tracing stage
 
     # clustering (following a coarse solar map when asked)
+    ckey = None
     if case.reduction.enabled:
         flux = None
         if sun and case.solar_aware:
-            with prog.stage("scene", "building the ray scene"):
-                scene = TriangleScene(surface)
-            with prog.stage("solar_prepass", "tracing a coarse solar map for the clustering"):
-                flux = solar_prepass(model, case, surface, scene=scene)
-        with prog.stage("cluster", "clustering"):
-            result.clustering = cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"),
-                                              flux=flux, labels=labels)
+            flux = _cached(prog, store, status, "solar_prepass", "tracing a coarse solar map for the clustering",
+                           lambda: sun_key("solar_prepass", "flat", "prepass"),
+                           lambda: solar_prepass(model, case, surface, scene=scenes.flat()))
+        ckey = cluster_key(model, case, flux, labels)
+        result.clustering = _cached(
+            prog, store, status, "cluster", "clustering", lambda: ckey,
+            lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
+                                  labels=labels))
 
-    # the ray scene: quadrics where the case asks for them, flat triangles elsewhere
+    # quadrics where the case asks for them (the scene itself is built when a stage traces)
     if surface is not None and any(p.quadric for p in case.parts):
-        with prog.stage("quadrics", "fitting quadrics"):
-            scene, result.quadrics = quadric_scene(model, case, surface, result.clustering)
-    elif surface is not None and scene is None:
-        with prog.stage("scene", "building the ray scene"):
-            scene = TriangleScene(surface)
+        regions = quadric_regions(model, case, result.clustering)
+        scenes.fit = _cached(prog, store, status, "quadrics", "fitting quadrics", lambda: digest("quadrics", *regions),
+                             lambda: fit_quadrics(*regions))
+        result.quadrics = scenes.fit[2]
+    skey = scene_key(scenes.fit)
 
     # solar loads on the detailed mesh
     if sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed"):
-        with prog.stage("solar_detailed", "tracing solar rays on the detailed mesh"):
-            q_solar, result.solar_detailed = detailed_solar(model, case, surface, scene=scene)
-            result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, result.solar_detailed)
+        q_solar, result.solar_detailed = _cached(
+            prog, store, status, "solar_detailed", "tracing solar rays on the detailed mesh",
+            lambda: sun_key("solar_detailed", skey, "reference"),
+            lambda: detailed_solar(model, case, surface, scene=scenes.main()))
+        result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, result.solar_detailed)
+
+    # orbital loads (solar, albedo, planet IR at every position) on the detailed mesh
+    q_orbit = None  # (k, n_dof) W per position
+    q_sn_orbit = None  # (k, n_SN) W per position
+    if orbit is not None and (do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
+        with prog.stage("orbit_detailed", "tracing orbital fluxes on the detailed mesh"):
+            q_orbit, result.orbit_detailed = detailed_orbit(model, case, surface, scene=scenes.main())
 
     # reduced model: conduction, radiation, solar loads, solve, recovery
     if case.reduction.enabled:
-        with prog.stage("reduce", "reducing conduction"):
-            rm = build_reduced(model, result.clustering, case)
+        rm = _cached(prog, store, status, "reduce", "reducing conduction", lambda: reduce_key(model, case, ckey),
+                     lambda: build_reduced(model, result.clustering, case))
+        rm = refresh_reduced(rm, model)  # this case's loads, boundary temperatures, sink and optics
         sf = super_faces(model, rm) if surface is not None else None
         if trace:
-            with prog.stage("radiation", "tracing super-face exchange factors"):
-                GR, g_space, result.radiation, result.super_faces_count = reduced_radiation(
-                    model, rm, case, surface, scene=scene, sf=sf)
-                rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
+            GR, g_space, result.radiation, result.super_faces_count = _cached(
+                prog, store, status, "radiation", "tracing super-face exchange factors",
+                lambda: trace_key("radiation", geometry, ir, skey, sf, rm.n, tracer_settings(case)),
+                lambda: reduced_radiation(model, rm, case, surface, scene=scenes.main(), sf=sf))
+            rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
         q_recover = model.Q
         result.q_recover = q_recover
         q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
@@ -134,18 +240,36 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                 q_recover = model.Q + q_solar
                 result.q_recover = q_recover
             else:
-                with prog.stage("solar", "tracing solar rays on the super faces"):
-                    q_sn, result.solar_super_faces, _ = super_face_solar(model, rm, case, surface, scene=scene, sf=sf)
+                q_sn, result.solar_super_faces, _ = _cached(
+                    prog, store, status, "solar", "tracing solar rays on the super faces",
+                    lambda: sun_key("solar", skey, "reduced", sf, rm.n),
+                    lambda: super_face_solar(model, rm, case, surface, scene=scenes.main(), sf=sf))
                 if result.absorbed_solar_elements is None:
                     result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(
                         model, result.solar_super_faces)
                 q_lumped = q_sn
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
             result.solar_on = case.environment.solar_on
+        if orbit is not None:
+            if orbit.fluxes_on == "detailed":
+                q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
+            else:
+                with prog.stage("orbit", "tracing orbital fluxes on the super faces"):
+                    q_sn_orbit, result.orbit_super_faces = super_face_orbit(model, rm, case, surface, scene=scenes.main(),
+                                                                            sf=sf)
+            result.orbit_on = orbit.fluxes_on
+        rm_base, q_recover_base = rm, q_recover
+        if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
+            q_sn_avg = orbit_average(result, q_sn_orbit)
+            rm = dataclasses.replace(rm, Q=rm.Q + q_sn_avg)
+            if orbit.fluxes_on == "detailed":
+                q_recover = q_recover + orbit_average(result, q_orbit)
+                result.q_recover = q_recover
+            else:
+                q_lumped = q_lumped + q_sn_avg
         result.reduced = rm
         with prog.stage("solve_reduced", "solving the reduced model"):
-            result.reduced_solution = solve_steady(reduced_problem(rm), tol=case.solver.tolerance,
-                                                   max_iter=case.solver.max_iterations)
+            result.reduced_solution = _solve(reduced_problem(rm), case)
         if case.reduction.network == "positive":
             exact = result.reduced_solution
             with prog.stage("positive", "fitting a positive sparse network"):
@@ -164,32 +288,45 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
                                             result.T_recovered, ir))
+        if q_sn_orbit is not None and orbit.steady == "positions":
+            with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
+                result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,
+                                                                   q_orbit if orbit.fluxes_on == "detailed" else None,
+                                                                   result.reduced_solution.T, case)
 
     # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:
         noise = do_ref and case.reduction.enabled and case.reference.noise
         halves = []  # the problems of the two half references, when the reference is noisy
         if trace:
-            with prog.stage("radiation_detailed", "tracing FE-face exchange factors (detailed model)"):
-                ref = case.reference
-                if noise:
-                    parts = [detailed_radiation(model, case, surface, rays_per_face=ref.rays_per_face,
-                                                ray_density=ref.ray_density, scene=scene, role=role, fraction=0.5)
-                             for role in ("reference", "reference_b")]
-                    halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
-                    faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
-                    result.radiation_detailed = parts[0][2]
-                    result.reference_halves = 2
-                else:
-                    faced, g_space, result.radiation_detailed = detailed_radiation(
-                        model, case, surface, rays_per_face=ref.rays_per_face, ray_density=ref.ray_density,
-                        scene=scene)
-                problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
+            ref = case.reference
+
+            def detailed_refs(role: str = "reference", fraction: float = 1.0):
+                return _cached(prog, store, status, "radiation_detailed",
+                               "tracing FE-face exchange factors (detailed model)",
+                               lambda: trace_key("radiation_detailed", geometry, ir, skey,
+                                                 tracer_settings(case, ref.rays_per_face, ref.ray_density, role=role,
+                                                                 fraction=fraction)),
+                               lambda: detailed_radiation(model, case, surface, rays_per_face=ref.rays_per_face,
+                                                          ray_density=ref.ray_density, scene=scenes.main(),
+                                                          role=role, fraction=fraction))
+
+            if noise:
+                parts = [detailed_refs(role, 0.5) for role in ("reference", "reference_b")]
+                halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
+                faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
+                result.radiation_detailed = parts[0][2]
+                result.reference_halves = 2
+            else:
+                faced, g_space, result.radiation_detailed = detailed_refs()
+            problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
         q_ref = q_solar
         if q_solar is not None and noise and case.reduction.enabled and case.environment.solar_on != "detailed":
             # the reference's own solar loads are noisy too: a second independent tracing
-            with prog.stage("solar_detailed_b", "tracing a second, independent detailed solar map (reference noise)"):
-                q_b, _ = detailed_solar(model, case, surface, scene=scene, role="reference_b")
+            q_b, _ = _cached(prog, store, status, "solar_detailed_b",
+                             "tracing a second, independent detailed solar map (reference noise)",
+                             lambda: sun_key("solar_detailed", skey, "reference_b"),
+                             lambda: detailed_solar(model, case, surface, scene=scenes.main(), role="reference_b"))
             halves = halves or [problem, problem]
             halves = [dataclasses.replace(h, Q=h.Q + q) for h, q in zip(halves, (q_solar, q_b))]
             q_ref = 0.5 * (q_solar + q_b)
@@ -197,21 +334,52 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None,
             halves = [dataclasses.replace(h, Q=h.Q + q_solar) for h in halves]
         if q_ref is not None:
             problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
+        base = problem  # without the orbital loads
+        if q_orbit is not None:  # the steady case: orbit-averaged loads
+            q_avg = orbit_average(result, q_orbit)
+            problem = dataclasses.replace(problem, Q=problem.Q + q_avg)
+            halves = [dataclasses.replace(h, Q=h.Q + q_avg) for h in halves]
         with prog.stage("solve_detailed", "solving the detailed model"):
-            result.detailed = solve_steady(problem, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+            result.detailed = _solve(problem, case)
         if halves:
             with prog.stage("reference_noise", "solving the two half references (reference noise)"):
-                Ta, Tb = (solve_steady(h, tol=case.solver.tolerance, max_iter=case.solver.max_iterations).T
-                          for h in halves)
+                Ta, Tb = (s.T for s in map_units(_solve_unit, halves, shared=_solver_settings(case),
+                                                 what="steady solves"))
             result.reference_noise = reference_noise(model, Ta, Tb)
+        if q_orbit is not None and orbit.steady == "positions":
+            with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
+                T = orbit_positions_detailed(base, q_orbit, result.detailed.T, case)
+                if case.reduction.enabled:
+                    result.orbit_T_positions_detailed = T
+                else:
+                    result.orbit_T_positions = T
 
     # transient: the reduced model in time (recovered at every output time) and the detailed reference
     if case.transient is not None:
         with prog.stage("transient", "integrating the transient"):
             rs, det = result.reduced_solution, result.detailed
+            orbit_loads = None
+            if q_orbit is not None or q_sn_orbit is not None:  # loads in time along the orbit
+                pos = result.orbit_fluxes.positions
+                orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_orbit, q_dof=q_orbit,
+                                         recover_dof=orbit.fluxes_on == "detailed")
             result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
                                              result.q_recover, problem if det is not None else None,
-                                             None if det is None else det.T)
+                                             None if det is None else det.T, orbit=orbit_loads)
 
     result.summary = build_summary(result, prog.timings)
     return result
+
+
+def _solver_settings(case: Case) -> dict:
+    return {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
+
+
+def _solve(problem, case: Case):
+    """The steady solution of ``problem``: one work unit (:func:`fem2tmm.compute.map_units`)."""
+    [solution] = map_units(_solve_unit, [problem], shared=_solver_settings(case), what="steady solves")
+    return solution
+
+
+def _solve_unit(problem, tol: float, max_iter: int):
+    return solve_steady(problem, tol=tol, max_iter=max_iter)

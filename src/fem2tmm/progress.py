@@ -36,10 +36,12 @@ def reporting(callback: Callable[[int, int, str], None] | None):
 
 
 class Progress:
-    """Stage timer and tqdm progress (silent when ``quiet``).  ``timings`` maps stage name -> seconds."""
+    """Stage timer and tqdm progress (silent when ``quiet``).  ``timings`` maps stage name -> seconds; ``label``
+    (a load case's name) prefixes the messages."""
 
-    def __init__(self, quiet: bool = False, stream=None):
+    def __init__(self, quiet: bool = False, stream=None, label: str | None = None):
         self.quiet = quiet
+        self.prefix = f"[fem2tmm] {label}:" if label else "[fem2tmm]"  # label: the load case
         self.stream = stream or sys.stderr
         self.timings: dict[str, float] = {}
         self._bars: dict[str, object] = {}
@@ -48,7 +50,7 @@ class Progress:
     def stage(self, name: str, label: str | None = None):
         """Time the block as stage ``name`` (printing ``label`` before and after unless quiet)."""
         if not self.quiet:
-            print(f"[fem2tmm] {label or name} …", file=self.stream, flush=True)
+            print(f"{self.prefix} {label or name} …", file=self.stream, flush=True)
         t0 = time.perf_counter()
         try:
             yield
@@ -57,7 +59,7 @@ class Progress:
         dt = time.perf_counter() - t0
         self.timings[name] = self.timings.get(name, 0.0) + dt
         if not self.quiet:
-            print(f"[fem2tmm] {label or name}: {dt:.2f} s", file=self.stream, flush=True)
+            print(f"{self.prefix} {label or name}: {dt:.2f} s", file=self.stream, flush=True)
 
     def note(self, text: str) -> None:
         """Print one line ``[fem2tmm] text`` unless quiet."""

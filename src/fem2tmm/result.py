@@ -12,6 +12,7 @@ from .cluster import Clustering
 from .fem.model import FEModel
 from .mesh import Mesh
 from .radiation import ExchangeResult
+from .radiation.orbital import OrbitalFluxes
 from .radiation.solar import SolarResult
 from .reduce.network import ReducedModel
 from .solve.steady import SteadySolution
@@ -56,6 +57,19 @@ class Result:
     # the reference's own noise: {"rms_K", "max_K"} from two independent half references, and their number
     reference_noise: dict | None = None
     reference_halves: int | None = None
+    cache: dict[str, str] | None = None  # stage -> "computed" | "reused" (fem2tmm.cache; summary.json "cache")
+    # orbit ([orbit]): fluxes traced on the FE faces (per face) and on the super faces (per side), how the reduced
+    # model took them, the orbit-averaged loads, and per-position steady temperatures (k, n_dof) K
+    orbit_detailed: OrbitalFluxes | None = None
+    orbit_super_faces: OrbitalFluxes | None = None
+    orbit_on: str | None = None
+    orbit_T_positions: np.ndarray | None = None  # recovered (reduced) or detailed, one row per position
+    orbit_T_positions_detailed: np.ndarray | None = None
+
+    @property
+    def orbit_fluxes(self) -> OrbitalFluxes | None:
+        """The orbital fluxes the run used: on the FE faces, else on the super faces (None without [orbit])."""
+        return self.orbit_detailed if self.orbit_detailed is not None else self.orbit_super_faces
 
     @property
     def T_detailed_nodes(self) -> np.ndarray | None:
@@ -71,3 +85,16 @@ class Result:
     def T_nodes(self) -> np.ndarray:
         """The result temperatures (K) of every mesh node: recovered when reduced, detailed otherwise."""
         return self.T_recovered_nodes if self.T_recovered is not None else self.T_detailed_nodes
+
+
+@dataclass
+class CasesResult:
+    """What a run of a case file with ``[[cases]]``/``[sweep]`` produced: ``results`` {case name: :class:`Result`}
+    in file order, ``parameters`` {case name: {dotted key: value}} set by a sweep, ``summary`` the dict written to
+    the top ``summary.json`` (per-case table, envelope), ``out`` the output folder."""
+
+    case: Case
+    results: dict[str, Result]
+    parameters: dict[str, dict] = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+    out: Path | None = None

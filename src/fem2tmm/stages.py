@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
+from .cache import digest
 from .case import Case, RadiationSettings
 from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
@@ -100,6 +101,16 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
     """
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
+    if labels is not None:
+        return from_labels(*args, labels, feature_angle=kw["feature_angle"], where="run(labels=...)")
+    return cluster_parts(*args, **kw, progress=progress)
+
+
+def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True
+                    ) -> tuple[tuple, dict]:
+    """The arguments of :func:`~fem2tmm.cluster.cluster_parts` for ``model`` (what the clustering depends on);
+    ``check_counts``: refuse impossible super-node counts first (:func:`_check_count`)."""
     kept = kept_dofs(model, case)
     determined = determined_elements(model, kept)
     one_node = np.zeros(model.n_dof, bool)  # DOFs that are super nodes of their own (fixed groups, kept nodes)
@@ -110,7 +121,7 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
         rows = np.flatnonzero((model.element_part == p) & ~determined)
         if not len(rows):
             continue  # the whole part is held at fixed temperatures
-        if labels is None:
+        if check_counts:
             _check_count(case, info, model.element_dofs[rows], one_node)
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
@@ -119,12 +130,9 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
                                flux=None if (flux is None or info.kind == "line")
                                else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
-    if labels is not None:
-        return from_labels(model.mesh.points, parts, model.mesh.n_elements, labels, feature_angle=cs.feature_angle,
-                           where="run(labels=...)")
-    return cluster_parts(model.mesh.points, parts, model.mesh.n_elements, feature_angle=cs.feature_angle,
-                         seed=cs.seed, smoothing_layers=cs.smoothing_layers, progress=progress,
-                         balance=cs.balance, method=cs.method)
+    return ((model.mesh.points, parts, model.mesh.n_elements),
+            {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
+             "balance": cs.balance, "method": cs.method})
 
 
 def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarray) -> None:
@@ -296,14 +304,121 @@ def super_face_solar(model: FEModel, rm: ReducedModel, case: Case, surface: Surf
                       rays_per_group=np.maximum(faces_per_group * env.solar_rays_per_face, 1), scene=scene,
                       **tracer_settings(case, exchange=False))
     # the power absorbed by each side, wherever its origin was, belongs to the super face of that side
-    side_power = res.absorbed_side
-    q_sn = np.zeros(rm.n)
+    return sides_to_super_nodes(res.absorbed_side, groups, owner, rm.n, "solar"), res, groups
+
+
+def sides_to_super_nodes(side_power: np.ndarray, groups: np.ndarray, owner: np.ndarray, n: int, what: str
+                         ) -> np.ndarray:
+    """Power absorbed per side ``side_power`` (2f,) or (k, 2f) W summed per super node (n,) or (k, n): the power
+    of each side, wherever its ray started, belongs to the super node owning its super face (``groups`` (2f,)
+    super face per side, ``owner`` super node per super face).  Power on a side outside every super face is
+    impossible (inactive sides block, they do not absorb): :class:`InternalError` naming ``what``."""
     ok = groups >= 0
-    np.add.at(q_sn, owner[groups[ok]], side_power[ok])
-    lost = side_power[~ok].sum()  # power absorbed by inactive sides is impossible (they block): keep the books
-    if lost > 1e-12 * max(side_power.sum(), 1e-300):
-        raise InternalError("solar power absorbed by a side outside every super face")
-    return q_sn, res, groups
+    side_power = np.asarray(side_power, float)
+    lost = np.abs(side_power[..., ~ok]).sum()
+    if lost > 1e-12 * max(np.abs(side_power).sum(), 1e-300):
+        raise InternalError(f"{what} power absorbed by a side outside every super face")
+    S = sp.csr_matrix((np.ones(int(ok.sum())), (np.flatnonzero(ok), owner[groups[ok]])), shape=(len(groups), n))
+    return np.asarray((S.T @ side_power.T).T)
+
+
+# ------------------------------------------------------------------------------------------------ orbit
+def _orbit_trace(model: FEModel, case: Case, surface: Surface | None, scene, groups, rays, per: str):
+    from .radiation.orbital import trace_orbit
+
+    surface = radiation_surface(model) if surface is None else surface
+    o = case.orbit
+    return trace_orbit(surface, o.orbit, o.attitude, kinds=o.kinds, groups=groups, rays_per_group=rays,
+                       scene=scene, per=per, **tracer_settings(case, exchange=False))
+
+
+def detailed_orbit(model: FEModel, case: Case, surface: Surface | None = None, scene=None):
+    """Orbital fluxes (``[orbit]``: solar, albedo, planet IR at every position) traced on the FE face sides.
+
+    Returns ``(q, fluxes)``: nodal absorbed power q (k, n_dof) W per position (face power spread by the face's
+    area shares) and the :class:`~fem2tmm.radiation.orbital.OrbitalFluxes` per FE face (incident and absorbed W
+    (k, n_faces) per kind)."""
+    active = model.faces.active
+    groups = np.where(active, np.arange(len(active)), -1)  # every active side its own group
+    fl = _orbit_trace(model, case, surface, scene, groups, case.orbit.rays_per_face, "face")
+    q = np.asarray(model.faces.W.T @ fl.total("absorbed").T).T
+    return q, fl
+
+
+def super_face_orbit(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                     sf: tuple[np.ndarray, np.ndarray] | None = None):
+    """Orbital fluxes traced on the super faces (origins over each super face as a whole, the same ray density as
+    the detailed tracing), absorbed power summed per super node (uniform over it).
+
+    Returns ``(q_sn, fluxes)``: q_sn (k, n) W per position and super node, and the
+    :class:`~fem2tmm.radiation.orbital.OrbitalFluxes` per side (k, 2 n_faces)."""
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
+    rays = np.maximum(faces_per_group * case.orbit.rays_per_face, 1)
+    fl = _orbit_trace(model, case, surface, scene, groups, rays, "side")
+    return sides_to_super_nodes(fl.total("absorbed"), groups, owner, rm.n, "orbital"), fl
+
+
+@dataclasses.dataclass(frozen=True)
+class OrbitLoads:
+    """Orbital loads in time for the transient: ``times`` (k,) s of the positions from perigee (repeated at
+    eclipse boundaries), ``period`` s, ``q_sn`` (k, n) W per super node, ``q_dof`` (k, n_dof) W on the detailed
+    mesh or None, ``recover_dof``: the recovery takes ``q_dof`` (loads traced on the FE faces and distributed
+    exactly) or not (super-face loads, uniform over each super node)."""
+
+    times: np.ndarray
+    period: float
+    q_sn: np.ndarray | None
+    q_dof: np.ndarray | None
+    recover_dof: bool
+
+    def add(self, series: Series, loads: np.ndarray, start: float) -> Series:
+        """``series`` whose base holds the orbit average of ``loads`` (k, n), turned into the loads in time: one
+        pattern per position with its periodic hat function (:func:`~fem2tmm.radiation.orbital.hat_basis`, the
+        orbit's time 0 at ``start``), the average taken out of the base."""
+        from .radiation.orbital import average_weights, hat_basis
+
+        nodes, H = hat_basis(self.times, self.period)
+        w = average_weights(self.times, self.period)
+        tables = tuple(Table(start + nodes, H[:, j], period=self.period, start=start) for j in range(len(w)))
+        return Series(series.base - w @ loads, series.patterns + tuple(loads), series.tables + tables)
+
+
+def orbit_average(result, q: np.ndarray) -> np.ndarray:
+    """Orbit average (n,) of loads ``q`` (k, n) given at the positions of the run's orbital fluxes (piecewise
+    linear in time, jumps at eclipse boundaries, :func:`~fem2tmm.radiation.orbital.period_average`)."""
+    from .radiation.orbital import period_average
+
+    fl = result.orbit_fluxes
+    return period_average(fl.positions.time, q, fl.positions.period)
+
+
+def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.ndarray, q_dof: np.ndarray | None,
+                            T0: np.ndarray, case: Case) -> np.ndarray:
+    """Steady reduced solves with the loads of each orbit position (``rm`` without orbital loads, ``q_sn`` (k, n)
+    W), recovered on the detailed mesh with ``q_recover`` + ``q_dof[j]`` (the exact distribution) or
+    ``q_recover`` alone (super-face loads, uniform over each super node).  Starts from ``T0``; returns (k, n_dof)
+    K."""
+    out = []
+    T = T0
+    for j in range(len(q_sn)):  # loop over the orbit positions (a few tens)
+        sol = solve_steady(reduced_problem(dataclasses.replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
+                           max_iter=case.solver.max_iterations)
+        T = sol.T
+        out.append(rm.reduction.recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))
+    return np.array(out)
+
+
+def orbit_positions_detailed(problem: SteadyProblem, q_dof: np.ndarray, T0: np.ndarray, case: Case) -> np.ndarray:
+    """Steady detailed solves with the loads ``q_dof`` (k, n_dof) W of each orbit position added to ``problem``;
+    starts from ``T0``; returns (k, n_dof) K."""
+    out = []
+    T = T0
+    for j in range(len(q_dof)):  # loop over the orbit positions
+        T = solve_steady(dataclasses.replace(problem, Q=problem.Q + q_dof[j]), T0=T, tol=case.solver.tolerance,
+                         max_iter=case.solver.max_iterations).T
+        out.append(T)
+    return np.array(out)
 
 
 def face_flux_per_element(model: FEModel, face_power: np.ndarray) -> np.ndarray:
@@ -332,6 +447,13 @@ def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clus
     """
     if not any(p.quadric for p in case.parts):
         return None, None
+    quadrics, qof, report = fit_quadrics(*quadric_regions(model, case, clustering))
+    return QuadricScene(surface, qof, quadrics), report
+
+
+def quadric_regions(model: FEModel, case: Case, clustering: Clustering | None = None):
+    """What the quadric fits depend on: ``(points (n, 3), faces (f, 4), region_of_face (f,) int (-1: flat),
+    names {region: label})`` (see :func:`quadric_scene`)."""
     f = model.faces
     mesh = model.mesh
     tagged_el = np.zeros(mesh.n_elements, bool)
@@ -354,10 +476,66 @@ def quadric_scene(model: FEModel, case: Case, surface: Surface, clustering: Clus
     for r in np.unique(region_of_face[region_of_face >= 0]):
         part = case.parts[int(f.part[np.flatnonzero(region_of_face == r)[0]])].name
         names[int(r)] = f"part {part!r} region {int(r)}"
-    quadrics, qof = fit_regions(model.mesh.points, f.nodes, region_of_face, names=names)
+    return model.mesh.points, f.nodes, region_of_face, names
+
+
+def fit_quadrics(points, faces, region_of_face, names):
+    """``(quadrics, quadric_of_face, report)``: one fitted quadric per region (:func:`quadric_regions`) and the
+    fit report of each (summary.json "quadrics")."""
+    quadrics, qof = fit_regions(points, faces, region_of_face, names=names)
     report = [{"region": names[int(r)], "max_distance_m": float(q.max_distance), "rms_distance_m": float(q.rms_distance),
                "size_m": float(q.size)} for r, q in zip(sorted(names), quadrics)]
-    return QuadricScene(surface, qof, quadrics), report
+    return quadrics, qof, report
+
+
+# ------------------------------------------------------------------------------------------- cache keys
+# Each key is a digest of exactly what the stage reads (fem2tmm.cache): its arrays as the stage receives them and
+# its settings, so a case-file key that changes none of them keeps the cached result, and any change that does
+# (including keys added to the case file or fields added to the model later) changes the key.
+#: FEModel fields that :func:`~fem2tmm.reduce.network.refresh_reduced` applies per case (not in the reduce key)
+_CASE_VALUES = {"Q", "loads", "T_sink", "fixed", "faces", "mesh"}
+#: face fields that are optics: per case (``refresh_reduced``: g_space, area)
+_FACE_OPTICS = {"emissivity", "absorptivity", "specular", "transmissivity", "transmission_specular", "active"}
+
+
+def geometry_key(model: FEModel) -> str:
+    """Digest of the radiating geometry: points, faces, the face -> element map and nodal weights."""
+    f = model.faces
+    return digest("geometry", model.mesh.points, f.nodes, f.element, f.W, model.mesh.n_elements)
+
+
+def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None) -> str:
+    """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes and flux, the
+    clustering settings and the user's ``labels``."""
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
+    return digest("cluster", *args, kw, labels)
+
+
+def reduce_key(model: FEModel, case: Case, clustering_key: str, T_ref: np.ndarray | None = None) -> str:
+    """Key of :func:`~fem2tmm.reduce.network.build_reduced` up to what
+    :func:`~fem2tmm.reduce.network.refresh_reduced` applies per case (loads, boundary temperatures, sink,
+    optics): the clustering and every other field of the FE model, the fixed groups' nodes, the kept nodes
+    and the ``[reduction]`` settings; for a radiation-aware reduction (``T_ref``) also T_ref, the faces' εA and
+    the sink, which its operator holds."""
+    fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.name not in _CASE_VALUES}
+    faces = {f.name: getattr(model.faces, f.name) for f in dataclasses.fields(model.faces)
+             if f.name not in _FACE_OPTICS}
+    fixed = [(g.name, g.dof, g.nodes) for g in model.fixed]
+    aware = None if T_ref is None else (T_ref, model.faces.eps_area, model.T_sink)
+    return digest("reduce", clustering_key, fields, faces, fixed, model.mesh.node_ids, kept_dofs(model, case),
+                  case.reduction, aware)
+
+
+def scene_key(fit: tuple | None) -> str:
+    """Digest of the ray scene's shape: flat triangles (``fit`` None) or the fitted quadrics ``(quadrics,
+    quadric_of_face, report)`` of :func:`fit_quadrics`."""
+    return "flat" if fit is None else digest("quadrics", list(fit[0]), fit[1])
+
+
+def trace_key(stage: str, geometry: str, optics, scene: str, *settings) -> str:
+    """Key of a ray-tracing stage: the geometry (:func:`geometry_key`), the band's per-side optics (a
+    :class:`~fem2tmm.radiation.surfaces.SideOptics`), the scene (:func:`scene_key`) and the stage's settings."""
+    return digest(stage, geometry, optics, scene, *settings)
 
 
 # -------------------------------------------------------------------------------------------- transient
@@ -420,17 +598,32 @@ def fixed_series(T_fixed: np.ndarray, rows: dict[str, int], case: Case) -> Serie
     return Series(base, tuple(pats), tuple(tabs))
 
 
+class _Clock:
+    """Wall and CPU time of one part of a stage into ``timings[name]`` and ``timings[name + "_cpu"]`` (s)."""
+
+    def __init__(self, timings: dict, name: str):
+        import time
+
+        self.timings, self.name, self.time = timings, name, time
+        self.wall, self.cpu = time.perf_counter(), time.process_time()
+
+    def stop(self) -> None:
+        self.timings[self.name] = self.time.perf_counter() - self.wall
+        self.timings[self.name + "_cpu"] = self.time.process_time() - self.cpu
+
+
 def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_reduced: np.ndarray | None = None,
                   q_recover: np.ndarray | None = None, detailed: SteadyProblem | None = None,
-                  T_detailed: np.ndarray | None = None) -> TransientRun:
+                  T_detailed: np.ndarray | None = None, orbit: "OrbitLoads | None" = None) -> TransientRun:
     """The ``[transient]`` stage: the reduced model in time with recovery at every output time, and the detailed
-    model when ``detailed`` (its steady problem, radiation and solar loads included) is given.
+    model when ``detailed`` (its steady problem, radiation and solar loads included) is given.  ``timings`` get
+    the wall and CPU seconds of each part (``reduced``, ``recover``, ``detailed``, and ``..._cpu``).
 
     ``T_reduced`` / ``T_detailed`` (K) the steady solutions, used when ``initial_temperature = "steady"``;
     ``q_recover`` (n_dof,) W the detailed loads at the start that the recovery uses (applied + detailed solar).
+    ``orbit``: the orbital loads (:class:`OrbitLoads`); the steady loads hold their orbit average, the transient
+    follows them in time (periodic with the orbital period from ``[transient] start``).
     """
-    import time
-
     from .fem.model import consistent_capacity
 
     spec = case.transient
@@ -443,29 +636,37 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
         return T_steady if spec.initial_temperature == "steady" else spec.initial_temperature
 
     if rm is not None:
-        t0 = time.perf_counter()
+        clock = _Clock(run.timings, "reduced")
         rows = {str(rm.names[i]): int(i) for i in np.flatnonzero(rm.fixed)}
-        prob = TransientProblem(K=rm.K, C=rm.C, Q=load_series(rm.Q, tables, rm.reduction.distribute), fixed=rm.fixed,
+        Q_sn = load_series(rm.Q, tables, rm.reduction.distribute)
+        if orbit is not None:
+            Q_sn = orbit.add(Q_sn, orbit.q_sn, spec.start)
+        prob = TransientProblem(K=rm.K, C=rm.C, Q=Q_sn, fixed=rm.fixed,
                                 T_fixed=fixed_series(rm.T_fixed, rows, case), g_space=rm.g_space, T_sink=sink,
                                 GR=rm.GR, names=tuple(rm.names))
         run.reduced_problem = prob
         run.reduced = solve_transient(prob, settings, initial(T_reduced))
-        run.timings["reduced"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
+        clock.stop()
+        clock = _Clock(run.timings, "recover")
         q = load_series(model.Q if q_recover is None else q_recover, tables)
+        if orbit is not None and orbit.recover_dof:
+            q = orbit.add(q, orbit.q_dof, spec.start)
         if settings.periodic:
             q = q.periodic(settings.start, settings.end - settings.start)
         run.T_recovered = recover_series(rm.reduction.recover, run.reduced.T, q, run.times)
-        run.timings["recover"] = time.perf_counter() - t0
+        clock.stop()
     if detailed is not None:
-        t0 = time.perf_counter()
+        clock = _Clock(run.timings, "detailed")
         C = model.capacity if spec.capacitance == "lumped" else consistent_capacity(model)
         rows = {g.name: g.dof for g in model.fixed}
-        prob = TransientProblem(K=detailed.K, C=C, Q=load_series(detailed.Q, tables), fixed=detailed.fixed,
+        Q_det = load_series(detailed.Q, tables)
+        if orbit is not None:
+            Q_det = orbit.add(Q_det, orbit.q_dof, spec.start)
+        prob = TransientProblem(K=detailed.K, C=C, Q=Q_det, fixed=detailed.fixed,
                                 T_fixed=fixed_series(detailed.T_fixed, rows, case), g_space=detailed.g_space,
                                 T_sink=sink, GR=detailed.GR, faced=detailed.faced)
         run.detailed = solve_transient(prob, settings, initial(T_detailed))
-        run.timings["detailed"] = time.perf_counter() - t0
+        clock.stop()
     return run
 
 

@@ -1,4 +1,4 @@
-"""ESATAN-TMS input deck of a reduced network (``$NODES``, ``$CONDUCTORS``) and a reader for the same subset.
+"""ESATAN-TMS input deck of a reduced network (``$NODES``, ``$CONDUCTORS``); :mod:`fem2tmm.lpm.esatan` reads it.
 
 Node numbers are deterministic: part ``p`` (0-based) numbers its super nodes ``(p + 1)·B + k`` (k = 1, 2 …),
 boundary and kept nodes follow in block ``(n_parts + 1)·B``, and the space node is ``(n_parts + 2)·B``,
@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
-from ..errors import Fem2TmmError
 
 
 @dataclass(frozen=True)
@@ -163,67 +162,3 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append("$ENDMODEL")
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
     return {"nodes": n, "GL": int(nz.sum()), "GR": int(nzr.sum() + len(nzs)), "negative_GL": negative}
-
-
-_NODE = re.compile(r"^([DB])(\d+)\s*=\s*'([^']*)'\s*,(.*);\s*$")
-_COND = re.compile(r"^(GL|GR)\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*([^;]+);")
-_QI = re.compile(r"^QI(\d+)\s*=\s*([-+0-9.eE]+)[^;]*;")  # the value at the start (time terms follow)
-
-
-def read_esatan(path: str | Path) -> Deck:
-    """Read a deck written by :func:`write_esatan` (the same subset of the ESATAN language)."""
-    path = Path(path)
-    nodes, conds, qs = [], [], {}
-    section = None
-    for lineno, raw in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        if line.startswith("$"):
-            section = line.split()[0].upper()
-            continue
-        try:
-            if section == "$NODES":
-                mt = _NODE.match(line)
-                if not mt:
-                    raise ValueError("not a node definition")
-                attrs = dict(re.findall(r"(\w+)\s*=\s*([-+0-9.eE]+)", mt.group(4)))
-                nodes.append((mt.group(1), int(mt.group(2)), mt.group(3), {k.upper(): float(v) for k, v in attrs.items()}))
-            elif section == "$CONDUCTORS":
-                mt = _COND.match(line)
-                if not mt:
-                    raise ValueError("not a GL/GR conductor")
-                conds.append((mt.group(1), int(mt.group(2)), int(mt.group(3)), float(mt.group(4))))
-            elif section == "$VARIABLES1":
-                mt = _QI.match(line)
-                if mt:
-                    qs[int(mt.group(1))] = float(mt.group(2))
-        except ValueError as exc:
-            raise Fem2TmmError(f"{path}:{lineno}: cannot read {raw.strip()!r} ({exc})") from None
-    space = [n for n in nodes if n[2].upper() == "SPACE"]
-    if len(space) != 1:
-        raise Fem2TmmError(f"{path}: expected exactly one node labelled 'SPACE'")
-    nodes = [n for n in nodes if n[2].upper() != "SPACE"]
-    num = np.array([n[1] for n in nodes], np.int64)
-    index = {v: i for i, v in enumerate(num)}
-    n = len(nodes)
-    GL, GR, GRs = np.zeros((n, n)), np.zeros((n, n)), np.zeros(n)
-    sp_num = space[0][1]
-    for kind, a, b, v in conds:
-        if kind == "GR" and (a == sp_num or b == sp_num):
-            GRs[index[b if a == sp_num else a]] += v
-            continue
-        M = GL if kind == "GL" else GR
-        M[index[a], index[b]] += v
-        M[index[b], index[a]] += v
-    get = lambda key, default=0.0: np.array([nd[3].get(key, default) for nd in nodes])  # noqa: E731
-    return Deck(numbers=num, labels=np.array([nd[2] for nd in nodes]), boundary=np.array([nd[0] == "B" for nd in nodes]),
-                T=get("T") + KELVIN, C=get("C"), A=get("A"), alp=get("ALP"), eps=get("EPS"), GL=GL, GR=GR,
-                GR_space=GRs, Q=np.array([qs.get(int(v), 0.0) for v in num]), space=sp_num,
-                T_space=space[0][3].get("T", 0.0) + KELVIN)
-
-
-def deck_matrices(deck: Deck) -> tuple[np.ndarray, np.ndarray]:
-    """(K, GR) of a deck: K = diag(GL·1) − GL (W/K) and the node-to-node GR (m²)."""
-    K = np.diag(deck.GL.sum(axis=1)) - deck.GL
-    return K, deck.GR

@@ -20,6 +20,8 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
+
 import numpy as np
 
 from .._version import __version__
@@ -31,6 +33,7 @@ from ..result import Result
 from .esatan import Deck, node_numbers, write_esatan
 from .transient import deck_transient, write_transient
 from .nastran_temp import write_temp
+from .orbit import write_orbit_npz
 from .report import write_report
 from .sinda import write_sinda
 from .vtu import write_vtu
@@ -120,49 +123,35 @@ def check_output_place(out: str | Path) -> Path:
     return out
 
 
-def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = None) -> Path:
-    """Write every output into a temporary sibling folder, then move it to ``out`` atomically.
+def write_folder(out: str | Path, fill: Callable[[Path], None], cache=None) -> Path:
+    """Write an output folder atomically: ``fill(tmp)`` writes every file into a temporary sibling folder, which
+    gets the ``.fem2tmm`` marker and then replaces ``out`` (a folder fem2tmm wrote) or becomes it.
 
-    ``out`` must pass :func:`check_output_place` (checked again here, just before anything is replaced).
-    ``timings`` (stage -> s) receives ``"write"``: the time spent writing (the report and ``summary.json``
-    show the same figure, measured just before they are composed)."""
+    ``out`` must pass :func:`check_output_place` (checked again just before anything is replaced); on any error the
+    temporary folder is removed and ``out`` is untouched.  Returns ``out`` absolute.  ``cache``: a
+    :class:`~fem2tmm.cache.StageCache` whose new entries go to the stage-cache folder of the previous outputs
+    (``out/.cache``, :meth:`~fem2tmm.cache.StageCache.commit`), which moves into the new ones (the marker lists
+    its files too)."""
+    from ..cache import CACHE_DIR
+
     out = check_output_place(out)
     parent = out.parent
     parent.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
     umask = os.umask(0)
     os.umask(umask)
     os.chmod(tmp, 0o777 & ~umask)
     try:
-        model, mesh = result.model, result.mesh
-        T = result.T_nodes
-        point_data = {"temperature": T - KELVIN}
-        if result.T_recovered is not None and result.detailed is not None:
-            Td = result.T_detailed_nodes
-            point_data["reference_temperature"] = Td - KELVIN
-            point_data["error"] = T - Td
-        cell_data = {"part": _element_full(model, mesh.n_elements, model.element_part)}
-        if result.clustering is not None:
-            cell_data["cluster"] = result.clustering.labels
-            cell_data["region"] = result.clustering.regions
-        if result.absorbed_solar_elements is not None:
-            cell_data["absorbed_solar"] = result.absorbed_solar_elements
-        write_vtu(tmp / "temperatures.vtu", mesh, point_data, cell_data, elements=model.elements)
-        write_temp(tmp / "temperatures.bdf", mesh.node_ids, T - KELVIN)
-        if result.reduced is not None:
-            _write_reduced(tmp, result)
-        if result.transient is not None:
-            write_transient(tmp, result)
-        def written() -> None:  # the write time so far, into the report's and summary.json's timing tables
-            result.summary.setdefault("timings_s", {})["write"] = time.perf_counter() - t0
-
-        write_report(tmp, result, _case_text(result.case), before_html=written)
-        written()
-        (tmp / "summary.json").write_text(json.dumps(_jsonable(result.summary), indent=2), encoding="utf-8")
+        fill(tmp)
+        check_output_place(out)  # nothing foreign appeared meanwhile
+        old_cache = out / CACHE_DIR
+        keep = old_cache.is_dir() and not old_cache.is_symlink()
+        if cache is not None:
+            cache.commit(old_cache if keep else tmp / CACHE_DIR)
+        if keep:  # nothing but renames between this and the swap
+            os.replace(old_cache, tmp / CACHE_DIR)
         (tmp / MARKER).write_text(json.dumps({"version": __version__, "files": _entries(tmp)}, indent=1),
                                   encoding="utf-8")
-        check_output_place(out)  # nothing foreign appeared meanwhile
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
             os.replace(out, old / "x")
@@ -170,12 +159,85 @@ def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = 
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(tmp, out)
-        if timings is not None:
-            timings["write"] = time.perf_counter() - t0
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
+
+
+def write_outputs(result: Result, out: Path, timings: dict[str, float] | None = None, cache=None) -> Path:
+    """Write every output into a temporary sibling folder, then move it to ``out`` atomically.
+
+    ``out`` must pass :func:`check_output_place` (checked again here, just before anything is replaced).
+    ``timings`` (stage -> s) receives ``"write"``: the time spent writing (the report and ``summary.json``
+    show the same figure, measured just before they are composed).  ``cache``: a
+    :class:`~fem2tmm.cache.StageCache` whose new entries go to ``out/.cache`` (kept across runs)."""
+    t0 = time.perf_counter()
+    out = write_folder(out, lambda tmp: write_case_folder(result, tmp, t0), cache)
+    if timings is not None:
+        timings["write"] = time.perf_counter() - t0
+    return out
+
+
+def write_cases_outputs(multi, out: Path, timings: dict[str, float] | None = None, cache=None) -> Path:
+    """The outputs of a multi-case run (:class:`~fem2tmm.result.CasesResult`), atomically: ``out/<case>/`` with
+    every case's outputs (:func:`write_case_folder`), the envelope over the cases
+    (:mod:`fem2tmm.export.envelope`), ``summary.json`` and ``report.html`` comparing the cases."""
+    from .envelope import envelope, write_envelope
+    from .report import write_cases_report
+    from .summary import same_mesh_envelope
+
+    t0 = time.perf_counter()
+
+    def fill(tmp: Path) -> None:
+        for name, r in multi.results.items():  # loop over cases
+            (tmp / name).mkdir()
+            write_case_folder(r, tmp / name)
+        T = same_mesh_envelope(multi)
+        if T is not None:
+            first = next(iter(multi.results.values()))
+            elements = np.unique(np.concatenate([r.model.elements for r in multi.results.values()]))
+            write_envelope(tmp, first.mesh, elements, envelope(T), len(T))
+        write_cases_report(tmp, multi.summary, _case_text(multi.case))
+        (tmp / "summary.json").write_text(json.dumps(_jsonable(multi.summary), indent=2), encoding="utf-8")
+
+    out = write_folder(out, fill, cache)
+    if timings is not None:
+        timings["write"] = time.perf_counter() - t0
+    return out
+
+
+def write_case_folder(result: Result, folder: Path, t0: float | None = None) -> None:
+    """Every output of one case into the existing folder ``folder`` (DESIGN §4.3); ``t0`` the start of the
+    writing (``perf_counter``) for the ``write`` timing."""
+    t0 = time.perf_counter() if t0 is None else t0
+    model, mesh = result.model, result.mesh
+    T = result.T_nodes
+    point_data = {"temperature": T - KELVIN}
+    if result.T_recovered is not None and result.detailed is not None:
+        Td = result.T_detailed_nodes
+        point_data["reference_temperature"] = Td - KELVIN
+        point_data["error"] = T - Td
+    cell_data = {"part": _element_full(model, mesh.n_elements, model.element_part)}
+    if result.clustering is not None:
+        cell_data["cluster"] = result.clustering.labels
+        cell_data["region"] = result.clustering.regions
+    if result.absorbed_solar_elements is not None:
+        cell_data["absorbed_solar"] = result.absorbed_solar_elements
+    write_vtu(folder / "temperatures.vtu", mesh, point_data, cell_data, elements=model.elements)
+    write_temp(folder / "temperatures.bdf", mesh.node_ids, T - KELVIN)
+    if result.reduced is not None:
+        _write_reduced(folder, result)
+    write_orbit_npz(folder, result)
+    if result.transient is not None:
+        write_transient(folder, result)
+
+    def written() -> None:  # the write time so far, into the report's and summary.json's timing tables
+        result.summary.setdefault("timings_s", {})["write"] = time.perf_counter() - t0
+
+    write_report(folder, result, _case_text(result.case), before_html=written)
+    written()
+    (folder / "summary.json").write_text(json.dumps(_jsonable(result.summary), indent=2), encoding="utf-8")
 
 
 def _element_full(model: FEModel, n_elements: int, values: np.ndarray) -> np.ndarray:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..constants import KELVIN
 from .summary import NEGATIVE_GL_NOTE
+from .orbit import orbit_plots
 
 #: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
 MAX_FACES = 60_000
@@ -180,6 +181,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
         note = render_faces(folder / "solar.png", pts, f.nodes, solar, "Absorbed solar flux", "q [W/m²]",
                             cmap="viridis")
         images.append(("solar.png", "Absorbed solar flux per face" + note))
+    images += orbit_plots(folder, result)
     if result.radiation is not None:
         _histogram(folder / "lse.png", result.radiation.lse, "Line-sum error of the super-face REFs",
                    "|LSE| (before closure)")
@@ -202,6 +204,16 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
         rows.append(("recovered vs detailed", f"RMS {acc['rms_K']:.4g} K, max {acc['max_K']:.4g} K over {acc['nodes']:,} nodes"))
+    pn = s.get("positive_network")
+    if pn:
+        text = (f"{pn['links']} positive GL between touching super nodes (exact: {pn['exact_links']} GL, "
+                f"{pn['exact_negative_links']} negative); max {pn['T_vs_exact_K']['max']:.3g} K from the exact "
+                f"reduction; criteria {'met' if pn['criteria']['met'] else 'NOT met'}")
+        err = pn.get("recovered_error_K")
+        if err:
+            text += (f"; recovered RMS {err['positive']['rms']:.4g} K against {err['exact']['rms']:.4g} K for the "
+                     "exact reduction")
+        rows.append(("positive network", text))
     tr = s.get("transient") or {}
     if tr:
         t_acc = tr.get("accuracy") or {}
@@ -251,16 +263,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     wide = {"temperature.png", "error.png"}  # two views side by side: the full page width
     figs = "".join(f'<figure{" class=wide" if name in wide else ""}><img src="{name}" alt="{html.escape(cap)}">'
                    f"<figcaption>{html.escape(cap)}</figcaption></figure>" for name, cap in images)
-    doc = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>fem2tmm report</title>
-<style>
-body {{ font-family: sans-serif; margin: 2em; max-width: 1100px; color: #222; }}
-table {{ border-collapse: collapse; margin: 1em 0; }} td, th {{ border: 1px solid #bbb; padding: 4px 10px; text-align: left; }}
-figure {{ display: inline-block; margin: 0.5em; vertical-align: top; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
-figure.wide {{ display: block; }} figure.wide img {{ max-width: 100%; }}
-pre {{ background: #f6f6f6; padding: 1em; overflow-x: auto; }}
-</style></head><body>
-<h1>fem2tmm report</h1>
+    doc = _page(f"""<h1>fem2tmm report</h1>
 <p>Case: <code>{html.escape(str(s.get('case')))}</code> — fem2tmm {html.escape(str(s.get('version')))}</p>
 <h2>Summary</h2>{_table(rows, ("", ""))}
 <h2>Temperatures per part [°C]</h2>{_table(part_rows, part_head)}
@@ -272,8 +275,87 @@ fixed-temperature boundary; "radiated to space" is positive when the model loses
 <h2>Maps</h2>{figs}
 <h2>Stage timings</h2>{_table(timings, ("stage", "time"))}
 <h2>Case</h2><pre>{html.escape(case_text)}</pre>
-<h2>summary.json</h2><pre>{html.escape(json.dumps(s, indent=1, default=str))}</pre>
-</body></html>
-"""
+<h2>summary.json</h2><pre>{html.escape(json.dumps(s, indent=1, default=str))}</pre>""")
     (folder / "report.html").write_text(doc, encoding="utf-8")
     return [name for name, _ in images]
+
+
+def _page(body: str, title: str = "fem2tmm report") -> str:
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
+<style>
+body {{ font-family: sans-serif; margin: 2em; max-width: 1100px; color: #222; }}
+table {{ border-collapse: collapse; margin: 1em 0; }} td, th {{ border: 1px solid #bbb; padding: 4px 10px; text-align: left; }}
+figure {{ display: inline-block; margin: 0.5em; vertical-align: top; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
+figure.wide {{ display: block; }} figure.wide img {{ max-width: 100%; }}
+pre {{ background: #f6f6f6; padding: 1em; overflow-x: auto; }}
+</style></head><body>
+{body}
+</body></html>
+"""
+
+
+def _part_ranges_plot(path: Path, cases: list[dict]) -> None:
+    """Per part, the min..max temperature of every case as a bar (cases side by side)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    parts = list(cases[0]["parts"])
+    k = len(cases)
+    width = 0.8 / k
+    fig, ax = plt.subplots(figsize=(max(6.5, 1.2 * len(parts) * max(1, k / 4)), 4.2), dpi=110)
+    for j, c in enumerate(cases):  # loop over cases
+        lo = np.array([np.nan if c["parts"][p]["min"] is None else c["parts"][p]["min"] for p in parts])
+        hi = np.array([np.nan if c["parts"][p]["max"] is None else c["parts"][p]["max"] for p in parts])
+        ax.bar(np.arange(len(parts)) + (j - (k - 1) / 2) * width, hi - lo, width, bottom=lo, label=c["name"])
+    ax.set_xticks(np.arange(len(parts)), parts, rotation=30, ha="right")
+    ax.set_ylabel("T [°C] (min .. max)")
+    ax.set_title("Temperature range of each part per case")
+    if k <= 12:
+        ax.legend(fontsize="small")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def write_cases_report(folder: Path, s: dict, case_text: str) -> None:
+    """``report.html`` (and ``parts.png``) comparing the cases of a multi-case run from its summary ``s``: one row
+    per case (parameters, range, accuracy, stages reused, time; link to the case's own report), per part min/max
+    per case, and the envelope."""
+    folder = Path(folder)
+    cases = s["cases"]
+    rows = []
+    for c in cases:
+        acc = c.get("accuracy") or {}
+        params = ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}"
+                           for k, v in c["parameters"].items())
+        reused = [k for k, v in (c.get("cache") or {}).items() if v == "reused"]
+        rows.append((c["name"], params or "—", _fmt(c["T_min_C"], " °C"), _fmt(c["T_max_C"], " °C"),
+                     _fmt(acc.get("rms_K"), " K"), ", ".join(reused) or "—", f"{c['time_s']:.2f} s"))
+    parts = list(cases[0]["parts"])
+    part_rows = [(p, *(f"{_fmt(c['parts'][p]['min'])} .. {_fmt(c['parts'][p]['max'])}" for c in cases))
+                 for p in parts]
+    _part_ranges_plot(folder / "parts.png", cases)
+    env = s.get("envelope")
+    env_html = "<p>The cases do not share one mesh: no envelope.</p>"
+    if env:
+        env_rows = [(n, env["coldest_nodes"][n], env["hottest_nodes"][n]) for n in env["coldest_nodes"]]
+        env_html = (f"<p>{_fmt(env['T_min_C'], ' °C')} .. {_fmt(env['T_max_C'], ' °C')}; files "
+                    f"<code>envelope.vtu</code> (temperature_min/max, case_of_min/max = row of the table above, "
+                    f"from 0), <code>envelope_hot.bdf</code> (SID {env['sids']['hot']}), <code>envelope_cold.bdf</code> "
+                    f"(SID {env['sids']['cold']}).</p>" + _table(env_rows, ("case", "nodes coldest", "nodes hottest")))
+    links = " ".join(f'<a href="{html.escape(c["folder"])}/report.html">{html.escape(c["name"])}</a>' for c in cases)
+    compute = s.get("compute") or {}
+    doc = _page(f"""<h1>fem2tmm report: {len(cases)} load cases</h1>
+<p>Case file: <code>{html.escape(str(s.get('case')))}</code> — fem2tmm {html.escape(str(s.get('version')))} —
+scheduler {html.escape(str(compute.get('scheduler')))} ({compute.get('workers')} workers),
+{s['timings_s']['total']:.1f} s</p>
+<h2>Cases</h2>{_table(rows, ("case", "parameters", "T min", "T max", "RMS error", "stages reused", "time"))}
+<p>Each case's own report: {links}</p>
+<h2>Per part: min .. max °C per case</h2>{_table(part_rows, ("part", *(c["name"] for c in cases)))}
+<figure><img src="parts.png" alt="part ranges"><figcaption>Temperature range of each part per case</figcaption></figure>
+<h2>Envelope over the cases</h2>{env_html}
+<h2>Case file</h2><pre>{html.escape(case_text)}</pre>""", title="fem2tmm load cases")
+    (folder / "report.html").write_text(doc, encoding="utf-8")

@@ -9,6 +9,7 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
+from .orbit import orbit_summary
 
 
 def build_summary(result: Result, timings: dict[str, float]) -> dict:
@@ -24,6 +25,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
     s = {
         "version": __version__,
         "case": case.source,
+        "load_case": case.name or None,  # the [[cases]] name in a multi-case run
         "mesh": {"file": str(case.mesh.file) if case.mesh.file else mesh.source, "nodes": int(mesh.n_nodes),
                  "elements": int(mesh.n_elements), "model_nodes": int(np.sum(model.node_dof >= 0)),
                  "dofs": int(model.n_dof), "thermal_elements": int(len(model.elements)),
@@ -44,7 +46,9 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         "loads_W": {"boundaries": dict(model.loads), "absorbed_solar": _absorbed_solar(result)},
         "energy_balance_W": {"reduced": None, "detailed": None if detailed is None else detailed.balance},
         "solar": _solar_summary(result),
+        "orbit": orbit_summary(result),
         "quadrics": result.quadrics,
+        "cache": result.cache,
         "timings_s": dict(timings),
         "transient": None,
     }
@@ -147,6 +151,51 @@ def _absorbed_solar(result: Result) -> float | None:
     mesh's; None without a Sun."""
     r = result.solar_super_faces if result.solar_super_faces is not None else result.solar_detailed
     return None if r is None else float(r.absorbed)
+
+
+def build_cases_summary(multi, compute: dict, total_s: float) -> dict:
+    """The top ``summary.json`` of a multi-case run (:class:`~fem2tmm.result.CasesResult`): one row per case
+    (its folder, sweep parameters, temperature range, per-part ranges, accuracy, cache use, time) and the
+    envelope over the cases (:mod:`fem2tmm.export.envelope`; None when the cases do not share one mesh)."""
+    from .envelope import envelope, envelope_summary
+
+    rows = []
+    for name, r in multi.results.items():
+        s = r.summary
+        T = r.T_nodes
+        rows.append({"name": name, "folder": name, "parameters": multi.parameters.get(name, {}),
+                     "T_min_C": float(np.nanmin(T) - KELVIN), "T_max_C": float(np.nanmax(T) - KELVIN),
+                     "parts": s["temperatures_C"]["parts"], "accuracy": s["accuracy"], "cache": s.get("cache"),
+                     "time_s": float(sum(s["timings_s"].values()))})
+    names = list(multi.results)
+    env = same_mesh_envelope(multi)
+    return {"version": __version__, "case": multi.case.source, "cases": rows, "compute": compute,
+            "envelope": None if env is None else envelope_summary(envelope(env), names),
+            "timings_s": {"total": total_s}}
+
+
+def same_mesh_envelope(multi) -> np.ndarray | None:
+    """(k, n_nodes) node temperatures K of the cases when they share one mesh (same node ids), else None."""
+    results = list(multi.results.values())
+    ids = results[0].mesh.node_ids
+    if any(r.mesh is not results[0].mesh and not np.array_equal(r.mesh.node_ids, ids) for r in results):
+        return None
+    return np.stack([r.T_nodes for r in results])
+
+
+def cases_table(s: dict) -> str:
+    """Plain-text table of a multi-case summary: one row per case (range, hottest part, cache use)."""
+    rows = [("case", "T min °C", "T max °C", "hottest part", "reused stages")]
+    for c in s["cases"]:
+        parts = {k: v for k, v in c["parts"].items() if v["max"] is not None}
+        hot = max(parts, key=lambda k: parts[k]["max"]) if parts else "-"
+        reused = [k for k, v in (c.get("cache") or {}).items() if v == "reused"]
+        rows.append((c["name"], f"{c['T_min_C']:.3f}", f"{c['T_max_C']:.3f}", hot, ", ".join(reused) or "-"))
+    env = s.get("envelope")
+    if env:
+        rows.append(("envelope", f"{env['T_min_C']:.3f}", f"{env['T_max_C']:.3f}", "", ""))
+    w = [max(len(r[i]) for r in rows) for i in range(5)]
+    return "\n".join("  " + "  ".join(x.ljust(w[i]) for i, x in enumerate(r)).rstrip() for r in rows)
 
 
 def _radiation_summary(result: Result) -> dict:
@@ -253,6 +302,14 @@ def summary_table(s: dict) -> str:
                      f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR"))
         if red["negative_links"]:
             rows.append(("", NEGATIVE_GL_NOTE))
+    pn = s.get("positive_network")
+    if pn:
+        err = pn.get("recovered_error_K")
+        vs = "" if not err else (f"; recovered RMS {err['positive']['rms']:.4f} K vs {err['exact']['rms']:.4f} K "
+                                 "exact")
+        rows.append(("positive network", f"{pn['links']} GL > 0 between touching super nodes (exact: "
+                     f"{pn['exact_negative_links']} negative of {pn['exact_links']}), max {pn['T_vs_exact_K']['max']:.3g} "
+                     f"K from the exact reduction, criteria {'met' if pn['criteria']['met'] else 'NOT met'}{vs}"))
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation", f"{rad['rays']:,} rays, RMS line-sum error {rad['lse_rms']:.2e}"))
@@ -282,6 +339,17 @@ def summary_table(s: dict) -> str:
     for k in ("detailed", "reduced"):
         if eb.get(k):
             rows.append((f"energy balance ({k})", f"{eb[k]['imbalance_W']:.3e} W (relative {eb[k]['relative']:.1e})"))
+    tr = s.get("transient") or {}
+    if tr:
+        rows.append(("transient", f"{tr['method']}, {tr['start_s']:g} to {tr['end_s']:g} s, {len(tr['times_s'])} output "
+                     "times" + (f", periodic after {tr['periods']} periods" if tr.get("periods") else "")))
+        t_acc = tr.get("accuracy") or {}
+        if t_acc:
+            rows.append(("transient: reduced vs detailed", f"RMS {t_acc['rms_K']:.4f} K, max {t_acc['max_K']:.4f} K at "
+                         f"t = {t_acc['time_of_max_s']:g} s (over space and time)"))
+        for k, e in (tr.get("energy_balance") or {}).items():
+            rows.append((f"transient energy ({k})", f"stored {e['stored_J']:.4g} J, imbalance {e['imbalance_J']:.2e} J "
+                         f"(relative {e['relative']:.1e})"))
     t = s.get("timings_s") or {}
     if t:
         rows.append(("time", ", ".join(f"{k} {v:.2f} s" for k, v in t.items())))

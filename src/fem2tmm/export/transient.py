@@ -104,15 +104,14 @@ def transient_summary(result: Result) -> dict:
          "periodic": st.periodic, "times_s": run.times.tolist(),
          "nastran_sid_time_s": {str(k + 1): float(t) for k, t in enumerate(run.times)},
          "energy_balance": {}, "solver": {}, "timings_s": dict(run.timings), "accuracy": None}
-    periods = None
     for name, sol in (("reduced", run.reduced), ("detailed", run.detailed)):
         if sol is None:
             continue
         s["energy_balance"][name] = dict(sol.energy)
-        s["solver"][name] = {k: v for k, v in sol.stats.items() if k not in ("periods", "period_changes_K")}
-        periods = (sol.stats["periods"], sol.stats["period_changes_K"])
-    if st.periodic and periods is not None:
-        s["periods"], s["period_changes_K"] = periods
+        s["solver"][name] = dict(sol.stats)
+    main = run.reduced if run.reduced is not None else run.detailed
+    if st.periodic and main is not None:  # the reported model's periods (each model has its own in "solver")
+        s["periods"], s["period_changes_K"] = main.stats["periods"], main.stats["period_changes_K"]
     acc = run.accuracy()
     if acc is not None:
         dof = acc.pop("dof_of_max")

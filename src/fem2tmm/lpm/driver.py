@@ -1,16 +1,14 @@
 """``fem2tmm network reduce``: read a deck, reduce it (automatic grouping or TMRT), check it per load case, write
 the reduced decks, ``summary.json`` and ``report.html``.
 
-Output folder (checked before any computation): it must not exist or be empty — nothing there that fem2tmm did
-not write is ever overwritten; everything is written into a temporary sibling folder renamed at the end.
+Output folder (checked before any computation, :func:`fem2tmm.export.output.check_output_place`): new, empty, or
+one fem2tmm wrote (its ``.fem2tmm`` marker) — nothing fem2tmm did not write is ever overwritten; everything is
+written into a temporary sibling folder that replaces it at the end.
 """
 
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -91,14 +89,6 @@ def load_cases(net: Network, specs) -> list[LoadCase]:
     return out
 
 
-def check_out(out: Path) -> None:
-    """Refuse an output place that holds anything (never overwrite what fem2tmm did not write)."""
-    out = Path(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise Fem2TmmError(f"{out}: the output folder exists and is not empty; give a new or empty --out (fem2tmm "
-                           "never overwrites files it did not write)")
-
-
 def reduce_network(deck: str | Path, settings: NetworkSettings | None = None, pf: float | None = None,
                    dtmax: float | None = None, coordinates: str | Path | None = None) -> NetworkReduction:
     """Read ``deck`` and reduce it as ``settings`` says (``pf`` / ``dtmax`` override the case's thresholds)."""
@@ -145,6 +135,12 @@ def _validate(net: Network, settings: NetworkSettings) -> None:
 
 
 def _auto(net, cases, detailed, settings, pf, dtmax) -> NetworkReduction:
+    known = G.known_positions(net.coordinates, net.n)
+    if not known[~net.boundary].any():
+        import warnings
+
+        warnings.warn(f"{net.source}: no node has a position, so no coupling can be sized and nothing is condensed "
+                      "(Fernandez Rico 4.2.1); give --coordinates nodes.csv (columns node,x,y,z in m)", stacklevel=2)
     grouper = G.prepare(net, cases, crit=settings.criteria, mu=settings.mu,
                         internal_boundary=settings.internal_boundary, detailed=detailed)
     sw = G.sweep(grouper, settings.pf_values, settings.dtmax_values)
@@ -270,48 +266,40 @@ def to_deck(net: Network, T: np.ndarray):
 
 
 def write_outputs(res: NetworkReduction, deck: str | Path, out: str | Path) -> Path:
-    """``model.esatan``, ``model.sinda``, ``summary.json``, ``report.html`` (+ PNGs) into ``out`` (atomically)."""
+    """``model.esatan``, ``model.sinda``, ``summary.json``, ``report.html`` (+ PNGs) into ``out``, atomically and
+    never over anything fem2tmm did not write (:func:`fem2tmm.export.output.write_folder`)."""
     from ..export.esatan import write_esatan
+    from ..export.output import write_folder
     from ..export.sinda import write_sinda
     from .report import write_report
 
-    out = Path(out)
-    check_out(out)
-    parent = out.resolve().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
-    try:
-        sol = res.reduced_solutions[0]
-        d = to_deck(res.reduced, sol.T)
-        title = f"{Path(deck).stem}_reduced"
-        write_esatan(tmp / "model.esatan", d, title=title)
+    def fill(tmp: Path) -> None:
+        d = to_deck(res.reduced, res.reduced_solutions[0].T)
+        write_esatan(tmp / "model.esatan", d, title=f"{Path(deck).stem}_reduced")
         write_sinda(tmp / "model.sinda", d, submodel=Path(deck).stem)
         summary = build_summary(res, str(deck))
         write_report(tmp, res, summary)
+        if res.tmrt is not None:  # TMRT's power distribution and temperature recovery factors
+            t = res.tmrt
+            np.savez(tmp / "tmrt_factors.npz", suppressed=t.detailed.numbers[t.suppressed],
+                     reduced=t.reduced.numbers, PD=t.PD, TRt=t.TRt)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
-        check_out(out)
-        if out.exists():
-            out.rmdir()  # empty (checked just above)
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out
+
+    return write_folder(out, fill)
 
 
 def network_reduce(deck, case=None, pf=None, dtmax=None, coordinates=None, out=None) -> NetworkReduction:
     """The ``fem2tmm network reduce`` command: validate, reduce, write; returns the :class:`NetworkReduction`."""
+    from ..export.output import check_output_place
+
     if out is None:
         raise Fem2TmmError("network reduce: --out DIR is required")
-    check_out(Path(out))
+    check_output_place(out)
     settings = NetworkSettings.from_toml(case) if case else NetworkSettings()
     res = reduce_network(deck, settings, pf=pf, dtmax=dtmax, coordinates=coordinates)
     write_outputs(res, deck, out)
     return res
 
 
-__all__ = ["NetworkReduction", "build_summary", "check_out", "load_cases", "network_reduce", "reduce_network",
+__all__ = ["NetworkReduction", "build_summary", "load_cases", "network_reduce", "reduce_network",
            "to_deck", "write_outputs"]

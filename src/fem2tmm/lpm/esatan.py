@@ -12,8 +12,10 @@ Understood (everything else in these blocks is refused with ``file:line``):
   in every expression above (the block may come after its use, as in ESATAN).  Control constants ``TABS``
   (absolute zero offset, default 273.15: temperatures in °C) and ``STEFAN`` (σ; GR values are rescaled to
   fem2tmm's σ) are honoured.
-- ``$VARIABLES1``: plain assignments ``QI12 = expr;`` / ``QI(12) = expr;`` (as fem2tmm's writer emits).  Other
-  statements of the operation blocks are not interpreted: they are counted in ``Network.notes``.
+- ``$VARIABLES1``: assignments ``QI12 = expr;`` / ``QI(12) = expr;`` and ``T12 = expr;`` (as fem2tmm's writer
+  emits); ``INTRP1(TIMEM, A)`` of a ``$ARRAYS`` doublet array ``A(2k) = t1, v1, …;`` is taken at the start time
+  ``TIMEO`` (a steady network of a transient deck: its initial state).  Other statements of the operation blocks
+  are not interpreted: they are counted in ``Network.notes``.
 
 Comments run from ``#`` to the end of the line; a statement ends at ``;`` and may span lines.
 """
@@ -33,7 +35,9 @@ from .network import Network, couplings_from_lists
 _NODE = re.compile(r"^([A-Za-z])\s*(\d+)\s*=\s*(.*)$", re.S)
 _COND = re.compile(r"^(G[A-Za-z]*)\s*\(\s*([^,()]+?)\s*,\s*([^,()]+?)\s*\)\s*=\s*(.+)$", re.S)
 _ASSIGN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$", re.S)
-_QI = re.compile(r"^QI\s*(?:\(\s*(\d+)\s*\)|(\d+))\s*=\s*(.+)$", re.S | re.I)
+_QI = re.compile(r"^(QI|T)\s*(?:\(\s*(\d+)\s*\)|(\d+))\s*=\s*(.+)$", re.S | re.I)
+_ARRAY = re.compile(r"^([A-Za-z_]\w*)\s*\(\s*(\d+)\s*\)\s*=\s*(.+)$", re.S)
+_INTRP1 = re.compile(r"INTRP1\s*\(\s*TIMEM\s*,\s*([A-Za-z_]\w*)\s*\)", re.I)
 _LOADS = ("QS", "QA", "QE", "QI", "QR")
 _NODE_KEYS = ("T", "C", "A", "ALP", "EPS", "FX", "FY", "FZ") + _LOADS
 _BLOCKS = {"MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS", "EVALUATION", "VARIABLES1",
@@ -126,9 +130,27 @@ def read_esatan(path: str | Path) -> Network:
     tabs = consts.get("TABS", KELVIN)
     gr_scale = consts.get("STEFAN", SIGMA) / SIGMA
 
+    arrays = {}
+    for block, sub, line, s in stmts:
+        if block == "ARRAYS":
+            m = _ARRAY.match(s)
+            if m:
+                try:
+                    vals = [evaluate(v, consts) for v in split_top(m.group(3))]
+                except ExpressionError as exc:
+                    fail(line, f"array {m.group(1)}: {exc}")
+                arrays[m.group(1).upper()] = np.array(vals[: int(m.group(2))], float)
+    time0 = consts.get("TIMEO", 0.0)
+
+    def at_start(m):  # INTRP1(TIMEM, A): the doublet array A (time, value) interpolated at the start time
+        a = arrays.get(m.group(1).upper())
+        if a is None or len(a) < 2:
+            raise ExpressionError(f"INTRP1 of the unknown doublet array {m.group(1)!r}")
+        return repr(float(np.interp(time0, a[0::2], a[1::2])))
+
     def value(line, expr, what):
         try:
-            return evaluate(expr, consts)
+            return evaluate(_INTRP1.sub(at_start, expr), consts)
         except ExpressionError as exc:
             fail(line, f"{what}: {exc}")
 
@@ -179,10 +201,14 @@ def read_esatan(path: str | Path) -> Network:
         elif block == "VARIABLES1":
             m = _QI.match(s)
             if m:
-                qi_set.append((line, int(m.group(1) or m.group(2)), value(line, m.group(3), "QI")))
+                qi_set.append((line, m.group(1).upper(), int(m.group(2) or m.group(3)), value(line, m.group(4),
+                                                                                        m.group(1).upper())))
             else:
                 skipped += 1
-        elif block in ("VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "EVALUATION", "ARRAYS"):
+        elif block == "ARRAYS":
+            if not _ARRAY.match(s):
+                skipped += 1
+        elif block in ("VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "EVALUATION"):
             skipped += 1
         elif block not in ("CONSTANTS", "LOCALS", "MODEL", "ENDMODEL") and block is not None:
             fail(line, f"statement in unknown block ${block}")
@@ -217,9 +243,13 @@ def read_esatan(path: str | Path) -> Network:
     mats = {kind: couplings_from_lists(n, *lists[kind]) for kind in lists}
     get = lambda key, default=0.0: np.array([nd[4].get(key, default) for nd in nodes], float)  # noqa: E731
     Q = sum(get(k) for k in _LOADS)
-    for line, num, q in qi_set:
+    T = get("T") + tabs
+    for line, what, num, q in qi_set:
         i = rows(line, np.array([num]))[0]
-        Q[i] = q + sum(nodes[i][4].get(k, 0.0) for k in _LOADS if k != "QI")
+        if what == "QI":
+            Q[i] = q + sum(nodes[i][4].get(k, 0.0) for k in _LOADS if k != "QI")
+        else:
+            T[i] = q + tabs
     coords = None
     if any(("FX" in nd[4] or "FY" in nd[4] or "FZ" in nd[4]) for nd in nodes):
         has = np.array([any(k in nd[4] for k in ("FX", "FY", "FZ")) for nd in nodes])
@@ -230,7 +260,7 @@ def read_esatan(path: str | Path) -> Network:
     if gr_scale != 1.0:
         notes += (f"GR rescaled from STEFAN = {consts['STEFAN']!r} to sigma = {SIGMA!r}",)
     return Network(numbers=numbers, labels=np.array([nd[3] for nd in nodes], dtype=object).astype(str),
-                   kind=np.array([nd[1] for nd in nodes]), T=get("T") + tabs, C=get("C"), A=get("A"),
+                   kind=np.array([nd[1] for nd in nodes]), T=T, C=get("C"), A=get("A"),
                    alp=get("ALP"), eps=get("EPS"), QI=Q, GL=mats["GL"], GR=mats["GR"], coordinates=coords,
                    source=str(path), notes=notes)
 

@@ -94,14 +94,11 @@ def sizing_matrix(GL: sp.spmatrix, C: np.ndarray, coordinates: np.ndarray | None
 
 def dimensionless(GL: sp.spmatrix, KS: sp.spmatrix) -> sp.csr_matrix:
     """K̃ = GL / K^S element-wise where K^S > 0 (eq. 35), (n, n) sparse symmetric."""
-    KS = sp.csr_matrix(KS)
-    GLc = sp.csr_matrix(GL)
-    mask = KS.copy()
-    mask.data = np.ones_like(mask.data)
-    num = GLc.multiply(mask).tocsr()
-    coo = num.tocoo()
-    ks = np.asarray(KS[coo.row, coo.col]).ravel()
-    return sp.csr_matrix((coo.data / ks, (coo.row, coo.col)), shape=GLc.shape)
+    inv = sp.csr_matrix(KS, dtype=float, copy=True)
+    inv.data = 1.0 / inv.data
+    out = sp.csr_matrix(GL, dtype=float).multiply(inv).tocsr()
+    out.eliminate_zeros()
+    return out
 
 
 def isolate_boundaries(Kt: sp.spmatrix, GL: sp.spmatrix, boundary: np.ndarray,
@@ -284,15 +281,16 @@ class CaseCheck:
 
 
 def check_case(net: Network, labels: np.ndarray, reduced: Network, case: LoadCase, detailed: NetworkSolution,
-               crit: Criteria, rcase: LoadCase | None = None) -> tuple[CaseCheck, NetworkSolution]:
+               crit: Criteria, rcase: LoadCase | None = None,
+               solution: NetworkSolution | None = None) -> tuple[CaseCheck, NetworkSolution]:
     """Solve the reduced network in ``case`` and compare with the detailed solution (eq. 48–51).
 
     ``labels`` (n_d,) reduced node of each detailed node (-1: none, e.g. a TMRT-suppressed node); ``rcase`` the load
-    case on the reduced network (default: :func:`compact_case`).
+    case on the reduced network (default: :func:`compact_case`); ``solution`` its solution when already known.
     """
     rcase = compact_case(case, labels, net.C) if rcase is None else rcase
     T0 = weighted_mean(detailed.T, net.C, labels, reduced.n)
-    sol = solve_network(reduced, rcase, T0=T0)
+    sol = solution if solution is not None else solve_network(reduced, rcase, T0=T0)
     target = T0
     b = reduced.boundary
     delta = np.where(b, 0.0, np.abs(target - sol.T))
@@ -339,8 +337,9 @@ class Grouper:
             return self.cache[key]
         reduced = compact(self.net, labels)
         checks, sols = [], []
+        identity = reduced.n == self.net.n  # nothing grouped: the reduced network is the detailed one
         for case, det in zip(self.cases, self.detailed):
-            chk, sol = check_case(self.net, labels, reduced, case, det, self.crit)
+            chk, sol = check_case(self.net, labels, reduced, case, det, self.crit, solution=det if identity else None)
             checks.append(chk)
             sols.append(sol)
         g = Grouping(labels=np.asarray(labels, np.int64), reduced=reduced, checks=checks, solutions=sols,
@@ -430,7 +429,9 @@ def sweep(grouper: Grouper, pf_values, dtmax_values) -> Sweep:
     return Sweep(pf=pf_values, dtmax=dt_values, ratio=ratio, passed=passed, max_delta=md, n_c=nc, best=best)
 
 
-__all__ = ["Criteria", "CaseCheck", "Grouper", "Grouping", "MU_DEFAULT", "Sweep", "adjacency", "assemble_reduced", "check_case",
-           "compact", "compact_case", "components", "dimensionless", "flow_errors", "group", "isolate_boundaries",
-           "known_positions", "prepare", "reduction_ratio", "restriction", "sizing_matrix", "sum_couplings", "sweep",
-           "weighted_mean"]
+__all__ = [
+    "Criteria", "CaseCheck", "Grouper", "Grouping", "MU_DEFAULT", "Sweep", "adjacency", "assemble_reduced",
+    "check_case", "compact", "compact_case", "components", "dimensionless", "flow_errors", "group",
+    "isolate_boundaries", "known_positions", "prepare", "reduction_ratio", "restriction", "sizing_matrix",
+    "sum_couplings", "sweep", "weighted_mean",
+]

@@ -169,12 +169,4 @@ class Network:
         return f"nodes {format_ids(self.numbers[idx])}"
 
 
-def check_symmetric(M: sp.spmatrix, name: str, source: str) -> None:
-    """Refuse a non-symmetric coupling matrix (a deck that defines GL(a, b) and GL(b, a) differently is summed, so
-    this only guards programmatic input)."""
-    d = abs(M - M.T)
-    if d.nnz and d.max() > 1e-12 * max(abs(M).max(), 1e-300):
-        raise Fem2TmmError(f"{source}: {name} is not symmetric")
-
-
-__all__ = ["KINDS", "LoadCase", "Network", "check_symmetric", "couplings_from_lists", "laplacian", "symmetric_couplings"]
+__all__ = ["KINDS", "LoadCase", "Network", "couplings_from_lists", "laplacian", "symmetric_couplings"]

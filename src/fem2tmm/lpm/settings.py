@@ -180,7 +180,8 @@ class NetworkSettings:
                 raise Fem2TmmError(f"{source}: [[post.ce]] needs name and non-empty from / to node lists")
             ce.append((str(item.get("name", f"CE{len(ce) + 1}")), tuple(int(v) for v in item["from"]),
                        tuple(int(v) for v in item["to"])))
-        return cls(method=method, ra=tuple(ra), ce=tuple(ce), pf=num(grp, "pf", None, "grouping"), dtmax=num(grp, "dtmax", None, "grouping"),
+        return cls(method=method, ra=tuple(ra), ce=tuple(ce), pf=num(grp, "pf", None, "grouping"),
+                   dtmax=num(grp, "dtmax", None, "grouping"),
                    mu=num(grp, "mu", MU_DEFAULT, "grouping", strict=True),
                    internal_boundary=bool(grp.get("internal_boundary", True)),
                    pf_values=values("pf_values", PF_DEFAULT), dtmax_values=values("dtmax_values", DTMAX_DEFAULT),

@@ -134,7 +134,8 @@ def read_sinda(path: str | Path) -> Network:
             fields[0] = fields[0][3:].strip()
         if block == "NODE":
             if len(fields) != (5 if gen else 3):
-                fail(lineno, f"node data needs {'GEN id, count, step, T, C' if gen else 'id, T, C'}; got {body.strip()!r}")
+                form = "GEN id, count, step, T, C" if gen else "id, T, C"
+                fail(lineno, f"node data needs {form}; got {body.strip()!r}")
             first = node_ref(lineno, fields[0])
             count, step = (int(val(lineno, fields[1], "count")), int(val(lineno, fields[2], "step"))) if gen else (1, 1)
             T = val(lineno, fields[-2], "temperature")

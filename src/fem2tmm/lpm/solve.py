@@ -1,8 +1,8 @@
 """Steady solution of a network (radiation included) with fem2tmm's Newton solver, and its boundary heat flows.
 
 The kernel is :func:`fem2tmm.solve.steady.solve_steady` (one implementation): the network's GL Laplacian is the
-conduction matrix, its GR goes in as node-to-node radiation (dense-enough reduced networks: direct Newton) or, for
-large sparse networks, in the factored form ``Iᵀ GR I`` that makes the solver use Newton-Krylov (GMRES
+conduction matrix, its GR goes in as node-to-node radiation (small networks: direct Newton) or, when GR is denser
+than GL (its LU would fill in), in the factored form ``Iᵀ GR I`` that makes the solver use Newton-Krylov (GMRES
 preconditioned by the LU of conduction plus lumped radiation; no fill-in from long-range GR).  Boundary nodes are
 held at the load case's temperatures.  Fernández Rico linearises σGR(T_i⁴ − T_j⁴) by a secant and iterates
 (eq. 45–47); Newton converges to the same fixed point, faster.
@@ -20,8 +20,9 @@ from ..errors import Fem2TmmError
 from ..solve.steady import FacedRadiation, SteadyProblem, check_solvable, solve_steady
 from .network import LoadCase, Network
 
-#: GR with more than this many non-zeros per node goes through the factored (Newton-Krylov) path
-KRYLOV_GR_PER_NODE = 30
+#: networks above this size whose GR is denser than their GL go through the factored (Newton-Krylov) path: the
+#: direct Jacobian's LU would fill in along the long-range radiative couplings
+KRYLOV_MIN_NODES = 500
 
 
 @dataclass(frozen=True)
@@ -51,7 +52,7 @@ def steady_problem(net: Network, case: LoadCase) -> SteadyProblem:
     GR = sp.csr_matrix(net.GR)
     faced = None
     node_gr = None
-    if GR.nnz > KRYLOV_GR_PER_NODE * max(n, 1):
+    if n > KRYLOV_MIN_NODES and GR.nnz > net.GL.nnz:
         faced = FacedRadiation(W=sp.identity(n, format="csr"), G=GR)
     elif GR.nnz:
         node_gr = GR

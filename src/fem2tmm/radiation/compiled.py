@@ -14,8 +14,7 @@ import importlib
 #: kernels every exchange-factor trace dispatches from Python (module, name); the helpers they call are compiled
 #: into them and have no cache entry of their own, so they cannot tell whether a run will compile
 KEY_KERNELS = (
-    ("_tracer_kernels", "bounce"), ("_tracer_kernels", "emit_groups"), ("_tracer_kernels", "sample_points"),
-    ("_tracer_kernels", "hit_sides"), ("_tracer_kernels", "offset_points"), ("_tracer_kernels", "cosine_directions"),
+    ("_tracer_kernels", "bounce"), ("_tracer_kernels", "emit_groups"), ("_tracer_kernels", "hit_sides"),
     ("_tracer_kernels", "empty_pages"), ("sampling", "_radical_inverse"), ("smoothing", "_column_counts"),
     ("smoothing", "_weigh_transpose"), ("smoothing", "_merge_rows"), ("smoothing", "dense_columns"),
     ("tracer", "_batch_rays"), ("tracer", "_batch_tally"), ("tracer", "runs_to_csr"),

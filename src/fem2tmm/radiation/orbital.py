@@ -3,7 +3,7 @@ the solar disc in penumbra), planet albedo and planet infrared (planet-focused H
 multiple reflections by the spacecraft itself (thesis §2.4).
 
 One position at a time the Sun, the spacecraft's position and the nadir are expressed in the mesh frame through
-the :class:`~fem2tmm.radiation.orbit.Attitude`, and the tracers of :mod:`~fem2tmm.radiation.solar` and
+the :class:`~fem2tmm.orbit.Attitude`, and the tracers of :mod:`~fem2tmm.radiation.solar` and
 :mod:`~fem2tmm.radiation.planet` run on one ray scene.  Each distinct true anomaly is traced once: the two rows of
 an eclipse boundary share their albedo and infrared, and their solar power is the lit one scaled by the lit
 fraction (the solar tracer is linear in the flux).
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import Fem2TmmError
-from .orbit import Attitude, Orbit, OrbitPositions
+from ..orbit import Attitude, Orbit, OrbitPositions
 from .planet import optics_surface, trace_planet
 from .solar import trace_solar
 from .surfaces import Surface, TriangleScene, pad_faces
@@ -29,7 +29,7 @@ KINDS = ("solar", "albedo", "ir")
 class OrbitalFluxes:
     """Heat fluxes at the k positions of an orbit on n emitting units (sides, faces or groups), all powers in W.
 
-    ``positions`` the orbit's :class:`~fem2tmm.radiation.orbit.OrbitPositions` (true anomaly, time, lit fraction,
+    ``positions`` the orbit's :class:`~fem2tmm.orbit.OrbitPositions` (true anomaly, time, lit fraction,
     eclipse flag, event); ``sun`` (k, 3) and ``nadir`` (k, 3) unit vectors in the mesh frame, ``position`` (k, 3)
     m the mesh origin from the planet centre in the mesh frame, ``attitude`` (k, 3, 3) mesh -> inertial rotations.
     ``incident[kind]`` (k, n) power arriving directly from the source (Sun, lit planet, planet IR) and
@@ -94,8 +94,8 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     :func:`~fem2tmm.radiation.solar.trace_solar`; ``rays_per_group`` / ``ray_density`` the planet rays' budget,
     ``solar_rays_per_group`` the solar one (default the same).  ``per`` "side" (n = 2f), "face" (n = f, both sides
     summed) or "group" (n = groups).  ``focus`` "planet" (PFHS) or "hemisphere" (plain sampling, for
-    comparison).  Position j of the orbit traces with seed (``seed``, j') (j' the index of its
-    distinct true anomaly).  Returns :class:`OrbitalFluxes`.
+    comparison).  Position j of the orbit traces with the seed entropy [``seed``..., j'] (j' the index of its
+    distinct true anomaly; ``seed`` an int or a list of ints).  Returns :class:`OrbitalFluxes`.
     """
     kinds = check_kinds(kinds)
     if per not in ("side", "face", "group"):
@@ -125,6 +125,7 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     rays = {kind: np.zeros(k, np.int64) for kind in kinds}
     segments = 0
     distinct, first = np.unique(positions.true_anomaly, return_index=True)
+    base_seed = [int(x) for x in np.atleast_1d(seed)]  # an int or SeedSequence entropy [seed, k, ...]
     solar_budget = rays_per_group if solar_rays_per_group is None else solar_rays_per_group
     for jd, j0 in enumerate(first):  # loop over the distinct positions of the orbit
         rows = np.flatnonzero(positions.true_anomaly == distinct[jd])
@@ -134,13 +135,13 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
                 if not (lit > 0).any() or orbit.solar_flux == 0:
                     continue
                 res = trace_solar(surface, sun[j0], orbit.solar_flux, groups=groups, rays_per_group=solar_budget,
-                                  ray_density=ray_density, sampling=sampling, seed=(seed, jd),
+                                  ray_density=ray_density, sampling=sampling, seed=base_seed + [jd],
                                   max_bounces=max_bounces, scene=scene, threads=threads)
                 inc, ab = res.incident_side, res.absorbed_side
             else:
                 res = trace_planet(surface, pos[j0], sun[j0], kind=kind, planet=orbit.planet, groups=groups,
                                    rays_per_group=rays_per_group, ray_density=ray_density, sampling=sampling,
-                                   seed=(seed, jd), solar_flux=orbit.solar_flux, max_bounces=max_bounces,
+                                   seed=base_seed + [jd], solar_flux=orbit.solar_flux, max_bounces=max_bounces,
                                    scene=scene, threads=threads, focus=focus)
                 inc, ab = res.incident_side, res.absorbed_side
                 lit = np.ones(len(rows))
@@ -162,8 +163,8 @@ def orbital_fluxes(points, faces, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     """Solar, albedo and planet-infrared powers on the front side of each face along an orbit (DESIGN §4.5).
 
     ``points`` (n, 3) m, ``faces`` (m, 3) or (m, 4) int (front side = right-hand normal; front sides absorb and
-    reflect, back sides stop rays).  ``orbit`` an :class:`~fem2tmm.radiation.orbit.Orbit` (``Orbit.make``),
-    ``attitude`` an :class:`~fem2tmm.radiation.orbit.Attitude` (``Attitude.make``).  ``kinds`` any of "solar",
+    reflect, back sides stop rays).  ``orbit`` an :class:`~fem2tmm.orbit.Orbit` (``Orbit.make``),
+    ``attitude`` an :class:`~fem2tmm.orbit.Attitude` (``Attitude.make``).  ``kinds`` any of "solar",
     "albedo", "ir".  ``absorptivity`` (solar band: direct solar and albedo), ``emissivity`` (infrared band: planet
     IR), ``specular`` fraction of the reflected energy: scalars or (m,).  ``rays_per_face`` origins per face and
     position (or ``ray_density`` rays per m²); ``sampling`` "halton" or "random"; ``seed``.
@@ -180,3 +181,75 @@ def orbital_fluxes(points, faces, orbit: Orbit, attitude: Attitude, kinds=KINDS,
         rays_per_face = None
     return trace_orbit(surface, orbit, attitude, kinds=kinds, groups=groups, rays_per_group=rays_per_face,
                        ray_density=ray_density, sampling=sampling, seed=seed, threads=threads, per="group")
+
+
+def _wrapped(times: np.ndarray, values: np.ndarray, period: float):
+    """The table closed over one period: times (k + 1,) ending at times[0] + period, values (k + 1, ...)."""
+    t = np.asarray(times, float)
+    v = np.asarray(values, float)
+    if t.ndim != 1 or len(t) == 0 or v.shape[0] != len(t) or np.any(np.diff(t) < 0):
+        raise Fem2TmmError("orbit table: times must be a non-decreasing (k,) array with one row of values per time")
+    if not (period > 0 and t[-1] - t[0] <= period):
+        raise Fem2TmmError(f"orbit table: the times span {t[-1] - t[0]:g} s, more than the period {period:g} s")
+    return np.append(t, t[0] + period), np.concatenate([v, v[:1]])
+
+
+def period_average(times, values, period: float) -> np.ndarray:
+    """Time average over one period of a periodic table: ``values`` (k, ...) at ``times`` (k,) s (non-decreasing,
+    within one period; repeated times mark a jump) joined by straight lines, the last row back to the first one
+    period later.  Exact for the piecewise-linear load the orbit transient interpolates."""
+    t, v = _wrapped(times, values, period)
+    dt = np.diff(t)
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.tensordot(dt, mid, axes=(0, 0)) / period
+
+
+def periodic_values(times, values, period: float, t) -> np.ndarray:
+    """Values (m, ...) of the periodic piecewise-linear table (``times`` (k,) s, ``values`` (k, ...)) at times ``t``
+    (m,) s (any real times; wrapped into the period).  At a repeated time (a jump: an eclipse boundary) the value
+    just after the jump is returned."""
+    tt, v = _wrapped(times, values, period)
+    x = tt[0] + np.mod(np.asarray(t, float) - tt[0], period)
+    i = np.clip(np.searchsorted(tt, x, side="right") - 1, 0, len(tt) - 2)
+    dt = tt[i + 1] - tt[i]
+    w = np.divide(x - tt[i], dt, out=np.zeros_like(x), where=dt > 0)
+    w = w.reshape(w.shape + (1,) * (v.ndim - 1))
+    return (1.0 - w) * v[i] + w * v[i + 1]
+
+
+def hat_basis(times, period: float, jump: float = 1e-6):
+    """The periodic piecewise-linear interpolation of a position table as a basis of hat functions.
+
+    ``times`` (k,) s non-decreasing in [0, period) (a repeated time is a jump: an eclipse boundary).  Returns
+    ``(nodes (m,) s strictly increasing from 0 to period, H (m, k))``: the value at node i of any table ``V`` (k,
+    ...) is ``H[i] @ V`` and values in between are linear, so ``H[:, j]`` sampled at ``nodes`` is the time function
+    of position j.  The second row of a jump is moved ``jump`` x period later (the load then ramps over that
+    time, ~6 ms for a 100-minute orbit); nodes at 0 and at the period close the table periodically (the segment
+    from the last position to the first one a period later)."""
+    t = np.array(times, float)
+    k = len(t)
+    _wrapped(t, np.zeros(k), period)  # validates
+    for i in range(1, k):  # loop over the positions: separate repeated times
+        if t[i] <= t[i - 1]:
+            t[i] = t[i - 1] + jump * period
+    if t[-1] >= period or (k > 1 and t[0] + period <= t[-1]):
+        raise Fem2TmmError("orbit table: the positions' times do not fit in one period")
+    eye = np.eye(k)
+    gap = t[0] + period - t[-1]
+    a = (period - t[-1]) / gap  # weight of the first position at time = period (and at 0)
+    edge = (1.0 - a) * eye[-1] + a * eye[0]
+    rows, nodes = [], []
+    if t[0] > 0:
+        nodes.append(0.0)
+        rows.append(edge)
+    nodes += list(t)
+    rows += list(eye)
+    nodes.append(period)
+    rows.append(edge if t[0] > 0 else eye[0])
+    return np.array(nodes), np.array(rows)
+
+
+def average_weights(times, period: float) -> np.ndarray:
+    """Weights (k,) with :func:`period_average` (times, V, period) = weights @ V for any table V (k, ...)."""
+    k = len(times)
+    return period_average(times, np.eye(k), period)

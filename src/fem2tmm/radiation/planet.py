@@ -41,7 +41,7 @@ import numpy as np
 
 from .. import _validation as check
 from ..errors import Fem2TmmError
-from .orbit import EARTH, SOLAR_CONSTANT, Planet
+from ..orbit import EARTH, SOLAR_CONSTANT, Planet
 from .sampling import HALTON_BASES, ScrambledHalton
 from .solar import RayBalance, arrivals, gather, sun_unit, triangle_emitters
 from .surfaces import Surface, TriangleScene, pad_faces
@@ -157,7 +157,7 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
 
     ``position`` (3,) m: the mesh origin relative to the planet centre, in the mesh frame; ``sun_direction`` (3,)
     towards the Sun in the mesh frame (normalised here; used by albedo); ``planet`` (default the Earth,
-    :data:`~fem2tmm.radiation.orbit.EARTH`); ``solar_flux`` C (W/m²) lighting the planet (albedo).  ``groups``
+    :data:`~fem2tmm.orbit.EARTH`); ``solar_flux`` C (W/m²) lighting the planet (albedo).  ``groups``
     (2f,) int emitting unit of each side (-1: no origins there; it still shadows, reflects and absorbs); default
     every side its own group.  Budget per group: ``rays_per_group`` (int or (g,) ints, default 1000) or
     ``ray_density`` (rays per m² of the sides that see the planet).  ``sampling`` "halton" (one scrambled 7-D
@@ -246,7 +246,7 @@ def planet_fluxes(points, faces, position, sun_direction, kind="albedo", planet=
     ``points`` (n, 3) m, ``faces`` (m, 3) or (m, 4) int (front side = right-hand normal; a face receives planet
     radiation on its front side only, back sides stop rays).  ``position`` (3,) m: the spacecraft (mesh origin)
     relative to the planet centre, ``sun_direction`` (3,) towards the Sun, both in the mesh frame.  ``kind``
-    "albedo" or "ir"; ``planet`` a :class:`~fem2tmm.radiation.orbit.Planet` (None: the Earth, radius 6 378.136 km,
+    "albedo" or "ir"; ``planet`` a :class:`~fem2tmm.orbit.Planet` (None: the Earth, radius 6 378.136 km,
     albedo 0.3, black body at 288 K); ``solar_flux`` lighting the planet (W/m², albedo).  ``rays_per_face``
     origins on each face that sees the planet (or ``ray_density`` rays per m²); ``sampling`` "halton" or
     "random"; ``focus`` "planet" (planet-focused sampling, thesis §2.4.3) or "hemisphere".  Shadowing by the

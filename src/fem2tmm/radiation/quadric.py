@@ -524,6 +524,7 @@ class QuadricScene(TriangleScene):
 
     def __init__(self, surface: Surface, quadric_of_face, quadrics, backend: str = "auto", weighted: bool = True):
         super().__init__(surface, backend, engine=False)
+        self._args = (surface, quadric_of_face, quadrics, backend, weighted)
         f = surface.n_faces
         qf = np.asarray(quadric_of_face)
         K = len(quadrics)
@@ -560,6 +561,9 @@ class QuadricScene(TriangleScene):
         if self._quad_tri.size:
             self._setup_surfaces()
             self._setup_areas()
+
+    def _init_args(self) -> tuple:
+        return self._args  # fitted quadrics included; see TriangleScene.__reduce__
 
     @classmethod
     def from_regions(cls, surface: Surface, region_of_face, names=None, tol: float = FIT_TOL, backend: str = "auto",

@@ -239,6 +239,39 @@ class Arrivals(NamedTuple):
     segments: int
 
 
+class _SolarBatches:
+    """The batches of one solar run as a picklable callable (the scene rebuilds itself where it is unpickled):
+    ``job(b)`` traces rays b·batch .. (b + 1)·batch - 1, its generator seeded from (seed, 7, 1, b) only, and returns
+    its :func:`arrivals`."""
+
+    distributable = True  # map_batches may send it to Dask workers
+
+    def __init__(self, scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces):
+        self.scene, self.optics, self.em, self.per_ray, self.sun = scene, optics, em, per_ray, sun
+        self.seed, self.batch, self.min_weight, self.max_bounces = seed, batch, min_weight, max_bounces
+        self.start = np.concatenate([[0], np.cumsum(rays)])
+        self.total = int(self.start[-1])
+        setup = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
+        self.halton = self.offsets = None
+        if sampling == "halton":
+            self.halton = ScrambledHalton(setup, bases=HALTON_BASES[:SOLAR_DIMS])
+            self.offsets = setup.integers(0, HALTON_SKIP, size=len(rays))
+
+    def __call__(self, b: int):
+        scene, start, halton, batch = self.scene, self.start, self.halton, self.batch
+        ray = np.arange(b * batch, min((b + 1) * batch, self.total), dtype=np.int64)
+        grp = np.searchsorted(start, ray, side="right") - 1
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(7, 1, b)))
+        if halton is not None:
+            U = halton.points(self.offsets[grp] + (ray - start[grp]))
+        else:
+            U = rng.random((ray.size, SOLAR_DIMS))
+        prim, side, p, nrm, _, lit, wr = _sun_origins(scene, self.em, grp, U, self.sun)
+        w0 = self.per_ray[grp] if wr is None else self.per_ray[grp] * wr
+        return arrivals(scene, self.optics, side, prim, p, nrm, np.broadcast_to(-self.sun, (ray.size, 3)), w0, lit,
+                        rng, U[:, 2:] if halton is not None else None, self.min_weight, self.max_bounces, ray.size)
+
+
 def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None, rays_per_group=None,
                 ray_density: float | None = None, sampling: str = "halton", seed: int = 0,
                 max_bounces: int = MAX_BOUNCES, min_weight: float = 1e-12, scene: TriangleScene | None = None,
@@ -274,28 +307,8 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     power = flux * em.weight
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
-    start = np.concatenate([[0], np.cumsum(rays)])
-    total = int(start[-1])
-    setup = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
-    halton = offsets = None
-    if sampling == "halton":
-        halton = ScrambledHalton(setup, bases=HALTON_BASES[:SOLAR_DIMS])
-        offsets = setup.integers(0, HALTON_SKIP, size=g)
-    rev = -sun  # direction of the incoming sunlight
-
-    def job(b):
-        ray = np.arange(b * batch, min((b + 1) * batch, total), dtype=np.int64)
-        grp = np.searchsorted(start, ray, side="right") - 1
-        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7, 1, b)))
-        if halton is not None:
-            U = halton.points(offsets[grp] + (ray - start[grp]))
-        else:
-            U = rng.random((ray.size, SOLAR_DIMS))
-        prim, side, p, nrm, _, lit, wr = _sun_origins(scene, em, grp, U, sun)
-        w0 = per_ray[grp] if wr is None else per_ray[grp] * wr
-        return arrivals(scene, optics, side, prim, p, nrm, np.broadcast_to(rev, (ray.size, 3)), w0, lit, rng,
-                        U[:, 2:] if halton is not None else None, min_weight, max_bounces, ray.size)
-
+    job = _SolarBatches(scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces)
+    total = job.total
     absorbed, incident, totals, segments = gather(map_batches(job, math.ceil(total / batch) if total else 0, threads),
                                                   2 * f)
     mine = groups >= 0

@@ -246,6 +246,7 @@ class TriangleScene:
         subclasses that trace part of the triangles with engines of their own."""
 
         self.surface = surface
+        self._backend = backend
         tri = surface.triangles
         self.tri_vertices = tri.vertices
         self.tri_face = tri.face
@@ -261,6 +262,26 @@ class TriangleScene:
                                                          axis=1))
         self._tables = None
         self._rows = None
+
+    def __reduce__(self):
+        """Pickled as its constructor's arguments: the ray engine (C pointers) is rebuilt where it is unpickled,
+        e.g. on a Dask worker (:mod:`fem2tmm.compute`), once per geometry (:func:`_rebuild_scene`); the rebuilt
+        scene gives the same hits."""
+        return (_rebuild_scene, (self.geometry_token, type(self), self._init_args()))
+
+    def _init_args(self) -> tuple:
+        return (self.surface, self._backend)
+
+    @property
+    def geometry_token(self) -> str:
+        """Digest of what the scene's structures depend on (the geometry, not the optics): scenes with the same
+        token are interchangeable for tracing (the optics come with each trace)."""
+        if getattr(self, "_token", None) is None:
+            from ..cache import digest
+
+            args = self._init_args()
+            self._token = digest(type(self).__name__, args[0].points, args[0].faces, *args[1:])
+        return self._token
 
     def sample(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points on primitives ``prim`` (r,) from unit-square samples ``u``, ``v`` (r,) by the area-preserving
@@ -488,3 +509,21 @@ class GroupEmitters:
         the 1-D inverse-CDF step that keeps the low-discrepancy structure across the whole super face."""
         return locate_entries(np.ascontiguousarray(group, dtype=np.int64), np.ascontiguousarray(u, dtype=np.float64),
                               self.start, self.lo, self.hi)
+
+
+#: scenes rebuilt in this process from pickles, by geometry token (a Dask worker keeps the last few)
+_REBUILT: dict[str, TriangleScene] = {}
+_REBUILT_MAX = 4
+
+
+def _rebuild_scene(token: str, cls: type, args: tuple) -> TriangleScene:
+    """The scene of ``token``: one rebuilt earlier in this process, or ``cls(*args)`` (kept for the next traces;
+    its structures depend only on the geometry, so a later trace with other optics reuses it)."""
+    scene = _REBUILT.pop(token, None)
+    if scene is None:
+        scene = cls(*args)
+        scene._token = token
+    _REBUILT[token] = scene  # most recent last
+    while len(_REBUILT) > _REBUILT_MAX:
+        _REBUILT.pop(next(iter(_REBUILT)))
+    return scene

@@ -320,13 +320,21 @@ def runs_to_csr(groups, lengths, starts, cols, vals, g, itmpl):
 
 
 def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") -> list:
-    """``[job(0), ..., job(n_batches - 1)]``, run by ``threads`` Python threads (numpy and Embree release the GIL);
-    results in batch order, so a job that seeds its generator from its batch index gives thread-independent output.
-    Progress is reported (from the calling thread) after each batch."""
+    """``[job(0), ..., job(n_batches - 1)]``, results in batch order, so a job that seeds its generator from its
+    batch index gives output independent of where and in which order the batches ran.  In this process
+    (the default, :mod:`fem2tmm.compute` serial) ``threads`` Python threads run the batches (numpy and Embree
+    release the GIL); on a Dask executor (:func:`fem2tmm.compute.using`) a ``job`` marked ``distributable`` (a
+    picklable object, e.g. :class:`_ExchangeBatches`) is scattered to the workers once and every batch is one
+    task; other jobs (closures) run here.  Progress is reported after each batch."""
+    from ..compute import current
+
+    ex = current()
+    if ex.distributed and n_batches and getattr(job, "distributable", False):
+        return ex.map(_call_batch, range(n_batches), shared={"job": job}, what=what)
     out = []
     if threads > 1 and n_batches > 1:
-        with ThreadPoolExecutor(max_workers=threads) as ex:
-            for b, r in enumerate(ex.map(job, range(n_batches))):
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            for b, r in enumerate(pool.map(job, range(n_batches))):
                 out.append(r)
                 report(b + 1, n_batches, what)
         return out
@@ -334,6 +342,10 @@ def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") ->
         out.append(job(b))
         report(b + 1, n_batches, what)
     return out
+
+
+def _call_batch(b: int, job):
+    return job(b)
 
 
 @dataclass(frozen=True, eq=False)
@@ -410,58 +422,27 @@ class _ExchangeTracer:
 
     def run(self, rays: np.ndarray, sampling: str, seed, stream: int, batch: int, threads: int, max_bounces: int):
         g = self.g
-        rays = np.where(self.emitters.weight > 0, rays, 0).astype(np.int64)
-        start = np.concatenate([[0], np.cumsum(rays)])
-        total = int(start[-1])
-        ss = np.random.SeedSequence(seed, spawn_key=(stream,))
-        setup = np.random.default_rng(ss.spawn(1)[0])
-        halton = offsets = None
-        dims = 4
-        if sampling == "halton":
-            halton = ScrambledHalton(setup, bases=HALTON_BASES[:HALTON_DIMS])
-            offsets = setup.integers(0, HALTON_SKIP, size=g)
-            # coordinates 5-6 (a first diffuse direction) only when some side scatters diffusely
-            dims = HALTON_DIMS if self.optics.scatters_diffusely else 4
-        ncol = self.n_cols + 3
-        # column index type of the tally: int32 when it fits (scipy keeps such arrays without a copy)
-        itmpl = np.empty(0, np.int32 if total < 2**31 - 1 and ncol < 2**31 - 1 else np.int64)
-        # destination column of an absorbing side: its group, or "blocked" when it is not a REF node
-        side_col = (np.arange(self.groups.size) if self.per_side
-                    else np.where(self.groups >= 0, self.groups, g + 1))
+        job = _ExchangeBatches(self, rays, sampling, seed, stream, batch, max_bounces)
+        total = job.total
         # the batch tallies go straight into one buffer, each at its batch's first ray (a batch has at most one
         # distinct entry per ray); allocated by the compiled code: 4 KB pages, see empty_pages
-        cols_buf, vals_buf = empty_pages(total, itmpl), empty_pages(total, np.empty(0))
-
-        no_offsets = np.zeros(0, np.int64)
-
-        def job(b):
-            lo_, hi_ = b * batch, min((b + 1) * batch, total)
-            grp, hidx = _batch_rays(lo_, hi_, start, no_offsets if offsets is None else offsets)
-            rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream, 1, b)))
-            U = halton.points(hidx, dims) if halton is not None else rng.random((grp.size, 4))
-            o, d, prim, w = self.scene.emit_group_rays(self.emitters, grp, U)
-            ends, segs = trace_paths(self.scene, self.optics, o, d, prim, rng, max_bounces,
-                                     strata=grp if halton is not None else None,
-                                     first_scatter=U[:, 4:6] if dims > 4 else None, copy=False)
-            # w: relative ray energies of curved emitters (None: every ray counts 1)
-            wsum = None
-            if w is not None:
-                g0, span = int(grp[0]), int(grp[-1]) - int(grp[0]) + 1
-                wsum = (np.arange(g0, g0 + span), np.bincount(grp - g0, weights=w, minlength=span))
-            groups, lengths = _batch_tally(grp, ends, side_col, ncol, np.ones(0) if w is None else w,
-                                           cols_buf[lo_:hi_], vals_buf[lo_:hi_])
-            starts = lo_ + np.cumsum(lengths) - lengths
-            return (groups, lengths, starts), segs, wsum
-
-        parts = map_batches(job, math.ceil(total / batch) if total else 0, threads)
+        cols_buf, vals_buf = empty_pages(total, job.itmpl), empty_pages(total, np.empty(0))
+        job.buffers = (cols_buf, vals_buf)
+        parts = map_batches(job, job.n_batches, threads)
+        job.buffers = None
+        for b, p in enumerate(parts):  # tallies of batches traced elsewhere (another process): copied in place
+            if p[3] is not None:
+                lo_, m = b * batch, p[3][0].size
+                cols_buf[lo_:lo_ + m], vals_buf[lo_:lo_ + m] = p[3]
         cat = lambda k: np.concatenate([p[0][k] for p in parts]) if parts else np.zeros(0, np.int64)  # noqa: E731
         segments = int(sum(p[1] for p in parts))
         # batches are in group order: each row's entries are consecutive runs (several when it straddles batches)
-        indptr, c, v = runs_to_csr(cat(0), cat(1), cat(2), cols_buf, vals_buf, g, itmpl)
+        indptr, c, v = runs_to_csr(cat(0), cat(1), cat(2), cols_buf, vals_buf, g, job.itmpl)
         if c.size < 0.9 * total:  # release the unused room
             c, v = c.copy(), v.copy()
         del cols_buf, vals_buf
-        tally = sp.csr_matrix((v, c, indptr), shape=(g, ncol))
+        tally = sp.csr_matrix((v, c, indptr), shape=(g, job.ncol))
+        rays = job.rays
         if any(p[2] is not None for p in parts):
             # weighted rays: scale each group's row so that it sums to its ray count (self-normalised estimator)
             wsum = np.zeros(g)
@@ -469,6 +450,68 @@ class _ExchangeTracer:
                 np.add.at(wsum, p[2][0], p[2][1])
             tally = scale_rows(tally, np.divide(rays, wsum, out=np.zeros(g), where=wsum > 0))
         return rays, tally, segments
+
+
+class _ExchangeBatches:
+    """The batches of one exchange run as a picklable callable: ``job(b)`` traces batch b (rays b·batch ..
+    (b + 1)·batch - 1 of the run, its generator seeded from (seed, stream, b) only) and writes its tally rows into
+    ``buffers`` (set by the caller in its own process), or, where unpickled (a Dask worker; the scene rebuilds
+    itself there), returns them.  Returns ``((groups, lengths, starts), segments, weight sums or None, (cols,
+    vals) or None)``."""
+
+    distributable = True  # map_batches may send it to Dask workers
+
+    def __init__(self, tracer: "_ExchangeTracer", rays, sampling: str, seed, stream: int, batch: int,
+                 max_bounces: int):
+        g = tracer.g
+        self.tracer, self.seed, self.stream, self.batch, self.max_bounces = tracer, seed, stream, batch, max_bounces
+        self.rays = np.where(tracer.emitters.weight > 0, rays, 0).astype(np.int64)
+        self.start = np.concatenate([[0], np.cumsum(self.rays)])
+        self.total = int(self.start[-1])
+        self.n_batches = math.ceil(self.total / batch) if self.total else 0
+        ss = np.random.SeedSequence(seed, spawn_key=(stream,))
+        setup = np.random.default_rng(ss.spawn(1)[0])
+        self.halton = self.offsets = None
+        self.dims = 4
+        if sampling == "halton":
+            self.halton = ScrambledHalton(setup, bases=HALTON_BASES[:HALTON_DIMS])
+            self.offsets = setup.integers(0, HALTON_SKIP, size=g)
+            # coordinates 5-6 (a first diffuse direction) only when some side scatters diffusely
+            self.dims = HALTON_DIMS if tracer.optics.scatters_diffusely else 4
+        self.ncol = tracer.n_cols + 3
+        # column index type of the tally: int32 when it fits (scipy keeps such arrays without a copy)
+        self.itmpl = np.empty(0, np.int32 if self.total < 2**31 - 1 and self.ncol < 2**31 - 1 else np.int64)
+        # destination column of an absorbing side: its group, or "blocked" when it is not a REF node (per_side: the
+        # side itself, for absorbed-IR maps)
+        self.side_col = (np.arange(tracer.groups.size) if tracer.per_side
+                         else np.where(tracer.groups >= 0, tracer.groups, g + 1))
+        self.buffers = None
+
+    def __getstate__(self):
+        return {**self.__dict__, "buffers": None}
+
+    def __call__(self, b: int):
+        tr, batch, halton = self.tracer, self.batch, self.halton
+        lo_, hi_ = b * batch, min((b + 1) * batch, self.total)
+        grp, hidx = _batch_rays(lo_, hi_, self.start, np.zeros(0, np.int64) if self.offsets is None else self.offsets)
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(self.stream, 1, b)))
+        U = halton.points(hidx, self.dims) if halton is not None else rng.random((grp.size, 4))
+        o, d, prim, w = tr.scene.emit_group_rays(tr.emitters, grp, U)
+        ends, segs = trace_paths(tr.scene, tr.optics, o, d, prim, rng, self.max_bounces,
+                                 strata=grp if halton is not None else None,
+                                 first_scatter=U[:, 4:6] if self.dims > 4 else None, copy=False)
+        # w: relative ray energies of curved emitters (None: every ray counts 1)
+        wsum = None
+        if w is not None:
+            g0, span = int(grp[0]), int(grp[-1]) - int(grp[0]) + 1
+            wsum = (np.arange(g0, g0 + span), np.bincount(grp - g0, weights=w, minlength=span))
+        here = self.buffers is not None
+        cols = self.buffers[0][lo_:hi_] if here else np.empty(hi_ - lo_, self.itmpl.dtype)
+        vals = self.buffers[1][lo_:hi_] if here else np.empty(hi_ - lo_)
+        groups, lengths = _batch_tally(grp, ends, self.side_col, self.ncol, np.ones(0) if w is None else w, cols, vals)
+        starts = lo_ + np.cumsum(lengths) - lengths
+        m = int(lengths.sum())
+        return (groups, lengths, starts), segs, wsum, None if here else (cols[:m].copy(), vals[:m].copy())
 
 
 @njit(cache=True, nogil=True)

@@ -11,7 +11,7 @@ last row/column of ``GR``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -147,20 +147,13 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
             C = equivalent_capacitance(red, model.capacity)
         else:
             C = supernode_capacitance(sn, model.capacity_shares[rows], labels)
-    Q = red.distribute(model.Q)
-    # space-only radiation: each super node radiates through the εA of its faces' active sides
-    f = model.faces
     n = sn.n_sn
     element_cluster = np.full(len(model.elements), -1, np.int64)
     element_cluster[rows] = labels
-    owner = face_owner(model, sn, element_cluster)
-    g_space = np.bincount(owner, weights=f.eps_area, minlength=n).astype(float)
-    area = np.bincount(owner, weights=f.active_area, minlength=n).astype(float)
-    # names, kinds, fixed values
+    # names, kinds, fixed nodes
     names, part = [], np.full(n, -1, np.int64)
     counters = {}
     fixed = np.zeros(n, bool)
-    T_fixed = np.zeros(n)
     fixed_by_dof = {g.dof: g for g in model.fixed}
     first_node = np.full(model.n_dof, -1, np.int64)  # the lowest mesh node of each DOF (names of kept nodes)
     in_model = np.flatnonzero(model.node_dof >= 0)
@@ -175,16 +168,38 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
             g = fixed_by_dof[int(sn.dof[i])]
             names.append(g.name)
             fixed[i] = True
-            T_fixed[i] = g.T
         else:
             names.append(f"node_{int(model.mesh.node_ids[first_node[sn.dof[i]]])}")
     pairs, gl = negative_links(K)
     report["negative_links"] = int(len(pairs))
     report["negative_GL_W_per_K"] = float(gl.sum()) if len(gl) else 0.0
-    return ReducedModel(names=np.array(names), kind=np.asarray(sn.kind), part=part, K=K, C=C, Q=Q,
-                        g_space=g_space, fixed=fixed, T_fixed=T_fixed, T_sink=model.T_sink, supernodes=sn,
-                        reduction=red, element_cluster=element_cluster, GR=None, area=area, report=report,
-                        radiative=radiative)
+    return ReducedModel(names=np.array(names), kind=np.asarray(sn.kind), part=part, K=K, C=C, fixed=fixed,
+                        supernodes=sn, reduction=red, element_cluster=element_cluster, GR=None, report=report,
+                        radiative=radiative,
+                        **case_values(model, sn, red, element_cluster))
+
+
+def case_values(model: FEModel, sn: SuperNodes, red: ConductiveReduction, element_cluster: np.ndarray) -> dict:
+    """The fields of a :class:`ReducedModel` that the case's loads, boundary temperatures, sink and optics
+    give it, everything else being fixed by the mesh, the clustering and the conduction: ``Q`` = Y q (n,) W,
+    ``g_space`` (n,) m² (space-only radiation: each super node radiates through the εA of its faces' active
+    sides), ``area`` (n,) m² active radiating area, ``T_fixed`` (n,) K and ``T_sink`` K."""
+    f = model.faces
+    n = sn.n_sn
+    owner = face_owner(model, sn, element_cluster)
+    T_fixed = np.zeros(n)
+    row_of_dof = _row_of_dof(sn, model.n_dof)
+    for g in model.fixed:  # loop over fixed-temperature groups
+        T_fixed[row_of_dof[g.dof]] = g.T
+    return {"Q": red.distribute(model.Q), "g_space": np.bincount(owner, weights=f.eps_area, minlength=n).astype(float),
+            "area": np.bincount(owner, weights=f.active_area, minlength=n).astype(float), "T_fixed": T_fixed,
+            "T_sink": model.T_sink}
+
+
+def refresh_reduced(rm: ReducedModel, model: FEModel) -> ReducedModel:
+    """``rm`` (built for another case with the same mesh, clustering and conduction, e.g. taken from the stage
+    cache) with this ``model``'s loads, boundary temperatures, sink and optics (:func:`case_values`)."""
+    return replace(rm, **case_values(model, rm.supernodes, rm.reduction, rm.element_cluster))
 
 
 def conductive_links(K: np.ndarray, rtol: float = 0.0) -> int:

@@ -35,12 +35,16 @@ class Factor:
     """LU factorisation of a square matrix, dense LAPACK for small ones, SuperLU otherwise.
 
     ``matrix`` (n, n) scipy.sparse; ``dense`` chooses LAPACK; ``what`` names the matrix in error messages.
-    ``solve(b)`` accepts (n,) or (n, r).  A singular matrix raises Fem2TmmError.
+    ``solve(b)`` accepts (n,) or (n, r).  A singular matrix raises Fem2TmmError.  Pickles (the stage cache,
+    :mod:`fem2tmm.cache`) hold the LAPACK factors, or the sparse matrix, factorised again when loaded (SuperLU
+    objects do not pickle; the same matrix gives the same factors).
     """
 
     def __init__(self, matrix: sp.spmatrix, dense: bool, what: str):
         self.n = matrix.shape[0]
         self.dense = dense
+        self._what = what
+        self._matrix = None if dense else sp.csc_matrix(matrix)
         if dense:
             a = matrix.toarray()
             lu, piv = sla.lu_factor(a, check_finite=False, overwrite_a=True)
@@ -50,9 +54,17 @@ class Factor:
             self._lu = (lu, piv)
         else:
             try:
-                self._lu = spla.splu(sp.csc_matrix(matrix))
+                self._lu = spla.splu(self._matrix)
             except RuntimeError as exc:  # "Factor is exactly singular"
                 raise Fem2TmmError(f"{what} is singular ({exc})") from None
+
+    def __getstate__(self):
+        return {**self.__dict__, "_lu": self._lu if self.dense else None}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        if not self.dense:
+            self._lu = spla.splu(self._matrix)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         if self.dense:
@@ -137,8 +149,7 @@ class ClusterSolver:
         elif kind == "sparse":
             self.a = P[nI, :nI].toarray().ravel()
             try:
-                self.klu = spla.splu(P[:nI, :nI].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                                     options=dict(SymmetricMode=True))
+                self._factor_kii()
             except RuntimeError:
                 raise Fem2TmmError(f"{what} is singular (elements of zero conductivity?)") from None
         else:
@@ -146,6 +157,18 @@ class ClusterSolver:
         if kind in self._BORDERED:
             self.u = self._ksolve(self.a)
             self.s = float(self.a @ self.u)
+
+    def _factor_kii(self) -> None:
+        self.klu = spla.splu(self.P[:self.nI, :self.nI].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                             options=dict(SymmetricMode=True))
+
+    def __getstate__(self):  # SuperLU objects do not pickle (stage cache): factorised again from P when loaded
+        return {k: v for k, v in self.__dict__.items() if k != "klu"}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        if self.kind in ("sparse", "sparse_solves"):
+            self._factor_kii()
 
     def _ksolve(self, b):
         if self.kind == "cholesky":

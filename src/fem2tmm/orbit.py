@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from ..constants import SIGMA
-from ..errors import Fem2TmmError
+from .constants import SIGMA
+from .errors import Fem2TmmError
 
 #: m, IAU 2012
 ASTRONOMICAL_UNIT = 149_597_870_700.0
@@ -178,7 +178,7 @@ class Orbit:
     def make(cls, planet: Planet | None = None, *, altitude=None, semi_major_axis=None, eccentricity=0.0,
              inclination=0.0, raan=0.0, argument_of_perigee=0.0, beta=None, sun_argument=0.0, date=None,
              sun_direction=None, solar_flux=SOLAR_CONSTANT, positions=24, eclipse="cylindrical",
-             where: str = "orbit") -> "Orbit":
+             where: str = "[orbit]") -> "Orbit":
         """An orbit from user-facing parameters (angles in degrees, lengths in m).
 
         Size: ``altitude`` (m above the planet's radius; circular unless ``eccentricity``: then the perigee
@@ -191,7 +191,7 @@ class Orbit:
         (deg).  ``where`` names the case-file table in error messages.
         """
         planet = EARTH if planet is None else planet
-        bad = lambda key, msg: Fem2TmmError(f"[{where}] {key}: {msg}")  # noqa: E731
+        bad = lambda key, msg: Fem2TmmError(f"{where}.{key}: {msg}")  # noqa: E731
         e = float(eccentricity)
         if not (math.isfinite(e) and 0.0 <= e < 1.0):
             raise bad("eccentricity", f"must lie in [0, 1) (closed orbits), got {eccentricity!r}")
@@ -426,19 +426,19 @@ _AXES = {"+x": (1, 0, 0), "x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "y"
          "+z": (0, 0, 1), "z": (0, 0, 1), "-z": (0, 0, -1)}
 
 
-def mesh_axis(value, key: str = "axis", where: str = "attitude") -> np.ndarray:
+def mesh_axis(value, key: str = "axis", where: str = "[orbit.attitude]") -> np.ndarray:
     """A mesh direction from "+x", "-y", ... or a 3-vector, as a unit vector (3,)."""
     if isinstance(value, str):
         if value.lower() not in _AXES:
-            raise Fem2TmmError(f"[{where}] {key}: {value!r} is not an axis; use +x, -x, +y, -y, +z, -z or [x, y, z]")
+            raise Fem2TmmError(f"{where}.{key}: {value!r} is not an axis; use +x, -x, +y, -y, +z, -z or [x, y, z]")
         return np.array(_AXES[value.lower()], float)
     v = np.asarray(value, float)
     if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
-        raise Fem2TmmError(f"[{where}] {key}: must be +x, -x, ... or a non-zero vector [x, y, z], got {value!r}")
+        raise Fem2TmmError(f"{where}.{key}: must be +x, -x, ... or a non-zero vector [x, y, z], got {value!r}")
     return v / np.linalg.norm(v)
 
 
-def rotation_matrix(value, key: str = "rotation", where: str = "attitude") -> np.ndarray:
+def rotation_matrix(value, key: str = "rotation", where: str = "[orbit.attitude]") -> np.ndarray:
     """A fixed rotation (3, 3) from a 3x3 proper orthogonal matrix or a list of [axis, degrees] steps applied in
     order (e.g. [["z", 30], ["x", -10]]: 30° about z, then -10° about x, both about the fixed mesh axes)."""
     if value is None:
@@ -448,12 +448,12 @@ def rotation_matrix(value, key: str = "rotation", where: str = "attitude") -> np
         M = np.asarray(value, float)
         if M.shape == (3, 3):
             if not (np.allclose(M @ M.T, np.eye(3), atol=1e-9) and np.linalg.det(M) > 0):
-                raise Fem2TmmError(f"[{where}] {key}: a 3x3 rotation must be orthogonal with determinant +1")
+                raise Fem2TmmError(f"{where}.{key}: a 3x3 rotation must be orthogonal with determinant +1")
             return M
     except (TypeError, ValueError):
         pass
     if a.ndim != 2 or a.shape[1] != 2:
-        raise Fem2TmmError(f"[{where}] {key}: give a 3x3 rotation matrix or a list of [axis, degrees] pairs, "
+        raise Fem2TmmError(f"{where}.{key}: give a 3x3 rotation matrix or a list of [axis, degrees] pairs, "
                            f"got {value!r}")
     R = np.eye(3)
     for axis, deg in value:
@@ -490,26 +490,26 @@ class Attitude:
 
     @classmethod
     def make(cls, kind="nadir", primary=None, secondary=None, axes=None, rotation=None,
-             where: str = "attitude") -> "Attitude":
+             where: str = "[orbit.attitude]") -> "Attitude":
         """An attitude from user-facing values (see the class); raises :class:`Fem2TmmError` naming the key."""
         defaults = {"nadir": ("-z", "+x"), "sun": ("+z", "+y"), "inertial": ("+x", "+y")}
         if kind not in defaults:
-            raise Fem2TmmError(f"[{where}] kind: must be \"nadir\", \"sun\" or \"inertial\", got {kind!r}")
+            raise Fem2TmmError(f"{where}.kind: must be \"nadir\", \"sun\" or \"inertial\", got {kind!r}")
         p = mesh_axis(defaults[kind][0] if primary is None else primary, "primary", where)
         s = mesh_axis(defaults[kind][1] if secondary is None else secondary, "secondary", where)
         s = s - (s @ p) * p
         if np.linalg.norm(s) < 1e-9:
-            raise Fem2TmmError(f"[{where}] secondary must not be parallel to primary")
+            raise Fem2TmmError(f"{where}.secondary: must not be parallel to primary")
         ax = None
         if kind == "inertial":
             if axes is None:
-                raise Fem2TmmError(f"[{where}] axes: an inertial attitude needs the inertial directions of the "
+                raise Fem2TmmError(f"{where}.axes: an inertial attitude needs the inertial directions of the "
                                    f"primary and secondary mesh axes, axes = [[x, y, z], [x, y, z]]")
             ax = np.asarray(axes, float)
             if ax.shape != (2, 3) or not np.all(np.isfinite(ax)) or np.linalg.norm(np.cross(ax[0], ax[1])) < 1e-9:
-                raise Fem2TmmError(f"[{where}] axes: must be two non-parallel inertial vectors [[x, y, z], [x, y, z]]")
+                raise Fem2TmmError(f"{where}.axes: must be two non-parallel inertial vectors [[x, y, z], [x, y, z]]")
         elif axes is not None:
-            raise Fem2TmmError(f"[{where}] axes: only an inertial attitude takes axes")
+            raise Fem2TmmError(f"{where}.axes: only an inertial attitude takes axes")
         return cls(kind=kind, primary=p, secondary=s / np.linalg.norm(s), axes=ax,
                    rotation=rotation_matrix(rotation, "rotation", where))
 

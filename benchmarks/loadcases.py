@@ -1,0 +1,136 @@
+"""``fem2tmm bench cases`` (``python -m benchmarks.run cases``): load cases on the baffle example (18 404 quads), in-process and on a Dask LocalCluster.
+
+Rows (one JSON object each):
+
+* ``cases_serial`` / ``cases_local1`` / ``cases_local``: 8 cases whose optics all differ (every case traces its
+  own super-face REFs and detailed solar loads; clustering and reduction are shared), in this process
+  (``serial``: the tracer's two threads), on ``LocalCluster(n_workers=1)`` and on ``LocalCluster(n_workers=2)``
+  (single-threaded workers), measured in the same run; the speed-ups and whether all gave bit-for-bit the same
+  temperatures.
+* ``cases_extra``: one case from an empty stage cache (the full run), then 8 cases that differ only in a heater
+  power with the shared stages cached: the time per extra case against the full run (goal <= 10 %).
+* ``cases_sizing``: from the measured ray throughput per worker and the size of the data a worker receives, the
+  workers a 10^6-element model x 100 orbit positions x 20 cases needs to finish in one hour (assumptions in the
+  row).
+"""
+
+from __future__ import annotations
+
+import copy
+import pickle
+import tempfile
+import time
+
+import numpy as np
+
+from fem2tmm import _validation as check
+from fem2tmm.case import Case
+from fem2tmm.pipeline import run
+from fem2tmm.radiation.solar import _SolarBatches, sunlit_emitters
+from fem2tmm.radiation.surfaces import TriangleScene
+from fem2tmm.radiation.tracer import BATCH
+from fem2tmm.stages import radiation_surface
+
+from .run import REPO
+
+
+def _base(rays_per_face: int, solar_rays_per_face: int) -> dict:
+    return {
+        "mesh": {"file": str(REPO / "meshes" / "baffle.msh"), "unit": "mm"},
+        "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
+        "optics": {"paint": {"emissivity": 0.05, "absorptivity": 0.2, "specular": 1.0}},
+        "parts": [{"name": "baffle", "groups": ["aperture_lip", "front_cone", "outer_skin", "main_cone",
+                                                "middle_annulus", "back_annulus"],
+                   "material": "al", "thickness": 1e-3, "front": "paint", "back": "paint", "super_nodes": 10,
+                   "quadric": ["front_cone", "main_cone"]}],
+        "boundary": [{"name": "screws", "kind": "temperature", "groups": ["screw_rims"], "value": 20.0},
+                     {"name": "heater", "kind": "power", "groups": ["middle_annulus"], "value": 1.0}],
+        "environment": {"sink_temperature": -100.0, "sun_direction": [-1.0, 1.0, 1.41421356],
+                        "solar_flux": 17400.0, "solar_rays_per_face": solar_rays_per_face},
+        "radiation": {"rays_per_face": rays_per_face},
+        "reference": {"detailed": False},
+    }
+
+
+def _case(data: dict):
+    return Case.from_dict(copy.deepcopy(data), source="<bench cases>")
+
+
+def bench_cases(n_cases: int = 8, workers: int = 2, rays_per_face: int = 2000, solar_rays_per_face: int = 20
+                ) -> list[dict]:
+    """See the module docstring; ``rays_per_face`` per super face, ``solar_rays_per_face`` per FE face side (the
+    example's budget divided by 2.5 and 5, so that the 8 x 3 runs take minutes, not an hour)."""
+
+    base = _base(rays_per_face, solar_rays_per_face)
+    optics = [{"name": f"eol{k}", "optics": {"paint": {"emissivity": round(0.05 + 0.01 * k, 3),
+                                                        "absorptivity": round(0.2 + 0.02 * k, 3)}}}
+              for k in range(n_cases)]
+    rows, results = [], {}
+    for label, scheduler, n in (("serial", "serial", None), ("local1", "local", 1), ("local", "local", workers)):
+        data = {**base, "cases": optics, "compute": {"scheduler": scheduler, **({"workers": n} if n else {})}}
+        t0 = time.perf_counter()
+        results[label] = multi = run(_case(data), cache=False)
+        wall = time.perf_counter() - t0
+        stage = lambda name: sum(r.summary["timings_s"].get(name, 0.0) for r in multi.results.values())  # noqa: E731
+        traced = [(r.solar_detailed.rays, int(np.sum(r.radiation.rays))) for r in multi.results.values()]
+        rays = sum(a + b for a, b in traced)
+        rows.append({"bench": f"cases_{label}", "cases": n_cases, "workers": n or 1, "wall_s": round(wall, 2),
+                     "solar_detailed_s": round(stage("solar_detailed"), 2), "radiation_s": round(stage("radiation"), 2),
+                     "rays": rays, "batches": int(sum(-(-a // BATCH) - (-b // BATCH) for a, b in traced)),
+                     "rays_per_s": round(rays / max(stage("solar_detailed") + stage("radiation"), 1e-9))})
+    same = all(np.array_equal(results["serial"].results[n].T_recovered, results[k].results[n].T_recovered)
+               for k in ("local1", "local") for n in results["serial"].results)
+    rows[2].update({"speedup_vs_serial": round(rows[0]["wall_s"] / rows[2]["wall_s"], 2),
+                    "speedup_vs_1_worker": round(rows[1]["wall_s"] / rows[2]["wall_s"], 2), "bit_identical": same,
+                    "goal": "speed-up >= 1.7 on 2 cores (issue 19)",
+                    "baseline": "cases_serial: the same cases in this process (its ray tracer runs 2 threads); "
+                                "cases_local1: one single-threaded worker"})
+
+    # the time per extra case once the shared stages are cached, against the full run of one case
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        run(_case(base), cache=tmp)
+        full = time.perf_counter() - t0
+        powers = [{"name": f"p{k}", "boundary": {"heater": {"value": 0.5 + 0.25 * k}}} for k in range(n_cases)]
+        t0 = time.perf_counter()
+        warm = run(_case({**base, "cases": powers}), cache=tmp)
+        wall = time.perf_counter() - t0
+    per_case = [sum(r.summary["timings_s"].values()) for r in warm.results.values()]
+    reused = sorted({k for r in warm.results.values() for k, v in (r.summary["cache"] or {}).items() if v == "reused"})
+    rows.append({"bench": "cases_extra", "full_run_s": round(full, 2), "cases": n_cases, "warm_wall_s": round(wall, 2),
+                 "per_extra_case_s": round(float(np.median(per_case)), 3),
+                 "ratio_to_full": round(float(np.median(per_case)) / full, 3), "reused": reused,
+                 "per_case_stages_s": {k: round(v, 3) for k, v in next(iter(warm.results.values())).summary["timings_s"].items()},
+                 "goal": "<= 10 % of a full run (issue 19)"})
+    rows.append(_sizing(results["serial"], rows[1]["rays_per_s"]))  # one worker's measured throughput
+    return rows
+
+
+def _sizing(multi, rays_per_s_per_worker: float, elements: float = 1e6, positions: int = 100, cases: int = 20,
+            rays_per_face: int = 10, kinds: int = 3) -> dict:
+    """Workers for ``elements`` x ``positions`` x ``cases`` in one hour at ``rays_per_s_per_worker``, tracing
+    ``kinds`` flux kinds (solar, albedo, planet IR) at ``rays_per_face`` rays per FE face and position, and the
+    data a worker receives (the pickled solar job of the baffle per face, scaled)."""
+
+    r = next(iter(multi.results.values()))
+    faces = r.model.faces.n
+    surface = radiation_surface(r.model)
+    scene = TriangleScene(surface)
+    sun = np.asarray(r.solar_detailed.sun_direction)
+    g = 2 * faces
+    em = sunlit_emitters(scene, np.arange(g, dtype=np.int64), g, sun)  # the detailed solar job, as trace_solar builds it
+    rays = check.ray_budget(r.case.environment.solar_rays_per_face, None, em.area, em.weight > 0)
+    job = _SolarBatches(scene, surface.optics("solar"), em, rays, np.ones(g), sun, "halton", 0, 1 << 17, 1e-12, 1000)
+    job_bytes = len(pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL))
+    rays = kinds * rays_per_face * elements * positions * cases
+    worker_hours = rays / rays_per_s_per_worker / 3600.0
+    return {"bench": "cases_sizing", "model_elements": elements, "positions": positions, "cases": cases,
+            "rays_per_face_per_kind": rays_per_face, "kinds": kinds, "rays_total": rays,
+            "rays_per_s_per_worker_measured": round(rays_per_s_per_worker),
+            "workers_for_one_hour": int(np.ceil(worker_hours)),
+            "scene_bytes_per_face": round(job_bytes / faces, 1),
+            "scene_MB_per_worker_at_1e6_faces": round(job_bytes / faces * elements / 1e6, 1),
+            "result_MB_per_batch_at_1e6_faces": round(2 * elements * 8 / 1e6, 1),
+            "note": "the scene (points, faces, per-side optics, emitters) goes to each worker once per case whose "
+                    "optics differ; each batch task carries its index and returns the absorbed power per side "
+                    "(dense, 2 x 8 bytes per face)"}

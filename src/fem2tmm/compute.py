@@ -1,0 +1,160 @@
+"""Where the work units run: in this process (``serial``, the default, never imports Dask) or on a Dask cluster
+(``local``: a ``dask.distributed.LocalCluster`` on this machine's cores; an address ``tcp://host:8786``: a
+cluster the user already runs, with dask-jobqueue, Kubernetes, SSH ...).
+
+Stages do not know where they run: they call :func:`map_units` ``(fn, items, shared=...)``, which runs
+``fn(item, **shared)`` for every item on the executor installed by :func:`using` (serial when none) and
+returns the results *in item order*.  A unit's result depends only on its item and the shared data (each unit
+seeds its generator from its identity, e.g. ``SeedSequence(seed, spawn_key=(stream, 1, batch))`` in the ray
+tracer), and callers combine results in item order, so the output is bit-for-bit the same on every scheduler
+and worker count.
+
+On Dask, ``shared`` objects (the ray scene, K, ...) are scattered once to every worker (``broadcast``), not sent
+with each task; a unit whose worker dies is re-run elsewhere (same item, same result); Ctrl-C cancels the
+submitted units.  Scenes rebuild their ray-tracing structures where they are unpickled (once per worker).
+"""
+
+from __future__ import annotations
+
+import contextvars
+import logging
+import os
+from contextlib import contextmanager
+from typing import Any, Callable, Sequence
+
+from .errors import Fem2TmmError
+from .progress import report
+
+#: seconds to wait for a Dask scheduler before giving up (the whole check stays within 10 s)
+CONNECT_TIMEOUT = 3.0
+#: a unit that raised is re-run this many times (a unit on a worker that died is always re-run by Dask)
+RETRIES = 1
+
+
+class SerialExecutor:
+    """Runs every unit in this process, in order.  ``workers`` is 1."""
+
+    name = "serial"
+    workers = 1
+    distributed = False
+
+    def map(self, fn: Callable, items: Sequence, shared: dict | None = None, what: str = "work units") -> list:
+        shared = shared or {}
+        out = []
+        for k, item in enumerate(items):
+            out.append(fn(item, **shared))
+            report(k + 1, len(items), what)
+        return out
+
+    def close(self) -> None:
+        pass
+
+
+class DaskExecutor:
+    """Runs units as Dask tasks on ``client``'s cluster (``cluster``: a LocalCluster we started and close)."""
+
+    distributed = True
+
+    def __init__(self, client, cluster=None, name: str = "dask"):
+        self.client = client
+        self.cluster = cluster
+        self.name = name
+
+    @property
+    def workers(self) -> int:
+        return len(self.client.scheduler_info().get("workers", {}))
+
+    def map(self, fn: Callable, items: Sequence, shared: dict | None = None, what: str = "work units") -> list:
+        from distributed import as_completed
+
+        items = list(items)
+        if not items:
+            return []
+        client = self.client
+        scattered = {k: client.scatter(v, broadcast=True, hash=False) for k, v in (shared or {}).items()}
+        futures = []
+        try:
+            futures = client.map(fn, items, pure=False, retries=RETRIES, **scattered)
+            label = f"{what} on {self.workers} workers"
+            for k, _ in enumerate(as_completed(futures)):
+                report(k + 1, len(futures), label)
+            return client.gather(futures)
+        except BaseException:
+            client.cancel(futures + list(scattered.values()), force=True)
+            raise
+        finally:
+            del futures
+            scattered.clear()
+
+    def close(self) -> None:
+        try:
+            self.client.close()
+        finally:
+            if self.cluster is not None:
+                self.cluster.close()
+
+
+_current: contextvars.ContextVar[Any] = contextvars.ContextVar("fem2tmm_executor", default=None)
+
+
+def current():
+    """The executor installed by :func:`using`, or a :class:`SerialExecutor`."""
+    ex = _current.get()
+    return SerialExecutor() if ex is None else ex
+
+
+@contextmanager
+def using(executor):
+    """Install ``executor`` for the :func:`map_units` calls made inside the block."""
+    token = _current.set(executor)
+    try:
+        yield executor
+    finally:
+        _current.reset(token)
+
+
+def map_units(fn: Callable, items: Sequence, shared: dict | None = None, what: str = "work units") -> list:
+    """``[fn(item, **shared) for item in items]`` on the current executor, results in item order.  ``fn`` and
+    the items must be picklable (module-level functions, plain data) when the executor is distributed."""
+    return current().map(fn, items, shared=shared, what=what)
+
+
+def open_executor(scheduler: str = "serial", workers: int | None = None, timeout: float = CONNECT_TIMEOUT):
+    """An executor for ``scheduler``: "serial", "local" (a LocalCluster of ``workers`` single-threaded processes,
+    default one per core) or a Dask scheduler address.  Connection problems raise one :class:`Fem2TmmError`
+    within ``timeout`` seconds, before any computation.  Close it with ``.close()``."""
+    if scheduler == "serial":
+        return SerialExecutor()
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise Fem2TmmError(f"scheduler {scheduler!r} needs Dask: pip install \"fem2tmm[cluster]\" "
+                           "(or use --scheduler serial)") from None
+    if scheduler == "local":
+        n = int(workers or os.cpu_count() or 1)
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
+        try:
+            client = Client(cluster, timeout=f"{timeout}s")
+        except BaseException:
+            cluster.close()
+            raise
+        return DaskExecutor(client, cluster, name=f"local ({n} workers)")
+    try:
+        client = Client(scheduler, timeout=f"{timeout}s")
+    except (OSError, TimeoutError) as exc:
+        raise Fem2TmmError(f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s "
+                           f"({type(exc).__name__}); start it, check the address, or use --scheduler serial"
+                           ) from None
+    return DaskExecutor(client, None, name=scheduler)
+
+
+@contextmanager
+def executing(scheduler: str = "serial", workers: int | None = None):
+    """``with executing("local") as ex:`` opens an executor, installs it (:func:`using`) and closes it."""
+    ex = open_executor(scheduler, workers)
+    try:
+        with using(ex):
+            yield ex
+    finally:
+        ex.close()

@@ -1,0 +1,121 @@
+"""Load cases through the pipeline: per-case results equal separate runs, bit-for-bit the same on every scheduler,
+shared stages reused from the stage cache across cases and reruns, per-case folders and the envelope."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from fem2tmm.case import Case
+from fem2tmm.loadcases import deep_merge
+from fem2tmm.mesh.shapes import baffle
+from fem2tmm.pipeline import run
+
+GROUPS = ["aperture_lip", "front_cone", "outer_skin", "main_cone", "middle_annulus", "back_annulus"]
+# the baffle of the demo (a coarse parametric mesh, 1368 quads) with a heater and a cheap ray budget
+BASE = {
+    "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
+    "optics": {"paint": {"emissivity": 0.05, "absorptivity": 0.2, "specular": 1.0}},
+    "parts": [{"name": "baffle", "groups": GROUPS, "material": "al", "thickness": 1e-3, "front": "paint",
+               "back": "paint", "super_nodes": 8}],
+    "boundary": [{"name": "screws", "kind": "temperature", "groups": ["screw_rims"], "value": 20.0},
+                 {"name": "heater", "kind": "power", "groups": ["middle_annulus"], "value": 2.0}],
+    "environment": {"sink_temperature": -100.0, "sun_direction": [-1.0, 1.0, 1.41421356], "solar_flux": 17400.0,
+                    "solar_rays_per_face": 4},
+    "radiation": {"rays_per_face": 400},
+    "reference": {"detailed": False},
+}
+HOT_COLD = [
+    {"name": "hot", "optics": {"paint": {"absorptivity": 0.3}}, "boundary": {"heater": {"value": 4.0}}},
+    {"name": "cold", "optics": {"paint": {"absorptivity": 0.15, "emissivity": 0.08}},
+     "boundary": {"heater": {"value": 0.5}}, "environment": {"sink_temperature": -120.0}},
+]
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return baffle(h=6e-3, n_theta=36)
+
+
+def case_of(data: dict) -> Case:
+    return Case.from_dict(copy.deepcopy(data), source="baffle.toml")
+
+
+def test_two_cases_give_the_temperatures_of_two_separate_runs(mesh, tmp_path):
+    multi = run(case_of({**BASE, "cases": HOT_COLD}), out=tmp_path / "out", mesh=mesh)
+    assert list(multi.results) == ["hot", "cold"]
+    T_cases = []
+    for entry in HOT_COLD:
+        alone = run(case_of(deep_merge(BASE, {k: v for k, v in entry.items() if k != "name"})), mesh=mesh,
+                    cache=False)
+        got = multi.results[entry["name"]]
+        # the same arithmetic on the same inputs: equal to round-off (1e-12 K, the issue's tolerance)
+        assert np.nanmax(np.abs(got.T_nodes - alone.T_nodes)) <= 1e-12
+        T_cases.append(alone.T_nodes)
+    assert np.nanmax(T_cases[0] - T_cases[1]) > 1.0  # the cases differ (hotter optics, more power)
+    # outputs: today's contract per case, the envelope over both, a summary row per case
+    out = tmp_path / "out"
+    for name in ("hot", "cold"):
+        assert {"summary.json", "temperatures.vtu", "temperatures.bdf", "reduced.npz", "model.esatan",
+                "report.html"} <= {p.name for p in (out / name).iterdir()}
+    s = json.loads((out / "summary.json").read_text())
+    assert [c["name"] for c in s["cases"]] == ["hot", "cold"]
+    assert s["cases"][1]["cache"]["cluster"] == "reused" and s["cases"][1]["cache"]["radiation"] == "computed"
+    assert set(s["cases"][0]["parts"]) == {"baffle"}
+    import meshio
+
+    env = meshio.read(out / "envelope.vtu").point_data
+    T = np.stack(T_cases) - 273.15
+    ok = np.isfinite(T[0])
+    assert np.array_equal(env["temperature_max"][ok], T.max(axis=0)[ok])
+    assert np.array_equal(env["temperature_min"][ok], T.min(axis=0)[ok])
+    assert np.array_equal(env["case_of_max"][ok], np.argmax(T, axis=0)[ok].astype(float))
+    assert (env["case_of_max"][~ok] == -1).all()
+    hot_card = (out / "envelope_hot.bdf").read_text().splitlines()[4]  # first TEMP* card: SID 1, grid, T
+    assert hot_card.startswith("TEMP*") and int(hot_card[8:24]) == 1
+    assert float(hot_card[40:56]) == pytest.approx(T.max(axis=0)[ok][0], abs=1e-6)  # 10 significant digits
+    assert "cold" in (out / "report.html").read_text(encoding="utf-8")
+
+
+def _three_cases(scheduler: str, workers: int | None = None) -> dict:
+    cases = [{"name": "a"}, {"name": "b", "optics": {"paint": {"emissivity": 0.1}}},
+             {"name": "c", "optics": {"paint": {"absorptivity": 0.35}}, "boundary": {"heater": {"value": 1.0}}}]
+    return {**BASE, "cases": cases, "compute": {"scheduler": scheduler, **({"workers": workers} if workers else {})}}
+
+
+def test_serial_and_local_clusters_are_bit_identical(mesh):
+    pytest.importorskip("distributed")
+    runs = {}
+    for scheduler, workers in (("serial", None), ("local", 1), ("local", 2)):
+        multi = run(case_of(_three_cases(scheduler, workers)), mesh=mesh)  # a fresh in-memory cache per run
+        assert multi.summary["compute"]["workers"] == (workers or 1)
+        runs[(scheduler, workers)] = multi
+    ref = runs[("serial", None)]
+    for multi in runs.values():
+        for name, r in multi.results.items():
+            e = ref.results[name]
+            assert np.array_equal(r.T_recovered, e.T_recovered)
+            assert np.array_equal(r.reduced.GR, e.reduced.GR) and np.array_equal(r.reduced.Q, e.reduced.Q)
+            assert np.array_equal(r.solar_detailed.absorbed_side, e.solar_detailed.absorbed_side)
+            assert np.array_equal(r.reduced_solution.T, e.reduced_solution.T)
+
+
+def test_rerun_reuses_what_did_not_change(mesh, tmp_path):
+    out = tmp_path / "out"
+    first = run(case_of(BASE), out=out, mesh=mesh)
+    assert set(first.summary["cache"].values()) == {"computed"}
+    hotter = deep_merge(BASE, {"boundary": {"heater": {"value": 3.0}}})
+    second = run(case_of(hotter), out=out, mesh=mesh)
+    # only the solves ran again: clustering, reduction, REFs (and the quadric-free solar trace) came from out/.cache
+    assert second.summary["cache"] == {"cluster": "reused", "solar_detailed": "reused", "reduce": "reused",
+                                       "radiation": "reused"}
+    assert np.nanmax(second.T_nodes - first.T_nodes) > 0.1  # 1 W more heats the baffle
+    fresh = run(case_of(hotter), mesh=mesh, cache=False)  # the reused entries give exactly a fresh run's numbers
+    assert np.array_equal(second.T_recovered, fresh.T_recovered)
+    third = run(case_of(deep_merge(hotter, {"optics": {"paint": {"emissivity": 0.07}}})), out=out, mesh=mesh)
+    assert third.summary["cache"] == {"cluster": "reused", "solar_detailed": "reused", "reduce": "reused",
+                                      "radiation": "computed"}
+    assert len(list((out / ".cache").iterdir())) == 5  # cluster, solar, reduce, radiation x 2

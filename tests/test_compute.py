@@ -1,0 +1,147 @@
+"""Work units in-process or on a Dask cluster: bit-for-bit the same results, faults, unreachable schedulers.
+
+The clusters are real ``dask.distributed.LocalCluster`` s of single-threaded worker processes started here."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from fem2tmm.compute import DaskExecutor, SerialExecutor, current, open_executor, using
+from fem2tmm.errors import Fem2TmmError
+from fem2tmm.progress import reporting
+
+distributed = pytest.importorskip("distributed")
+
+
+def _scene():
+    """The demo baffle (5184 quads): every active side a REF node; a Sun 45° off the axis."""
+    from fem2tmm.demo import demo_case
+    from fem2tmm.fem.model import build_model
+    from fem2tmm.mesh.shapes import baffle
+    from fem2tmm.stages import radiation_surface
+
+    case = demo_case()
+    model = build_model(baffle(), case)
+    f = model.faces
+    groups = np.full(2 * f.n, -1, np.int64)
+    active = np.flatnonzero(f.active)
+    groups[active] = np.arange(active.size)
+    return radiation_surface(model), groups, case.environment.sun_direction
+
+
+def _trace(surface, groups, sun):
+    """An exchange run (~41 k rays) and a solar run (~20 k rays), both in batches of 4096 rays."""
+    from fem2tmm.radiation import trace_exchange
+    from fem2tmm.radiation.solar import trace_solar
+
+    ex = trace_exchange(surface, groups, rays_per_group=4, batch=4096, seed=3)
+    sol = trace_solar(surface, sun, 1000.0, rays_per_group=2, batch=4096, seed=3)
+    return ex, sol
+
+
+def _assert_identical(a, b):
+    ea, sa = a
+    eb, sb = b
+    for name in ("indptr", "indices", "data"):
+        assert np.array_equal(getattr(ea.tally, name), getattr(eb.tally, name))
+        assert np.array_equal(getattr(ea.GR, name), getattr(eb.GR, name))
+    assert ea.segments == eb.segments
+    assert np.array_equal(sa.absorbed_side, sb.absorbed_side) and sa.segments == sb.segments
+
+
+@pytest.fixture(scope="module")
+def serial_run():
+    surface, groups, sun = _scene()
+    assert isinstance(current(), SerialExecutor)
+    return (surface, groups, sun), _trace(surface, groups, sun)
+
+
+def _cluster(n):
+    cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                       silence_logs=50)
+    return DaskExecutor(distributed.Client(cluster), cluster)
+
+
+@pytest.fixture(scope="module")
+def cluster2():
+    ex = _cluster(2)
+    yield ex
+    ex.close()
+
+
+def test_a_worker_killed_mid_run_is_replaced_with_identical_results(serial_run, cluster2):
+    (surface, groups, sun), expected = serial_run
+    ex = cluster2
+    killed = []
+    pids = sorted(ex.client.run(os.getpid).values())
+
+    def kill_one(done, total, what):
+        if not killed and done >= 2 and done < total - 2:  # units still to run
+            os.kill(pids[0], signal.SIGKILL)
+            killed.append((done, total))
+
+    with using(ex), reporting(kill_one):
+        got = _trace(surface, groups, sun)
+    assert killed, "no worker was killed while units were pending"
+    _assert_identical(got, expected)  # the rays are the same on 2 workers, one of them killed, as in this process
+
+
+def test_ctrl_c_cancels_the_submitted_units(serial_run, cluster2):
+    (surface, groups, sun), _ = serial_run
+    ex = cluster2
+
+    def interrupt(done, total, what):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with using(ex), reporting(interrupt), pytest.raises(KeyboardInterrupt):
+        _trace(surface, groups, sun)
+    deadline = time.perf_counter() + 10.0
+    while any(ex.client.processing().values()) and time.perf_counter() < deadline:
+        time.sleep(0.1)
+    assert not any(ex.client.processing().values())  # nothing left running on the workers
+    assert not ex.client.who_has()  # no result or scattered scene left in the cluster
+
+
+def test_cli_unreachable_scheduler_exits_2_before_computing(tmp_path):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    case = tmp_path / "case.toml"
+    text = open(os.path.join(root, "examples", "baffle", "case.toml"), encoding="utf-8").read()
+    case.write_text(text.replace("../../meshes/baffle.msh", os.path.join(root, "meshes", "baffle.msh")),
+                    encoding="utf-8")
+    out = tmp_path / "out"
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "fem2tmm.cli", "run", str(case), "--out", str(out), "--quiet",
+                        "--scheduler", "tcp://127.0.0.1:9"], capture_output=True, text=True, timeout=60,
+                       env={**os.environ, "PYTHONPATH": os.path.join(root, "src")})
+    # the interpreter and the imports may take long on a loaded machine: the 10 s budget is checked in-process below
+    assert time.perf_counter() - t0 < 30.0
+    assert p.returncode == 2
+    assert p.stderr.count("\n") == 1 and "cannot reach the Dask scheduler" in p.stderr and "Traceback" not in p.stderr
+    assert not out.exists() and sorted(x.name for x in tmp_path.iterdir()) == ["case.toml"]
+
+
+def test_an_unreachable_scheduler_is_one_error_within_10_s():
+    t0 = time.perf_counter()
+    with pytest.raises(Fem2TmmError, match=r"cannot reach the Dask scheduler at tcp://127.0.0.1:9 within"):
+        open_executor("tcp://127.0.0.1:9")
+    assert time.perf_counter() - t0 < 10.0
+
+
+def test_serial_runs_never_import_dask():
+    code = ("import sys, numpy as np\n"
+            "from fem2tmm.radiation import exchange_factors\n"
+            "from fem2tmm.compute import map_units\n"
+            "exchange_factors(np.array([[0,0,0],[1,0,0],[0,1,0],[0,0,1.]]), [[0,1,2],[0,3,1]], rays_per_face=100)\n"
+            "assert map_units(abs, [-1, 2]) == [1, 2]\n"
+            "assert not any(m.split('.')[0] in ('dask', 'distributed') for m in sys.modules), 'dask imported'\n")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120,
+                   env={**os.environ, "PYTHONPATH": os.path.join(root, "src")})
