@@ -211,3 +211,29 @@ def test_composite_box_radiation_aware_converges_where_the_thesis_does_not():
     # elements: h_rad A / (k t) = 8.5·2.25e-4/0.005 = 0.38 at 280 K at most (measured 0.24)
     assert biot[40]["cluster_max"] > 1 > r.radiation_aware[0]["biot"]["cluster_max"]
     assert 0.1 < biot[40]["element_max"] < 0.5 and biot[40]["elements_over_1"] == 0
+
+
+def test_ir_on_detailed_runs_end_to_end_and_keeps_the_energy_balance():
+    # Two facing plates radiating to each other, the lower one heated: absorbed IR placed on the FE faces
+    # (ir_on = "detailed") goes through Y' (total kept) and the recovery; the reduced network still closes its
+    # energy balance, and the case refuses ir_on = "detailed" without the radiation-aware reduction.
+    a = meshes.plate(0.2, 0.2, 8, 8)
+    b = meshes.transform(meshes.plate(0.2, 0.2, 8, 8), rotation=meshes.rotation("x", 180.0), translation=(0, 0.2, 0.05))
+    mesh = meshes.merge(a, b)
+
+    def case(**rad):
+        return make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
+                           "back": "black", "super_nodes": 8}],
+                         [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
+                          {"kind": "power", "groups": ["plate"], "value": 2.0}],
+                         materials=MAT, environment={"sink_temperature": -270.0},
+                         radiation={"rays_per_face": 400, **rad}, reduction={"radiation_aware": True},
+                         reference={"detailed": True, "rays_per_face": 100})
+
+    res = run(case(ir_on="detailed", ir_rays_per_face=50), mesh=mesh)
+    s = res.summary
+    assert s["energy_balance_W"]["reduced"]["relative"] < 1e-9
+    assert s["accuracy"]["rms_K"] < s["accuracy"]["thesis_method"]["rms_K"]
+    with pytest.raises(Exception, match="radiation_aware"):
+        make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
+                    "super_nodes": 2}], materials=MAT, radiation={"ir_on": "detailed"})

@@ -282,7 +282,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             ir = None
             if trace and case.radiation.ir_on == "detailed":
                 with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
-                    ir = ir_absorption(model, rm, case, surface, scene=scene, sf=sf)
+                    ir = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
                 result.thesis_T_recovered = result.T_recovered
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
