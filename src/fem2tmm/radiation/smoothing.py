@@ -505,47 +505,57 @@ def _dot(a, b):
 
 
 @njit(cache=True, nogil=True)
-def _pcg(indptr, indices, data, d, g, rows, R, pre, b, rtol, maxiter, v, x):
+def _pcg_step(p, q, R, x, r, z, pre, rz):
+    """One conjugate-gradient update after q = GR-part of Q p: q += R p, then x, r, z = pre r, and p in place.
+    Returns (rz_new, ok)."""
+    k = p.shape[0]
+    pq = 0.0
+    for m in range(k):
+        q[m] += R[m] * p[m]
+        pq += p[m] * q[m]
+    if not pq > 0.0:
+        return rz, False
+    alpha = rz / pq
+    rz_new = 0.0
+    for m in range(k):
+        x[m] += alpha * p[m]
+        r[m] -= alpha * q[m]
+        z[m] = pre[m] * r[m]
+        rz_new += r[m] * z[m]
+    beta = rz_new / rz
+    for m in range(k):
+        p[m] = z[m] + beta * p[m]
+    return rz_new, True
+
+
+def _pcg(GR, d, rows, R, pre, b, rtol, maxiter, v, x, ranges) -> int:
     """Jacobi-preconditioned conjugate gradients for (diag(R) + D GR D) x = b on ``rows`` (k,) (the Newton system
     of :func:`_newton_scaling`): ``R``, ``pre`` (the inverse diagonal), ``b``, ``x`` (k,); stops when
-    |r| <= rtol |b| or after ``maxiter`` steps.  ``v`` (g,) zero scratch (left zero).  Returns the steps taken."""
-    k = rows.shape[0]
+    |r| <= rtol |b| or after ``maxiter`` steps.  The products with GR run on the row ``ranges`` in parallel
+    threads.  ``v`` (g,) zero scratch (left zero).  Returns the steps taken."""
+    g = GR.shape[0]
+    ip, ix, dv = GR.indptr, GR.indices, GR.data
     r = b.copy()
     x[:] = 0.0
     z = pre * r
     p = z.copy()
-    q = np.empty(k)
+    q = np.empty_like(b)
     rz = _dot(r, z)
     stop = rtol * math.sqrt(_dot(b, b))
     it = 0
     while it < maxiter and math.sqrt(_dot(r, r)) > stop:
-        for m in range(k):
-            v[rows[m]] = p[m]
-        _scaled_matvec(indptr, indices, data, d, g, rows, v, q)
-        pq = 0.0
-        for m in range(k):
-            q[m] += R[m] * p[m]
-            pq += p[m] * q[m]
-        if not pq > 0.0:
+        v[rows] = p
+        _run(lambda _, r0, r1: _scaled_matvec(ip, ix, dv, d, g, rows[r0:r1], v, q[r0:r1]), ranges)
+        rz, ok = _pcg_step(p, q, R, x, r, z, pre, rz)
+        if not ok:
             break
-        alpha = rz / pq
-        rz_new = 0.0
-        for m in range(k):
-            x[m] += alpha * p[m]
-            r[m] -= alpha * q[m]
-            z[m] = pre[m] * r[m]
-            rz_new += r[m] * z[m]
-        beta = rz_new / rz
-        for m in range(k):
-            p[m] = z[m] + beta * p[m]
-        rz = rz_new
         it += 1
-    for m in range(k):
-        v[rows[m]] = 0.0
+    v[rows] = 0.0
     return it
 
 
-def _newton_scaling(GR: sp.csr_matrix, d: np.ndarray, rows: np.ndarray, target: np.ndarray) -> None:
+def _newton_scaling(GR: sp.csr_matrix, d: np.ndarray, rows: np.ndarray, target: np.ndarray,
+                    threads: int = 2) -> None:
     """Scale ``d`` (g,) on ``rows`` (k,) in place towards d_r Σ_j GR_rj d_j = ``target`` (k,) > 0 (the other d
     fixed): inexact Newton in y = log d, each step a compiled conjugate-gradient solve of (diag(R) + D GR D) x =
     t - R to a relative accuracy about the current residual (so the early steps take few matrix products and the
@@ -558,10 +568,14 @@ def _newton_scaling(GR: sp.csr_matrix, d: np.ndarray, rows: np.ndarray, target: 
     k = rows.size
     R, diag, x = np.empty(k), np.empty(k), np.empty(k)
     v = np.zeros(g)
+    ones = np.ones(g)
+    work = np.zeros(k + 1, np.int64)
+    np.cumsum(ip[rows + 1] - ip[rows], out=work[1:])
+    ranges = _split(work, max(1, min(threads, k)))
 
     def residual(scales):
         d[rows] = scales
-        _scaled_row_sums(ip, ix, dv, d, g, rows, R)
+        _run(lambda _, r0, r1: _scaled_matvec(ip, ix, dv, d, g, rows[r0:r1], ones, R[r0:r1]), ranges)
         return (target - R) / target
 
     base = d[rows].copy()
@@ -572,7 +586,7 @@ def _newton_scaling(GR: sp.csr_matrix, d: np.ndarray, rows: np.ndarray, target: 
             return
         _scaled_diagonal(ip, ix, dv, d, rows, diag)
         pre = 1.0 / np.maximum(R + diag, np.finfo(float).tiny)
-        _pcg(ip, ix, dv, d, g, rows, R, pre, target - R, min(0.1, max(worst, 1e-12)), 500, v, x)
+        _pcg(GR, d, rows, R, pre, target - R, min(0.1, max(worst, 1e-12)), 500, v, x, ranges)
         if not np.all(np.isfinite(x)):
             break
         step = min(1.0, 2.0 / max(float(np.max(np.abs(x))), 1e-300))
