@@ -393,7 +393,8 @@ def test_cli_network_reduce_writes_decks_summary_and_report(ten_deck, tmp_path):
         assert all(abs(got[int(k)] - v) < 1e-6 for k, v in red_T.items()), name
     # a folder fem2tmm wrote (its .fem2tmm marker) is replaced; one holding a file of the user's is refused
     assert (out / ".fem2tmm").is_file()
-    assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 0
+    with pytest.warns(UserWarning, match="no node has a position"):  # without --coordinates nothing is sized
+        assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 0
     (out / "mine.txt").write_text("user file")
     assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 2
     assert (out / "mine.txt").read_text() == "user file"

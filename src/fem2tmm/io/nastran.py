@@ -5,21 +5,6 @@
 
 Cards read
 ----------
-GRID                       ID, CP, X1-X3 (CP: coordinate system of the position; CD, PS, SEID ignored)
-GRDSET                     default CP (and CD, ignored) for GRIDs whose CP field is blank
-CORD2R, CORD2C, CORD2S     rectangular, cylindrical (r, theta deg, z), spherical (r, theta deg, phi deg)
-                           systems given by three points A, B, C in a reference system RID; RID chains
-                           of any depth and in any order in the file; blank coordinates are 0.0
-CTRIA3, CQUAD4             -> ``tri3``, ``quad4``; THETA/MCID, ZOFFS, TFLAG and T1-T4 are tolerated and
-                           ignored; a blank PID means PID = EID (Nastran's default)
-CTETRA, CHEXA, CPENTA      -> ``tet4``, ``hex8``, ``wedge6`` (4, 8, 6 nodes; Nastran's node order is the
-                           VTK order of :mod:`fem2tmm.mesh.elements`); quadratic variants are an error
-PSHELL                     PID, MID1 (the membrane material, the one heat transfer uses), T
-PSOLID                     PID, MID
-MAT4                       MID, K, CP, RHO
-MAT1                       MID, RHO (E, G, NU, ... ignored); MAT4 values win when both exist
-=========================  ==========================================================================
-=======
 Every card is either modelled, read as a thermal joint or load, listed as ignored (non-structural: PARAM,
 loads, SEQGP, CONM2, ...: one warning, ``Mesh.cards["ignored"]``, summary.json ``mesh.ignored_cards``), or
 refused: a structural card fem2tmm does not model (RBAR, RBE1, MPC, CELAS3, CQUADX, any other element card)

@@ -135,6 +135,12 @@ def _validate(net: Network, settings: NetworkSettings) -> None:
 
 
 def _auto(net, cases, detailed, settings, pf, dtmax) -> NetworkReduction:
+    known = G.known_positions(net.coordinates, net.n)
+    if not known[~net.boundary].any():
+        import warnings
+
+        warnings.warn(f"{net.source}: no node has a position, so no coupling can be sized and nothing is condensed "
+                      "(Fernandez Rico 4.2.1); give --coordinates nodes.csv (columns node,x,y,z in m)", stacklevel=2)
     grouper = G.prepare(net, cases, crit=settings.criteria, mu=settings.mu,
                         internal_boundary=settings.internal_boundary, detailed=detailed)
     sw = G.sweep(grouper, settings.pf_values, settings.dtmax_values)
