@@ -152,3 +152,110 @@ if __name__ == "__main__":  # pragma: no cover
     else:
         for row in bench_cluster(args or ("1e5", "1e6", "tet3e5")):
             print(json.dumps(row))
+
+
+def _metis_whole(points, cells, types, weights, k, seed=0):
+    """pymetis k-way on a whole part's dual graph (area vertex weights, no region cuts): the issue's baseline.
+    Returns labels; the time includes building the dual graph."""
+    import pymetis
+    import scipy.sparse as sp
+
+    from fem2tmm.cluster.adjacency import dual_graph
+
+    g = dual_graph(points, cells, types, "shell")
+    m = len(cells)
+    A = sp.coo_matrix((np.ones(len(g.a)), (g.a, g.b)), shape=(m, m))
+    A = (A + A.T).tocsr()
+    vw = np.maximum(1, np.rint(weights / weights.mean() * 1000)).astype(np.int64)
+    _, parts = pymetis.part_graph(k, adjacency=pymetis.CSRAdjacency(A.indptr, A.indices), vweights=vw,
+                                  options=pymetis.Options(seed=seed))
+    return np.asarray(parts, np.int64)
+
+
+def _quality(labels, areas, regions, k):
+    a = np.bincount(labels, areas, minlength=k)
+    spans = np.bincount(np.unique(labels * (regions.max() + 1) + regions) // (regions.max() + 1), minlength=k)
+    return {"area_cv": float(a.std() / a.mean()), "clusters_crossing_regions": int((spans > 1).sum())}
+
+
+def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True) -> list[dict]:
+    """Clustering time and balance against METIS in one run (issue 21), and the reduced error with each.
+
+    * ``baffle``: the baffle mesh (18 404 quads) -> 100 clusters with ``method="growing"`` (balanced, default),
+      the thesis scheme (``balance=False``), ``method="metis"`` (pymetis per region) and pymetis k-way on the
+      whole part with area weights (the issue's baseline: it crosses sharp edges); warm timings (the compiled
+      kernels loaded by a first call), median of 3; area CV; clusters crossing a region border (sharp edge or
+      junction);
+    * ``1e6``: a plate of 10⁶ quads -> 1000, balanced growing against pymetis k-way (one run each);
+    * ``accuracy``: examples/baffle/case_100.toml run with fem2tmm's clusters and with the whole-part METIS
+      labels (``run(labels=...)``), both against the same independent reference (its noise reported).
+    """
+    import time
+
+    from fem2tmm.cluster import PartInput, cluster_parts
+    from fem2tmm.io import read_mesh
+
+    from .cases import REPO
+
+    def _repo_file(*parts):
+        return str(REPO.joinpath(*parts))
+
+    rows = []
+    if "baffle" in sizes or accuracy:
+        mesh = read_mesh(_repo_file("meshes", "baffle.msh"), unit="mm")
+        groups = ["aperture_lip", "front_cone", "outer_skin", "main_cone", "middle_annulus", "back_annulus"]
+        el = np.unique(np.concatenate([mesh.group(g).elements for g in groups]))
+        cells, types = mesh.padded_cells[el], mesh.element_types[el]
+        areas = mesh.element_areas(el)
+        part = PartInput("baffle", "shell", el, cells, types, 100)
+        regions = cluster_parts(mesh.points, [part], mesh.n_elements).regions[el]  # also loads the kernels
+        variants = {
+            "growing_balanced": lambda: cluster_parts(mesh.points, [part], mesh.n_elements).labels[el],
+            "growing_thesis": lambda: cluster_parts(mesh.points, [part], mesh.n_elements, balance=False).labels[el],
+            "metis_per_region": lambda: cluster_parts(mesh.points, [part], mesh.n_elements, method="metis").labels[el],
+            "pymetis_whole_part": lambda: _metis_whole(mesh.points, cells[:, :4], types, areas, 100),
+        }
+        labels = {}
+        for name, fn in variants.items():
+            times = []
+            for _ in range(3):
+                t = time.perf_counter()
+                labels[name] = fn()
+                times.append(time.perf_counter() - t)
+            rows.append({"bench": "cluster_metis", "mesh": "baffle", "elements": len(el), "clusters": 100,
+                         "method": name, "median_s": float(np.median(times)), **_quality(labels[name], areas, regions, 100)})
+        base = next(r["median_s"] for r in rows if r["method"] == "pymetis_whole_part")
+        for r in rows:
+            r["time_ratio_to_pymetis"] = r["median_s"] / base
+    if "1e6" in sizes:
+        from fem2tmm.mesh import shapes
+
+        plate = shapes.plate(1.0, 1.0, 1000, 1000)
+        m = plate.n_elements
+        areas = plate.element_areas()
+        part = PartInput("plate", "shell", np.arange(m), plate.padded_cells, plate.element_types, 1000)
+        t = time.perf_counter()
+        lab = cluster_parts(plate.points, [part], m).labels
+        t_ours = time.perf_counter() - t
+        t = time.perf_counter()
+        lab_m = _metis_whole(plate.points, plate.padded_cells[:, :4], plate.element_types, areas, 1000)
+        t_m = time.perf_counter() - t
+        zero = np.zeros(m, np.int64)
+        for name, lb, tt in (("growing_balanced", lab, t_ours), ("pymetis_whole_part", lab_m, t_m)):
+            rows.append({"bench": "cluster_metis", "mesh": "plate_1e6", "elements": m, "clusters": 1000,
+                         "method": name, "wall_s": tt, "time_ratio_to_pymetis": tt / t_m, **_quality(lb, areas, zero, 1000)})
+    if accuracy:
+        from fem2tmm.case import Case
+        from fem2tmm.pipeline import run
+
+        case = Case.from_toml(_repo_file("examples", "baffle", "case_100.toml"))
+        full = np.full(mesh.n_elements, -1, np.int64)
+        for name in ("growing_balanced", "pymetis_whole_part"):
+            lab = full.copy()
+            lab[el] = labels[name]
+            res = run(case, labels=None if name == "growing_balanced" else lab)
+            a = res.summary["accuracy"]
+            rows.append({"bench": "cluster_metis_accuracy", "case": "examples/baffle/case_100.toml", "clusters": name,
+                         "rms_K": a["rms_K"], "max_K": a["max_K"], "reference_noise_rms_K": a["reference_noise_rms_K"],
+                         "excludes": a["excludes"]})
+    return rows

@@ -31,6 +31,8 @@ REGISTRY: dict[str, str] = {
     "pipeline_1m": "benchmarks.pipeline:bench_pipeline_1m",
     "nastran": "benchmarks.io:bench_nastran",
     "cluster": "benchmarks.cluster:bench_cluster",
+    "cluster_metis": "benchmarks.cluster:bench_cluster_metis",
+    "accuracy": "benchmarks.accuracy:bench_accuracy",
     "reduce": "benchmarks.reduce:bench_reduce",
     "rays": "benchmarks.radiation:bench_rays",
     "solar": "benchmarks.solar:bench_solar",

@@ -479,7 +479,9 @@ def test_user_labels_route_into_run_validated_and_equal_to_the_same_partition_co
     from conftest import make_case
     from fem2tmm.pipeline import run
 
-    plate = shapes.plate(0.4, 0.2, 20, 10)
+    # two plates at 90° (two regions): user clusters are not bound to the regions (the strips below cross the fold)
+    plate = shapes.merge(shapes.plate(0.4, 0.2, 20, 10),
+                         shapes.transform(shapes.plate(0.4, 0.2, 20, 10), rotation=shapes.rotation("x", 90.0)))
     case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
                        "back": "black", "super_nodes": 6}],
                      [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
@@ -495,8 +497,9 @@ def test_user_labels_route_into_run_validated_and_equal_to_the_same_partition_co
     col = (plate.element_centroids()[:, 0] // 0.1).astype(np.int64)
     strips = run(case, mesh=plate, labels=col)
     assert strips.summary["reduced"]["super_nodes"] == 4
-    assert strips.summary["reduced"]["clustering"]["parts"][0]["contiguous"] is True
-    with pytest.raises(Fem2TmmError, match="200 integer cluster labels"):
+    rep = strips.summary["reduced"]["clustering"]["parts"][0]
+    assert rep["contiguous"] is True and rep["clusters_crossing_regions"] == 4
+    with pytest.raises(Fem2TmmError, match="400 integer cluster labels"):
         run(case, mesh=plate, labels=col[:-1])
     with pytest.raises(Fem2TmmError, match="not used"):
         run(case, mesh=plate, labels=np.where(col == 1, 7, col))  # 1 unused, 7 used

@@ -136,6 +136,10 @@ class RadiationSettings:
     seed: int = 0
     max_bounces: int = 1000
     target_lse: float | None = None
+    # where the reduced model puts absorbed IR: "super_faces" (thesis: uniform over each super node) or
+    # "detailed" (rays from the super faces tallied on the FE face sides that absorb them; needs radiation_aware)
+    ir_on: str = "super_faces"
+    ir_rays_per_face: int = 100  # ir_on = "detailed": rays per FE face of each emitting super face
 
 
 @dataclass(frozen=True)
@@ -441,6 +445,14 @@ class _Parser:
         if not isinstance(j_raw, list):
             raise self.err("[[joints]]", "expected an array of tables ([[joints]] entries)")
         joints = tuple(self.joint(i, j) for i, j in enumerate(j_raw))
+        radiation, reduction = self.radiation(top.get("radiation", {})), self.reduction(top.get("reduction", {}))
+        if radiation.ir_on == "detailed" and not (reduction.radiation_aware and radiation.enabled):
+            raise self.err("[radiation].ir_on", '"detailed" places absorbed IR on the FE faces through the '
+                           "radiation-aware reduction: set [reduction] radiation_aware = true (and keep [radiation] "
+                           "enabled)")
+        if reduction.radiation_aware and transient is not None:
+            raise self.err("[reduction].radiation_aware", "the radiation-aware reduction is for steady runs; remove "
+                           "it or the [transient] section")
         return Case(
             source=self.src,
             mesh=mesh,
@@ -450,8 +462,8 @@ class _Parser:
             boundaries=boundaries,
             joints=joints,
             environment=self.environment(top.get("environment", {})),
-            radiation=self.radiation(top.get("radiation", {})),
-            reduction=self.reduction(top.get("reduction", {})),
+            radiation=radiation,
+            reduction=reduction,
             clustering=self.clustering(top.get("clustering", {})),
             reference=self.reference(top.get("reference", {})),
             solver=self.solver(top.get("solver", {})),
@@ -709,7 +721,8 @@ class _Parser:
 
     def radiation(self, d) -> RadiationSettings:
         w = "[radiation]"
-        d = self.table(d, w, {"enabled", "rays_per_face", "ray_density", "sampling", "seed", "max_bounces", "target_lse"})
+        d = self.table(d, w, {"enabled", "rays_per_face", "ray_density", "sampling", "seed", "max_bounces", "target_lse",
+                              "ir_on", "ir_rays_per_face"})
         rpf = self.number(d, "rays_per_face", w, lo=1, integer=True)
         dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
         if rpf is not None and dens is not None:
@@ -725,6 +738,8 @@ class _Parser:
             seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
             max_bounces=self.number(d, "max_bounces", w, default=D("max_bounces"), lo=1, integer=True),
             target_lse=self.number(d, "target_lse", w, lo=0, lo_open=True),
+            ir_on=self.string(d, "ir_on", w, default="super_faces", choices=("super_faces", "detailed")),
+            ir_rays_per_face=self.number(d, "ir_rays_per_face", w, default=100, lo=1, integer=True),
         )
 
     def reduction(self, d) -> ReductionSettings:

@@ -31,10 +31,10 @@ from .result import CasesResult, Result
 from .solve.steady import check_solvable, solve_steady
 from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
                      detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key,
-                     mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced, positive_reduced,
-                     quadric_regions, radiation_aware_network, radiation_surface, reduce_key, reduced_problem,
-                     reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass, super_face_orbit,
-                     super_face_solar, trace_key, tracer_settings)
+                     ir_absorption, mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced,
+                     positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
+                     reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
+                     super_face_orbit, super_face_solar, trace_key, tracer_settings)
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
@@ -279,11 +279,15 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if case.reduction.radiation_aware:
+            ir = None
+            if trace and case.radiation.ir_on == "detailed":
+                with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
+                    ir = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
                 result.thesis_T_recovered = result.T_recovered
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
-                                            result.T_recovered))
+                                            result.T_recovered, ir))
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
                 result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,

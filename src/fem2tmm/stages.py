@@ -10,6 +10,7 @@ reads the case's settings and the FE model and returns arrays or the stage's own
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -17,13 +18,16 @@ import scipy.sparse as sp
 
 from .cache import digest
 from .case import Case, RadiationSettings
+from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .errors import Fem2TmmError, InternalError
+from .mesh.elements import SHELL_TYPES, TYPE_CODE
 from .fem.model import FEModel, boundary_load
 from .radiation import ExchangeResult, Surface, trace_exchange
+from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, build_reduced, determined_elements, kept_dofs, super_faces
+from .reduce.network import ReducedModel, build_reduced, determined_elements, face_owner, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
                               solve_transient)
@@ -670,8 +674,79 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
 OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this
 
 
+@dataclass(frozen=True)
+class IRAbsorption:
+    """Where the super faces' IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"``).
+
+    ``A`` (n_sf, 2f) csr: fraction of super face s's emitted energy absorbed by FE side k; ``owner`` (n_sf,) the
+    super node of each super face; ``eps_area`` (n_sf,) m² its emitting εA.
+    """
+
+    A: sp.csr_matrix
+    owner: np.ndarray
+    eps_area: np.ndarray
+
+    def face_power(self, T_sn: np.ndarray, T_sink: float) -> np.ndarray:
+        """(f,) W absorbed by each FE face (both sides) when each super face emits σ εA (T_SN⁴ − T_sink⁴)."""
+        emitted = SIGMA * self.eps_area * (T_sn[self.owner] ** 4 - T_sink**4)
+        return np.asarray(self.A.T @ emitted).ravel().reshape(-1, 2).sum(axis=1)
+
+
+def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                  sf: tuple[np.ndarray, np.ndarray] | None = None) -> IRAbsorption:
+    """Trace the super faces once more (own random stream; ``[radiation] ir_rays_per_face`` rays per FE face of each
+    super face, so every FE side receives enough rays for its own absorbed power) and tally each ray on the FE side
+    that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`)."""
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
+    A, _, eps = trace_absorption(surface, groups, scene=scene,
+                                 rays_per_group=np.maximum(faces_per_group * case.radiation.ir_rays_per_face, 1),
+                                 **tracer_settings(case, exchange=False, role="absorption"))
+    return IRAbsorption(A=A, owner=np.asarray(owner, np.int64), eps_area=eps)
+
+
+def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
+    """Biot numbers ``Bi = h_rad A / (k t)`` of the shell elements and of the clusters, from the linearised emission.
+
+    ``h_dof`` (n_dof,) W/K: the linearised emission 4σεA·T³ lumped to the DOFs (:class:`RadiationAware` ``h``).
+    An element's ``k t`` is read off its conduction matrix (a bilinear quad's diagonal is 2/3 k t, a linear
+    triangle's about the same: ``k t ≈ 1.5 · trace(K_e) / n_nodes``); its ``h_rad A`` is its nodes' h shared by
+    area.  A cluster's Bi is Σ h_rad A over its elements / its mean k t: ``(size / fin length)²``, the number the
+    uniform-load assumption of the thesis' reduction needs small.  Elements with Bi > 1 mean the mesh itself does
+    not resolve the fin length √(k t / h_rad).  Returns ``{"element_max", "elements_over_1", "cluster_max",
+    "cluster_median"}`` (shell elements only; None without any).
+    """
+    coo = model.coo
+    m = len(model.elements)
+    diag = coo.rows == coo.cols
+    trace = np.bincount(coo.elem[diag], coo.vals[diag], minlength=m)
+    n_nodes = np.count_nonzero(model.element_dofs >= 0, axis=1)
+    kt = 1.5 * trace / np.maximum(n_nodes, 1)
+    # h per element: each DOF's h shared among its elements by their nodal volume shares
+    shares = model.volume_shares
+    ed = model.element_dofs
+    ok = ed >= 0
+    tot = np.bincount(ed[ok], shares[ok], minlength=model.n_dof)
+    frac = np.where(ok, shares / np.where(ok, tot[np.maximum(ed, 0)], 1.0), 0.0)
+    h_el = (frac * np.where(ok, h_dof[np.maximum(ed, 0)], 0.0)).sum(axis=1)
+    shell = np.isin(model.element_types, [TYPE_CODE[t] for t in SHELL_TYPES])
+    live = shell & (kt > 0) & (rm.element_cluster >= 0)
+    if not live.any():
+        return {"element_max": None, "elements_over_1": 0, "cluster_max": None, "cluster_median": None}
+    bi_el = h_el[live] / kt[live]
+    cl = rm.element_cluster[live]
+    k = int(cl.max()) + 1
+    cnt = np.bincount(cl, minlength=k)
+    bi_cl = np.bincount(cl, h_el[live], minlength=k) / np.maximum(np.bincount(cl, kt[live], minlength=k) / np.maximum(cnt, 1), 1e-300)
+    bi_cl = bi_cl[cnt > 0]
+    return {"element_max": float(bi_el.max()), "elements_over_1": int((bi_el > 1).sum()),
+            "cluster_max": float(bi_cl.max()), "cluster_median": float(np.median(bi_cl))}
+
+
 def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
-                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray
+                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray,
+                            ir: IRAbsorption | None = None
                             ) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
     """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
 
@@ -684,6 +759,10 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     T_ref : (n_dof,) K the pre-solve's recovered field; the emission is linearised about it, then about each
         outer iteration's field: at most ``[reduction] outer_iterations`` reductions and network solves, fewer
         once the field moves less than :data:`OUTER_TOLERANCE`
+    ir : where the absorbed IR lands (``ir_on = "detailed"``), or None (thesis: uniform per super node).  Given,
+        the absorbed power of every FE face at the reference state, q_abs, goes through the exact power
+        distribution like a known load: ``Y' q_abs − S q_abs`` (S: sum per super node) is added to the network's
+        loads (it moves power within and between super nodes, the total is kept) and q_abs to the recovery
 
     Returns
     -------
@@ -691,26 +770,46 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
     (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
     """
-    import dataclasses
-
     from .reduce.conduction import blas_threads
 
-    e_sn = rm.g_space + (0.0 if rm.GR is None else np.asarray(rm.GR).sum(axis=1))
     history: list[dict] = []
+    f = model.faces
+    owner_face = None
     for it in range(max(int(case.reduction.outer_iterations), 1)):
         # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically
-        ra_rm = dataclasses.replace(build_reduced(model, clustering, case, T_ref=T_ref), GR=rm.GR, g_space=rm.g_space)
+        ra_rm = build_reduced(model, clustering, case, T_ref=T_ref)
+        # the super nodes' full emitting εA (the untraced g_space of build_reduced): the network's GR lacks the
+        # self-exchange of a concave super node, whose lumped absorption cancels it (module docstring)
+        e_sn = ra_rm.g_space
+        ra_rm = dataclasses.replace(ra_rm, GR=rm.GR, g_space=rm.g_space)
         ra = ra_rm.radiative
         T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, ra_rm.supernodes.A @ T_ref)
         corr = ra.correction(T_ref, T_sn_ref, e_sn)
+        q_rec = q_detailed
+        if ir is not None:
+            if owner_face is None:
+                owner_face = face_owner(model, ra_rm.supernodes, ra_rm.element_cluster)
+            p_face = ir.face_power(T_sn_ref, model.T_sink)
+            q_abs = np.asarray(f.W.T @ p_face).ravel()
+            corr = corr + ra.reduction.distribute(q_abs) - np.bincount(owner_face, p_face, minlength=ra_rm.n)
+            q_rec = q_detailed + q_abs
         ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
         with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
             sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
-        T = ra.recover(sol.T, q_detailed, T_ref)
+        T = ra.recover(sol.T, q_rec, T_ref)
         d = T - T_ref
         history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
                         "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
                         "correction_W": float(np.abs(corr).sum())})
+        if it == 0:
+            biot = biot_numbers(model, ra_rm, ra.h)
+            history[-1]["biot"] = biot
+            if biot["elements_over_1"]:
+                import warnings
+
+                warnings.warn(f"{biot['elements_over_1']} shell elements have a Biot number h_rad A/(k t) > 1 (max "
+                              f"{biot['element_max']:.3g}): the mesh does not resolve the fin length "
+                              "sqrt(k t / h_rad) of its thin radiating panels; refine it there", stacklevel=2)
         T_ref = T
         if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
             break

@@ -543,8 +543,9 @@ def from_labels(points: np.ndarray, parts: Sequence[PartInput], n_elements: int,
                            f"(-1 for elements outside the parts), got shape {labels.shape} and dtype {labels.dtype}")
     labels = labels.astype(np.int64)
     points = np.asarray(points, float)
+    # n_clusters = the element count: only so that the regions' allocation (unused here) is always defined
     parts = [PartInput(p.name, p.kind, np.asarray(p.elements, np.int64), np.asarray(p.cells, np.int64),
-                       np.asarray(p.types, np.int8), 1, p.attribute, p.ids, None) for p in parts]
+                       np.asarray(p.types, np.int8), len(p.elements), p.attribute, p.ids, None) for p in parts]
     for p in parts:
         _check_part(points, p, n_elements)
         bad = labels[p.elements] < 0

@@ -630,7 +630,7 @@ def trace_exchange(surface: Surface, groups, rays_per_group=None, ray_density: f
 def trace_absorption(surface: Surface, groups, rays_per_group=None, ray_density: float | None = None,
                      sampling: str = "halton", seed: int = 0, max_bounces: int = MAX_BOUNCES, batch: int = BATCH,
                      threads: int = 2, backend: str = "auto", scene: TriangleScene | None = None,
-                     stream: int = 7) -> tuple[sp.csr_matrix, np.ndarray]:
+                     stream: int = 7) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
     """Where each group's emitted IR is absorbed, side by side: the per-side counterpart of the REFs.
 
     The groups (super faces) emit as in :func:`trace_exchange` (origins ∝ ε·A over the group, cosine directions,
@@ -642,6 +642,7 @@ def trace_absorption(surface: Surface, groups, rays_per_group=None, ray_density:
     -------
     A : (g, 2f) csr, fraction of group i's emitted energy absorbed by side k (raw: ray counts / rays traced)
     rest : (g, 3) fractions that escaped to space, were blocked by inactive sides, or were capped
+    eps_area : (g,) m², the emitting εA of each group
     """
     check.choice("sampling", sampling, SAMPLINGS)
     groups, g = check.side_groups(groups, surface.n_faces)
@@ -652,7 +653,7 @@ def trace_absorption(surface: Surface, groups, rays_per_group=None, ray_density:
     inv_n = np.where(rays > 0, 1.0 / np.maximum(rays, 1), 0.0)
     frac = sp.diags(inv_n) @ tally.tocsr()
     ns = tracer.n_cols
-    return frac[:, :ns].tocsr(), np.asarray(frac[:, ns:].todense())
+    return frac[:, :ns].tocsr(), np.asarray(frac[:, ns:].todense()), tracer.emitters.weight.copy()
 
 
 def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity=0.0, super_faces=None,

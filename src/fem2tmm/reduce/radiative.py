@@ -56,10 +56,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..constants import SIGMA
 from ..fem.assembly import ElementCOO
 from .conduction import ConductiveReduction
-
-SIGMA = 5.670374419e-8  # W/(m² K⁴), CODATA 2018
 
 
 def emission_weights(face_W, eps_area: np.ndarray) -> np.ndarray:

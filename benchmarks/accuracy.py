@@ -1,0 +1,115 @@
+"""``fem2tmm bench accuracy``: error against the number of super nodes, thesis' reduction and radiation-aware one.
+
+Studies (issue 21), each run from its example case file with every panel part at n super nodes:
+
+* ``composite`` (examples/composite/case.toml): thin composite panels (k = 5 W/(m K)) on a held deck, white paint,
+  a heater: Biot number per super node ≫ 1; radiation-aware with IR on the FE faces;
+* ``composite_k170``: the same box in aluminium (k = 170), where the thesis' reduction already works;
+* ``baffle_eui`` (examples/baffle/case_eui.toml): the EUI entrance baffle with the thesis' optics (§3.3);
+* ``truss`` (examples/truss/case.toml, radiation-aware switched on): solids.
+
+Every run gives both methods with the same clusters (the radiation-aware run solves the thesis' reduced model
+first and reports it as ``accuracy.thesis_method``) and the reference's own noise (two independent half
+references).  The log-log slope of RMS against n_SN is fitted on the points above 3x the reference noise only.
+A PNG of the convergence curves is written to ``$FEM2TMM_BENCH_DIR`` (default: the current folder).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+
+import numpy as np
+
+STUDIES = {
+    "composite": ("examples/composite/case.toml", (10, 25, 50, 100, 200, 300, 1000), {}),
+    "composite_k170": ("examples/composite/case.toml", (25, 100, 300), {"conductivity": 170.0}),
+    "baffle_eui": ("examples/baffle/case_eui.toml", (10, 20, 50, 100, 200), {}),
+    "truss": ("examples/truss/case.toml", (10, 100), {"radiation_aware": True}),
+}
+
+
+def _case(path: str, n: int, opts: dict):
+    from fem2tmm.case import Case
+
+    from .cases import REPO
+
+    case = Case.from_toml(REPO.joinpath(*path.split("/")))
+    parts = tuple(dataclasses.replace(p, super_nodes=n) if p.super_nodes > 1 else p for p in case.parts)
+    case = dataclasses.replace(case, parts=parts)
+    if "conductivity" in opts:
+        mats = {k: dataclasses.replace(m, conductivity=opts["conductivity"]) for k, m in case.materials.items()}
+        case = dataclasses.replace(case, materials=mats)
+    if opts.get("radiation_aware"):
+        case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
+    return case
+
+
+def slope_above_noise(n: list[int], rms: list[float], noise: float) -> float | None:
+    """Least-squares log-log slope −d ln(RMS)/d ln(n_SN) over the points with RMS > 3 × ``noise`` (None if < 2)."""
+    keep = [(a, b) for a, b in zip(n, rms) if b is not None and b > 3 * noise]
+    if len(keep) < 2:
+        return None
+    x, y = np.log([k[0] for k in keep]), np.log([k[1] for k in keep])
+    return float(-np.polyfit(x, y, 1)[0])
+
+
+def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
+    """One row per (study, n_SN) and one summary row per study (slopes above 3x the noise); writes the plot."""
+    from fem2tmm.pipeline import run
+
+    rows, curves = [], {}
+    for name in studies:
+        path, ns, opts = STUDIES[name]
+        pts = []
+        for n in ns:
+            case = _case(path, n, opts)
+            t0 = time.perf_counter()
+            res = run(case)
+            wall = time.perf_counter() - t0
+            a = res.summary["accuracy"]
+            th = a.get("thesis_method") or {}
+            row = {"bench": "accuracy", "study": name, "super_nodes": res.summary["reduced"]["super_nodes"],
+                   "requested": n, "rms_K": a["rms_K"], "max_K": a["max_K"], "thesis_rms_K": th.get("rms_K"),
+                   "thesis_max_K": th.get("max_K"), "reference_noise_rms_K": a.get("reference_noise_rms_K"),
+                   "radiation_share": a.get("radiation_share"), "excludes": a.get("excludes"),
+                   "outer_steps_K": [round(h["max_dT_K"], 4) for h in (res.radiation_aware or [])],
+                   "negative_links": res.summary["reduced"]["negative_links"], "wall_s": round(wall, 1),
+                   "timings_s": {k: round(v, 2) for k, v in res.summary["timings_s"].items()}}
+            rows.append(row)
+            pts.append(row)
+            print("BENCH_PROGRESS", name, n, round(a["rms_K"], 4), th.get("rms_K"), flush=True)
+        noise = max(p["reference_noise_rms_K"] or 0.0 for p in pts)
+        n_sn = [p["super_nodes"] for p in pts]
+        rows.append({"bench": "accuracy_fit", "study": name, "reference_noise_rms_K": noise,
+                     "slope_radiation_aware": slope_above_noise(n_sn, [p["rms_K"] for p in pts], noise),
+                     "slope_thesis": slope_above_noise(n_sn, [p["thesis_rms_K"] for p in pts], noise),
+                     "fit_rule": "log-log least squares over the points with RMS > 3x the reference noise"})
+        curves[name] = (n_sn, [p["rms_K"] for p in pts], [p["thesis_rms_K"] for p in pts], noise)
+    rows.append({"bench": "accuracy_plot", "png": _plot(curves)})
+    return rows
+
+
+def _plot(curves: dict) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(curves), figsize=(4.2 * len(curves), 3.8), squeeze=False)
+    for ax, (name, (n, ra, th, noise)) in zip(axes[0], curves.items()):
+        ax.loglog(n, th, "s--", label="thesis' reduction")
+        ax.loglog(n, ra, "o-", label="radiation-aware")
+        if noise > 0:
+            ax.axhline(noise, color="grey", lw=1, ls=":", label="reference noise (RMS)")
+        ax.set_title(name)
+        ax.set_xlabel("super nodes")
+        ax.set_ylabel("RMS error (K)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    out = os.path.join(os.environ.get("FEM2TMM_BENCH_DIR", "."), "bench_accuracy.png")
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return os.path.abspath(out)
