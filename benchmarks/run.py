@@ -41,6 +41,7 @@ REGISTRY: dict[str, str] = {
     "cases": "benchmarks.loadcases:bench_cases",
     "network_positive": "benchmarks.network:bench_network_positive",
     "transient": "benchmarks.transient:bench_transient",
+    "orbit": "benchmarks.orbit:bench_orbit",
 }
 
 
