@@ -281,6 +281,23 @@ class Case:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Case":
+        """Read and validate a case file (docs/case-file.md).
+
+        Parameters
+        ----------
+        path : str or Path
+            TOML case file; relative paths inside it start at its folder.
+
+        Returns
+        -------
+        Case
+            Every section validated, defaults filled in (SI units, temperatures in K).
+
+        Raises
+        ------
+        Fem2TmmError
+            Missing or unreadable file, invalid TOML, or an invalid key or value (named with file and key).
+        """
         path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")
@@ -296,6 +313,26 @@ class Case:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], base_dir: str | Path = ".", source: str = "<case>") -> "Case":
+        """Build and validate a case from the parsed TOML tables (same keys as the case file).
+
+        Parameters
+        ----------
+        data : mapping
+            ``{section: {key: value}}`` as :func:`tomllib.loads` returns it.
+        base_dir : str or Path
+            Folder that relative paths (mesh file, ...) start from.
+        source : str
+            Name used in error messages (the file path for :meth:`from_toml`).
+
+        Returns
+        -------
+        Case
+
+        Raises
+        ------
+        Fem2TmmError
+            An unknown, missing or invalid key or value, naming ``source`` and the key.
+        """
         return _Parser(source, Path(base_dir)).case(data)
 
     def with_changes(self, **sections) -> "Case":

@@ -63,6 +63,34 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     :class:`~fem2tmm.result.Result`.  Stage results are shared between cases and runs through the stage cache
     (:mod:`fem2tmm.cache`): ``cache`` a folder, default ``<out>/.cache`` (memory only without ``out``), False
     for none.  The work units run where ``[compute] scheduler`` says (:mod:`fem2tmm.compute`).
+
+    Parameters
+    ----------
+    case : Case
+        The validated case (:meth:`Case.from_toml` / :meth:`Case.from_dict`).
+    out : str or Path, optional
+        Output folder, written atomically once every stage succeeded; None writes nothing.
+    mesh : Mesh, optional
+        Mesh in metres replacing ``[mesh] file``.
+    quiet : bool
+        No progress lines on stderr.
+    reference : bool, optional
+        Overrides ``[reference] detailed`` (the detailed FE reference solve).
+    labels : (n_elements,) int array, optional
+        User partition into super nodes, -1 outside the parts.
+    cache : str, Path or bool, optional
+        Stage cache folder; None: ``<out>/.cache`` (memory only without ``out``); False: no cache.
+
+    Returns
+    -------
+    Result or CasesResult
+        Temperatures in K (``T_reduced`` (n_super_nodes,), recovered FE temperatures (n_nodes,)), the reduced
+        network and ``summary``; a :class:`~fem2tmm.result.CasesResult` for multi-case files.
+
+    Raises
+    ------
+    Fem2TmmError
+        Bad input (case, mesh, labels, output place), raised before any long computation.
     """
     from .cache import CACHE_DIR, StageCache
     from .compute import executing

@@ -492,6 +492,12 @@ def partition(points: np.ndarray, cells: np.ndarray, n_clusters: int, kind: str 
     labels : (m,) int64 in 0..n_clusters-1; every cluster non-empty and contiguous (edge-adjacent for
         shells, face-adjacent for solids)
     regions : (m,) int64, only with ``return_regions=True``
+
+    Raises
+    ------
+    Fem2TmmError
+        Unknown ``kind``, ``cells`` not a 2-D integer array of a supported width, or weights that are not
+        one finite positive number per element.
     """
     cells = np.asarray(cells)
     if kind not in _KIND_TYPES:

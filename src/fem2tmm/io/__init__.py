@@ -38,6 +38,25 @@ def read_mesh(path: str | Path, unit: str = "m", **options) -> Mesh:
     ``unit`` is the length unit of the file; the returned :class:`~fem2tmm.mesh.Mesh` is in metres.
     ``options`` go to :func:`fem2tmm.io.nastran.read_nastran` (``unit_system``, ``temperature_unit``,
     ``loads``, ``ignore_cards``, ``strict``, ``load_set``, ``spc_set``); Gmsh files take none.
+
+    Parameters
+    ----------
+    path : str or Path
+        Mesh file; ``.msh`` is read as Gmsh, any other suffix is recognised by its content.
+    unit : str
+        Length unit of the file ("m", "mm", ...); coordinates are converted to metres.
+    **options
+        Nastran reader options (see above).
+
+    Returns
+    -------
+    Mesh
+        Nodes (n, 3) in m, element blocks and named groups; validated once when built.
+
+    Raises
+    ------
+    Fem2TmmError
+        Missing or empty file, unrecognised format (e.g. an Abaqus deck), or an invalid mesh.
     """
     path = Path(path)
     suffix = path.suffix.lower()

@@ -172,6 +172,33 @@ def orbital_fluxes(points, faces, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     Returns :class:`OrbitalFluxes` with ``incident[kind]`` and ``absorbed[kind]`` (k, m) W per position and face
     and the position table (``positions.true_anomaly`` deg, ``positions.time`` s, ``positions.eclipse``, ``sun``
     and ``nadir`` (k, 3) in the mesh frame).
+
+    Parameters
+    ----------
+    points : (n, 3) float, m
+    faces : (m, 3) or (m, 4) int
+    orbit : Orbit
+    attitude : Attitude
+    kinds : sequence of {"solar", "albedo", "ir"}
+    absorptivity, emissivity, specular : float or (m,) float
+        Solar absorptivity, infrared emissivity, specular fraction of the reflected energy (dimensionless).
+    rays_per_face : int
+        Ray origins per face and orbit position.
+    seed : int
+    ray_density : float, optional
+        Rays per m² instead of ``rays_per_face``.
+    sampling : {"halton", "random"}
+    threads : int
+
+    Returns
+    -------
+    OrbitalFluxes
+        ``incident[kind]``, ``absorbed[kind]`` (k, m) W for k orbit positions; ``positions`` table.
+
+    Raises
+    ------
+    Fem2TmmError
+        Array of the wrong shape, unknown kind, or optical property out of range.
     """
     faces = pad_faces(faces)
     m = len(faces)

@@ -252,6 +252,36 @@ def planet_fluxes(points, faces, position, sun_direction, kind="albedo", planet=
     "random"; ``focus`` "planet" (planet-focused sampling, thesis §2.4.3) or "hemisphere".  Shadowing by the
     other faces is included; the returned power is what arrives, before absorption (faces are black here).
     Returns q (m,) W.
+
+    Parameters
+    ----------
+    points : (n, 3) float, m
+    faces : (m, 3) or (m, 4) int
+    position : (3,) float, m
+        Spacecraft relative to the planet centre, mesh frame.
+    sun_direction : (3,) float
+        Towards the Sun, mesh frame.
+    kind : {"albedo", "ir"}
+    planet : Planet, optional
+        None: the Earth.
+    rays_per_face : int
+    seed : int
+    solar_flux : float, W/m²
+    ray_density : float, optional
+        Rays per m² instead of ``rays_per_face``.
+    sampling : {"halton", "random"}
+    focus : {"planet", "hemisphere"}
+    threads : int
+
+    Returns
+    -------
+    q : (m,) float, W
+        Incident albedo or planet-IR power per face (front side).
+
+    Raises
+    ------
+    Fem2TmmError
+        Array of the wrong shape, unknown ``kind``, or a ``position`` inside the planet.
     """
     faces = pad_faces(faces)
     m = len(faces)

@@ -371,6 +371,34 @@ def solar_fluxes(points, faces, sun_direction, solar_flux, absorptivity=0.2, spe
     the reflected energy), ``transmissivity`` (solar, specular): scalars or (m,) arrays.  ``rays_per_face`` origins
     on each lit front side, or ``ray_density`` rays per m² of area projected normal to the Sun.  ``sampling``
     "halton" or "random".  Returns q (m,) W.
+
+    Parameters
+    ----------
+    points : (n, 3) float, m
+    faces : (m, 3) or (m, 4) int
+    sun_direction : (3,) float
+        Towards the Sun (normalised here).
+    solar_flux : float, W/m²
+    absorptivity, specular, transmissivity : float or (m,) float
+        Solar absorptivity, specular fraction of the reflected energy, solar transmissivity (dimensionless).
+    rays_per_face : int
+        Ray origins per lit front side.
+    seed : int
+    ray_density : float, optional
+        Rays per m² of area projected normal to the Sun, instead of ``rays_per_face``.
+    sampling : {"halton", "random"}
+    max_bounces : int
+    threads : int
+
+    Returns
+    -------
+    q : (m,) float, W
+        Absorbed solar power per face.
+
+    Raises
+    ------
+    Fem2TmmError
+        Array of the wrong shape or optical property out of range.
     """
     faces = pad_faces(faces)
     m = len(faces)

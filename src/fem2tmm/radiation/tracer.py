@@ -671,6 +671,40 @@ def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity
     against it (thesis ch. 5); a super face that is not a quadric raises :class:`Fem2TmmError`.
     Returns an :class:`ExchangeResult` with ``.F`` (n_sf, n_sf + 1), last column space, ``.GR`` (m²) and
     ``.lse`` (n_sf,).
+
+    Parameters
+    ----------
+    points : (n, 3) float, m
+    faces : (m, 3) or (m, 4) int
+        Node indices; tri3 or quad4 (a triangle padded with -1 in a 4-column table).
+    emissivity, specular, transmissivity : float or (m,) float
+        Infrared emissivity, specular fraction of the reflected energy, transmissivity (dimensionless).
+    super_faces : (m,) int, optional
+        Super face of each face, -1: not a REF node; None: one node per face.
+    rays_per_face : int
+        Rays per emitting super face (per face without ``super_faces``).
+    ray_density : float, optional
+        Rays per m² instead of ``rays_per_face``.
+    sampling : {"halton", "random"}
+    seed : int
+    target_lse : float, optional
+        Accuracy control: add rays until the rms line-sum error reaches this value.
+    threads : int
+    max_bounces : int
+        Reflections followed before a ray's remaining energy is counted as capped.
+    quadric : bool or (n_sf,) bool, optional
+        Trace against fitted quadrics instead of the facets.
+
+    Returns
+    -------
+    ExchangeResult
+        ``F`` (n_sf, n_sf + 1) REFs (last column space), ``GR`` (n_sf, n_sf + 1) m², ``lse`` (n_sf,).
+
+    Raises
+    ------
+    Fem2TmmError
+        Array of the wrong shape or value out of range, ``super_faces`` not one int per face, or a selected
+        super face that is not a quadric.
     """
     from .surfaces import pad_faces
 
