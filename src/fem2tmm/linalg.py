@@ -2,8 +2,7 @@
 
 Thermal conduction matrices (plus radiative linearisations) are symmetric, or diagonally dominant
 M-matrices, so LU without pivoting on a minimum-degree ordering of A + Aᵀ is stable and, on 2-D/3-D
-meshes, 2–3x faster and leaner than SuperLU's default column ordering (measured: 1 M-node plate,
-12 s / 1.1e8 factor entries against 22 s / 2.0e8).
+meshes, faster and leaner than SuperLU's default column ordering (measurements: docs/design-notes.md, linalg.py).
 """
 
 from __future__ import annotations

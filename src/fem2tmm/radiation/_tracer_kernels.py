@@ -1,10 +1,8 @@
 """Compiled per-ray kernels of the ray tracer (numba, GIL released): cosine-law directions, origin offsets and the
 work a bounce does between two intersection queries.
 
-Why compiled: between two Embree queries a ray needs about twenty small operations (hit point, side, event,
-reflected or diffuse direction, offset origin, compaction).  As numpy passes over the batch they cost as much as
-the Embree query itself (measured: ~300 ns per segment against Embree's ~350 ns on a 20 k-triangle sphere); fused
-into one loop they cost a few tens of ns.  Every function here has one implementation, used by the exchange-factor
+Compiled because the twenty-odd small operations a ray needs between two intersection queries cost as much as the
+query itself as numpy passes (measurements: docs/design-notes.md, radiation/_tracer_kernels.py).  Every function here has one implementation, used by the exchange-factor
 bounce loop, emission, solar tracing and the quadric scene alike.
 
 Conventions (shared with :mod:`fem2tmm.radiation.surfaces`): a *side* index is ``2 * face + back``; a ray leaving a
@@ -28,10 +26,8 @@ from .engine import prefetch
 @njit(cache=True, nogil=True)
 def empty_pages(n, template):
     """An uninitialised (n,) array of ``template``'s dtype allocated by the compiled runtime (malloc), for the large
-    short-lived arrays of the tracer and of REF smoothing.  numpy advises its arrays >= 4 MB into transparent huge
-    pages; a fresh 2 MB page must be zeroed (and, on a virtual machine, backed by the host) at its first touch,
-    which measured ~4 ms each on the reference machine (0.3-0.4 s of system time per 20 k-face REF smoothing),
-    against 1-3 µs per 4 KB page, which the kernel recycles warm."""
+    short-lived arrays of the tracer and of REF smoothing, avoiding the first-touch cost of the transparent huge
+    pages numpy uses for arrays >= 4 MB (measurements: docs/design-notes.md, radiation/_tracer_kernels.py)."""
     return np.empty(n, template.dtype)
 
 
@@ -320,10 +316,8 @@ def bounce(prim, t, o, d, idx, ends, u, r2, st, rows, ray_normal, eps):
     The surviving rays are compacted, in place and in order, into the first n_alive rows of ``idx``, ``o``, ``d``
     (offset origins, new directions) and ``prim`` (the primitive each one leaves); returns n_alive.  (Row m <= k is
     written only after row k was read, so compacting in place is safe.)  The hit row of the ray ``PREFETCH_AHEAD``
-    places later is prefetched: with one random row per ray the loop otherwise waits on memory.  (Measured on a
-    20 k-triangle sphere, second bounce: 71 ns per ray with a triangle row and a side row, whose address depended
-    on the triangle row's content, so its prefetch waited on a load; 30 ns with this one row, as fast as with the
-    rays sorted by triangle.)
+    places later is prefetched: with one random row per ray the loop otherwise waits on memory
+    (measurements: docs/design-notes.md, radiation/_tracer_kernels.py).
     """
     r = prim.shape[0]
     own = ray_normal.shape[0] == r

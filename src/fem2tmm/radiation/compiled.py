@@ -19,8 +19,8 @@ KEY_KERNELS = (
     ("smoothing", "_weigh_transpose"), ("smoothing", "_merge_rows"), ("smoothing", "dense_columns"),
     ("tracer", "_batch_rays"), ("tracer", "_batch_tally"), ("tracer", "runs_to_csr"),
 )
-#: wall time (s) to compile the ray tracer's kernels from a cold cache on the reference machine (2 shared cores):
-#: 37 s measured on 2026-12-02 for the first trace of a small grey box (NUMBA_CACHE_DIR at an empty folder)
+#: wall time (s) to compile the ray tracer's kernels from a cold cache on the reference machine (2 shared cores)
+#: (measurements: docs/design-notes.md, radiation/compiled.py)
 COMPILE_SECONDS = 40.0
 
 

@@ -10,7 +10,7 @@ Embree is reached in one of two ways, both through the Embree 4 library that the
   and queried by a compiled kernel that calls ``rtcIntersect1`` itself (an indirect call through the function's
   address, :func:`embree_intersect1`): the tracer's batches go from float64 rays to hits with no float32 copies
   and no per-ray output arrays.  The BVH is built at Embree's medium quality, as embreex's
-  (the high quality with spatial splits measured 5 % faster queries on the baffle and 7 % slower on the sphere).
+  (measurements: docs/design-notes.md, radiation/engine.py).
 * **embreex** (fallback, e.g. a wheel whose library is not where we look, or an Embree other than 4):
   embreex's ``EmbreeScene.run`` on float32 copies of each batch.  The environment variable
   ``FEM2TMM_EMBREE_DIRECT=0`` forces it; ``FEM2TMM_EMBREE_LIBRARY`` names the Embree 4 library to load instead of

@@ -34,8 +34,8 @@ area, and emitting areas are the true curved areas (quadrature of that Jacobian)
 size) effects of defining patches through the FE chords remain: where a quadric region borders a flat face or another
 quadric along a curved edge, the crescent between the chord and the curves is open (rays may pass through it); and at
 a free edge along which the surface normal is tilted against the boundary curve's plane (the end rings of a cone, the
-rim of a paraboloid) the patch boundary moves by ~sagitta x sin(tilt) (a 24 x 6 cone frustum: area 0.11 % short of
-the closed form, against 0.37 % for its facets; 4x less per halving of the element size).  Emission and absorption
+rim of a paraboloid) the patch boundary moves by ~sagitta x sin(tilt) (measurements: docs/design-notes.md,
+radiation/quadric.py).  Emission and absorption
 use the same patches, so the energy bookkeeping stays exact.
 """
 
@@ -118,8 +118,7 @@ def _join(A: np.ndarray, b: np.ndarray, c0: float) -> np.ndarray:
     return np.array([c0, b[0], b[1], b[2], A[0, 0], 2 * A[0, 1], 2 * A[0, 2], A[1, 1], 2 * A[1, 2], A[2, 2]])
 
 
-# The kernels below work on the columns of (r, 3) arrays: numpy's (r, 3) @ (3, 3) products are ~30x slower
-# than three fused column expressions on this machine.
+# The kernels below work on the columns of (r, 3) arrays (measurements: docs/design-notes.md, radiation/quadric.py).
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot products (r,) of (r, 3) arrays."""
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]

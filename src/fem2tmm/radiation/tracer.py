@@ -4,14 +4,13 @@ Thesis: MCRT without branching §1.3 (l. 664), coupled 4-D Halton sampling §2.3
 control §2.5.1, super faces ch. 5.  DESIGN §3.5 and §4.4.
 
 Two additions to the thesis' coupled sampling (both keep every ray's random numbers marginally uniform, so the
-estimator n_ij / n_i is unchanged; measured on the thesis' test cases, see tests/test_radiation_exchange.py):
+estimator n_ij / n_i is unchanged):
 
 * the event at a ray's first hit (absorbed / reflected / transmitted) is decided by numbers stratified within each
-  (source group, side hit) pair instead of independent ones: the binomial noise of "absorbed with probability ε"
-  otherwise dominates the Halton emission error (two quadrangles, ε = 0.8, 10^4 rays: mean error 0.70 % with a
-  5th Halton coordinate for that decision, 0.50 % stratified, 1.9 % crude Monte Carlo);
-* the direction of a ray's first diffuse reflection/transmission takes coordinates 5-6 of its Halton point
-  (three quadrangles, ρ = 0.1 diffuse, 2x10^5 rays: scatter over seeds 1.1 % -> 0.6 %).
+  (source group, side hit) pair instead of independent ones;
+* the direction of a ray's first diffuse reflection/transmission takes coordinates 5-6 of its Halton point.
+
+(measurements: docs/design-notes.md, radiation/tracer.py)
 
 Layers:
 
@@ -168,10 +167,8 @@ def trace_paths(scene: TriangleScene, optics: SideOptics, origins: np.ndarray, d
     coupled Halton point); later events draw from a generator seeded from ``rng`` inside the compiled bounce
     (:func:`~fem2tmm.radiation._tracer_kernels.uniform`).  Each bounce is one intersection query for the whole batch
     (:meth:`TriangleScene.intersect`: compiled calls of Embree's C API where available, self hits re-traced) and
-    one compiled pass (:func:`fem2tmm.radiation._tracer_kernels.bounce`) that compacts the surviving rays in place.
-    (Fusing the query and the event of each ray in one loop, or following each ray to its end before the next,
-    measured 1.5-2x slower per segment: the processor then cannot overlap the long latency chains of consecutive
-    rays.  Sorting the surviving rays by triangle made the next query ~8 % faster, about what the sort costs.)
+    one compiled pass (:func:`fem2tmm.radiation._tracer_kernels.bounce`) that compacts the surviving rays in place
+    (measurements: docs/design-notes.md, radiation/tracer.py).
 
     ``copy`` False lets the kernels work in ``origins`` and ``directions`` themselves (C-contiguous float64 arrays
     the caller gives up).

@@ -67,8 +67,7 @@ KEEP_STEP = (0.8, 1.3)
 #: a radiative Newton matrix is reused for a new β within this relative change (the contraction check guards it)
 REUSE_BETA = 0.3
 #: BLAS threads inside the time loop: its dense work is matrix-vector products and solves of n ≤ a few
-#: thousand, where threads only contend (measured: 1000 dense super nodes on the shared 2-core machine, 50 steps
-#: in 15.7 s with the default threads, 2.1 s with one)
+#: thousand, where threads only contend (measurements: docs/design-notes.md, solve/transient.py)
 BLAS_THREADS = 1
 #: backward-Euler steps at the start of a Crank-Nicolson run (Rannacher)
 CN_STARTUP = 2
