@@ -330,8 +330,8 @@ def pad_cells(blocks) -> np.ndarray:
 
 
 def unique_ints(a) -> np.ndarray:
-    """Sorted unique values of an integer array (sort + mask: numpy 2.4's hash-based ``np.unique`` is
-    ~40x slower on 10⁶–10⁷ integers)."""
+    """Sorted unique values of an integer array by sort + mask instead of ``np.unique`` (measurements:
+    docs/design-notes.md, mesh/core.py)."""
     s = np.sort(np.asarray(a, dtype=np.int64).ravel())
     if s.size == 0:
         return s

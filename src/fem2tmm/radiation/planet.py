@@ -14,8 +14,8 @@ The estimator, per emitting unit (a group of sides: one FE side, or a super face
 * from an origin at distance ρ = h_r R from the planet centre the planet is a cap of half-angle θ_max,
   sin θ_max = 1/h_r.  Directions are uniform on the cap's projection onto the plane normal to nadir (eq. 2.38:
   sin θ_n = √ξ / h_r, φ = 2π ξ_φ; Halton coordinates 0-1, the best-distributed pair (bases 2 and 3): over a
-  spacecraft the planet's radiance varies with direction far more than with position, and the swap lowered δ of the
-  thesis' orbit cases by 20-25 % against origin-first at 100-1000 rays), so their density is
+  spacecraft the planet's radiance varies with direction far more than with position; measurements: docs/design-notes.md,
+  radiation/planet.py), so their density is
   cos θ_n / (π sin² θ_max) per steradian;
 * the ray meets the planet at x (exact ray-sphere root); the radiance there is L = a C max(x̂ · ŝ, 0) / π for
   albedo (terminator test: the night side sends nothing) or L = M / π for infrared (M the planet's exitance);
