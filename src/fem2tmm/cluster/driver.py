@@ -287,7 +287,7 @@ def _cluster_region(ptr, ind, lengths, X, w, k, seed, smoothing_layers, times, b
         times["growing"] += time.perf_counter() - t0
         return labels, None
     # balanced growing moves the seeds itself (Lloyd steps on the mesh graph): one k-means++ start and a few
-    # Lloyd iterations are enough (the restarts cost 2/3 of the thesis scheme's time on the baffle)
+    # Lloyd iterations are enough (measurements: docs/design-notes.md, cluster/driver.py)
     kw = dict(n_init=1, max_iter=10) if balance else {}
     seeds = seed_elements(X, weighted_kmeans(X, w, k, seed=seed, **kw))
     t1 = time.perf_counter()

@@ -170,9 +170,8 @@ def grow_balanced(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray
     cluster's weight towards the mean, as in capacity-constrained Voronoi tessellations (Balzer, Schlömer &
     Deussen 2009).  During the first ``lloyd_steps`` updates each seed also moves to the element of its
     cluster nearest the cluster's weighted centroid (one Lloyd step on the mesh graph), which keeps the
-    clusters compact and replaces k-means restarts.  η = 0.4: on the baffle's seven regions (18 404 quads,
-    100 clusters) η ≥ 1 oscillates, 0.25–0.5 converge to a CV of 0.025 in 3–25 growings, 0.4 fastest with
-    10 Lloyd steps (measured with the seeds of one k-means++ start).
+    clusters compact and replaces k-means restarts.  η = 0.4, ``lloyd_steps`` = 10 (measurements:
+    docs/design-notes.md, cluster/growing.py).
     Clusters stay contiguous (growing only adds a neighbour) and never leave the region (the graph is the
     region's).  Stops when the weights' coefficient of variation is below ``tol`` or after ``max_iter``
     growings; the best partition seen is returned.

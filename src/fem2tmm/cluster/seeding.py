@@ -3,28 +3,18 @@
 Weighted k-means minimises ``Σ_k Σ_{i∈c_k} w_i ‖p_i − μ_k‖²`` with ``μ_k`` the weighted mean of its points;
 with area (volume) weights a refined patch of the mesh does not attract more clusters.
 
-Algorithm (chosen by measurement, see the checkout's ``benchmarks/cluster.py``):
+Algorithm (chosen by measurement; measurements: docs/design-notes.md, cluster/seeding.py):
 
 1. **Weighted subsample.**  When there are more than ``S = max(20 k, 10 000)`` points, S indices are drawn
    with replacement with probability ∝ w and the distinct ones are weighted by how often they were drawn
    (an unbiased sample of the weighted point set).
 2. **Restarts on the sample.**  Weighted greedy k-means++ (:func:`kmeans_plusplus`) then weighted Lloyd
    iterations to convergence (relative improvement < 10⁻⁴, at most 50), repeated ``n_init`` times (10 on small problems, 1 at 10⁶ elements); the
-   lowest objective wins.  Restarts matter: on the thesis' circular fin (2400 quads, 50 clusters) a single
-   converged run leaves 23–25 clusters on the outer edge, the best of 10 gives the thesis' 21–22.
+   lowest objective wins (restarts matter on small problems).
 3. **A few Lloyd iterations on the full set** (``full_iter = 5``) to remove the sampling noise.
 
 Lloyd's assignment step uses a KD-tree on the k centres (``scipy.spatial.cKDTree``, O(n log k)), the update
-step weighted ``bincount``.  Measured with ``benchmarks.cluster.bench_seeding`` (plate with a 10x
-refined quarter, area weights, k = 1000, 2 shared cores, one run each):
-
-=========================  ==================  ====================
-method                     3·10⁵ points        10⁶ points
-=========================  ==================  ====================
-this scheme                1.5 s, objective 1  2.9 s, objective 1
-scikit-learn MiniBatch     13.8 s, 1.14        26.6 s, 1.21
-scikit-learn KMeans        54.6 s, 0.984       (not run)
-=========================  ==================  ====================
+step weighted ``bincount``; much faster than scikit-learn's KMeans and MiniBatchKMeans.
 
 One seed element per centre: the element whose centroid is nearest; when two centres pick the same
 element, the centre nearer to it keeps it and the other takes its next-nearest free element.

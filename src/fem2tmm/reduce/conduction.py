@@ -49,11 +49,8 @@ from .supernodes import SuperNodes
 #: interior-node count from which a cluster is always condensed by SuperLU (dense K_II: 8·nI² bytes)
 DENSE_BELOW = 8000
 #: shell-like clusters (nB + 1 ≤ SPARSE_RATIO · nI) of at least SPARSE_FROM interior nodes are condensed by
-#: SuperLU, chunky (solid) ones by dense Cholesky.  Measured per cluster (quiet machine, one BLAS thread),
-#: dense / SuperLU: quad nI = 961: 13 / 23 ms, 3969: 521 / 509 ms, 7921: 3.8 / 1.5 s; hex nI = 729: 23 / 130 ms,
-#: 3375: 0.79 / 2.9 s.  Shells still go to SuperLU from 300 nodes because its kept factors are ~50× smaller, so
-#: recovery stays cheap: 10⁶ quads → 998 super nodes, reduce + recover 41.6 + 0.4 s against 32.1 + 33.5 s with
-#: dense factors (which overflow the factor memory budget and are recomputed at each recovery).
+#: SuperLU, chunky (solid) ones by dense Cholesky; shells go to SuperLU from 300 nodes because its kept factors
+#: are much smaller, so recovery stays cheap (measurements: docs/design-notes.md, reduce/conduction.py).
 SPARSE_FROM = 300
 SPARSE_RATIO = 0.35
 #: memory (MiB) up to which per-cluster factorisations are kept for distribute / recover
@@ -61,8 +58,8 @@ FACTOR_MEMORY_MB = 1024.0
 #: number of right-hand sides solved at once by the global method (memory n × batch doubles)
 BATCH = 256
 #: BLAS threads used inside the reduction.  One thread: the dense work is many mid-size factorisations, and
-#: OpenBLAS's threads collapse when other processes hold the cores — measured on the shared 2-core machine
-#: (load ≈ 5): 2.5·10⁵ quads → 300 super nodes in 9.9 s with one thread against 52 s with two.
+#: OpenBLAS's threads collapse when other processes hold the cores (measurements: docs/design-notes.md,
+#: reduce/conduction.py).
 BLAS_THREADS = 1
 
 
@@ -73,8 +70,8 @@ def release_freed_memory() -> None:
     """Give freed heap pages back to the OS (glibc ``malloc_trim``; no-op elsewhere).
 
     The local loop frees a large temporary SuperLU factor per cluster between the small factors it keeps; glibc
-    then serves later temporaries from a fragmented heap that never shrinks.  Measured on 2.5·10⁵ quads → 250
-    super nodes: peak RSS 1.90 GB without, 0.91 GB with a trim after each cluster (0.2 s in all).
+    then serves later temporaries from a fragmented heap that never shrinks; a trim after each cluster halves
+    the peak RSS (measurements: docs/design-notes.md, reduce/conduction.py).
     """
     if not _TRIM:
         try:

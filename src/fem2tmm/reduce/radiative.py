@@ -45,9 +45,9 @@ The outer iteration (``radiation_aware_network`` in the pipeline glue) starts fr
 thesis' reduced model, solved and recovered) and repeats at most ``[reduction] outer_iterations`` times:
 linearise about T_ref and reduce K' -> Q_corr at T_ref -> solve the network -> recover -> T_ref.  Its fixed
 point is the detailed solution up to the thesis' lumping of the absorbed radiation per super node (exactly the
-detailed solution when every face sees only space).  Keeping h fixed also converges, but linearly (measured
-on examples/composite at 100 super nodes: max step 141, 41, 20, 11, 7 K) where re-linearising converges like
-Newton's method (141, 68, 16, 0.7, 0.02 K), so each outer iteration re-reduces; the steps are reported.
+detailed solution when every face sees only space).  Keeping h fixed also converges, but linearly, where
+re-linearising converges like Newton's method, so each outer iteration re-reduces; the steps are reported
+(measurements: docs/design-notes.md, reduce/radiative.py).
 """
 
 from __future__ import annotations
