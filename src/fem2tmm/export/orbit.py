@@ -96,13 +96,8 @@ def orbit_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
         for kind, colour in zip(f.kinds, ("#e69f00", "#0072b2", "#d55e00")):
             ax.plot(nu, f.absorbed[kind].sum(axis=1), style, color=colour, label=f"{kind} ({label})")
     _eclipse_band(ax, pos)
-    ax.set_xlabel("true anomaly [deg]")
-    ax.set_ylabel("absorbed power [W]")
-    ax.set_title("Orbital heat loads, whole model")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(folder / "orbit_fluxes.png")
-    plt.close(fig)
+    save_plot(fig, ax, folder / "orbit_fluxes.png", "true anomaly [deg]", "absorbed power [W]",
+              "Orbital heat loads, whole model")
     images.append(("orbit_fluxes.png", "Absorbed solar, albedo and planet-IR power along the orbit (grey: eclipse)"))
     if result.orbit_T_positions is not None:
         fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=110)
@@ -116,15 +111,31 @@ def orbit_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
                 ax.plot(nu, result.orbit_T_positions_detailed[:, dofs].mean(axis=1) - KELVIN, ":",
                         color=line.get_color())
         _eclipse_band(ax, pos)
-        ax.set_xlabel("true anomaly [deg]")
-        ax.set_ylabel("mean temperature [°C]")
-        ax.set_title("Steady temperature at each position (dotted: detailed)")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(folder / "orbit_temperatures.png")
-        plt.close(fig)
+        save_plot(fig, ax, folder / "orbit_temperatures.png", "true anomaly [deg]", "mean temperature [°C]",
+                  "Steady temperature at each position (dotted: detailed)")
         images.append(("orbit_temperatures.png", "Mean temperature per part of a steady solve at each position"))
     return images
+
+
+def save_plot(fig, ax, path: Path, xlabel: str, ylabel: str, title: str, legend_fontsize: float = 7) -> None:
+    """Label ``ax`` (axis labels, title, legend), lay ``fig`` out tightly, write it to ``path`` and close it.
+
+    Parameters
+    ----------
+    fig, ax : a matplotlib figure and its axes (the caller has selected the Agg backend)
+    path : PNG file written
+    xlabel, ylabel, title : texts of the axis labels and the title
+    legend_fontsize : font size (points) of the legend
+    """
+    import matplotlib.pyplot as plt
+
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=legend_fontsize)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
 
 
 def _eclipse_band(ax, pos) -> None:

@@ -17,6 +17,7 @@ import numpy as np
 from ..constants import KELVIN
 from .esatan import DeckTransient
 from .nastran_temp import write_temp_series
+from .orbit import save_plot
 from .vtu import write_vtu
 
 if TYPE_CHECKING:
@@ -153,13 +154,8 @@ def transient_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
             rows = np.flatnonzero((rm.part == p) & (rm.kind == "cluster"))
             ax.plot(x, run.reduced.T[:, rows].mean(axis=1) - KELVIN, ":", color=f"C{(k + 2) % 10}",
                     label=f"part {result.model.parts[p].name}: mean of {len(rows)} super nodes")
-        ax.set_xlabel(f"time [{unit}]")
-        ax.set_ylabel("T [°C]")
-        ax.set_title("Super-node temperatures")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(folder / "transient_temperatures.png")
-        plt.close(fig)
+        save_plot(fig, ax, folder / "transient_temperatures.png", f"time [{unit}]", "T [°C]",
+                  "Super-node temperatures")
         images.append(("transient_temperatures.png", "Hottest and coldest super nodes and each part's mean over time: "
                        "reduced (solid) against the detailed model's super-node averages (dashed)"))
     acc = run.accuracy()
@@ -168,13 +164,9 @@ def transient_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
         fig, ax = plt.subplots(figsize=(7.5, 3.6), dpi=110)
         ax.plot(x, err.max(axis=1), color="#cc0000", label="max over the nodes")
         ax.plot(x, np.sqrt(np.mean(err**2, axis=1)), color="#3465a4", label="RMS over the nodes")
-        ax.set_xlabel(f"time [{unit}]")
-        ax.set_ylabel("|recovered − detailed| [K]")
-        ax.set_title(f"Error over time (max {acc['max_K']:.3g} K at {acc['time_of_max_s'] / scale:.4g} {unit})")
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(folder / "transient_error.png")
-        plt.close(fig)
+        save_plot(fig, ax, folder / "transient_error.png", f"time [{unit}]", "|recovered − detailed| [K]",
+                  f"Error over time (max {acc['max_K']:.3g} K at {acc['time_of_max_s'] / scale:.4g} {unit})",
+                  legend_fontsize=8)
         images.append(("transient_error.png", "Error of the recovered temperatures against the detailed model over time"))
     return images
 
