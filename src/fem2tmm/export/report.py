@@ -91,7 +91,8 @@ def render_faces(path: Path, points: np.ndarray, faces: np.ndarray, values: np.n
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         ax.set_zlabel("z [m]")
-        ax.set_title(f"{title}\n(view from {_direction(elev, azim)})" if len(views) > 1 else title)
+        ax.set_title(f"{title}\n(view from {_direction(elev, azim)})" if len(views) > 1 else title,
+                     pad=28 if len(views) > 1 else None)
         axes.append(ax)
     if norm is not None:
         sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
