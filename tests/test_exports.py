@@ -113,6 +113,9 @@ def test_report_references_existing_images(fin_run):
         data = (fin_run.out / name).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
     assert "Heat flows" in html and "into fixed boundary" in html and "Temperatures per part" in html
+    # the error is shown with the reference's own noise beside it (issue 21), the value of summary.json
+    noise = fin_run.summary["accuracy"]["reference_noise_rms_K"]
+    assert noise is not None and f"the reference&#x27;s own noise: RMS {noise:.2g} K" in html
 
 
 def test_reduced_npz_contents(fin_run):

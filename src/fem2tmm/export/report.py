@@ -204,7 +204,13 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
             rows.append(("negative GL", f"{red['negative_links']} of {red['conductive_links']}: {NEGATIVE_GL_NOTE}"))
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
-        rows.append(("recovered vs detailed", f"RMS {acc['rms_K']:.4g} K, max {acc['max_K']:.4g} K over {acc['nodes']:,} nodes"))
+        noise = acc.get("reference_noise_rms_K")
+        rows.append(("recovered vs detailed", f"RMS {acc['rms_K']:.4g} K, max {acc['max_K']:.4g} K over {acc['nodes']:,} nodes"
+                     + ("" if noise is None else f" (the reference's own noise: RMS {noise:.2g} K)")))
+        if acc.get("radiation_share") is not None:
+            rows.append(("heat out by radiation", f"{100 * acc['radiation_share']:.1f} % (detailed model)"))
+        for e in acc.get("excludes") or ():
+            rows.append(("not in the error", e))
     pn = s.get("positive_network")
     if pn:
         text = (f"{pn['links']} positive GL between touching super nodes (exact: {pn['exact_links']} GL, "
