@@ -12,6 +12,26 @@ from fem2tmm.solve.steady import SIGMA
 AL = {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}
 
 
+def plate_case_toml(group: str = "plate", mesh: str = "plate.msh") -> str:
+    """Case-file text of one aluminium shell part ``group`` of ``mesh`` (mm), black front side, no boundary;
+    callers append keys of that part (``super_nodes = 2``) or further tables."""
+    return f"""
+[mesh]
+file = "{mesh}"
+unit = "mm"
+[materials.al]
+conductivity = 170.0
+[optics.black]
+emissivity = 1.0
+[[parts]]
+name = "plate"
+groups = ["{group}"]
+material = "al"
+thickness = 1e-3
+front = "black"
+"""
+
+
 def make_case(parts, boundary=(), optics=None, materials=None, **sections) -> Case:
     """A Case from plain dicts (aluminium and a black optics are predefined)."""
     data = {

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import make_case
+from conftest import make_case, plate_case_toml
 
 from fem2tmm import Fem2TmmError, meshes
 from fem2tmm.cli import main
@@ -18,20 +18,6 @@ from fem2tmm.io import read_mesh
 from fem2tmm.mesh import ElementBlock, Mesh
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
-CASE = """
-[mesh]
-file = "{mesh}"
-[materials.al]
-conductivity = 170.0
-[optics.black]
-emissivity = 1.0
-[[parts]]
-name = "plate"
-groups = ["plate"]
-material = "al"
-thickness = 1e-3
-front = "black"
-"""
 
 
 def _bad_files(tmp_path):
@@ -59,7 +45,7 @@ def test_empty_and_truncated_mesh_files_raise_fem2tmm_error(tmp_path, capsys):
 def test_cli_exits_2_with_one_line_on_bad_mesh_files(tmp_path, capsys):
     for p in _bad_files(tmp_path):
         case = tmp_path / f"{p.stem}.toml"
-        case.write_text(CASE.format(mesh=p.name))
+        case.write_text(plate_case_toml(mesh=p.name))
         code = main(["run", str(case), "--out", str(tmp_path / "out"), "--quiet"])
         cap = capsys.readouterr()
         assert code == 2, p

@@ -10,7 +10,7 @@ import meshio
 import numpy as np
 import pytest
 
-from conftest import make_case
+from conftest import make_case, plate_case_toml
 from fem2tmm import Fem2TmmError
 from fem2tmm.mesh import shapes
 from fem2tmm.case import Case
@@ -36,21 +36,6 @@ def write_plate_msh(path, quad=True, extra=None):
     meshio.write(str(path), mm, file_format="gmsh22", binary=False)
 
 
-CASE_TOML = """
-[mesh]
-file = "plate.msh"
-unit = "mm"
-[materials.al]
-conductivity = 170.0
-[optics.black]
-emissivity = 1.0
-[[parts]]
-name = "plate"
-groups = ["{group}"]
-material = "al"
-thickness = 1e-3
-front = "black"
-"""
 
 
 def test_part_without_material():
@@ -130,7 +115,7 @@ def test_unknown_unit(tmp_path):
     write_plate_msh(tmp_path / "plate.msh")
     with pytest.raises(Fem2TmmError, match=r"unknown length unit 'furlong'"):
         read_mesh(tmp_path / "plate.msh", unit="furlong")
-    (tmp_path / "c.toml").write_text(CASE_TOML.format(group="plate").replace('"mm"', '"furlong"'))
+    (tmp_path / "c.toml").write_text(plate_case_toml("plate").replace('"mm"', '"furlong"'))
     with pytest.raises(Fem2TmmError, match=r"c.toml: \[mesh\].unit: unknown length unit"):
         Case.from_toml(tmp_path / "c.toml")
 
@@ -179,7 +164,7 @@ def test_overlapping_temperature_boundaries():
 # ----------------------------------------------------------------------------------------------- CLI
 def test_cli_user_error_exits_2_without_traceback_or_output(tmp_path, capsys):
     write_plate_msh(tmp_path / "plate.msh")
-    (tmp_path / "case.toml").write_text(CASE_TOML.format(group="nope"))
+    (tmp_path / "case.toml").write_text(plate_case_toml("nope"))
     out = tmp_path / "out"
     code = main(["run", str(tmp_path / "case.toml"), "--out", str(out), "--quiet"])
     err = capsys.readouterr().err
@@ -193,7 +178,7 @@ def test_cli_user_error_exits_2_without_traceback_or_output(tmp_path, capsys):
 def test_cli_failure_late_in_the_run_leaves_no_output(tmp_path, capsys):
     # the error happens after the mesh was read and the model assembled (undetermined temperature)
     write_plate_msh(tmp_path / "plate.msh")
-    toml = CASE_TOML.format(group="plate").replace('front = "black"', 'front = "none"')
+    toml = plate_case_toml("plate").replace('front = "black"', 'front = "none"')
     toml += '[[boundary]]\nkind = "power"\ngroups = ["plate"]\nvalue = 1.0\n'
     (tmp_path / "case.toml").write_text(toml)
     code = main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out"), "--quiet"])
@@ -212,7 +197,7 @@ def test_console_script_exit_code(tmp_path):
 
 def test_cli_success_writes_outputs(tmp_path):
     write_plate_msh(tmp_path / "plate.msh")
-    toml = CASE_TOML.format(group="plate") + textwrap.dedent("""
+    toml = plate_case_toml("plate") + textwrap.dedent("""
         [[boundary]]
         kind = "temperature"
         groups = ["plate"]

@@ -11,23 +11,11 @@ import time
 import pytest
 from test_errors import write_plate_msh
 
+from conftest import plate_case_toml
 from fem2tmm.cli import main
 from fem2tmm.export.output import MARKER
 
-CASE = textwrap.dedent("""
-    [mesh]
-    file = "plate.msh"
-    unit = "mm"
-    [materials.al]
-    conductivity = 170.0
-    [optics.black]
-    emissivity = 1.0
-    [[parts]]
-    name = "plate"
-    groups = ["plate"]
-    material = "al"
-    thickness = 1e-3
-    front = "black"
+CASE = plate_case_toml() + textwrap.dedent("""\
     super_nodes = 2
     [[boundary]]
     kind = "temperature"
