@@ -323,13 +323,14 @@ def sides_to_super_nodes(side_power: np.ndarray, groups: np.ndarray, owner: np.n
 
 
 # ------------------------------------------------------------------------------------------------ orbit
-def _orbit_trace(model: FEModel, case: Case, surface: Surface | None, scene, groups, rays, per: str):
+def _orbit_trace(model: FEModel, case: Case, surface: Surface | None, scene, groups, rays, per: str,
+                 role: str = "reduced"):
     from .radiation.orbital import trace_orbit
 
     surface = radiation_surface(model) if surface is None else surface
     o = case.orbit
     return trace_orbit(surface, o.orbit, o.attitude, kinds=o.kinds, groups=groups, rays_per_group=rays,
-                       scene=scene, per=per, **tracer_settings(case, exchange=False))
+                       scene=scene, per=per, **tracer_settings(case, exchange=False, role=role))
 
 
 def detailed_orbit(model: FEModel, case: Case, surface: Surface | None = None, scene=None):
@@ -340,7 +341,9 @@ def detailed_orbit(model: FEModel, case: Case, surface: Surface | None = None, s
     (k, n_faces) per kind)."""
     active = model.faces.active
     groups = np.where(active, np.arange(len(active)), -1)  # every active side its own group
-    fl = _orbit_trace(model, case, surface, scene, groups, case.orbit.rays_per_face, "face")
+    # the reference's own random stream (like detailed_solar): with fluxes_on = "super_faces" the reduced model
+    # traces the orbit itself and must not share these random numbers
+    fl = _orbit_trace(model, case, surface, scene, groups, case.orbit.rays_per_face, "face", role="reference")
     q = np.asarray(model.faces.W.T @ fl.total("absorbed").T).T
     return q, fl
 
