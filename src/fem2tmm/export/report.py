@@ -98,7 +98,8 @@ def render_faces(path: Path, points: np.ndarray, faces: np.ndarray, values: np.n
         sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
         fig.colorbar(sm, ax=axes, shrink=0.7, label=label)
     if hot is not None:
-        note += f"; the circle marks the maximum, {np.nanmax(v):.4g} {label.split('[')[-1].rstrip(']')}"
+        note += (f"; the circle marks the element with the highest value, {np.nanmax(v):.4g} "
+                 f"{label.split('[')[-1].rstrip(']')} (an element's mean: node extremes are in the tables)")
     fig.savefig(path)
     plt.close(fig)
     return note
@@ -124,6 +125,11 @@ def _histogram(path: Path, values: np.ndarray, title: str, xlabel: str) -> None:
         bins = np.logspace(np.log10(v.min()), np.log10(v.max()) + 1e-9, 40)
         ax.hist(v, bins=bins, color="#3465a4")
         ax.set_xscale("log")
+    else:  # an empty histogram with default axes reads as a broken plot
+        ax.text(0.5, 0.5, "every value is 0\n(e.g. REFs of faces that see only space close exactly)",
+                ha="center", va="center", transform=ax.transAxes)
+        ax.set_xticks([])
+        ax.set_yticks([])
     ax.set_xlabel(xlabel)
     ax.set_ylabel("count")
     ax.set_title(title)
