@@ -524,3 +524,18 @@ def test_nastran95_shell_aliases(tmp_path):
         prop = mesh.properties[f"PID {10 + k}"]
         assert (prop.card, prop.thickness, prop.conductivity) == (p, 0.001 * (k + 1), 5.0)
     assert [b.type for b in mesh.blocks] == ["tri3", "quad4"] and mesh.properties["PID 22"].thickness == 0.03
+
+
+def test_inspect_gives_the_size_and_flags_millimetres_read_as_metres():
+    # meshes/baffle.msh is in mm (its case files say unit = "mm"): about 80 x 80 x 90 mm.  Read as metres it is
+    # 80 m across, which the text must flag; with --unit mm it is 0.08 m and nothing is flagged.
+    from pathlib import Path
+
+    from fem2tmm.inspection import inspect_mesh, inspection_text
+
+    path = Path(__file__).resolve().parents[1] / "meshes" / "baffle.msh"
+    as_m, as_mm = (inspection_text(inspect_mesh(path, unit=u)) for u in ("m", "mm"))
+    assert "is the file in millimetres? then give --unit mm" in as_m
+    assert "millimetres" not in as_mm
+    size = re.search(r"size ([\d.]+) x ([\d.]+) x ([\d.]+) m", as_mm)
+    assert size and all(0.05 < float(x) < 0.2 for x in size.groups()), as_mm

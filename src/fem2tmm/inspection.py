@@ -120,15 +120,25 @@ def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, **op
     groups = [_group_report(mesh, name, feature_angle) for name in sorted(mesh.groups)
               if len(mesh.groups[name].elements)]
     cards = {k: dict(v) for k, v in (mesh.cards or {}).items()}
+    ext = np.ptp(mesh.points, axis=0) if mesh.n_nodes else np.zeros(3)
     return {"file": str(path), "unit": unit, "nodes": int(mesh.n_nodes), "elements": int(mesh.n_elements),
+            "extent_m": [float(x) for x in ext],
             "feature_angle_deg": feature_angle, "groups": groups, "pieces": _pieces(mesh, spc),
             "joints": {j.card: int(len(j.ids)) for j in mesh.joints},
             "midside_nodes": 0 if mesh.midside is None else int(len(mesh.midside)), "cards": cards}
 
 
+#: a model larger than this (m) is probably a file in millimetres read as metres: the text says so
+LARGE_EXTENT_M = 50.0
+
+
 def inspection_text(rep: dict) -> str:
     """The report as plain text tables."""
-    lines = [f"{rep['file']}: {rep['nodes']} nodes, {rep['elements']} elements (unit {rep['unit']})", "",
+    ext = rep.get("extent_m") or [0.0, 0.0, 0.0]
+    lines = [f"{rep['file']}: {rep['nodes']} nodes, {rep['elements']} elements (unit {rep['unit']})",
+             "size {} m (bounding box, file lengths x the unit)".format(" x ".join(f"{x:.4g}" for x in ext))
+             + (f": larger than {LARGE_EXTENT_M:g} m, is the file in millimetres? then give --unit mm"
+                if max(ext) > LARGE_EXTENT_M else ""), "",
              f"groups (regions at the default feature angle {rep['feature_angle_deg']:g} deg = the fewest super "
              "nodes a part of that group can take):"]
     lines.append(f"  {'group':<18} {'kind':<6} {'elements':>8} {'regions':>7}  {'size':<22} {'thickness / section':<30} "
