@@ -24,6 +24,7 @@ Run from the repository root::
 
     python examples/baffle/convergence.py                               # 3 modes x n_SN 10, 20, 50, 100, 200
     python examples/baffle/convergence.py --modes thesis --n 10 100     # a reduced sweep
+    python examples/baffle/convergence.py --modes detailed --n 100 200 --seed 1   # another ray seed
 """
 
 from __future__ import annotations
@@ -46,11 +47,14 @@ N_SN = (10, 20, 50, 100, 200)
 MODES = {"detailed": ("detailed", None), "super_faces": ("super_faces", None), "thesis": ("super_faces", False)}
 
 
-def mode_case(base: Case, mode: str, n: int) -> Case:
-    """``base`` with every part at ``n`` super nodes in solar ``mode`` (a key of :data:`MODES`)."""
+def mode_case(base: Case, mode: str, n: int, seed: int | None = None) -> Case:
+    """``base`` with every part at ``n`` super nodes in solar ``mode`` (a key of :data:`MODES`), and
+    ``[radiation] seed`` replaced by ``seed`` if given."""
     solar_on, aware = MODES[mode]
+    radiation = base.radiation if seed is None else dataclasses.replace(base.radiation, seed=seed)
     return dataclasses.replace(
         base,
+        radiation=radiation,
         parts=tuple(dataclasses.replace(p, super_nodes=n) for p in base.parts),
         environment=dataclasses.replace(base.environment, solar_on=solar_on),
         clustering=dataclasses.replace(base.clustering, solar_aware=aware),
@@ -61,6 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=list(N_SN), help="super-node counts (default: %(default)s)")
     ap.add_argument("--modes", nargs="+", choices=list(MODES), default=list(MODES), help="solar modes (default: all)")
+    ap.add_argument("--seed", type=int, default=None, help="[radiation] seed (default: the case file's)")
     args = ap.parse_args(argv)
     base = Case.from_toml(HERE / "case.toml")
     t_all = time.perf_counter()
@@ -69,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         for mode in args.modes:
             for n in args.n:
                 t0 = time.perf_counter()
-                s = run(mode_case(base, mode, n), cache=cache).summary
+                s = run(mode_case(base, mode, n, args.seed), cache=cache).summary
                 acc = s["accuracy"]
                 noise = acc.get("reference_noise_rms_K") or 0.0
                 rows[mode].append((s["reduced"]["super_nodes"], acc["rms_K"], acc["max_K"], noise))
