@@ -357,7 +357,7 @@ def test_pair_cut_is_the_exact_minimum_of_eq_4_1_by_enumeration():
     is_seed[band[0]] = True  # one seed of A in the band
     cA, cB = np.array([0.2, 0.4, 0]), np.array([0.7, 0.3, 0])
     lbar = 0.2
-    new_A, _ = pair_cut(G.indptr, G.indices, G.data, labels, band, nA, A, B, X, cA, cB, is_seed, lbar)
+    new_A = pair_cut(G.indptr, G.indices, G.data, labels, band, nA, A, B, X, cA, cB, is_seed, lbar)
 
     def energy(in_A):
         lab = labels.copy()
