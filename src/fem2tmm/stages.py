@@ -747,30 +747,6 @@ def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
             "cluster_max": float(bi_cl.max()), "cluster_median": float(np.median(bi_cl))}
 
 
-def reabsorbed_correction(ra, GR: np.ndarray, g_space: np.ndarray, e_sn: np.ndarray, T_ref: np.ndarray,
-                          T_sn_ref: np.ndarray) -> np.ndarray:
-    """(n_SN,) W: the absorbed counterpart of the correction's emission term, ``Fᵀ δ``.
-
-    Q_corr replaces each super node's lumped emission σ e_SN (T_SN⁴ − T_s⁴) by its FE faces' emission at the
-    reference field (``δ = Y'E(T_ref) − σ e_SN (T_SN⁴ − T_s⁴)``), while the network's absorption stays that of the
-    lumped emission.  Where much of the emission is reabsorbed (the EUI baffle: half of it) that counts δ as lost
-    to space: a systematic extra loss (measured 4.3 mW of 2.6 W radiated, a −0.011 K offset at 100 super nodes).
-    Here δ is sent where super node i's emission goes, ``F_ij = GR_ij / e_SN,i`` (j ≠ i), its self-absorbed share
-    ``F_ii = 1 − (g_i + Σ_j GR_ij) / e_SN,i`` back to i; the space share stays lost.
-
-    ``GR`` (n, n) m² traced couplings (zero diagonal), ``g_space`` (n,) m² traced to space, ``e_sn`` (n,) m² full
-    emitting εA, ``T_ref`` (n_dof,) K, ``T_sn_ref`` (n,) K.
-    """
-    ok = e_sn > 0
-    safe = np.where(ok, e_sn, 1.0)
-    F = np.where(ok[:, None], GR / safe[:, None], 0.0)
-    np.fill_diagonal(F, np.where(ok, np.clip(1.0 - (g_space + GR.sum(axis=1)) / safe, 0.0, 1.0), 0.0))
-    s4 = ra.T_sink**4
-    d = ra.reduction.distribute(SIGMA * ra.e * (T_ref**4 - s4)) - SIGMA * e_sn * (T_sn_ref**4 - s4)
-    d[~ok] = 0.0
-    return F.T @ d
-
-
 def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
                             q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray,
                             ir: IRAbsorption | None = None
@@ -812,8 +788,6 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         ra = ra_rm.radiative
         T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, ra_rm.supernodes.A @ T_ref)
         corr = ra.correction(T_ref, T_sn_ref, e_sn)
-        if rm.GR is not None:
-            corr = corr + reabsorbed_correction(ra, rm.GR, rm.g_space, e_sn, T_ref, T_sn_ref)
         q_rec = q_detailed
         if ir is not None:
             if owner_face is None:
