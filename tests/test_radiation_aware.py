@@ -19,12 +19,12 @@ K_LOW, T_THICK = 5.0, 1e-3  # W/(m K), m: composite-like panel
 MAT = {"m": {"conductivity": K_LOW, "density": 1600.0, "specific_heat": 900.0}}
 
 
-def strip_case(n_sn, aware=False, iterations=3, detailed=False, sink=-270.0, power=None):
+def strip_case(n_sn, aware=False, iterations=3, detailed=False, sink=-270.0, power=None, materials=MAT):
     boundary = [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}]
     if power is not None:
         boundary.append({"kind": "power", "groups": ["plate"], "value": power})
     return make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
-                       "back": "black", "super_nodes": n_sn}], boundary, materials=MAT,
+                       "back": "black", "super_nodes": n_sn}], boundary, materials=materials,
                      environment={"sink_temperature": sink}, radiation={"enabled": False},
                      reduction={"radiation_aware": aware, "outer_iterations": iterations},
                      reference={"detailed": detailed})
@@ -59,6 +59,25 @@ def test_exact_at_the_reference_state_and_outer_iterations_converge_to_the_detai
         assert len(hist) == it
     thesis = res.summary["accuracy"]["thesis_method"]["rms_K"]
     assert steps[0] < thesis / 10 and steps[1] < steps[0] / 50  # measured 5.5 K -> 0.13 K -> 4.4e-4 K
+
+
+def test_low_biot_warns_that_the_radiation_aware_reduction_is_not_needed():
+    # Bi per cluster = h_rad A / (k t) with h_rad ≈ 2·4σT³ ≈ 11 W/(m² K) (black both sides, ~293 K):
+    # k = 170 W/(m K), 5 cm x 1 cm clusters: 11·5e-4/0.17 ≈ 0.03 < LOW_BIOT (0.1) -> the warning;
+    # k = 5, 10 cm x 1 cm clusters: ≈ 2 > 0.1 -> no such warning (the fin regime the method is for).
+    import warnings
+
+    from fem2tmm.stages import LOW_BIOT
+
+    mesh = meshes.plate(0.3, 0.01, 60, 2)
+    al = {"m": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}}
+    for mats, n_sn, expect in ((al, 6, True), (MAT, 3, False)):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            r = run(strip_case(n_sn, aware=True, iterations=1, materials=mats), mesh=mesh)
+        bi = r.radiation_aware[0]["biot"]["cluster_max"]
+        assert (bi < LOW_BIOT) == expect, bi
+        assert any("radiation_aware = false" in str(x.message) for x in w) == expect
 
 
 def fin_reference(L, k=K_LOW, t=T_THICK, T0=293.15, T_sink=3.15):
