@@ -529,3 +529,37 @@ def test_orbit_transient_periodic_isothermal_plate_against_ode():
                 np.testing.assert_allclose(res.transient.T_recovered[m].mean(axis=1), T_ref_part, atol=0.02)
                 np.testing.assert_allclose(res.transient.detailed.T[m].mean(axis=1), T_ref_part, atol=0.02)
     assert res.transient.reduced.stats["periods"] >= 2
+
+
+def test_orbit_stages_are_cached_by_exactly_their_inputs(tmp_path):
+    # issue 19: the orbit tracings are keyed by what they read (geometry, both bands' optics, orbit, attitude,
+    # kinds, rays, seeds): a heater change reuses them; an orbit, attitude or absorptivity change traces again.
+    # Reuse is checked on the numbers too: a reused tracing gives the identical absorbed powers (0 W apart).
+    from conftest import make_case
+
+    from fem2tmm import run
+
+    mesh = meshes.plate(0.5, 0.5, 4, 4)
+
+    def case(power=1.0, absorptivity=1.0, beta=20.0, primary="-z"):
+        o = {"altitude": 700e3, "inclination": 98.0, "beta": beta, "positions": 4, "rays_per_face": 20,
+             "fluxes_on": "super_faces", "attitude": {"kind": "nadir", "primary": primary, "secondary": "+x"}}
+        return make_case(
+            [{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+              "back": "black", "super_nodes": 2}],
+            boundary=[{"name": "heater", "kind": "power", "groups": ["plate"], "value": power}],
+            optics={"black": {"emissivity": 1.0, "absorptivity": absorptivity}},
+            environment={"sink_temperature": -270.15}, orbit=o, reference={"detailed": True})
+
+    cache = tmp_path / "cache"
+    first = run(case(), mesh=mesh, cache=cache)
+    assert first.cache["orbit_detailed"] == first.cache["orbit"] == "computed"
+    heater = run(case(power=3.0), mesh=mesh, cache=cache)
+    assert heater.cache["orbit_detailed"] == heater.cache["orbit"] == "reused"
+    np.testing.assert_array_equal(heater.orbit_detailed.total("absorbed"), first.orbit_detailed.total("absorbed"))
+    np.testing.assert_array_equal(heater.orbit_super_faces.total("absorbed"),
+                                  first.orbit_super_faces.total("absorbed"))
+    assert heater.reduced_solution.T.mean() > first.reduced_solution.T.mean()  # the heater itself did change
+    for changed in (case(beta=40.0), case(primary="+z"), case(absorptivity=0.5)):
+        r = run(changed, mesh=mesh, cache=cache)
+        assert r.cache["orbit_detailed"] == r.cache["orbit"] == "computed"

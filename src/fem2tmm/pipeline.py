@@ -242,9 +242,14 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     # orbital loads (solar, albedo, planet IR at every position) on the detailed mesh
     q_orbit = None  # (k, n_dof) W per position
     q_sn_orbit = None  # (k, n_SN) W per position
+    def orbit_key(stage: str, *more) -> str:  # exactly what trace_orbit reads: both bands' optics, the orbit
+        return trace_key(stage, geometry, (solar, ir), skey, orbit.orbit, orbit.attitude, orbit.kinds,
+                         orbit.rays_per_face, tracer_settings(case, exchange=False), *more)
+
     if orbit is not None and (do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
-        with prog.stage("orbit_detailed", "tracing orbital fluxes on the detailed mesh"):
-            q_orbit, result.orbit_detailed = detailed_orbit(model, case, surface, scene=scenes.main())
+        q_orbit, result.orbit_detailed = _cached(
+            prog, store, status, "orbit_detailed", "tracing orbital fluxes on the detailed mesh",
+            lambda: orbit_key("orbit_detailed"), lambda: detailed_orbit(model, case, surface, scene=scenes.main()))
 
     # reduced model: conduction, radiation, solar loads, solve, recovery
     if case.reduction.enabled:
@@ -282,9 +287,10 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             if orbit.fluxes_on == "detailed":
                 q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
             else:
-                with prog.stage("orbit", "tracing orbital fluxes on the super faces"):
-                    q_sn_orbit, result.orbit_super_faces = super_face_orbit(model, rm, case, surface, scene=scenes.main(),
-                                                                            sf=sf)
+                q_sn_orbit, result.orbit_super_faces = _cached(
+                    prog, store, status, "orbit", "tracing orbital fluxes on the super faces",
+                    lambda: orbit_key("orbit", sf, rm.n),
+                    lambda: super_face_orbit(model, rm, case, surface, scene=scenes.main(), sf=sf))
             result.orbit_on = orbit.fluxes_on
         rm_base, q_recover_base = rm, q_recover
         if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
