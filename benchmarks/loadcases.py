@@ -69,7 +69,7 @@ def bench_cases(n_cases: int = 8, workers: int = 2, rays_per_face: int = 2000, s
     for label, scheduler, n in (("serial", "serial", None), ("local1", "local", 1), ("local", "local", workers)):
         data = {**base, "cases": optics, "compute": {"scheduler": scheduler, **({"workers": n} if n else {})}}
         t0 = time.perf_counter()
-        results[label] = multi = run(_case(data), cache=False)
+        results[label] = multi = run(_case(data), cache=None)
         wall = time.perf_counter() - t0
         stage = lambda name: sum(r.summary["timings_s"].get(name, 0.0) for r in multi.results.values())  # noqa: E731
         traced = [(r.solar_detailed.rays, int(np.sum(r.radiation.rays))) for r in multi.results.values()]
