@@ -206,17 +206,25 @@ def _grow_band(indptr, indices, lab, band, start, end, cluster, layers, bidx):
     lo, hi = start, end
     for _ in range(layers - 1):
         top = end
-        for i in range(lo, hi):
-            e = band[i]
-            for q in range(indptr[e], indptr[e + 1]):
-                j = indices[q]
-                if lab[j] == cluster and bidx[j] < 0:
-                    bidx[j] = end
-                    band[end] = j
-                    end += 1
+        end = _append_neighbours(indptr, indices, lab, band, lo, hi, end, cluster, bidx)
         if end == top:
             break
         lo, hi = top, end
+    return end
+
+
+@njit(cache=True, nogil=True)
+def _append_neighbours(indptr, indices, lab, band, lo, hi, end, cluster, bidx):
+    """Append to ``band`` (from ``end`` on) the elements of ``cluster`` adjacent to ``band[lo:hi]`` and not yet in
+    it; return the new end."""
+    for i in range(lo, hi):
+        e = band[i]
+        for q in range(indptr[e], indptr[e + 1]):
+            j = indices[q]
+            if lab[j] == cluster and bidx[j] < 0:
+                bidx[j] = end
+                band[end] = j
+                end += 1
     return end
 
 
@@ -296,15 +304,7 @@ def _smooth(indptr, indices, lengths, lab, X, w, seeds, pair_a, pair_b, k, layer
         lbar = lsum / lcount
         n1 = nA
         nA = _grow_band(indptr, indices, lab, band, 0, n1, A, layers, bidx)
-        nb = nA
-        for i in range(n1):
-            e = band[i]
-            for q in range(indptr[e], indptr[e + 1]):
-                j = indices[q]
-                if lab[j] == B and bidx[j] < 0:
-                    bidx[j] = nb
-                    band[nb] = j
-                    nb += 1
+        nb = _append_neighbours(indptr, indices, lab, band, 0, n1, nA, B, bidx)
         nb = _grow_band(indptr, indices, lab, band, nA, nb, B, layers, bidx)
         new_A = _cut(indptr, indices, lengths, lab, X, band, nb, nA, A, B, centre[A], centre[B], is_seed, lbar,
                      scale, bidx)
