@@ -80,6 +80,11 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 "biot": (result.radiation_aware or [{}])[0].get("biot"),
                 "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
+            "refinement": None if result.refinement is None else {
+                "target_rms_K": result.case.reduction.target_rms, "stop": result.refinement.stop,
+                "rounds": result.refinement.history,
+                "note": "estimated RMS: local detailed solves of every cluster's interior with its interfaces held at "
+                        "the recovered field, under the true local loads (fem2tmm.reduce.refine)"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
         if detailed is not None:
@@ -310,6 +315,10 @@ def summary_table(s: dict) -> str:
         rows.append(("positive network", f"{pn['links']} GL > 0 between touching super nodes (exact: "
                      f"{pn['exact_negative_links']} negative of {pn['exact_links']}), max {pn['T_vs_exact_K']['max']:.3g} "
                      f"K from the exact reduction, criteria {'met' if pn['criteria']['met'] else 'NOT met'}{vs}"))
+    ref = red.get("refinement") if red else None
+    if ref:
+        steps = ", ".join(f"{h['n_super_nodes']} SN {h['estimated_rms_K']:.3g} K" for h in ref["rounds"])
+        rows.append(("refinement", f"target {ref['target_rms_K']:g} K, {ref['stop']}; estimated RMS per round: {steps}"))
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation", f"{rad['rays']:,} rays, RMS line-sum error {rad['lse_rms']:.2e}"))
