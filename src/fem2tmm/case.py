@@ -158,6 +158,7 @@ class ReductionSettings:
     max_super_nodes: int | None = None  # budget of the refinement (super nodes of the clusters); None = no cap
     refine_rounds: int = 5  # budget: most refinement rounds (each: split, re-cluster, re-reduce, re-trace)
     refine_rays_per_face: int = 20  # rays per FE face side of the estimator's side-to-side IR tally
+    refine_estimator: str = "global"  # global (one detailed linear solve) | local (clusters' interiors, interfaces held)
 
 
 @dataclass(frozen=True)
@@ -788,7 +789,7 @@ class _Parser:
         w = "[reduction]"
         d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network", "radiation_aware",
                               "outer_iterations", "target_rms", "max_super_nodes", "refine_rounds",
-                              "refine_rays_per_face"})
+                              "refine_rays_per_face", "refine_estimator"})
         if "target_rms" in d and d.get("radiation_aware") is not True:
             raise self.err(f"{w}.target_rms", "the error-driven refinement needs radiation_aware = true (its estimator "
                                               "is the residual of the radiation-aware recovery, fem2tmm.reduce.refine)")
@@ -810,6 +811,8 @@ class _Parser:
             refine_rounds=self.number(d, "refine_rounds", w, default=D("refine_rounds"), lo=0, integer=True),
             refine_rays_per_face=self.number(d, "refine_rays_per_face", w, default=D("refine_rays_per_face"), lo=1,
                                              integer=True),
+            refine_estimator=self.string(d, "refine_estimator", w, default=D("refine_estimator"),
+                                         choices=("global", "local")),
         )
 
     def clustering(self, d) -> ClusteringSettings:

@@ -867,6 +867,41 @@ def _element_links(model: FEModel, clustering: Clustering) -> tuple[np.ndarray, 
     return cat(la), cat(lb)
 
 
+def refinement_residual(model: FEModel, case: Case, rm: ReducedModel, T_sn: np.ndarray, T: np.ndarray,
+                        q_recover: np.ndarray, ir: IRAbsorption | None, state: Refinement,
+                        surface: Surface | None = None, scene=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(r, h)``: the residual (n_dof,) W of the recovered field ``T`` under the true loads and the linearised
+    emission ``h = 4σ e T³`` (n_dof,) W/K (arguments as for :func:`refinement_step`; the side-to-side tally is
+    traced into ``state`` on first use)."""
+    from .reduce.refine import emission_residual
+
+    f = model.faces
+    T_sn_full = np.where(rm.fixed, rm.T_fixed, T_sn)
+    owner_face = face_owner(model, rm.supernodes, rm.element_cluster)
+    q = np.asarray(q_recover, float).copy()
+    if ir is not None:
+        q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink)).ravel()
+    if surface is not None and case.radiation.enabled and f.active.any():
+        if state.side_absorption is None:
+            active = f.active.ravel()
+            groups = np.full(2 * f.n, -1, np.int64)
+            groups[active] = np.arange(int(active.sum()))
+            C, _, eps = trace_absorption(surface, groups, scene=scene,
+                                         rays_per_group=case.reduction.refine_rays_per_face,
+                                         **tracer_settings(case, exchange=False, role="refine"))
+            state.side_absorption = (C, np.flatnonzero(active), eps)
+        C, side, eps = state.side_absorption
+        face = side // 2
+        s4 = model.T_sink**4
+        p_fe = SIGMA * eps * (np.asarray(f.W @ T).ravel()[face] ** 4 - s4)
+        if ir is not None:
+            p = p_fe - SIGMA * eps * (T_sn_full[owner_face[face]] ** 4 - s4)
+        else:
+            p = p_fe
+        q += np.asarray(f.W.T @ np.asarray(C.T @ p).ravel().reshape(-1, 2).sum(axis=1)).ravel()
+    return emission_residual(model.K, T, q, rm.radiative.e, model.T_sink)
+
+
 def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
                     T: np.ndarray, q_recover: np.ndarray, ir: IRAbsorption | None, state: Refinement,
                     surface: Surface | None = None, scene=None) -> np.ndarray | None:
@@ -895,39 +930,21 @@ def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: Redu
     """
     import time
 
-    from .reduce.refine import cluster_errors, emission_residual, interior_dofs, local_error, mark, split_clusters
+    from .reduce.refine import (cluster_errors, global_error, interior_dofs, local_error, mark, owner_dofs,
+                                split_clusters)
 
     t0 = time.perf_counter()
     red = case.reduction
-    f = model.faces
     labels = clustering.labels
     el_cluster = labels[model.elements]
     k = int(len(clustering.cluster_part))
-    T_sn_full = np.where(rm.fixed, rm.T_fixed, T_sn)
-    owner_face = face_owner(model, rm.supernodes, rm.element_cluster)
-    q = np.asarray(q_recover, float).copy()
-    if ir is not None:
-        q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink)).ravel()
-    if surface is not None and case.radiation.enabled and f.active.any():
-        if state.side_absorption is None:
-            active = f.active.ravel()
-            groups = np.full(2 * f.n, -1, np.int64)
-            groups[active] = np.arange(int(active.sum()))
-            C, _, eps = trace_absorption(surface, groups, scene=scene, rays_per_group=red.refine_rays_per_face,
-                                         **tracer_settings(case, exchange=False, role="refine"))
-            state.side_absorption = (C, np.flatnonzero(active), eps)
-        C, side, eps = state.side_absorption
-        face = side // 2
-        s4 = model.T_sink**4
-        p_fe = SIGMA * eps * (np.asarray(f.W @ T).ravel()[face] ** 4 - s4)
-        if ir is not None:
-            p = p_fe - SIGMA * eps * (T_sn_full[owner_face[face]] ** 4 - s4)
-        else:
-            p = p_fe
-        q += np.asarray(f.W.T @ np.asarray(C.T @ p).ravel().reshape(-1, 2).sum(axis=1)).ravel()
-    r, h = emission_residual(model.K, T, q, rm.radiative.e, model.T_sink)
-    dof_cluster = interior_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
-    dT = local_error(model.K, h, r, dof_cluster)
+    r, h = refinement_residual(model, case, rm, T_sn, T, q_recover, ir, state, surface, scene)
+    if red.refine_estimator == "local":
+        dof_cluster = interior_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
+        dT = local_error(model.K, h, r, dof_cluster)
+    else:
+        dof_cluster = owner_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
+        dT = global_error(model.K, h, r, ~model.fixed_mask)
     weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
     e2, rms = cluster_errors(dT, dof_cluster, k, weight)
     entry = {"round": len(state.history), "n_super_nodes": k, "estimated_rms_K": rms, "split_clusters": []}

@@ -108,6 +108,38 @@ def local_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, dof_cluster
     return dT
 
 
+def global_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """(n_dof,) K: the estimated error δT of every free DOF from one detailed linear solve, ``K'_FF δT_F = r_F``.
+
+    Like :func:`local_error` with the interfaces between clusters free too (only the fixed DOFs held): one Newton
+    step of the whole detailed problem from the recovered field under the estimator's loads, which also sees the
+    error of the super-node temperatures themselves.  ``free`` (n_dof,) bool; other arguments as
+    :func:`local_error`.  Returns ``T_step − T_recovered`` (0 on the held DOFs).
+    """
+    idx = np.flatnonzero(np.asarray(free, bool))
+    dT = np.zeros(len(free))
+    if not idx.size:
+        return dT
+    Kp = (sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx]
+    dT[idx] = splu(sp.csc_matrix(Kp)).solve(np.asarray(residual, float)[idx])
+    return dT
+
+
+def owner_dofs(element_dofs: np.ndarray, element_cluster: np.ndarray, n_dof: int,
+               fixed: np.ndarray | None = None) -> np.ndarray:
+    """(n_dof,) int64: one cluster of each DOF (the lowest-numbered among its elements'), -1 for DOFs of no
+    cluster and fixed DOFs: the cluster a DOF's error is charged to."""
+    ed = np.asarray(element_dofs, np.int64)
+    cl = np.broadcast_to(np.asarray(element_cluster, np.int64)[:, None], ed.shape)
+    ok = (ed >= 0) & (cl >= 0)
+    lo = np.full(n_dof, np.iinfo(np.int64).max)
+    np.minimum.at(lo, ed[ok], cl[ok])
+    out = np.where(lo < np.iinfo(np.int64).max, lo, -1)
+    if fixed is not None:
+        out[np.asarray(fixed, bool)] = -1
+    return out
+
+
 def emission_residual(K: sp.spmatrix, T: np.ndarray, q: np.ndarray, e: np.ndarray, T_sink: float
                       ) -> tuple[np.ndarray, np.ndarray]:
     """``(r, h)``: residual ``q − K T − σ e (T⁴ − T_s⁴)`` (n_dof,) W and ``h = 4σ e T³`` (n_dof,) W/K.
@@ -216,5 +248,5 @@ def check_budget(target_rms: float | None, max_super_nodes: int | None, n_super_
                            "the clustering starts from: raise it or lower the parts' super_nodes")
 
 
-__all__ = ["BULK", "MIN_ELEMENTS", "check_budget", "cluster_errors", "emission_residual", "interior_dofs",
-           "local_error", "mark", "split_clusters"]
+__all__ = ["BULK", "MIN_ELEMENTS", "check_budget", "cluster_errors", "emission_residual", "global_error",
+           "interior_dofs", "local_error", "mark", "owner_dofs", "split_clusters"]
