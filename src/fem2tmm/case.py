@@ -790,9 +790,6 @@ class _Parser:
         d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network", "radiation_aware",
                               "outer_iterations", "target_rms", "max_super_nodes", "refine_rounds",
                               "refine_rays_per_face", "refine_estimator"})
-        if "target_rms" in d and d.get("radiation_aware") is not True:
-            raise self.err(f"{w}.target_rms", "the error-driven refinement needs radiation_aware = true (its estimator "
-                                              "is the residual of the radiation-aware recovery, fem2tmm.reduce.refine)")
         if d.get("radiation_aware") is True and d.get("network", "exact") == "positive":
             raise self.err(w, "radiation_aware = true needs network = \"exact\" (the radiation-aware network is "
                               "K'_SN - diag(H_SN) with a correction load; the positive fit is not defined for it)")

@@ -327,15 +327,16 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
                                             result.T_recovered, ir))
-            if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
-                refine = Refinement() if refine is None else refine
-                with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
-                    nxt = refinement_step(model, result.clustering, case, result.reduced, result.reduced_solution.T,
-                                          result.T_recovered, q_recover, ir, refine, surface if trace else None,
-                                          scenes.main() if trace else None)
-                if nxt is not None:
-                    return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine)
-                result.refinement = refine
+        if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
+            refine = Refinement() if refine is None else refine
+            with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
+                nxt = refinement_step(model, result.clustering, case, result.reduced, result.reduced_solution.T,
+                                      result.T_recovered, q_recover, q_lumped,
+                                      ir if case.reduction.radiation_aware else None, refine,
+                                      surface if trace else None, scenes.main() if trace else None)
+            if nxt is not None:
+                return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine)
+            result.refinement = refine
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
                 result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,

@@ -867,18 +867,23 @@ def _element_links(model: FEModel, clustering: Clustering) -> tuple[np.ndarray, 
     return cat(la), cat(lb)
 
 
-def refinement_residual(model: FEModel, case: Case, rm: ReducedModel, T_sn: np.ndarray, T: np.ndarray,
-                        q_recover: np.ndarray, ir: IRAbsorption | None, state: Refinement,
-                        surface: Surface | None = None, scene=None) -> tuple[np.ndarray, np.ndarray]:
-    """``(r, h)``: the residual (n_dof,) W of the recovered field ``T`` under the true loads and the linearised
-    emission ``h = 4σ e T³`` (n_dof,) W/K (arguments as for :func:`refinement_step`; the side-to-side tally is
-    traced into ``state`` on first use)."""
+def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: ReducedModel, T_sn: np.ndarray,
+                        T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
+                        state: Refinement,
+                        surface: Surface | None = None, scene=None) -> tuple[np.ndarray, np.ndarray, tuple | None]:
+    """``(r, h, source)``: the residual of the recovered field ``T`` under the true loads, split in a DOF part
+    ``r`` (n_dof,) W and, with ``ir_on = "detailed"``, the misplaced emission ``source = (B, dp, owner)`` of
+    :func:`~fem2tmm.reduce.refine.global_estimate` (total residual ``r + Bᵀ dp``); ``h = 4σ e T³`` (n_dof,) W/K.
+    Arguments as for :func:`refinement_step`; the side-to-side tally is traced into ``state`` on first use."""
+    from .reduce.radiative import emission_weights
     from .reduce.refine import emission_residual
 
     f = model.faces
     T_sn_full = np.where(rm.fixed, rm.T_fixed, T_sn)
     owner_face = face_owner(model, rm.supernodes, rm.element_cluster)
-    q = np.asarray(q_recover, float).copy()
+    # loads known on the detailed mesh, plus those lumped per super node spread as the model assumes (A' q_SN)
+    q = np.asarray(q_recover, float) + np.asarray(rm.supernodes.A.T @ np.asarray(q_lumped, float)).ravel()
+    source = None
     if ir is not None:
         q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink)).ravel()
     if surface is not None and case.radiation.enabled and f.active.any():
@@ -889,21 +894,29 @@ def refinement_residual(model: FEModel, case: Case, rm: ReducedModel, T_sn: np.n
             C, _, eps = trace_absorption(surface, groups, scene=scene,
                                          rays_per_group=case.reduction.refine_rays_per_face,
                                          **tracer_settings(case, exchange=False, role="refine"))
-            state.side_absorption = (C, np.flatnonzero(active), eps)
-        C, side, eps = state.side_absorption
+            side = np.flatnonzero(active)
+            to_face = sp.csr_matrix((np.ones(2 * f.n), (np.arange(2 * f.n), np.arange(2 * f.n) // 2)),
+                                    shape=(2 * f.n, f.n))
+            state.side_absorption = (C, side, eps, (C @ to_face @ f.W).tocsr())
+        C, side, eps, B = state.side_absorption
         face = side // 2
         s4 = model.T_sink**4
         p_fe = SIGMA * eps * (np.asarray(f.W @ T).ravel()[face] ** 4 - s4)
-        if ir is not None:
-            p = p_fe - SIGMA * eps * (T_sn_full[owner_face[face]] ** 4 - s4)
-        else:
-            p = p_fe
-        q += np.asarray(f.W.T @ np.asarray(C.T @ p).ravel().reshape(-1, 2).sum(axis=1)).ravel()
-    return emission_residual(model.K, T, q, rm.radiative.e, model.T_sink)
+        if ir is not None:  # the model absorbs what super faces emit at T_SN: only the difference is missing
+            source = (B, p_fe - SIGMA * eps * (T_sn_full[owner_face[face]] ** 4 - s4),
+                      clustering.labels[f.element[face]])
+        else:  # the model's absorbed IR is lumped per super node: the whole FE-resolved absorption is the load
+            q += np.asarray(B.T @ p_fe).ravel()
+    e = emission_weights(f.W, f.eps_area)
+    if model.extra_space is not None:
+        e = e + model.extra_space
+    r, h = emission_residual(model.K, T, q, e, model.T_sink)
+    return r, h, source
 
 
 def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
-                    T: np.ndarray, q_recover: np.ndarray, ir: IRAbsorption | None, state: Refinement,
+                    T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
+                    state: Refinement,
                     surface: Surface | None = None, scene=None) -> np.ndarray | None:
     """One round of the error-driven refinement (:mod:`fem2tmm.reduce.refine`): estimate, then split or stop.
 
@@ -920,6 +933,7 @@ def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: Redu
     rm : the radiation-aware reduced model of this round (``rm.radiative`` set)
     T_sn : (n,) K its network solution; ``T`` (n_dof,) K the recovered field
     q_recover : (n_dof,) W loads known on the detailed mesh
+    q_lumped : (n,) W loads lumped per super node (super-face solar), spread by the super-node weights A
     ir : the super faces' IR absorption (``ir_on = "detailed"``) or None
     state : :class:`Refinement`, updated in place (history, labels, the traced tally)
     surface, scene : the radiation surface and ray scene (None: no radiation traced)
@@ -930,7 +944,7 @@ def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: Redu
     """
     import time
 
-    from .reduce.refine import (cluster_errors, global_error, interior_dofs, local_error, mark, owner_dofs,
+    from .reduce.refine import (cluster_errors, global_estimate, interior_dofs, local_error, mark, owner_dofs,
                                 split_clusters)
 
     t0 = time.perf_counter()
@@ -938,15 +952,18 @@ def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: Redu
     labels = clustering.labels
     el_cluster = labels[model.elements]
     k = int(len(clustering.cluster_part))
-    r, h = refinement_residual(model, case, rm, T_sn, T, q_recover, ir, state, surface, scene)
-    if red.refine_estimator == "local":
-        dof_cluster = interior_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
-        dT = local_error(model.K, h, r, dof_cluster)
-    else:
-        dof_cluster = owner_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
-        dT = global_error(model.K, h, r, ~model.fixed_mask)
+    r, h, source = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state, surface,
+                                       scene)
     weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
-    e2, rms = cluster_errors(dT, dof_cluster, k, weight)
+    if red.refine_estimator == "local":
+        if source is not None:
+            r = r + np.asarray(source[0].T @ source[1]).ravel()
+        dof_cluster = interior_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
+        e2, rms = cluster_errors(local_error(model.K, h, r, dof_cluster), dof_cluster, k, weight)
+    else:
+        owner = owner_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
+        dT, e2 = global_estimate(model.K, h, r, ~model.fixed_mask, weight, owner, k, source)
+        rms = float(np.sqrt((weight * dT**2).sum() / weight.sum()))
     entry = {"round": len(state.history), "n_super_nodes": k, "estimated_rms_K": rms, "split_clusters": []}
     state.history.append(entry)
     state.labels.append(labels.copy())

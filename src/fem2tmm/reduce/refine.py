@@ -108,21 +108,54 @@ def local_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, dof_cluster
     return dT
 
 
-def global_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """(n_dof,) K: the estimated error δT of every free DOF from one detailed linear solve, ``K'_FF δT_F = r_F``.
+def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: np.ndarray, weight: np.ndarray,
+                    dof_owner: np.ndarray, n_clusters: int, source: tuple | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """``(δT, share)``: the error of every free DOF from one detailed linear solve, and each cluster's share of it.
 
-    Like :func:`local_error` with the interfaces between clusters free too (only the fixed DOFs held): one Newton
-    step of the whole detailed problem from the recovered field under the estimator's loads, which also sees the
-    error of the super-node temperatures themselves.  ``free`` (n_dof,) bool; other arguments as
-    :func:`local_error`.  Returns ``T_step − T_recovered`` (0 on the held DOFs).
+    ``K'_FF δT_F = r_F`` with ``r = residual + Bᵀ dp`` (only the fixed DOFs held): like :func:`local_error` with
+    the interfaces free too, one Newton step of the whole detailed problem from the recovered field under the
+    estimator's loads, which also sees the error of the super-node temperatures themselves.  The squared error
+    ``Σ w δT²`` is then split over the *sources* of the residual by the adjoint ``z = K'⁻¹(w ⊙ δT)``:
+    ``Σ w δT² = zᵀ r = Σ_j z_j residual_j + Σ_g dp_g (B z)_g``, the first sum charged to the cluster of DOF j,
+    the second to the cluster that owns source g (e.g. a face side whose emission the reduced model misplaces:
+    the error it causes shows up elsewhere, but splitting *its* cluster is what removes it).
+
+    Parameters
+    ----------
+    K : (n_dof, n_dof) sparse W/K; h : (n_dof,) W/K linearised emission; residual : (n_dof,) W
+    free : (n_dof,) bool DOFs not held
+    weight : (n_dof,) mesh nodes per DOF (the RMS weights)
+    dof_owner : (n_dof,) int cluster charged with each DOF's residual (:func:`owner_dofs`), -1: none
+    n_clusters : K
+    source : ``(B, dp, owner)`` or None: B (g, n_dof) sparse maps DOF values to the g sources, dp (g,) W their
+        misplaced power, owner (g,) int their cluster (-1: none)
+
+    Returns
+    -------
+    δT (n_dof,) K (0 on held DOFs) and share (n_clusters,) K² (may be negative: cancelling sources).
     """
     idx = np.flatnonzero(np.asarray(free, bool))
-    dT = np.zeros(len(free))
+    n = len(free)
+    r = np.asarray(residual, float).copy()
+    if source is not None:
+        B, dp, owner_g = source
+        r += np.asarray(B.T @ dp).ravel()
+    dT, z = np.zeros(n), np.zeros(n)
+    share = np.zeros(n_clusters)
     if not idx.size:
-        return dT
-    Kp = (sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx]
-    dT[idx] = splu(sp.csc_matrix(Kp)).solve(np.asarray(residual, float)[idx])
-    return dT
+        return dT, share
+    lu = splu(sp.csc_matrix((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx]))
+    dT[idx] = lu.solve(r[idx])
+    z[idx] = lu.solve((np.asarray(weight, float) * dT)[idx])  # K' symmetric: its own adjoint
+    own = np.asarray(dof_owner)
+    sel = own >= 0
+    share += np.bincount(own[sel], (z * np.asarray(residual, float))[sel], minlength=n_clusters)
+    if source is not None:
+        og = np.asarray(owner_g)
+        sg = og >= 0
+        share += np.bincount(og[sg], (dp * np.asarray(B @ z).ravel())[sg], minlength=n_clusters)
+    return dT, share
 
 
 def owner_dofs(element_dofs: np.ndarray, element_cluster: np.ndarray, n_dof: int,
@@ -248,5 +281,5 @@ def check_budget(target_rms: float | None, max_super_nodes: int | None, n_super_
                            "the clustering starts from: raise it or lower the parts' super_nodes")
 
 
-__all__ = ["BULK", "MIN_ELEMENTS", "check_budget", "cluster_errors", "emission_residual", "global_error",
+__all__ = ["BULK", "MIN_ELEMENTS", "check_budget", "cluster_errors", "emission_residual", "global_estimate",
            "interior_dofs", "local_error", "mark", "owner_dofs", "split_clusters"]
