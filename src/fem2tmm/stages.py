@@ -870,10 +870,11 @@ def _element_links(model: FEModel, clustering: Clustering) -> tuple[np.ndarray, 
 def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: ReducedModel, T_sn: np.ndarray,
                         T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
                         state: Refinement,
-                        surface: Surface | None = None, scene=None) -> tuple[np.ndarray, np.ndarray, tuple | None]:
-    """``(r, h, source)``: the residual of the recovered field ``T`` under the true loads, split in a DOF part
+                        surface: Surface | None = None, scene=None) -> tuple:
+    """``(r, h, source, feedback)``: the residual of the recovered field ``T`` under the true loads, split in a DOF part
     ``r`` (n_dof,) W and, with ``ir_on = "detailed"``, the misplaced emission ``source = (B, dp, owner)`` of
-    :func:`~fem2tmm.reduce.refine.global_estimate` (total residual ``r + Bᵀ dp``); ``h = 4σ e T³`` (n_dof,) W/K.
+    :func:`~fem2tmm.reduce.refine.global_estimate` (total residual ``r + Bᵀ dp``); ``h = 4σ e T³`` (n_dof,) W/K;
+    ``feedback`` the linearised re-absorption ``(B, 4σεA T³ per side, E)`` when radiation is traced, else None.
     Arguments as for :func:`refinement_step`; the side-to-side tally is traced into ``state`` on first use."""
     from .reduce.radiative import emission_weights
     from .reduce.refine import emission_residual
@@ -883,7 +884,7 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
     owner_face = face_owner(model, rm.supernodes, rm.element_cluster)
     # loads known on the detailed mesh, plus those lumped per super node spread as the model assumes (A' q_SN)
     q = np.asarray(q_recover, float) + np.asarray(rm.supernodes.A.T @ np.asarray(q_lumped, float)).ravel()
-    source = None
+    source = feedback = None
     if ir is not None:
         q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink)).ravel()
     if surface is not None and case.radiation.enabled and f.active.any():
@@ -897,11 +898,14 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
             side = np.flatnonzero(active)
             to_face = sp.csr_matrix((np.ones(2 * f.n), (np.arange(2 * f.n), np.arange(2 * f.n) // 2)),
                                     shape=(2 * f.n, f.n))
-            state.side_absorption = (C, side, eps, (C @ to_face @ f.W).tocsr())
-        C, side, eps, B = state.side_absorption
+            emit = sp.csr_matrix((np.ones(len(side)), (np.arange(len(side)), side // 2)), shape=(len(side), f.n))
+            state.side_absorption = (C, side, eps, (C @ to_face @ f.W).tocsr(), (emit @ f.W).tocsr())
+        C, side, eps, B, E = state.side_absorption
         face = side // 2
         s4 = model.T_sink**4
-        p_fe = SIGMA * eps * (np.asarray(f.W @ T).ravel()[face] ** 4 - s4)
+        T_face = np.asarray(f.W @ T).ravel()[face]
+        p_fe = SIGMA * eps * (T_face**4 - s4)
+        feedback = (B, 4.0 * SIGMA * eps * T_face**3, E)
         if ir is not None:  # the model absorbs what super faces emit at T_SN: only the difference is missing
             source = (B, p_fe - SIGMA * eps * (T_sn_full[owner_face[face]] ** 4 - s4),
                       clustering.labels[f.element[face]])
@@ -911,7 +915,7 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
     if model.extra_space is not None:
         e = e + model.extra_space
     r, h = emission_residual(model.K, T, q, e, model.T_sink)
-    return r, h, source
+    return r, h, source, feedback
 
 
 def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
@@ -952,8 +956,8 @@ def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: Redu
     labels = clustering.labels
     el_cluster = labels[model.elements]
     k = int(len(clustering.cluster_part))
-    r, h, source = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state, surface,
-                                       scene)
+    r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
+                                                 surface, scene)
     weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
     if red.refine_estimator == "local":
         if source is not None:
@@ -962,7 +966,7 @@ def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: Redu
         e2, rms = cluster_errors(local_error(model.K, h, r, dof_cluster), dof_cluster, k, weight)
     else:
         owner = owner_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
-        dT, e2 = global_estimate(model.K, h, r, ~model.fixed_mask, weight, owner, k, source)
+        dT, e2 = global_estimate(model.K, h, r, ~model.fixed_mask, weight, owner, k, source, feedback)
         rms = float(np.sqrt((weight * dT**2).sum() / weight.sum()))
     entry = {"round": len(state.history), "n_super_nodes": k, "estimated_rms_K": rms, "split_clusters": []}
     state.history.append(entry)

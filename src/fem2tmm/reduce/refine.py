@@ -109,8 +109,8 @@ def local_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, dof_cluster
 
 
 def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: np.ndarray, weight: np.ndarray,
-                    dof_owner: np.ndarray, n_clusters: int, source: tuple | None = None
-                    ) -> tuple[np.ndarray, np.ndarray]:
+                    dof_owner: np.ndarray, n_clusters: int, source: tuple | None = None,
+                    feedback: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(δT, share)``: the error of every free DOF from one detailed linear solve, and each cluster's share of it.
 
     ``K'_FF δT_F = r_F`` with ``r = residual + Bᵀ dp`` (only the fixed DOFs held): like :func:`local_error` with
@@ -130,6 +130,12 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     n_clusters : K
     source : ``(B, dp, owner)`` or None: B (g, n_dof) sparse maps DOF values to the g sources, dp (g,) W their
         misplaced power, owner (g,) int their cluster (-1: none)
+    feedback : ``(B, g, E)`` or None: the linearised re-absorption of the emission change, ``G = Bᵀ diag(g) E``
+        (E (g, n_dof) sparse: each emitting side's temperature from the DOFs, g (g,) W/K its 4σεA T³, B as above
+        but for the absorption of what side k emits): the operator becomes ``J = K' − G`` (the faces that see
+        each other give back part of what K' lets a hotter face emit; without it the step under-estimates),
+        solved by the fixed point ``δT ← K'⁻¹(r + G δT)`` (contracting: a face re-absorbs less than all of any
+        emission) to :data:`FEEDBACK_TOL`, the adjoint likewise with ``Gᵀ``
 
     Returns
     -------
@@ -146,8 +152,15 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     if not idx.size:
         return dT, share
     lu = splu(sp.csc_matrix((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx]))
-    dT[idx] = lu.solve(r[idx])
-    z[idx] = lu.solve((np.asarray(weight, float) * dT)[idx])  # K' symmetric: its own adjoint
+    if feedback is None:
+        dT[idx] = lu.solve(r[idx])
+        z[idx] = lu.solve((np.asarray(weight, float) * dT)[idx])  # K' symmetric: its own adjoint
+    else:
+        Bf, g, E = feedback
+        G = lambda x: np.asarray(Bf.T @ (g * np.asarray(E @ x).ravel())).ravel()  # noqa: E731
+        Gt = lambda x: np.asarray(E.T @ (g * np.asarray(Bf @ x).ravel())).ravel()  # noqa: E731
+        dT[idx] = _fixed_point(lu, r, G, idx, n)
+        z[idx] = _fixed_point(lu, np.asarray(weight, float) * dT, Gt, idx, n)
     own = np.asarray(dof_owner)
     sel = own >= 0
     share += np.bincount(own[sel], (z * np.asarray(residual, float))[sel], minlength=n_clusters)
@@ -156,6 +169,25 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
         sg = og >= 0
         share += np.bincount(og[sg], (dp * np.asarray(B @ z).ravel())[sg], minlength=n_clusters)
     return dT, share
+
+
+#: relative change of the fixed point of :func:`global_estimate` with feedback at which it stops
+FEEDBACK_TOL = 1e-6
+FEEDBACK_MAX_ITER = 200
+
+
+def _fixed_point(lu, rhs: np.ndarray, G, idx: np.ndarray, n: int) -> np.ndarray:
+    """x on ``idx`` solving ``(K' − G) x = rhs`` by ``x ← K'⁻¹(rhs + G x)`` (``lu`` factors K' on idx; x = 0 off
+    idx).  Raises if it does not contract (more re-absorbed than emitted: a bug of the caller's operators)."""
+    x = np.zeros(n)
+    x[idx] = lu.solve(rhs[idx])
+    for _ in range(FEEDBACK_MAX_ITER):
+        new = lu.solve(rhs[idx] + G(x)[idx])
+        step = np.abs(new - x[idx]).max(initial=0.0)
+        x[idx] = new
+        if step <= FEEDBACK_TOL * max(np.abs(new).max(initial=0.0), 1e-300):
+            return x[idx]
+    raise RuntimeError(f"the re-absorption fixed point did not converge in {FEEDBACK_MAX_ITER} iterations")
 
 
 def owner_dofs(element_dofs: np.ndarray, element_cluster: np.ndarray, n_dof: int,
