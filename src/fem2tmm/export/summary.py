@@ -82,9 +82,10 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
             "refinement": None if result.refinement is None else {
                 "target_rms_K": result.case.reduction.target_rms, "stop": result.refinement.stop,
-                "rounds": result.refinement.history,
-                "note": "estimated RMS: local detailed solves of every cluster's interior with its interfaces held at "
-                        "the recovered field, under the true local loads (fem2tmm.reduce.refine)"},
+                "rounds": result.refinement.history, "estimator": result.case.reduction.refine_estimator,
+                "note": "estimated RMS of the recovered field: the residual under the true loads (FE faces emitting at "
+                        "their own temperatures) solved on the detailed mesh, linearised (fem2tmm.reduce.refine); the "
+                        "final round's partition is the one solved and compared"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
         if detailed is not None:
