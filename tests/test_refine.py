@@ -3,7 +3,7 @@ splitter's contiguity, and a small refinement loop that meets its target against
 
 from __future__ import annotations
 
-import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -13,6 +13,7 @@ from scipy.sparse.csgraph import connected_components
 from conftest import make_case
 from fem2tmm import meshes
 from fem2tmm.errors import Fem2TmmError
+from fem2tmm.export.summary import summary_table
 from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import run
 from fem2tmm.reduce.refine import (cluster_errors, emission_residual, global_estimate, interior_dofs, local_error, mark,
@@ -174,15 +175,19 @@ def small_box(n_sn, **reduction):
                      reduction=reduction, reference={"detailed": True}), box
 
 
-def test_refinement_meets_its_target_against_the_detailed_solve():
+def test_refinement_meets_its_target_against_the_detailed_solve(tmp_path):
     # Thin k = 5 panels held along the deck, 5 W on the top, emitting to space: the thesis' reduction at 10 super
     # nodes is tens of kelvin off (its uniform-load recovery, Bi >> 1).  Refinement to target_rms = 8 K must end
     # with an estimate <= 8 K and a measured RMS against the detailed FE solve <= 8 K, with fewer super nodes than
     # the uniform clustering needs for the same error.
     target = 8.0
     case, box = small_box(10, target_rms=target, refine_rounds=10, max_super_nodes=200)
-    r = run(case, mesh=box)
+    r = run(case, mesh=box, out=tmp_path / "out")
     ref = r.summary["reduced"]["refinement"]
+    written = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert written["reduced"]["refinement"]["rounds"] == ref["rounds"]
+    assert "estimated RMS per round" in (tmp_path / "out" / "report.html").read_text()
+    assert "estimated RMS per round" in summary_table(r.summary)
     rounds = ref["rounds"]
     assert ref["stop"] == "target met" and rounds[-1]["estimated_rms_K"] <= target
     assert len(rounds) > 2 and rounds[0]["estimated_rms_K"] > 2 * target  # the loop had to work

@@ -33,8 +33,9 @@ from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_k
                      detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key,
                      ir_absorption, mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced,
                      positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
-                     reduced_problem, Refinement, refinement_step, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
+                     reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
+from .stages import Refinement, refinement_step
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
@@ -318,21 +319,21 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if case.reduction.radiation_aware:
-            ir = None
+            ir_abs = None  # (not ``ir``: that name holds the IR optics, part of the reference's trace key below)
             if trace and case.radiation.ir_on == "detailed":
                 with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
-                    ir = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
+                    ir_abs = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
                 result.thesis_T_recovered = result.T_recovered
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
-                                            result.T_recovered, ir))
+                                            result.T_recovered, ir_abs))
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
                 nxt = refinement_step(model, result.clustering, case, result.reduced, result.reduced_solution.T,
                                       result.T_recovered, q_recover, q_lumped,
-                                      ir if case.reduction.radiation_aware else None, refine,
+                                      ir_abs if case.reduction.radiation_aware else None, refine,
                                       surface if trace else None, scenes.main() if trace else None)
             if nxt is not None:
                 return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine)

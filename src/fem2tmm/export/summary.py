@@ -299,6 +299,16 @@ def temperature_rows(s: dict) -> list[tuple[str, str]]:
     return rows
 
 
+def refinement_rows(red: dict | None) -> list[tuple[str, str]]:
+    """The row of the error-driven refinement's history (``reduced.refinement``), for the terminal and the report."""
+    ref = red.get("refinement") if red else None
+    if not ref:
+        return []
+    steps = ", ".join(f"{h['n_super_nodes']} SN {h['estimated_rms_K']:.3g} K" for h in ref["rounds"])
+    return [("refinement", f"target {ref['target_rms_K']:g} K ({ref['estimator']} estimator), {ref['stop']}; "
+                           f"estimated RMS per round: {steps}")]
+
+
 def summary_table(s: dict) -> str:
     """The plain-text table the command line prints after a run, from the ``summary.json`` dict."""
     rows = [("mesh", f"{s['mesh']['nodes']} nodes, {s['mesh']['elements']} elements")]
@@ -316,10 +326,7 @@ def summary_table(s: dict) -> str:
         rows.append(("positive network", f"{pn['links']} GL > 0 between touching super nodes (exact: "
                      f"{pn['exact_negative_links']} negative of {pn['exact_links']}), max {pn['T_vs_exact_K']['max']:.3g} "
                      f"K from the exact reduction, criteria {'met' if pn['criteria']['met'] else 'NOT met'}{vs}"))
-    ref = red.get("refinement") if red else None
-    if ref:
-        steps = ", ".join(f"{h['n_super_nodes']} SN {h['estimated_rms_K']:.3g} K" for h in ref["rounds"])
-        rows.append(("refinement", f"target {ref['target_rms_K']:g} K, {ref['stop']}; estimated RMS per round: {steps}"))
+    rows += refinement_rows(red)
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation", f"{rad['rays']:,} rays, RMS line-sum error {rad['lse_rms']:.2e}"))
