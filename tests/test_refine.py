@@ -3,6 +3,7 @@ splitter's contiguity, and a small refinement loop that meets its target against
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -212,3 +213,24 @@ def test_refinement_keys_are_validated():
     case, box = small_box(10, target_rms=1.0, max_super_nodes=5)
     with pytest.raises(Fem2TmmError, match="max_super_nodes"):
         run(case, mesh=box)
+
+
+@pytest.mark.slow
+def test_composite_refinement_meets_its_target():
+    # issue 21 item 5 acceptance: examples/composite (k = 5 panels, IR on the FE faces, radiation-aware) from 10
+    # super nodes (measured 2.12 K) to target_rms = 1.0 K, 7x the reference's own noise (0.14 K RMS); the final
+    # measured RMS (recovered vs the detailed reference) must meet the target.  Measured 2026-12-02: 5 rounds,
+    # 10 -> 29 super nodes, estimate 0.90 K, measured 0.92 K (the uniform clustering: 1.20 K at 25, 0.76 K at 50).
+    from pathlib import Path
+
+    from fem2tmm.case import Case
+
+    root = Path(__file__).resolve().parents[1]
+    case = Case.from_toml(root / "examples" / "composite" / "case.toml")
+    parts = tuple(dataclasses.replace(p, super_nodes=10) if p.super_nodes > 1 else p for p in case.parts)
+    case = dataclasses.replace(case, parts=parts, reduction=dataclasses.replace(case.reduction, target_rms=1.0,
+                                                                                refine_rounds=8))
+    r = run(case)
+    ref = r.summary["reduced"]["refinement"]
+    assert ref["stop"] == "target met" and len(ref["rounds"]) > 1, ref
+    assert r.summary["accuracy"]["rms_K"] <= 1.0, (r.summary["accuracy"], ref["rounds"])
