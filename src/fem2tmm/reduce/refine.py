@@ -242,8 +242,10 @@ def cluster_errors(dT: np.ndarray, dof_cluster: np.ndarray, n_clusters: int, wei
 
 
 def mark(e2: np.ndarray, n_elements: np.ndarray, budget: int, bulk: float = BULK) -> np.ndarray:
-    """Clusters to split (sorted int64): the fewest worst ones whose ``e2`` sum to ``bulk`` of the total,
-    at most ``budget``, only clusters of at least :data:`MIN_ELEMENTS` elements with a nonzero error."""
+    """Clusters to split (sorted int64): the fewest worst ones whose ``e2`` sum to ``bulk`` of the positive total,
+    at most ``budget``, only clusters of at least :data:`MIN_ELEMENTS` elements with a positive share.
+
+    ``e2`` (K,) K² each cluster's share of the squared error, ``n_elements`` (K,) their element counts."""
     e2 = np.asarray(e2, float)
     ok = (np.asarray(n_elements) >= MIN_ELEMENTS) & (e2 > 0)
     order = np.argsort(-np.where(ok, e2, -1.0), kind="stable")
@@ -251,7 +253,7 @@ def mark(e2: np.ndarray, n_elements: np.ndarray, budget: int, bulk: float = BULK
     if budget <= 0 or not order.size:
         return np.zeros(0, np.int64)
     cum = np.cumsum(e2[order])
-    n = int(np.searchsorted(cum, bulk * e2.sum())) + 1
+    n = int(np.searchsorted(cum, bulk * e2[e2 > 0].sum())) + 1  # shares may be negative (cancelling sources)
     return np.sort(order[:min(n, budget, order.size)]).astype(np.int64)
 
 
