@@ -100,6 +100,21 @@ def test_estimators_are_exact_for_a_linear_problem():
     dT, share = global_estimate(model.K, h, r, free, w, own, k)
     assert np.abs(dT + p).max() < 1e-8
     assert share.sum() == pytest.approx((w * p**2).sum(), rel=1e-8)  # the adjoint identity z'r = Σ w δT²
+    # with emission h and a re-absorption feedback G = B' diag(g) E (each source one emitting DOF giving back at
+    # most half of its linearised emission g = h, as faces re-absorb less than they emit) and a misplaced source
+    # B' dp: (K' - G) δT = r + B' dp and the adjoint shares still sum to Σ w δT² (fixed point to 1e-6 relative)
+    h = np.where(free, rng.uniform(0.5, 1.0, model.n_dof) * 1e-3, 0.0)  # W/K
+    src = rng.choice(np.flatnonzero(free), 30, replace=False)
+    E = sp.csr_matrix((np.ones(len(src)), (np.arange(len(src)), src)), shape=(len(src), model.n_dof))
+    B = sp.random(len(src), model.n_dof, density=0.1, random_state=2, format="csr")
+    B = sp.diags(0.5 / np.maximum(np.asarray(B.sum(axis=1)).ravel(), 1e-300)) @ B  # rows sum to 0.5
+    dp = rng.normal(size=len(src))
+    owner_g = rng.integers(0, k, len(src))
+    dT, share = global_estimate(model.K, h, r, free, w, own, k, (B, dp, owner_g), (B, h[src], E))
+    lhs = (model.K + sp.diags(h) - B.T @ sp.diags(h[src]) @ E) @ dT
+    rhs = r + B.T @ dp
+    assert np.abs((lhs - rhs)[free]).max() < 1e-5 * np.abs(rhs[free]).max()
+    assert share.sum() == pytest.approx((w * dT**2).sum(), rel=1e-5)
 
 
 @pytest.mark.filterwarnings("ignore:.*flow straight into it")
