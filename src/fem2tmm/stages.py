@@ -839,8 +839,9 @@ class Refinement:
 
     ``history`` one dict per round (``round``, ``n_super_nodes``, ``estimated_rms_K``, ``split_clusters``,
     ``seconds``); ``labels`` the clustering of every round (n_elements,) int; ``side_absorption`` the estimator's
-    FE side-to-side IR tally ``(C (g, 2f) csr, side (g,) the side of each group, eps_area (g,) m²)``, traced once
-    (it does not depend on the clusters); ``stop`` why the loop ended.
+    FE side-to-side IR tally ``(C (g, 2f) csr, side (g,) the FE side of each emitting group, eps_area (g,) m²,
+    B = C S W (g, n_dof): what each side's emission deposits on the DOFs, E (g, n_dof): each side's temperature
+    from the DOFs)``, traced once (it does not depend on the clusters); ``stop`` why the loop ended.
     """
 
     history: list = dataclasses.field(default_factory=list)
