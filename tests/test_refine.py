@@ -211,7 +211,8 @@ def test_refinement_meets_its_target_against_the_detailed_solve(tmp_path):
     measured = r.summary["accuracy"]["rms_K"]
     assert measured <= target, rounds
     # the estimate tracks the measured error within a factor 2 (space-only radiation: one Newton step of the
-    # detailed problem from the recovered field; measured ratios 0.9-1.3)
+    # detailed problem from the recovered field).  Measured: 10 -> 14 -> 18 -> 22 -> 27 -> 34 super nodes, estimate
+    # 19.8 -> 7.09 K, measured 6.64 K; uniform clusters at 34: 8.19 K
     assert 0.5 * measured <= rounds[-1]["estimated_rms_K"] <= 2 * measured
     n_final = rounds[-1]["n_super_nodes"]
     uniform = run(small_box(n_final)[0], mesh=box).summary["accuracy"]["rms_K"]
