@@ -42,6 +42,7 @@ REGISTRY: dict[str, str] = {
     "network_positive": "benchmarks.network:bench_network_positive",
     "transient": "benchmarks.transient:bench_transient",
     "orbit": "benchmarks.orbit:bench_orbit",
+    "refine": "benchmarks.refine:bench_refine",
 }
 
 

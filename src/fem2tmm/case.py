@@ -153,6 +153,12 @@ class ReductionSettings:
     radiation_aware: bool = False
     outer_iterations: int = 4  # re-linearisations about T_ref (each: reduction, network solve, recovery)
     network: ReducedNetwork = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
+    # error-driven refinement (fem2tmm.reduce.refine): split the worst clusters until the estimated RMS <= target_rms
+    target_rms: float | None = None  # K; None = no refinement
+    max_super_nodes: int | None = None  # budget of the refinement (super nodes of the clusters); None = no cap
+    refine_rounds: int = 5  # budget: most refinement rounds (each: split, re-cluster, re-reduce, re-trace)
+    refine_rays_per_face: int = 20  # rays per FE face side of the estimator's side-to-side IR tally
+    refine_estimator: str = "global"  # global (one detailed linear solve) | local (clusters' interiors, interfaces held)
 
 
 @dataclass(frozen=True)
@@ -782,7 +788,8 @@ class _Parser:
     def reduction(self, d) -> ReductionSettings:
         w = "[reduction]"
         d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network", "radiation_aware",
-                              "outer_iterations"})
+                              "outer_iterations", "target_rms", "max_super_nodes", "refine_rounds",
+                              "refine_rays_per_face", "refine_estimator"})
         if d.get("radiation_aware") is True and d.get("network", "exact") == "positive":
             raise self.err(w, "radiation_aware = true needs network = \"exact\" (the radiation-aware network is "
                               "K'_SN - diag(H_SN) with a correction load; the positive fit is not defined for it)")
@@ -796,6 +803,13 @@ class _Parser:
             radiation_aware=self.boolean(d, "radiation_aware", w, D("radiation_aware")),
             outer_iterations=self.number(d, "outer_iterations", w, default=D("outer_iterations"), lo=1, integer=True),
             network=self.string(d, "network", w, default=D("network"), choices=get_args(ReducedNetwork)),
+            target_rms=self.number(d, "target_rms", w, lo=0, lo_open=True),
+            max_super_nodes=self.number(d, "max_super_nodes", w, lo=1, integer=True),
+            refine_rounds=self.number(d, "refine_rounds", w, default=D("refine_rounds"), lo=0, integer=True),
+            refine_rays_per_face=self.number(d, "refine_rays_per_face", w, default=D("refine_rays_per_face"), lo=1,
+                                             integer=True),
+            refine_estimator=self.string(d, "refine_estimator", w, default=D("refine_estimator"),
+                                         choices=("global", "local")),
         )
 
     def clustering(self, d) -> ClusteringSettings:

@@ -35,6 +35,7 @@ from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_k
                      positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
                      reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
+from .stages import Refinement, refinement_step
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
@@ -172,7 +173,7 @@ class _Scenes:
 
 
 def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, store=None,
-         labels: np.ndarray | None = None) -> Result:
+         labels: np.ndarray | None = None, refine: Refinement | None = None) -> Result:
     if case.clustering.method == "metis" and labels is None:
         from .cluster.metis import require
 
@@ -222,6 +223,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             prog, store, status, "cluster", "clustering", lambda: ckey,
             lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
                                   labels=labels))
+        if refine is None and case.reduction.target_rms is not None:
+            from .reduce.refine import check_budget
+
+            check_budget(case.reduction.target_rms, case.reduction.max_super_nodes,
+                         len(result.clustering.cluster_part))
 
     # quadrics where the case asks for them (the scene itself is built when a stage traces)
     if surface is not None and any(p.quadric for p in case.parts):
@@ -313,15 +319,25 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if case.reduction.radiation_aware:
-            ir = None
+            ir_abs = None  # (not ``ir``: that name holds the IR optics, part of the reference's trace key below)
             if trace and case.radiation.ir_on == "detailed":
                 with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
-                    ir = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
+                    ir_abs = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
                 result.thesis_T_recovered = result.T_recovered
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
-                                            result.T_recovered, ir))
+                                            result.T_recovered, ir_abs))
+        if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
+            refine = Refinement() if refine is None else refine
+            with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
+                nxt = refinement_step(model, result.clustering, case, result.reduced, result.reduced_solution.T,
+                                      result.T_recovered, q_recover, q_lumped,
+                                      ir_abs if case.reduction.radiation_aware else None, refine,
+                                      surface if trace else None, scenes.main() if trace else None)
+            if nxt is not None:
+                return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine)
+            result.refinement = refine
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
                 result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,

@@ -80,6 +80,12 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 "biot": (result.radiation_aware or [{}])[0].get("biot"),
                 "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
+            "refinement": None if result.refinement is None else {
+                "target_rms_K": result.case.reduction.target_rms, "stop": result.refinement.stop,
+                "rounds": result.refinement.history, "estimator": result.case.reduction.refine_estimator,
+                "note": "estimated RMS of the recovered field: the residual under the true loads (FE faces emitting at "
+                        "their own temperatures) solved on the detailed mesh, linearised (fem2tmm.reduce.refine); the "
+                        "final round's partition is the one solved and compared"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
         if detailed is not None:
@@ -293,6 +299,16 @@ def temperature_rows(s: dict) -> list[tuple[str, str]]:
     return rows
 
 
+def refinement_rows(red: dict | None) -> list[tuple[str, str]]:
+    """The row of the error-driven refinement's history (``reduced.refinement``), for the terminal and the report."""
+    ref = red.get("refinement") if red else None
+    if not ref:
+        return []
+    steps = ", ".join(f"{h['n_super_nodes']} SN {h['estimated_rms_K']:.3g} K" for h in ref["rounds"])
+    return [("refinement", f"target {ref['target_rms_K']:g} K ({ref['estimator']} estimator), {ref['stop']}; "
+                           f"estimated RMS per round: {steps}")]
+
+
 def summary_table(s: dict) -> str:
     """The plain-text table the command line prints after a run, from the ``summary.json`` dict."""
     rows = [("mesh", f"{s['mesh']['nodes']} nodes, {s['mesh']['elements']} elements")]
@@ -310,6 +326,7 @@ def summary_table(s: dict) -> str:
         rows.append(("positive network", f"{pn['links']} GL > 0 between touching super nodes (exact: "
                      f"{pn['exact_negative_links']} negative of {pn['exact_links']}), max {pn['T_vs_exact_K']['max']:.3g} "
                      f"K from the exact reduction, criteria {'met' if pn['criteria']['met'] else 'NOT met'}{vs}"))
+    rows += refinement_rows(red)
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation", f"{rad['rays']:,} rays, RMS line-sum error {rad['lse_rms']:.2e}"))
