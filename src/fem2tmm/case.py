@@ -29,6 +29,7 @@ ReductionMethod = Literal["local", "global"]
 CapacitanceMethod = Literal["cluster", "equivalent"]
 ReducedNetwork = Literal["exact", "positive"]
 ClusteringMethod = Literal["growing", "metis"]
+ClusteringAllocation = Literal["area", "biot"]
 TransientMethod = Literal["crank-nicolson", "backward-euler", "bdf2"]
 TransientCapacitance = Literal["lumped", "consistent"]
 
@@ -162,6 +163,9 @@ class ClusteringSettings:
     smoothing_layers: int = 2
     balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
     method: ClusteringMethod = "growing"  # growing | metis (pymetis on each region)
+    # area | biot: shell elements weighted by their Biot number h_rad A/(k t) from an emission-to-space pre-solve
+    # (fem2tmm.stages.biot_weights): more, smaller super nodes where heat spreads short distances
+    allocation: ClusteringAllocation = "area"
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun
     solar_aware: bool | None = None
@@ -800,7 +804,8 @@ class _Parser:
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"
-        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method"})
+        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method",
+                                  "allocation"})
         aware = d.get("solar_aware")
         D = lambda name: _default(ClusteringSettings, name)  # noqa: E731
         return ClusteringSettings(
@@ -810,6 +815,7 @@ class _Parser:
             smoothing_layers=self.number(d, "smoothing_layers", w, default=D("smoothing_layers"), lo=0, integer=True),
             balance=self.boolean(d, "balance", w, D("balance")),
             method=self.string(d, "method", w, default=D("method"), choices=get_args(ClusteringMethod)),
+            allocation=self.string(d, "allocation", w, default=D("allocation"), choices=get_args(ClusteringAllocation)),
         )
 
     def reference(self, d) -> ReferenceSettings:

@@ -35,6 +35,7 @@ from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_k
                      positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
                      reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
+from .stages import biot_weights, presolve_space, warn_coarse_mesh
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
@@ -217,11 +218,18 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             flux = _cached(prog, store, status, "solar_prepass", "tracing a coarse solar map for the clustering",
                            lambda: sun_key("solar_prepass", "flat", "prepass"),
                            lambda: solar_prepass(model, case, surface, scene=scenes.flat()))
-        ckey = cluster_key(model, case, flux, labels)
+        weights = weights_report = None
+        if case.clustering.allocation == "biot" and labels is None:
+            with prog.stage("presolve_biot", "pre-solve for the Biot numbers (emission to space only)"):
+                weights, weights_report = biot_weights(model, presolve_space(model, case))
+            if not case.reduction.radiation_aware:  # (that one warns from its own pre-solve)
+                warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
+                                 max((r["max"] for r in weights_report.values()), default=None))
+        ckey = cluster_key(model, case, flux, labels, weights)
         result.clustering = _cached(
             prog, store, status, "cluster", "clustering", lambda: ckey,
             lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
-                                  labels=labels))
+                                  labels=labels, weights=weights, weights_report=weights_report))
 
     # quadrics where the case asks for them (the scene itself is built when a stage traces)
     if surface is not None and any(p.quadric for p in case.parts):
