@@ -45,6 +45,8 @@ def _case(path: str, n: int, opts: dict):
         case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
     if "allocation" in opts:
         case = dataclasses.replace(case, clustering=dataclasses.replace(case.clustering, allocation=opts["allocation"]))
+    if "ir_on" in opts:
+        case = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation, ir_on=opts["ir_on"]))
     if "rays_factor" in opts:  # the reduced model's rays only (super-face REFs and the per-FE-face IR tally)
         r, f = case.radiation, opts["rays_factor"]
         case = dataclasses.replace(case, radiation=dataclasses.replace(
@@ -122,12 +124,15 @@ def _plot(curves: dict) -> str:
 
 
 #: ``fem2tmm bench allocation``: the composite study with area allocation, Biot-aware allocation
-#: (``[clustering] allocation = "biot"``) and area allocation with 4x the reduced model's rays (is it ray noise?)
-ALLOCATION_VARIANTS = {"area": {}, "biot": {"allocation": "biot"}, "area_rays4": {"rays_factor": 4}}
+#: (``[clustering] allocation = "biot"``), IR emitted per FE face (``[radiation] ir_on = "faces"``, with either
+#: allocation) and with 4x the reduced model's rays (is what remains ray noise?); ``area_rays4`` on request
+ALLOCATION_VARIANTS = {"area": {}, "biot": {"allocation": "biot"}, "ir_faces": {"ir_on": "faces"},
+                       "ir_faces_biot": {"ir_on": "faces", "allocation": "biot"},
+                       "ir_faces_rays4": {"ir_on": "faces", "rays_factor": 4}, "area_rays4": {"rays_factor": 4}}
 ALLOCATION_NS = (25, 50, 100, 200, 300)
 
 
-def bench_allocation(ns=ALLOCATION_NS, variants=tuple(ALLOCATION_VARIANTS)) -> list[dict]:
+def bench_allocation(ns=ALLOCATION_NS, variants=tuple(ALLOCATION_VARIANTS)[:5]) -> list[dict]:
     """Composite box (examples/composite/case.toml, radiation-aware, IR on the FE faces): RMS error against n_SN
     for each variant of :data:`ALLOCATION_VARIANTS`, run interleaved (n outer, variant inner: the shared machine's
     load drifts alike for all), each against the detailed reference with its own streams; one fit row per variant

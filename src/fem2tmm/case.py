@@ -140,7 +140,7 @@ class RadiationSettings:
     # where the reduced model puts absorbed IR: "super_faces" (thesis: uniform over each super node) or
     # "detailed" (rays from the super faces tallied on the FE face sides that absorb them; needs radiation_aware)
     ir_on: str = "super_faces"
-    ir_rays_per_face: int = 100  # ir_on = "detailed": rays per FE face of each emitting super face
+    ir_rays_per_face: int = 100  # ir_on = "detailed": rays per FE face of each emitting super face ("faces": side)
 
 
 @dataclass(frozen=True)
@@ -487,8 +487,8 @@ class _Parser:
             raise self.err("[[joints]]", "expected an array of tables ([[joints]] entries)")
         joints = tuple(self.joint(i, j) for i, j in enumerate(j_raw))
         radiation, reduction = self.radiation(top.get("radiation", {})), self.reduction(top.get("reduction", {}))
-        if radiation.ir_on == "detailed" and not (reduction.radiation_aware and radiation.enabled):
-            raise self.err("[radiation].ir_on", '"detailed" places absorbed IR on the FE faces through the '
+        if radiation.ir_on != "super_faces" and not (reduction.radiation_aware and radiation.enabled):
+            raise self.err("[radiation].ir_on", f'"{radiation.ir_on}" places absorbed IR on the FE faces through the '
                            "radiation-aware reduction: set [reduction] radiation_aware = true (and keep [radiation] "
                            "enabled)")
         if reduction.radiation_aware and transient is not None:
@@ -779,7 +779,7 @@ class _Parser:
             seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
             max_bounces=self.number(d, "max_bounces", w, default=D("max_bounces"), lo=1, integer=True),
             target_lse=self.number(d, "target_lse", w, lo=0, lo_open=True),
-            ir_on=self.string(d, "ir_on", w, default="super_faces", choices=("super_faces", "detailed")),
+            ir_on=self.string(d, "ir_on", w, default="super_faces", choices=("super_faces", "detailed", "faces")),
             ir_rays_per_face=self.number(d, "ir_rays_per_face", w, default=100, lo=1, integer=True),
         )
 

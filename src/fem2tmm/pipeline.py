@@ -322,7 +322,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if case.reduction.radiation_aware:
             ir = None
-            if trace and case.radiation.ir_on == "detailed":
+            if trace and case.radiation.ir_on in ("detailed", "faces"):
                 with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
                     ir = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):

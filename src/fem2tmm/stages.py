@@ -27,7 +27,7 @@ from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, build_reduced, determined_elements, face_owner, kept_dofs, super_faces
+from .reduce.network import ReducedModel, build_reduced, determined_elements, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
                               solve_transient)
@@ -692,19 +692,24 @@ LOW_BIOT = 0.1
 
 @dataclass(frozen=True)
 class IRAbsorption:
-    """Where the super faces' IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"``).
+    """Where the emitted IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"`` or ``"faces"``).
 
-    ``A`` (n_sf, 2f) csr: fraction of super face s's emitted energy absorbed by FE side k; ``owner`` (n_sf,) the
-    super node of each super face; ``eps_area`` (n_sf,) m² its emitting εA.
+    ``A`` (g, 2f) csr: fraction of emitter i's emitted energy absorbed by FE side k; ``owner`` (g,) the super node
+    of each emitter; ``eps_area`` (g,) m² its emitting εA.  ``"detailed"``: the emitters are the super faces,
+    each at its super node's temperature; ``"faces"``: the emitters are the active FE face sides, ``face`` (g,)
+    the FE face of each, at the recovered field's face temperature ((W T⁴)^¼, as the detailed model's REFs).
     """
 
     A: sp.csr_matrix
     owner: np.ndarray
     eps_area: np.ndarray
+    face: np.ndarray | None = None
 
-    def face_power(self, T_sn: np.ndarray, T_sink: float) -> np.ndarray:
-        """(f,) W absorbed by each FE face (both sides) when each super face emits σ εA (T_SN⁴ − T_sink⁴)."""
-        emitted = SIGMA * self.eps_area * (T_sn[self.owner] ** 4 - T_sink**4)
+    def face_power(self, T_sn: np.ndarray, T_sink: float, T4_face: np.ndarray | None = None) -> np.ndarray:
+        """(f,) W absorbed by each FE face (both sides) when each emitter emits σ εA (T⁴ − T_sink⁴): T the super
+        node's ``T_sn`` (n,) K, or with per-face emitters the face's ``T4_face`` (f,) K⁴ (required then)."""
+        T4 = T_sn[self.owner] ** 4 if self.face is None else T4_face[self.face]
+        emitted = SIGMA * self.eps_area * (T4 - T_sink**4)
         return np.asarray(self.A.T @ emitted).ravel().reshape(-1, 2).sum(axis=1)
 
 
@@ -712,9 +717,19 @@ def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface
                   sf: tuple[np.ndarray, np.ndarray] | None = None) -> IRAbsorption:
     """Trace the super faces once more (own random stream; ``[radiation] ir_rays_per_face`` rays per FE face of each
     super face, so every FE side receives enough rays for its own absorbed power) and tally each ray on the FE side
-    that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`)."""
+    that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`).  ``ir_on = "faces"``: every active FE
+    face side is an emitter of its own (the same number of rays: ``ir_rays_per_face`` per side), so the emission
+    follows the recovered field inside a super face; A has up to (rays per side) entries per side."""
     surface = radiation_surface(model) if surface is None else surface
     groups, owner = super_faces(model, rm) if sf is None else sf
+    if case.radiation.ir_on == "faces":
+        side = np.flatnonzero(groups >= 0)
+        emitters = np.full(len(groups), -1, np.int64)
+        emitters[side] = np.arange(len(side))
+        A, _, eps = trace_absorption(surface, emitters, scene=scene,
+                                     rays_per_group=np.full(len(side), case.radiation.ir_rays_per_face),
+                                     **tracer_settings(case, exchange=False, role="absorption"))
+        return IRAbsorption(A=A, owner=np.asarray(owner, np.int64)[groups[side]], eps_area=eps, face=side // 2)
     faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
     A, _, eps = trace_absorption(surface, groups, scene=scene,
                                  rays_per_group=np.maximum(faces_per_group * case.radiation.ir_rays_per_face, 1),
@@ -858,7 +873,6 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 
     history: list[dict] = []
     f = model.faces
-    owner_face = None
     for it in range(max(int(case.reduction.outer_iterations), 1)):
         # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically
         ra_rm = build_reduced(model, clustering, case, T_ref=T_ref)
@@ -871,11 +885,19 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         corr = ra.correction(T_ref, T_sn_ref, e_sn)
         q_rec = q_detailed
         if ir is not None:
-            if owner_face is None:
-                owner_face = face_owner(model, ra_rm.supernodes, ra_rm.element_cluster)
-            p_face = ir.face_power(T_sn_ref, model.T_sink)
+            p_face = ir.face_power(T_sn_ref, model.T_sink, f.W @ T_ref**4)
             q_abs = np.asarray(f.W.T @ p_face).ravel()
-            corr = corr + ra.reduction.distribute(q_abs) - np.bincount(owner_face, p_face, minlength=ra_rm.n)
+            # replace the network's own lumped absorption at the reference by the tallied q_abs through Y': from the
+            # other super nodes σ GR (T_SN⁴ − T_s⁴), and its own (concave super nodes: e_SN − g_space − GR 1, which
+            # the correction's e_SN emission returns lumped).  Exact at the fixed point up to the tally's ray noise
+            # (GR then only carries the linear response); subtracting the tally's own sum per super node instead
+            # leaves the difference of two independent tracings (and, with FE-face emitters, the super faces'
+            # lumping: measured in examples/composite/README.md)
+            d4 = T_sn_ref**4 - model.T_sink**4
+            GR1 = np.asarray(rm.GR.sum(axis=1)).ravel()
+            own = np.maximum(e_sn - rm.g_space - GR1, 0.0)
+            absorbed = SIGMA * (np.asarray(rm.GR @ d4).ravel() + own * d4)
+            corr = corr + ra.reduction.distribute(q_abs) - absorbed
             q_rec = q_detailed + q_abs
         ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
         with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
