@@ -149,3 +149,23 @@ def test_ir_on_faces_emits_from_the_fe_faces_and_agrees_with_super_faces_at_unif
     s = res.summary
     assert s["energy_balance_W"]["reduced"]["relative"] < 1e-9
     assert s["accuracy"]["rms_K"] < s["accuracy"]["thesis_method"]["rms_K"]
+
+
+def test_impossible_super_node_counts_are_refused_up_front(monkeypatch):
+    # a part that splits into two regions (k = 5 and 170) cannot have 1 super node; a 2 x 2 triangle plate (8
+    # elements, 9 nodes, 3 of them held) cannot have 7 independent super nodes (6 unknown temperatures)
+    with pytest.raises(Fem2TmmError, match=r"1 super nodes requested but the part splits into 2 regions.*at least 2"):
+        run(two_plates_case(1, "biot"), mesh=two_plates(5.0, 170.0))
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
+                       "back": "black", "super_nodes": 7}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
+                     materials={"m": {"conductivity": 5.0}}, radiation={"enabled": False},
+                     clustering={"allocation": "biot"}, reference={"detailed": False})
+    import fem2tmm.pipeline as pipeline
+
+    called = []
+    real = pipeline.presolve_space
+    monkeypatch.setattr(pipeline, "presolve_space", lambda *a: called.append(1) or real(*a))
+    with pytest.raises(Fem2TmmError, match=r"asks for 7 super nodes, but its elements have only 6 nodes"):
+        run(case, mesh=meshes.plate(0.1, 0.1, 2, 2, element="tri3"))
+    assert not called  # refused before the Biot pre-solve

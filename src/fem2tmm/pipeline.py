@@ -35,7 +35,7 @@ from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_k
                      positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
                      reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
-from .stages import biot_weights, presolve_space, warn_coarse_mesh
+from .stages import biot_weights, check_super_node_counts, presolve_space, warn_coarse_mesh
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
@@ -220,6 +220,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                            lambda: solar_prepass(model, case, surface, scene=scenes.flat()))
         weights = weights_report = None
         if case.clustering.allocation == "biot" and labels is None:
+            check_super_node_counts(model, case)  # before the pre-solve
             with prog.stage("presolve_biot", "pre-solve for the Biot numbers (emission to space only)"):
                 weights, weights_report = biot_weights(model, presolve_space(model, case))
             if not case.reduction.radiation_aware:  # (that one warns from its own pre-solve)

@@ -144,6 +144,12 @@ def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_c
     return (model.mesh.points, parts, model.mesh.n_elements), kw
 
 
+def check_super_node_counts(model: FEModel, case: Case) -> None:
+    """Refuse super-node counts that cannot give independent super nodes (:func:`_check_count`), e.g. before a
+    pre-solve that precedes the clustering."""
+    _cluster_inputs(model, case, None, check_counts=True)
+
+
 def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarray) -> None:
     """Refuse, before clustering, a super-node count that cannot give independent super nodes: the part's
     clusters and the one-node super nodes among its DOFs all average over the part's DOFs, so more of them than
