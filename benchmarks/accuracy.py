@@ -43,6 +43,14 @@ def _case(path: str, n: int, opts: dict):
         case = dataclasses.replace(case, materials=mats)
     if opts.get("radiation_aware"):
         case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
+    if "allocation" in opts:
+        case = dataclasses.replace(case, clustering=dataclasses.replace(case.clustering, allocation=opts["allocation"]))
+    if "ir_on" in opts:
+        case = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation, ir_on=opts["ir_on"]))
+    if "rays_factor" in opts:  # the reduced model's rays only (super-face REFs and the per-FE-face IR tally)
+        r, f = case.radiation, opts["rays_factor"]
+        case = dataclasses.replace(case, radiation=dataclasses.replace(
+            r, rays_per_face=int(r.rays_per_face * f), ir_rays_per_face=int(r.ir_rays_per_face * f)))
     return case
 
 
@@ -113,3 +121,50 @@ def _plot(curves: dict) -> str:
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return os.path.abspath(out)
+
+
+#: ``fem2tmm bench allocation``: the composite study with area allocation, Biot-aware allocation
+#: (``[clustering] allocation = "biot"``), IR emitted per FE face (``[radiation] ir_on = "faces"``, with either
+#: allocation) and with 4x the reduced model's rays (is what remains ray noise?); ``area_rays4`` on request
+ALLOCATION_VARIANTS = {"area": {}, "biot": {"allocation": "biot"}, "ir_faces": {"ir_on": "faces"},
+                       "ir_faces_biot": {"ir_on": "faces", "allocation": "biot"},
+                       "ir_faces_rays4": {"ir_on": "faces", "rays_factor": 4}, "area_rays4": {"rays_factor": 4}}
+ALLOCATION_NS = (25, 50, 100, 200, 300)
+
+
+def bench_allocation(ns=ALLOCATION_NS, variants=tuple(ALLOCATION_VARIANTS)[:5]) -> list[dict]:
+    """Composite box (examples/composite/case.toml, radiation-aware, IR on the FE faces): RMS error against n_SN
+    for each variant of :data:`ALLOCATION_VARIANTS`, run interleaved (n outer, variant inner: the shared machine's
+    load drifts alike for all), each against the detailed reference with its own streams; one fit row per variant
+    (slopes above 3x the reference noise, radiation-aware and thesis)."""
+    from fem2tmm.pipeline import run
+
+    path = STUDIES["composite"][0]
+    rows, pts = [], {v: [] for v in variants}
+    for n in ns:
+        for v in variants:
+            case = _case(path, n, ALLOCATION_VARIANTS[v])
+            t0 = time.perf_counter()
+            res = run(case)
+            wall = time.perf_counter() - t0
+            a = res.summary["accuracy"]
+            th = a.get("thesis_method") or {}
+            t = res.summary["timings_s"]
+            row = {"bench": "allocation", "variant": v, "super_nodes": res.summary["reduced"]["super_nodes"],
+                   "rms_K": a["rms_K"], "max_K": a["max_K"], "thesis_rms_K": th.get("rms_K"),
+                   "reference_noise_rms_K": a.get("reference_noise_rms_K"),
+                   "biot": (res.radiation_aware or [{}])[0].get("biot"), "wall_s": round(wall, 1),
+                   "presolve_s": t.get("presolve_biot"), "cluster_s": t.get("cluster"),
+                   "solve_detailed_s": t.get("solve_detailed")}
+            rows.append(row)
+            pts[v].append(row)
+            print("BENCH_PROGRESS", v, n, round(a["rms_K"], 4), th.get("rms_K"), flush=True)
+    for v in variants:
+        p = pts[v]
+        noise = max(r["reference_noise_rms_K"] or 0.0 for r in p)
+        n_sn = [r["super_nodes"] for r in p]
+        rows.append({"bench": "allocation_fit", "variant": v, "reference_noise_rms_K": noise,
+                     "slope_radiation_aware": slope_above_noise(n_sn, [r["rms_K"] for r in p], noise),
+                     "slope_thesis": slope_above_noise(n_sn, [r["thesis_rms_K"] for r in p], noise),
+                     "fit_rule": "log-log least squares over the points with RMS > 3x the reference noise"})
+    return rows

@@ -33,6 +33,7 @@ REGISTRY: dict[str, str] = {
     "cluster": "benchmarks.cluster:bench_cluster",
     "cluster_metis": "benchmarks.cluster:bench_cluster_metis",
     "accuracy": "benchmarks.accuracy:bench_accuracy",
+    "allocation": "benchmarks.accuracy:bench_allocation",
     "reduce": "benchmarks.reduce:bench_reduce",
     "rays": "benchmarks.radiation:bench_rays",
     "solar": "benchmarks.solar:bench_solar",

@@ -29,6 +29,7 @@ ReductionMethod = Literal["local", "global"]
 CapacitanceMethod = Literal["cluster", "equivalent"]
 ReducedNetwork = Literal["exact", "positive"]
 ClusteringMethod = Literal["growing", "metis"]
+ClusteringAllocation = Literal["area", "biot"]
 TransientMethod = Literal["crank-nicolson", "backward-euler", "bdf2"]
 TransientCapacitance = Literal["lumped", "consistent"]
 
@@ -139,7 +140,7 @@ class RadiationSettings:
     # where the reduced model puts absorbed IR: "super_faces" (thesis: uniform over each super node) or
     # "detailed" (rays from the super faces tallied on the FE face sides that absorb them; needs radiation_aware)
     ir_on: str = "super_faces"
-    ir_rays_per_face: int = 100  # ir_on = "detailed": rays per FE face of each emitting super face
+    ir_rays_per_face: int = 100  # ir_on = "detailed": rays per FE face of each emitting super face ("faces": side)
 
 
 @dataclass(frozen=True)
@@ -168,6 +169,9 @@ class ClusteringSettings:
     smoothing_layers: int = 2
     balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
     method: ClusteringMethod = "growing"  # growing | metis (pymetis on each region)
+    # area | biot: shell elements weighted by their Biot number h_rad A/(k t) from an emission-to-space pre-solve
+    # (fem2tmm.stages.biot_weights): more, smaller super nodes where heat spreads short distances
+    allocation: ClusteringAllocation = "area"
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun
     solar_aware: bool | None = None
@@ -489,8 +493,8 @@ class _Parser:
             raise self.err("[[joints]]", "expected an array of tables ([[joints]] entries)")
         joints = tuple(self.joint(i, j) for i, j in enumerate(j_raw))
         radiation, reduction = self.radiation(top.get("radiation", {})), self.reduction(top.get("reduction", {}))
-        if radiation.ir_on == "detailed" and not (reduction.radiation_aware and radiation.enabled):
-            raise self.err("[radiation].ir_on", '"detailed" places absorbed IR on the FE faces through the '
+        if radiation.ir_on != "super_faces" and not (reduction.radiation_aware and radiation.enabled):
+            raise self.err("[radiation].ir_on", f'"{radiation.ir_on}" places absorbed IR on the FE faces through the '
                            "radiation-aware reduction: set [reduction] radiation_aware = true (and keep [radiation] "
                            "enabled)")
         if reduction.radiation_aware and transient is not None:
@@ -781,7 +785,7 @@ class _Parser:
             seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
             max_bounces=self.number(d, "max_bounces", w, default=D("max_bounces"), lo=1, integer=True),
             target_lse=self.number(d, "target_lse", w, lo=0, lo_open=True),
-            ir_on=self.string(d, "ir_on", w, default="super_faces", choices=("super_faces", "detailed")),
+            ir_on=self.string(d, "ir_on", w, default="super_faces", choices=("super_faces", "detailed", "faces")),
             ir_rays_per_face=self.number(d, "ir_rays_per_face", w, default=100, lo=1, integer=True),
         )
 
@@ -814,7 +818,8 @@ class _Parser:
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"
-        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method"})
+        d = self.table(d, w, {"feature_angle", "seed", "smoothing_layers", "solar_aware", "balance", "method",
+                                  "allocation"})
         aware = d.get("solar_aware")
         D = lambda name: _default(ClusteringSettings, name)  # noqa: E731
         return ClusteringSettings(
@@ -824,6 +829,7 @@ class _Parser:
             smoothing_layers=self.number(d, "smoothing_layers", w, default=D("smoothing_layers"), lo=0, integer=True),
             balance=self.boolean(d, "balance", w, D("balance")),
             method=self.string(d, "method", w, default=D("method"), choices=get_args(ClusteringMethod)),
+            allocation=self.string(d, "allocation", w, default=D("allocation"), choices=get_args(ClusteringAllocation)),
         )
 
     def reference(self, d) -> ReferenceSettings:

@@ -36,6 +36,7 @@ from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_k
                      reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
 from .stages import Refinement, refinement_step
+from .stages import biot_weights, check_super_node_counts, presolve_space, warn_coarse_mesh
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
@@ -218,11 +219,19 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             flux = _cached(prog, store, status, "solar_prepass", "tracing a coarse solar map for the clustering",
                            lambda: sun_key("solar_prepass", "flat", "prepass"),
                            lambda: solar_prepass(model, case, surface, scene=scenes.flat()))
-        ckey = cluster_key(model, case, flux, labels)
+        weights = weights_report = None
+        if case.clustering.allocation == "biot" and labels is None:
+            check_super_node_counts(model, case)  # before the pre-solve
+            with prog.stage("presolve_biot", "pre-solve for the Biot numbers (emission to space only)"):
+                weights, weights_report = biot_weights(model, presolve_space(model, case))
+            if not case.reduction.radiation_aware:  # (that one warns from its own pre-solve)
+                warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
+                                 max((r["max"] for r in weights_report.values()), default=None))
+        ckey = cluster_key(model, case, flux, labels, weights)
         result.clustering = _cached(
             prog, store, status, "cluster", "clustering", lambda: ckey,
             lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
-                                  labels=labels))
+                                  labels=labels, weights=weights, weights_report=weights_report))
         if refine is None and case.reduction.target_rms is not None:
             from .reduce.refine import check_budget
 
@@ -320,7 +329,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if case.reduction.radiation_aware:
             ir_abs = None  # (not ``ir``: that name holds the IR optics, part of the reference's trace key below)
-            if trace and case.radiation.ir_on == "detailed":
+            if trace and case.radiation.ir_on in ("detailed", "faces"):
                 with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
                     ir_abs = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):

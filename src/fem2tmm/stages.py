@@ -27,7 +27,7 @@ from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, build_reduced, determined_elements, face_owner, kept_dofs, super_faces
+from .reduce.network import ReducedModel, build_reduced, determined_elements, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
                               solve_transient)
@@ -92,7 +92,8 @@ def describe_nodes(model: FEModel) -> Callable[[np.ndarray], str]:
 
 # ------------------------------------------------------------------------------------------- clustering
 def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | None = None,
-                  labels: np.ndarray | None = None) -> Clustering:
+                  labels: np.ndarray | None = None, weights: np.ndarray | None = None,
+                  weights_report: dict | None = None) -> Clustering:
     """Cluster every part of ``model`` with its requested number of super nodes.
 
     ``labels`` (n_elements,) int: a user partition instead (:func:`fem2tmm.cluster.from_labels`; the parts'
@@ -100,15 +101,19 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
     Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
     clustered: every requested super node goes to elements with unknowns.  They get the label -1.
     ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
+    ``weights`` (m,) clustering weight of each model element (m²; NaN: the part keeps area/volume weights), e.g.
+    :func:`biot_weights`; its ``weights_report`` goes into the clustering report as ``allocation``.
     """
-    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None, weights=weights)
     if labels is not None:
         return from_labels(*args, labels, feature_angle=kw["feature_angle"], where="run(labels=...)")
-    return cluster_parts(*args, **kw, progress=progress)
+    clustering = cluster_parts(*args, **kw, progress=progress)
+    clustering.report["allocation"] = {"method": case.clustering.allocation, **(weights_report or {})}
+    return clustering
 
 
-def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True
-                    ) -> tuple[tuple, dict]:
+def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True,
+                    weights: np.ndarray | None = None) -> tuple[tuple, dict]:
     """The arguments of :func:`~fem2tmm.cluster.cluster_parts` for ``model`` (what the clustering depends on);
     ``check_counts``: refuse impossible super-node counts first (:func:`_check_count`)."""
     kept = kept_dofs(model, case)
@@ -116,13 +121,15 @@ def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_c
     one_node = np.zeros(model.n_dof, bool)  # DOFs that are super nodes of their own (fixed groups, kept nodes)
     one_node[[g.dof for g in model.fixed]] = True
     one_node[kept] = True
-    parts = []
+    parts, part_weights = [], []
     for p, info in enumerate(model.parts):
         rows = np.flatnonzero((model.element_part == p) & ~determined)
         if not len(rows):
             continue  # the whole part is held at fixed temperatures
         if check_counts:
             _check_count(case, info, model.element_dofs[rows], one_node)
+        w = None if weights is None else weights[rows]
+        part_weights.append(w if w is not None and np.isfinite(w).all() else None)
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
@@ -130,9 +137,17 @@ def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_c
                                flux=None if (flux is None or info.kind == "line")
                                else np.nan_to_num(flux[model.elements[rows]])))
     cs = case.clustering
-    return ((model.mesh.points, parts, model.mesh.n_elements),
-            {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
-             "balance": cs.balance, "method": cs.method})
+    kw = {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
+          "balance": cs.balance, "method": cs.method}
+    if any(w is not None for w in part_weights):
+        kw["weights"] = part_weights
+    return (model.mesh.points, parts, model.mesh.n_elements), kw
+
+
+def check_super_node_counts(model: FEModel, case: Case) -> None:
+    """Refuse super-node counts that cannot give independent super nodes (:func:`_check_count`), e.g. before a
+    pre-solve that precedes the clustering."""
+    _cluster_inputs(model, case, None, check_counts=True)
 
 
 def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarray) -> None:
@@ -508,10 +523,11 @@ def geometry_key(model: FEModel) -> str:
     return digest("geometry", model.mesh.points, f.nodes, f.element, f.W, model.mesh.n_elements)
 
 
-def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None) -> str:
-    """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes and flux, the
-    clustering settings and the user's ``labels``."""
-    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None)
+def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None,
+                weights: np.ndarray | None = None) -> str:
+    """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes, flux and
+    weights, the clustering settings and the user's ``labels``."""
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None, weights=weights)
     return digest("cluster", *args, kw, labels)
 
 
@@ -683,19 +699,24 @@ LOW_BIOT = 0.1
 
 @dataclass(frozen=True)
 class IRAbsorption:
-    """Where the super faces' IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"``).
+    """Where the emitted IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"`` or ``"faces"``).
 
-    ``A`` (n_sf, 2f) csr: fraction of super face s's emitted energy absorbed by FE side k; ``owner`` (n_sf,) the
-    super node of each super face; ``eps_area`` (n_sf,) m² its emitting εA.
+    ``A`` (g, 2f) csr: fraction of emitter i's emitted energy absorbed by FE side k; ``owner`` (g,) the super node
+    of each emitter; ``eps_area`` (g,) m² its emitting εA.  ``"detailed"``: the emitters are the super faces,
+    each at its super node's temperature; ``"faces"``: the emitters are the active FE face sides, ``face`` (g,)
+    the FE face of each, at the recovered field's face temperature ((W T⁴)^¼, as the detailed model's REFs).
     """
 
     A: sp.csr_matrix
     owner: np.ndarray
     eps_area: np.ndarray
+    face: np.ndarray | None = None
 
-    def face_power(self, T_sn: np.ndarray, T_sink: float) -> np.ndarray:
-        """(f,) W absorbed by each FE face (both sides) when each super face emits σ εA (T_SN⁴ − T_sink⁴)."""
-        emitted = SIGMA * self.eps_area * (T_sn[self.owner] ** 4 - T_sink**4)
+    def face_power(self, T_sn: np.ndarray, T_sink: float, T4_face: np.ndarray | None = None) -> np.ndarray:
+        """(f,) W absorbed by each FE face (both sides) when each emitter emits σ εA (T⁴ − T_sink⁴): T the super
+        node's ``T_sn`` (n,) K, or with per-face emitters the face's ``T4_face`` (f,) K⁴ (required then)."""
+        T4 = T_sn[self.owner] ** 4 if self.face is None else T4_face[self.face]
+        emitted = SIGMA * self.eps_area * (T4 - T_sink**4)
         return np.asarray(self.A.T @ emitted).ravel().reshape(-1, 2).sum(axis=1)
 
 
@@ -703,9 +724,19 @@ def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface
                   sf: tuple[np.ndarray, np.ndarray] | None = None) -> IRAbsorption:
     """Trace the super faces once more (own random stream; ``[radiation] ir_rays_per_face`` rays per FE face of each
     super face, so every FE side receives enough rays for its own absorbed power) and tally each ray on the FE side
-    that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`)."""
+    that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`).  ``ir_on = "faces"``: every active FE
+    face side is an emitter of its own (the same number of rays: ``ir_rays_per_face`` per side), so the emission
+    follows the recovered field inside a super face; A has up to (rays per side) entries per side."""
     surface = radiation_surface(model) if surface is None else surface
     groups, owner = super_faces(model, rm) if sf is None else sf
+    if case.radiation.ir_on == "faces":
+        side = np.flatnonzero(groups >= 0)
+        emitters = np.full(len(groups), -1, np.int64)
+        emitters[side] = np.arange(len(side))
+        A, _, eps = trace_absorption(surface, emitters, scene=scene,
+                                     rays_per_group=np.full(len(side), case.radiation.ir_rays_per_face),
+                                     **tracer_settings(case, exchange=False, role="absorption"))
+        return IRAbsorption(A=A, owner=np.asarray(owner, np.int64)[groups[side]], eps_area=eps, face=side // 2)
     faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
     A, _, eps = trace_absorption(surface, groups, scene=scene,
                                  rays_per_group=np.maximum(faces_per_group * case.radiation.ir_rays_per_face, 1),
@@ -713,16 +744,14 @@ def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface
     return IRAbsorption(A=A, owner=np.asarray(owner, np.int64), eps_area=eps)
 
 
-def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
-    """Biot numbers ``Bi = h_rad A / (k t)`` of the shell elements and of the clusters, from the linearised emission.
+def element_biot(model: FEModel, h_dof: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Biot number ``Bi = h_rad A / (k t)`` of every element from a linearised emission lumped to the DOFs.
 
-    ``h_dof`` (n_dof,) W/K: the linearised emission 4σεA·T³ lumped to the DOFs (:class:`RadiationAware` ``h``).
-    An element's ``k t`` is read off its conduction matrix (a bilinear quad's diagonal is 2/3 k t, a linear
+    ``h_dof`` (n_dof,) W/K: the linearised emission 4σεA·T³ of each DOF (:class:`RadiationAware` ``h``).  An
+    element's ``k t`` is read off its conduction matrix (a bilinear quad's diagonal is 2/3 k t, a linear
     triangle's about the same: ``k t ≈ 1.5 · trace(K_e) / n_nodes``); its ``h_rad A`` is its nodes' h shared by
-    area.  A cluster's Bi is Σ h_rad A over its elements / its mean k t: ``(size / fin length)²``, the number the
-    uniform-load assumption of the thesis' reduction needs small.  Elements with Bi > 1 mean the mesh itself does
-    not resolve the fin length √(k t / h_rad).  Returns ``{"element_max", "elements_over_1", "cluster_max",
-    "cluster_median"}`` (shell elements only; None without any).
+    their nodal volume shares.  Returns ``(h_rad A (m,) W/K, k t (m,) W/K, shell (m,) bool)``; ``Bi = h_rad A /
+    (k t)`` where ``shell`` (a conducting shell element).
     """
     coo = model.coo
     m = len(model.elements)
@@ -737,8 +766,22 @@ def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
     tot = np.bincount(ed[ok], shares[ok], minlength=model.n_dof)
     frac = np.where(ok, shares / np.where(ok, tot[np.maximum(ed, 0)], 1.0), 0.0)
     h_el = (frac * np.where(ok, h_dof[np.maximum(ed, 0)], 0.0)).sum(axis=1)
-    shell = np.isin(model.element_types, [TYPE_CODE[t] for t in SHELL_TYPES])
-    live = shell & (kt > 0) & (rm.element_cluster >= 0)
+    shell = np.isin(model.element_types, [TYPE_CODE[t] for t in SHELL_TYPES]) & (kt > 0)
+    return h_el, kt, shell
+
+
+def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
+    """Biot numbers ``Bi = h_rad A / (k t)`` of the shell elements and of the clusters, from the linearised emission.
+
+    ``h_dof`` (n_dof,) W/K: the linearised emission 4σεA·T³ lumped to the DOFs (:class:`RadiationAware` ``h``);
+    the elements' Bi are :func:`element_biot`'s.  A cluster's Bi is Σ h_rad A over its elements / its mean k t:
+    ``(size / fin length)²``, the number the uniform-load assumption of the thesis' reduction needs small.
+    Elements with Bi > 1 mean the mesh itself does not resolve the fin length √(k t / h_rad).  Returns
+    ``{"element_max", "elements_over_1", "cluster_max", "cluster_median"}`` (shell elements only; None without
+    any).
+    """
+    h_el, kt, shell = element_biot(model, h_dof)
+    live = shell & (rm.element_cluster >= 0)
     if not live.any():
         return {"element_max": None, "elements_over_1": 0, "cluster_max": None, "cluster_median": None}
     bi_el = h_el[live] / kt[live]
@@ -749,6 +792,62 @@ def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
     bi_cl = bi_cl[cnt > 0]
     return {"element_max": float(bi_el.max()), "elements_over_1": int((bi_el > 1).sum()),
             "cluster_max": float(bi_cl.max()), "cluster_median": float(np.median(bi_cl))}
+
+
+def warn_coarse_mesh(n_over: int, bi_max: float | None) -> None:
+    """Warn (once per call) when ``n_over`` shell elements have a Biot number above 1 (largest ``bi_max``)."""
+    if n_over:
+        import warnings
+
+        warnings.warn(f"{n_over} shell elements have a Biot number h_rad A/(k t) > 1 (max {bi_max:.3g}): the mesh "
+                      "does not resolve the fin length sqrt(k t / h_rad) of its thin radiating panels; refine it "
+                      "there", stacklevel=3)
+
+
+#: ``[clustering] allocation = "biot"``: an element's clustering weight is its area times (Bi / B̄)^BIOT_EXPONENT
+#: (B̄ the part's area-weighted mean Bi), floored at BIOT_FLOOR × B̄.  The exponent minimises the RMS error of
+#: uniform-load super nodes: a super node of area a where the fin length is L errs by ~ a / L² = Bi_cluster
+#: (small Bi), so RMS² ∝ ∫ (a / L²)² dA with ∫ dA / a = n_SN fixed gives a ∝ L^(4/3), i.e. super nodes per unit
+#: area ∝ (h_rad / k t)^(2/3).  The floor keeps non-emitting elements (Bi = 0) clusterable.
+BIOT_EXPONENT = 2.0 / 3.0
+BIOT_FLOOR = 0.01
+
+
+def presolve_space(model: FEModel, case: Case) -> np.ndarray:
+    """(n_dof,) K: the detailed steady field with every active side radiating to space only (no face-to-face
+    exchange, no ray tracing) and the case's power loads — the cheap pre-solve of ``[clustering] allocation =
+    "biot"``: sparse Newton on the FE mesh (one sparse LU per iteration), stopped at 0.1 K, since only T³ is used.
+    It underestimates the temperatures of faces that see each other (their exchange is left out)."""
+    return solve_steady(detailed_problem(model), tol=0.1, max_iter=case.solver.max_iterations).T
+
+
+def biot_weights(model: FEModel, T: np.ndarray) -> tuple[np.ndarray, dict]:
+    """Clustering weight per element for ``[clustering] allocation = "biot"`` and the Biot numbers behind it.
+
+    ``T`` (n_dof,) K: a pre-solve's field (:func:`presolve_space`).  The elements' Bi come from
+    :func:`element_biot` with ``h = 4σ εA T³`` (both active sides, to space); the weight of a shell element is its
+    area × ``max(Bi / B̄, BIOT_FLOOR)^BIOT_EXPONENT`` with B̄ its part's area-weighted mean Bi (see
+    :data:`BIOT_EXPONENT`); other elements (solids, bars, parts that do not radiate) keep their area/volume, i.e.
+    weight None for the part.  Returns ``(weights (m,) m² or NaN outside weighted parts, report)`` with the
+    report ``{part: {"mean", "max", "elements_over_1"}}`` of each shell part's element Bi.
+    """
+    h = 4.0 * SIGMA * model.space_coupling() * np.asarray(T, float) ** 3
+    h_el, kt, shell = element_biot(model, h)
+    bi = np.where(shell, h_el / np.where(shell, kt, 1.0), 0.0)
+    area = model.mesh.element_areas(model.elements)
+    weights = np.full(len(bi), np.nan)
+    report = {}
+    for p, info in enumerate(model.parts):
+        rows = np.flatnonzero((model.element_part == p) & shell)
+        if not len(rows):
+            continue
+        a, b = area[rows], bi[rows]
+        mean = float(np.dot(a, b) / a.sum())
+        report[info.name] = {"mean": mean, "max": float(b.max()), "elements_over_1": int((b > 1).sum())}
+        if mean > 0:
+            # densities to 9 digits: the round-off of a uniform field must not move cluster boundaries (ties)
+            weights[rows] = a * np.round(np.maximum(b / mean, BIOT_FLOOR) ** BIOT_EXPONENT, 9)
+    return weights, report
 
 
 def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
@@ -781,7 +880,6 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 
     history: list[dict] = []
     f = model.faces
-    owner_face = None
     for it in range(max(int(case.reduction.outer_iterations), 1)):
         # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically
         ra_rm = build_reduced(model, clustering, case, T_ref=T_ref)
@@ -794,11 +892,19 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         corr = ra.correction(T_ref, T_sn_ref, e_sn)
         q_rec = q_detailed
         if ir is not None:
-            if owner_face is None:
-                owner_face = face_owner(model, ra_rm.supernodes, ra_rm.element_cluster)
-            p_face = ir.face_power(T_sn_ref, model.T_sink)
+            p_face = ir.face_power(T_sn_ref, model.T_sink, f.W @ T_ref**4)
             q_abs = np.asarray(f.W.T @ p_face).ravel()
-            corr = corr + ra.reduction.distribute(q_abs) - np.bincount(owner_face, p_face, minlength=ra_rm.n)
+            # replace the network's own lumped absorption at the reference by the tallied q_abs through Y': from the
+            # other super nodes σ GR (T_SN⁴ − T_s⁴), and its own (concave super nodes: e_SN − g_space − GR 1, which
+            # the correction's e_SN emission returns lumped).  Exact at the fixed point up to the tally's ray noise
+            # (GR then only carries the linear response); subtracting the tally's own sum per super node instead
+            # leaves the difference of two independent tracings (and, with FE-face emitters, the super faces'
+            # lumping: measured in examples/composite/README.md)
+            d4 = T_sn_ref**4 - model.T_sink**4
+            GR1 = np.asarray(rm.GR.sum(axis=1)).ravel()
+            own = np.maximum(e_sn - rm.g_space - GR1, 0.0)
+            absorbed = SIGMA * (np.asarray(rm.GR @ d4).ravel() + own * d4)
+            corr = corr + ra.reduction.distribute(q_abs) - absorbed
             q_rec = q_detailed + q_abs
         ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
         with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
@@ -820,12 +926,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                               "absorbed IR lumped per super face, can be less accurate here (EUI-optics baffle, 100 "
                               "super nodes: 0.012 K against the thesis' 0.0017 K, docs/design-notes.md); consider "
                               "[reduction] radiation_aware = false", stacklevel=2)
-            if biot["elements_over_1"]:
-                import warnings
-
-                warnings.warn(f"{biot['elements_over_1']} shell elements have a Biot number h_rad A/(k t) > 1 (max "
-                              f"{biot['element_max']:.3g}): the mesh does not resolve the fin length "
-                              "sqrt(k t / h_rad) of its thin radiating panels; refine it there", stacklevel=2)
+            warn_coarse_mesh(biot["elements_over_1"], biot["element_max"])
         T_ref = T
         if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
             break
@@ -887,8 +988,11 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
     q = np.asarray(q_recover, float) + np.asarray(rm.supernodes.A.T @ np.asarray(q_lumped, float)).ravel()
     source = feedback = None
     if ir is not None:
-        q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink)).ravel()
-    if surface is not None and case.radiation.enabled and f.active.any():
+        T4_face = None if ir.face is None else np.asarray(f.W @ T**4).ravel()  # "faces": FE sides emit at T
+        q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink, T4_face)).ravel()
+    # ``ir_on = "faces"``: the model's absorbed IR already follows the recovered field, nothing is misplaced
+    per_face = ir is not None and ir.face is not None
+    if surface is not None and case.radiation.enabled and f.active.any() and not per_face:
         if state.side_absorption is None:
             active = f.active.ravel()
             groups = np.full(2 * f.n, -1, np.int64)

@@ -429,7 +429,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
 def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: int, feature_angle: float = 30.0,
                   seed: int = 0, smoothing_layers: int = 2,
                   progress: Callable[[int, int], None] | None = None, balance: bool = True,
-                  method: str = "growing") -> Clustering:
+                  method: str = "growing", weights: Sequence[np.ndarray | None] | None = None) -> Clustering:
     """Cluster every part of a mesh into its requested number of contiguous clusters (super nodes).
 
     Each part is split into regions (:mod:`.regions`), its super nodes are shared among them
@@ -453,6 +453,9 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
         feature are never balanced (their sizes follow the flux on purpose)
     method : "growing" (default: k-means seeds, region growing, min-cut smoothing) or "metis" (METIS k-way on
         each region, contiguous, through the optional package pymetis; see :mod:`.metis`)
+    weights : one (m,) array of positive element weights per part (or None: area/volume), in the part's element
+        order; they replace area/volume in the allocation among regions and in the balance of the clusters (e.g.
+        :func:`fem2tmm.stages.biot_weights`)
 
     Returns
     -------
@@ -464,7 +467,10 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
         bad shapes or types, degenerate or isolated elements, a part asking for more super nodes than it
         has elements or fewer than it has regions (the message lists the regions).
     """
-    return _run(points, parts, int(n_elements), [None] * len(parts), feature_angle, seed, smoothing_layers,
+    weights = [None] * len(parts) if weights is None else list(weights)
+    if len(weights) != len(parts):
+        raise Fem2TmmError(f"weights: one entry per part ({len(parts)}), got {len(weights)}")
+    return _run(points, parts, int(n_elements), weights, feature_angle, seed, smoothing_layers,
                 progress, balance, method)
 
 

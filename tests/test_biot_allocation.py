@@ -1,0 +1,196 @@
+"""Biot-aware allocation (issue 21 item 3): ``[clustering] allocation = "biot"`` weights shell elements by their
+Biot number h_rad A/(k t) from an emission-to-space pre-solve, and the per-element Bi > 1 warning."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+from conftest import make_case
+from fem2tmm import meshes
+from fem2tmm.errors import Fem2TmmError
+from fem2tmm.fem.model import build_model
+from fem2tmm.mesh.core import PropertyData
+from fem2tmm.pipeline import run
+from fem2tmm.stages import BIOT_EXPONENT, biot_weights, cluster_model, presolve_space
+from fem2tmm.solve.steady import SIGMA
+
+T_THICK = 1e-3
+
+
+def two_plates(k_a, k_b, n=20):
+    """Two coplanar 0.2 x 0.2 m plates side by side (x in [0, 0.2] and [0.2, 0.4]), one part whose conductivity
+    comes from the mesh (group a: k_a, group b: k_b), so that it splits into two regions."""
+    a = meshes.plate(0.2, 0.2, n, n, name="a")
+    b = meshes.plate(0.2, 0.2, n, n, name="b", origin=(0.2, 0.0, 0.0))
+    mesh = meshes.merge(a, b)
+    props = {"a": PropertyData(conductivity=k_a), "b": PropertyData(conductivity=k_b)}
+    return dataclasses.replace(mesh, properties=props)
+
+
+def two_plates_case(n_sn, allocation):
+    # no fixed temperature, 8 W spread by area, black both sides: the exact steady field is uniform whatever k
+    # (load per area = emission per area everywhere), so Bi_a / Bi_b = k_b / k_a exactly
+    return make_case([{"name": "p", "groups": ["a", "b"], "thickness": T_THICK, "front": "black", "back": "black",
+                       "super_nodes": n_sn}],
+                     [{"kind": "power", "groups": ["a", "b"], "value": 8.0}],
+                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                     clustering={"allocation": allocation}, reference={"detailed": False})
+
+
+def counts(model, clustering):
+    """Super nodes on plate a (x < 0.2) and on plate b."""
+    cen = model.mesh.points[model.element_cells[:, :4]].mean(axis=1)[:, 0]
+    lab = clustering.labels[model.elements]
+    return len(np.unique(lab[cen < 0.2])), len(np.unique(lab[cen > 0.2]))
+
+
+def test_case_key_is_validated():
+    assert two_plates_case(4, "area").clustering.allocation == "area"
+    default = make_case([{"name": "p", "groups": ["a"], "material": "al", "thickness": T_THICK}])
+    assert default.clustering.allocation == "area"  # default: today's behaviour
+    with pytest.raises(Fem2TmmError, match="allocation"):
+        two_plates_case(4, "volume")
+
+
+def test_uniform_biot_gives_the_area_allocation():
+    # same k on both plates: uniform field, uniform Bi -> every weight is the area (times 1), the same clusters
+    mesh = two_plates(5.0, 5.0)
+    case_area, case_biot = two_plates_case(10, "area"), two_plates_case(10, "biot")
+    model = build_model(mesh, case_area)
+    T = presolve_space(model, case_area)
+    # closed form: 8 W = 2 σ T⁴ · 0.08 m² (both sides of 0.08 m²) -> T = 249.9 K; Newton stopped at 0.1 K
+    assert T == pytest.approx((8.0 / (2 * SIGMA * 0.08)) ** 0.25, abs=0.1)
+    w, rep = biot_weights(model, T)
+    area = model.mesh.element_areas(model.elements)
+    assert (w == area).all()  # densities rounded to 9 digits: exactly 1 here
+    # element Bi = 2·4σT³ A / (k t) = 8σT³ · 1e-4 / 5e-3 (1 cm quads): 0.14 at 250 K
+    assert rep["p"]["max"] == pytest.approx(8 * SIGMA * T.mean() ** 3 * 1e-4 / (5.0 * T_THICK), rel=1e-6)
+    ca = cluster_model(model, case_area)
+    cb = cluster_model(model, case_biot, weights=w, weights_report=rep)
+    assert counts(model, ca) == counts(model, cb)  # one region here (same k): clusters may straddle x = 0.2
+    assert (ca.labels == cb.labels).all()
+    assert cb.report["allocation"]["method"] == "biot"
+
+
+def test_low_conductivity_plate_gets_more_super_nodes():
+    # k = 5 against 170: Bi ratio 34 -> super nodes per area in ratio 34^(2/3) = 10.5 (BIOT_EXPONENT), 22 super
+    # nodes: quotas 22·10.5/11.5 = 20.1 and 1.9 -> 20 / 2; area allocation 11 / 11
+    mesh = two_plates(5.0, 170.0)
+    res = {a: run(two_plates_case(22, a), mesh=mesh) for a in ("area", "biot")}
+    model = res["area"].model
+    assert counts(model, res["area"].clustering) == (11, 11)
+    n_a, n_b = counts(model, res["biot"].clustering)
+    ratio = (170.0 / 5.0) ** BIOT_EXPONENT
+    assert n_a + n_b == 22 and abs(n_a - 22 * ratio / (1 + ratio)) < 1, (n_a, n_b)
+    rep = res["biot"].summary["reduced"]["clustering"]["allocation"]
+    assert rep["method"] == "biot" and rep["p"]["max"] / rep["p"]["mean"] == pytest.approx(2 * 34 / 35, rel=1e-6)
+    assert "presolve_biot" in res["biot"].summary["timings_s"]
+
+
+@pytest.mark.parametrize("n, fires", [(10, True), (30, False)])
+def test_element_biot_over_one_warns_on_a_coarse_mesh_only(n, fires):
+    # 0.3 x 0.09 m strip of k = 5, 1 mm, black both sides, held at 20 °C at x = 0: element Bi = 8σT³ A / (k t)
+    # = 11.1 W/(m² K) · A / 5e-3 at 293 K: 2.0 for 3 cm quads (n = 10), 0.22 for 1 cm ones (n = 30)
+    mesh = meshes.plate(0.3, 0.09, n, n * 3 // 10)
+    for allocation, aware in (("area", True), ("biot", False)):
+        case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK,
+                           "front": "black", "back": "black", "super_nodes": 3}],
+                         [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
+                         materials={"m": {"conductivity": 5.0}}, environment={"sink_temperature": -270.0},
+                         radiation={"enabled": False}, clustering={"allocation": allocation},
+                         reduction={"radiation_aware": aware, "outer_iterations": 1}, reference={"detailed": False})
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            run(case, mesh=mesh)
+        hits = [x for x in w if "Biot number h_rad A/(k t) > 1" in str(x.message)]
+        assert len(hits) == (1 if fires else 0), [str(x.message) for x in w]
+
+
+def test_ir_on_faces_emits_from_the_fe_faces_and_agrees_with_super_faces_at_uniform_temperature():
+    # Two facing black 0.2 m plates 5 cm apart.  ir_on = "faces" traces every FE side as its own emitter (the
+    # same rays per FE face as ir_on = "detailed"); at a uniform temperature emitting per FE face or per super
+    # face is the same physics, so the absorbed power per FE face agrees within the ray noise, and the run closes
+    # its reduced energy balance.
+    from fem2tmm.reduce.network import build_reduced
+    from fem2tmm.stages import ir_absorption, radiation_surface
+
+    a = meshes.plate(0.2, 0.2, 8, 8)
+    b = meshes.transform(meshes.plate(0.2, 0.2, 8, 8), rotation=meshes.rotation("x", 180.0), translation=(0, 0.2, 0.05))
+    mesh = meshes.merge(a, b)
+
+    def case(ir_on):
+        return make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK,
+                           "front": "black", "back": "black", "super_nodes": 8}],
+                         [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
+                          {"kind": "power", "groups": ["plate"], "value": 2.0}],
+                         materials={"m": {"conductivity": 5.0}}, environment={"sink_temperature": -270.0},
+                         radiation={"rays_per_face": 400, "ir_on": ir_on, "ir_rays_per_face": 200},
+                         reduction={"radiation_aware": True}, reference={"detailed": True, "rays_per_face": 100})
+
+    model = build_model(mesh, case("faces"))
+    rm = build_reduced(model, cluster_model(model, case("faces")), case("faces"))
+    surface = radiation_surface(model)
+    T = np.full(rm.n, 300.0)
+    T4 = np.full(model.faces.n, 300.0**4)
+    p = {m: ir_absorption(model, rm, case(m), surface).face_power(T, model.T_sink, T4) for m in ("detailed", "faces")}
+    # total absorbed: each plate's front sees the other's front with F ≈ 0.6 (0.2 m squares 5 cm apart): order
+    # 0.6 · 2 · σT⁴ · 0.04 m² ≈ 22 W; the two tallies agree to 2 % in total (3σ); per face, each tally lands ~128 · 200 ·
+    # 0.6 / 64 ≈ 240 rays on a front face (binomial sd 6.5 %), so their difference has ~9 % RMS (measured 10 %)
+    assert 15 < p["faces"].sum() < 30
+    assert p["faces"].sum() == pytest.approx(p["detailed"].sum(), rel=0.02)  # 3σ: 25 600 rays each, sd 0.5 %
+    lit = p["detailed"] > 0.1 * p["detailed"].max()
+    rel = (p["faces"][lit] - p["detailed"][lit]) / p["detailed"][lit]
+    assert np.sqrt(np.mean(rel**2)) < 0.15, np.sqrt(np.mean(rel**2))
+    res = run(case("faces"), mesh=mesh)
+    s = res.summary
+    assert s["energy_balance_W"]["reduced"]["relative"] < 1e-9
+    assert s["accuracy"]["rms_K"] < s["accuracy"]["thesis_method"]["rms_K"]
+
+
+def test_impossible_super_node_counts_are_refused_up_front(monkeypatch):
+    # a part that splits into two regions (k = 5 and 170) cannot have 1 super node; a 2 x 2 triangle plate (8
+    # elements, 9 nodes, 3 of them held) cannot have 7 independent super nodes (6 unknown temperatures)
+    with pytest.raises(Fem2TmmError, match=r"1 super nodes requested but the part splits into 2 regions.*at least 2"):
+        run(two_plates_case(1, "biot"), mesh=two_plates(5.0, 170.0))
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
+                       "back": "black", "super_nodes": 7}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0}],
+                     materials={"m": {"conductivity": 5.0}}, radiation={"enabled": False},
+                     clustering={"allocation": "biot"}, reference={"detailed": False})
+    import fem2tmm.pipeline as pipeline
+
+    called = []
+    real = pipeline.presolve_space
+    monkeypatch.setattr(pipeline, "presolve_space", lambda *a: called.append(1) or real(*a))
+    with pytest.raises(Fem2TmmError, match=r"asks for 7 super nodes, but its elements have only 6 nodes"):
+        run(case, mesh=meshes.plate(0.1, 0.1, 2, 2, element="tri3"))
+    assert not called  # refused before the Biot pre-solve
+
+
+def test_ir_on_faces_fixed_point_does_not_depend_on_the_clustering():
+    # With every FE side emitting at the recovered field and the tally replacing the network's lumped absorption,
+    # the outer iterations converge to the detailed model solved with the tally's face-to-face exchange: the
+    # same field for 4 and 12 super nodes (the emitters and their rays do not depend on the clusters), up to the
+    # outer tolerance (1 mK per step).  With super-face emission (ir_on = "detailed") the clusters emit at their
+    # mean temperature and the fields differ (measured 6.2 K here against 1.1e-4 K).
+    a = meshes.plate(0.2, 0.2, 8, 8)
+    b = meshes.transform(meshes.plate(0.2, 0.2, 8, 8), rotation=meshes.rotation("x", 180.0), translation=(0, 0.2, 0.05))
+    mesh = meshes.merge(a, b)
+
+    def field(ir_on, n_sn):
+        case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK,
+                           "front": "black", "back": "black", "super_nodes": n_sn}],
+                         [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
+                          {"kind": "power", "groups": ["plate"], "value": 2.0}],
+                         materials={"m": {"conductivity": 5.0}}, environment={"sink_temperature": -270.0},
+                         radiation={"rays_per_face": 200, "ir_on": ir_on, "ir_rays_per_face": 50},
+                         reduction={"radiation_aware": True, "outer_iterations": 12}, reference={"detailed": False})
+        return run(case, mesh=mesh).T_recovered
+
+    d_faces = np.abs(field("faces", 4) - field("faces", 12)).max()
+    d_detailed = np.abs(field("detailed", 4) - field("detailed", 12)).max()
+    assert d_faces < 1e-2 and d_detailed > 10 * d_faces, (d_faces, d_detailed)
