@@ -27,7 +27,7 @@ from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, build_reduced, determined_elements, kept_dofs, super_faces
+from .reduce.network import ReducedModel, build_reduced, determined_elements, face_owner, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
                               solve_transient)
