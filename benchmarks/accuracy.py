@@ -99,6 +99,16 @@ def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
     return rows
 
 
+def bench_accuracy_composite() -> list[dict]:
+    """``fem2tmm bench accuracy_composite``: the composite box alone (both methods, 10 -> 1 000 super nodes)."""
+    return bench_accuracy(("composite",))
+
+
+def bench_accuracy_truss() -> list[dict]:
+    """``fem2tmm bench accuracy_truss``: the truss alone (10 and 100 super nodes; about 10 min on 2 busy cores)."""
+    return bench_accuracy(("truss",))
+
+
 def _plot(curves: dict) -> str:
     import matplotlib
 

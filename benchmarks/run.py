@@ -33,6 +33,8 @@ REGISTRY: dict[str, str] = {
     "cluster": "benchmarks.cluster:bench_cluster",
     "cluster_metis": "benchmarks.cluster:bench_cluster_metis",
     "accuracy": "benchmarks.accuracy:bench_accuracy",
+    "accuracy_composite": "benchmarks.accuracy:bench_accuracy_composite",
+    "accuracy_truss": "benchmarks.accuracy:bench_accuracy_truss",
     "allocation": "benchmarks.accuracy:bench_allocation",
     "reduce": "benchmarks.reduce:bench_reduce",
     "rays": "benchmarks.radiation:bench_rays",
