@@ -292,7 +292,7 @@ def _cluster_region(ptr, ind, lengths, X, w, k, seed, smoothing_layers, times, b
     seeds = seed_elements(X, weighted_kmeans(X, w, k, seed=seed, **kw))
     t1 = time.perf_counter()
     if balance:
-        labels, seeds, _ = grow_balanced(ptr, ind, X, w, seeds, dim=dim, tol=BALANCE_TOL / 2)
+        labels, seeds, _ = grow_balanced(ptr, ind, X, w, seeds, lengths=lengths, tol=BALANCE_TOL / 2)
     else:
         labels = grow(ptr, ind, X, seeds)
     t2 = time.perf_counter()
