@@ -162,7 +162,7 @@ def _grow(indptr, indices, centroids, seeds, offsets):
 
 def grow_balanced(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, weights: np.ndarray,
                   seeds: np.ndarray, lengths: np.ndarray | None = None, tol: float = 0.02, max_passes: int = 10,
-                  lloyd_steps: int = 1) -> tuple[np.ndarray, np.ndarray, int]:
+                  lloyd_steps: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
     """Region growing whose clusters carry equal weight (area/volume): one growing, then local boundary moves.
 
     The clusters are grown once from the seeds (:func:`grow`); ``lloyd_steps`` times each seed then moves to the
