@@ -154,46 +154,103 @@ if __name__ == "__main__":  # pragma: no cover
             print(json.dumps(row))
 
 
-def _metis_whole(points, cells, types, weights, k, seed=0):
-    """pymetis k-way on a whole part's dual graph (area vertex weights, no region cuts): the issue's baseline.
-    Returns labels; the time includes building the dual graph."""
+def _metis_whole(points, cells, types, k, seed=0):
+    """pymetis k-way on a whole part's dual graph with area vertex weights and no region cuts (the issue's
+    baseline: it crosses sharp edges).  Returns labels; the time includes the dual graph and the areas."""
     import pymetis
     import scipy.sparse as sp
 
     from fem2tmm.cluster.adjacency import dual_graph
+    from fem2tmm.mesh import geometry
 
     g = dual_graph(points, cells, types, "shell")
     m = len(cells)
+    areas = geometry.shell_areas(points, cells, "quad4")
     A = sp.coo_matrix((np.ones(len(g.a)), (g.a, g.b)), shape=(m, m))
     A = (A + A.T).tocsr()
-    vw = np.maximum(1, np.rint(weights / weights.mean() * 1000)).astype(np.int64)
+    vw = np.maximum(1, np.rint(areas / areas.mean() * 1000)).astype(np.int64)
     _, parts = pymetis.part_graph(k, adjacency=pymetis.CSRAdjacency(A.indptr, A.indices), vweights=vw,
                                   options=pymetis.Options(seed=seed))
     return np.asarray(parts, np.int64)
 
 
-def _quality(labels, areas, regions, k):
+def _quality(labels, areas, regions, graph, sharp, k):
+    """Area CV (over all clusters and the largest within one region), edge cut (m: shared edges between
+    clusters), clusters spanning more than one region, sharp edges (dual-graph links above the feature angle)
+    inside a cluster, and whether every cluster is one piece through the links of the part."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
     a = np.bincount(labels, areas, minlength=k)
-    spans = np.bincount(np.unique(labels * (regions.max() + 1) + regions) // (regions.max() + 1), minlength=k)
-    return {"area_cv": float(a.std() / a.mean()), "clusters_crossing_regions": int((spans > 1).sum())}
+    nreg = int(regions.max()) + 1
+    spans = np.bincount(np.unique(labels * nreg + regions) // nreg, minlength=k)
+    cv_reg = [float(a[u].std() / a[u].mean()) for u in (np.unique(labels[regions == r]) for r in range(nreg))
+              if len(u) > 1]
+    same = labels[graph.a] == labels[graph.b]
+    m = len(labels)
+    n_comp = connected_components(csr_matrix((np.ones(int(same.sum())), (graph.a[same], graph.b[same])),
+                                             shape=(m, m)), directed=False)[0]
+    return {"area_cv": float(a.std() / a.mean()), "area_cv_max_in_region": max(cv_reg, default=0.0),
+            "edge_cut_m": float(graph.measure[~same].sum()),
+            "clusters_crossing_regions": int((spans > 1).sum()),
+            "sharp_edges_inside_clusters": int((same & sharp).sum()), "contiguous": bool(n_comp == k)}
 
 
-def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True) -> list[dict]:
-    """Clustering time and balance against METIS in one run (issue 21), and the reduced error with each.
-
-    * ``baffle``: the baffle mesh (18 404 quads) -> 100 clusters with ``method="growing"`` (balanced, default),
-      the thesis scheme (``balance=False``), ``method="metis"`` (pymetis per region) and pymetis k-way on the
-      whole part with area weights (the issue's baseline: it crosses sharp edges); warm timings (the compiled
-      kernels loaded by a first call), median of 3; area CV; clusters crossing a region border (sharp edge or
-      junction);
-    * ``1e6``: a plate of 10⁶ quads -> 1000, balanced growing against pymetis k-way (one run each);
-    * ``accuracy``: examples/baffle/case_100.toml run with fem2tmm's clusters and with the whole-part METIS
-      labels (``run(labels=...)``), both against the same independent reference (its noise reported).
-    """
+def _interleaved(variants: dict, rounds: int, baseline: str) -> tuple[dict, dict, dict]:
+    """Run each variant once per round, in turn (so that the machine's load drifts alike for all); returns the
+    last labels, the times (s) per variant and the per-round time ratios to ``baseline``."""
     import time
 
+    labels, times = {}, {name: [] for name in variants}
+    for _ in range(rounds):
+        for name, fn in variants.items():
+            t = time.perf_counter()
+            labels[name] = fn()
+            times[name].append(time.perf_counter() - t)
+    ratios = {name: np.asarray(times[name]) / np.asarray(times[baseline]) for name in variants}
+    return labels, times, ratios
+
+
+def _case_rows(mesh_name, variants, rounds, quality, k, m):
+    labels, times, ratios = _interleaved(variants, rounds, "pymetis_whole_part")
+    rows = []
+    for name in variants:
+        rows.append({"bench": "cluster_metis", "mesh": mesh_name, "elements": m, "clusters": k, "method": name,
+                     "rounds": rounds, "median_s": float(np.median(times[name])),
+                     "times_s": [round(t, 4) for t in times[name]],
+                     "time_ratio_to_pymetis": float(np.median(ratios[name])),
+                     "time_ratio_range": [float(ratios[name].min()), float(ratios[name].max())],
+                     **quality(labels[name])})
+    return rows, labels
+
+
+def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True, rounds: int = 5,
+                        rounds_1e6: int = 3, accuracy_seeds=(0, 1)) -> list[dict]:
+    """Clustering time, balance and edge cut against METIS, interleaved, and the reduced error with each (#21).
+
+    * ``baffle``: the baffle mesh (18 404 quads, examples/baffle) -> 100 clusters with ``method="growing"``
+      (balanced, the default), the thesis scheme (``balance=False``), ``method="metis"`` (pymetis per region)
+      and pymetis k-way on the whole part with area weights (the issue's baseline: it crosses sharp edges; its
+      time includes the dual graph and the areas, as fem2tmm's includes its geometry); ``rounds`` rounds, each
+      variant once per round in turn, warm (the compiled kernels loaded by a first call);
+    * ``1e6``: a plate of 10⁶ quads -> 1000, balanced growing and pymetis k-way, ``rounds_1e6`` rounds
+      interleaved the same way;
+    * ``accuracy``: examples/baffle/case_100.toml (100 super nodes) with fem2tmm's own clusters, with
+      ``[clustering] method = "metis"`` and with the whole-part METIS labels (``run(labels=...)``), for each
+      ``[radiation] seed`` of ``accuracy_seeds``: the three runs share one stage cache, so they are compared
+      with the same detailed reference (its own random streams, ``role="reference"``), whose noise (two
+      independent half references) is reported beside the error.
+
+    Each timing row: ``median_s``, ``times_s``, ``time_ratio_to_pymetis`` (median over rounds of the ratio
+    within a round) and its range, and the quality measures of :func:`_quality`.
+    """
+    import tempfile
+
     from fem2tmm.cluster import PartInput, cluster_parts
+    from fem2tmm.cluster.adjacency import dual_graph
+    from fem2tmm.cluster.regions import sharp_links
     from fem2tmm.io import read_mesh
+    from fem2tmm.mesh import geometry
 
     from .cases import REPO
 
@@ -201,6 +258,7 @@ def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True) -> list[
         return str(REPO.joinpath(*parts))
 
     rows = []
+    labels = {}
     if "baffle" in sizes or accuracy:
         mesh = read_mesh(_repo_file("meshes", "baffle.msh"), unit="mm")
         groups = ["aperture_lip", "front_cone", "outer_skin", "main_cone", "middle_annulus", "back_annulus"]
@@ -209,53 +267,56 @@ def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True) -> list[
         areas = mesh.element_areas(el)
         part = PartInput("baffle", "shell", el, cells, types, 100)
         regions = cluster_parts(mesh.points, [part], mesh.n_elements).regions[el]  # also loads the kernels
+        g = dual_graph(mesh.points, cells, types, "shell")
+        sharp = sharp_links(g, geometry.shell_normals(mesh.points, cells[:, :4], "quad4"), 30.0)
         variants = {
             "growing_balanced": lambda: cluster_parts(mesh.points, [part], mesh.n_elements).labels[el],
-            "growing_thesis": lambda: cluster_parts(mesh.points, [part], mesh.n_elements, balance=False).labels[el],
+            "pymetis_whole_part": lambda: _metis_whole(mesh.points, cells[:, :4], types, 100),
             "metis_per_region": lambda: cluster_parts(mesh.points, [part], mesh.n_elements, method="metis").labels[el],
-            "pymetis_whole_part": lambda: _metis_whole(mesh.points, cells[:, :4], types, areas, 100),
+            "growing_thesis": lambda: cluster_parts(mesh.points, [part], mesh.n_elements, balance=False).labels[el],
         }
-        labels = {}
-        for name, fn in variants.items():
-            times = []
-            for _ in range(3):
-                t = time.perf_counter()
-                labels[name] = fn()
-                times.append(time.perf_counter() - t)
-            rows.append({"bench": "cluster_metis", "mesh": "baffle", "elements": len(el), "clusters": 100,
-                         "method": name, "median_s": float(np.median(times)), **_quality(labels[name], areas, regions, 100)})
-        base = next(r["median_s"] for r in rows if r["method"] == "pymetis_whole_part")
-        for r in rows:
-            r["time_ratio_to_pymetis"] = r["median_s"] / base
+        if "baffle" in sizes:
+            r, labels = _case_rows("baffle", variants, rounds, lambda lb: _quality(lb, areas, regions, g, sharp, 100),
+                                   100, len(el))
+            rows += r
+        else:
+            labels = {"pymetis_whole_part": variants["pymetis_whole_part"]()}
     if "1e6" in sizes:
         from fem2tmm.mesh import shapes
 
         plate = shapes.plate(1.0, 1.0, 1000, 1000)
         m = plate.n_elements
-        areas = plate.element_areas()
-        part = PartInput("plate", "shell", np.arange(m), plate.padded_cells, plate.element_types, 1000)
-        t = time.perf_counter()
-        lab = cluster_parts(plate.points, [part], m).labels
-        t_ours = time.perf_counter() - t
-        t = time.perf_counter()
-        lab_m = _metis_whole(plate.points, plate.padded_cells[:, :4], plate.element_types, areas, 1000)
-        t_m = time.perf_counter() - t
-        zero = np.zeros(m, np.int64)
-        for name, lb, tt in (("growing_balanced", lab, t_ours), ("pymetis_whole_part", lab_m, t_m)):
-            rows.append({"bench": "cluster_metis", "mesh": "plate_1e6", "elements": m, "clusters": 1000,
-                         "method": name, "wall_s": tt, "time_ratio_to_pymetis": tt / t_m, **_quality(lb, areas, zero, 1000)})
+        pa = plate.element_areas()
+        pc = plate.padded_cells
+        ppart = PartInput("plate", "shell", np.arange(m), pc, plate.element_types, 1000)
+        pg = dual_graph(plate.points, pc, plate.element_types, "shell")
+        v1e6 = {
+            "growing_balanced": lambda: cluster_parts(plate.points, [ppart], m).labels,
+            "pymetis_whole_part": lambda: _metis_whole(plate.points, pc[:, :4], plate.element_types, 1000),
+        }
+        r, _ = _case_rows("plate_1e6", v1e6, rounds_1e6,
+                          lambda lb: _quality(lb, pa, np.zeros(m, np.int64), pg, np.zeros(len(pg.a), bool), 1000),
+                          1000, m)
+        rows += r
     if accuracy:
+        import dataclasses
+
         from fem2tmm.case import Case
         from fem2tmm.pipeline import run
 
         case = Case.from_toml(_repo_file("examples", "baffle", "case_100.toml"))
-        full = np.full(mesh.n_elements, -1, np.int64)
-        for name in ("growing_balanced", "pymetis_whole_part"):
-            lab = full.copy()
-            lab[el] = labels[name]
-            res = run(case, labels=None if name == "growing_balanced" else lab)
-            a = res.summary["accuracy"]
-            rows.append({"bench": "cluster_metis_accuracy", "case": "examples/baffle/case_100.toml", "clusters": name,
-                         "rms_K": a["rms_K"], "max_K": a["max_K"], "reference_noise_rms_K": a["reference_noise_rms_K"],
-                         "excludes": a["excludes"]})
+        whole = np.full(mesh.n_elements, -1, np.int64)
+        whole[el] = labels["pymetis_whole_part"]
+        for seed in accuracy_seeds:
+            c = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation, seed=int(seed)))
+            c_metis = dataclasses.replace(c, clustering=dataclasses.replace(c.clustering, method="metis"))
+            with tempfile.TemporaryDirectory() as cache:
+                for name, cc, lab in (("growing_balanced", c, None), ("metis_per_region", c_metis, None),
+                                      ("pymetis_whole_part", c, whole)):
+                    res = run(cc, labels=lab, cache=cache)
+                    a = res.summary["accuracy"]
+                    rows.append({"bench": "cluster_metis_accuracy", "case": "examples/baffle/case_100.toml",
+                                 "radiation_seed": int(seed), "clusters": name, "n_super_nodes": int(res.reduced.n),
+                                 "rms_K": a["rms_K"], "max_K": a["max_K"],
+                                 "reference_noise_rms_K": a["reference_noise_rms_K"], "excludes": a.get("excludes")})
     return rows

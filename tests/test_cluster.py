@@ -270,6 +270,53 @@ def test_balanced_clusters_have_even_areas_within_regions_and_never_cross_an_edg
     assert np.abs(n_r - 40 * faces / faces.sum()).max() < 1.0
 
 
+def test_balance_carries_the_diffusion_flow_exactly_on_a_chain_of_strips():
+    # closed form: strips of 5, 15 and 10 columns (x 10 rows) have weights 50, 150, 100 (mean 100); the cluster
+    # graph is the chain 0-1-2, so the flow of L phi = W - mean is f_01 = W_0 - 100 = -50 (strip 1 gives 50 to
+    # strip 0) and f_12 = W_0 + W_1 - 200 = 0.  Strip 1's elements most like strip 0 (key |x - x_0|^2 - |x - x_1|^2,
+    # linear in x) are its first 5 columns: the result is three strips of exactly 10 columns, in one pass
+    from fem2tmm.cluster.growing import balance
+
+    plate = shapes.plate(3.0, 1.0, 30, 10)
+    c = plate.padded_cells[:, :4]
+    cen = plate.element_centroids()
+    col = np.floor(cen[:, 0] / 0.1 + 1e-9).astype(int)
+    lab = np.digitize(col, [5, 20])
+    g = nx.Graph(list(naive_links(plate.points, c, "shell")))
+    A = nx.to_scipy_sparse_array(g, nodelist=range(plate.n_elements), format="csr")
+    seeds = np.flatnonzero((np.floor(cen[:, 1] / 0.1 + 1e-9) == 5) & np.isin(col, [2, 17, 25]))  # strip middles
+    out, passes = balance(A.indptr, A.indices, cen, plate.element_areas(), lab, seeds, tol=1e-9)
+    assert np.array_equal(out, np.digitize(col, [10, 20]))  # exactly, as derived above
+    assert np.array_equal(out[seeds], [0, 1, 2])
+    assert passes == 2  # one pass moves, the second finds CV 0 <= tol and stops
+
+
+def test_balance_keeps_clusters_contiguous_and_is_deterministic():
+    # an uneven start (plain growing from clustered seeds) on a plate with a hole: balance must even the areas out
+    # (a tolerance of 1 % of the mean per cluster is 2.5 quads of 250) without breaking any cluster (networkx)
+    from fem2tmm.cluster.growing import balance, grow
+
+    plate = shapes.plate(1.0, 1.0, 50, 50)
+    cen = plate.element_centroids()
+    keep = np.flatnonzero(np.hypot(cen[:, 0] - 0.5, cen[:, 1] - 0.5) > 0.2)
+    c = plate.padded_cells[keep, :4]
+    g = nx.Graph(list(naive_links(plate.points, c, "shell")))
+    A = nx.to_scipy_sparse_array(g, nodelist=range(len(keep)), format="csr")
+    X = cen[keep]
+    seeds = np.argsort(X[:, 0] + X[:, 1], kind="stable")[::170][:8]  # seeds crowded along one diagonal
+    lab0 = grow(A.indptr, A.indices, X, seeds)
+    w = np.full(len(keep), 1.0 / 2500)
+    W0 = np.bincount(lab0, w)
+    out, _ = balance(A.indptr, A.indices, X, w, lab0, seeds, tol=0.005)
+    W = np.bincount(out, w)
+    assert W0.std() / W0.mean() > 0.2  # the start is far from balanced (measured 0.5)
+    assert W.std() / W.mean() <= 0.01  # measured 0.002
+    assert_partition_ok(plate.points, c, out, 8)
+    assert np.array_equal(out[seeds], np.arange(8))
+    again, _ = balance(A.indptr, A.indices, X, w, lab0, seeds, tol=0.005)
+    assert np.array_equal(out, again)
+
+
 def test_metis_method_gives_contiguous_balanced_clusters_inside_regions():
     pytest.importorskip("pymetis")
     box = shapes.box(1.0, 0.6, 0.3, 40, 24, 12)

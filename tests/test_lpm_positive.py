@@ -15,7 +15,9 @@ from fem2tmm.pipeline import run
 
 
 def touching_from_clusters(result) -> set:
-    """Super-node pairs sharing a DOF, from the elements' cluster labels (not from the A matrix)."""
+    """Super-node pairs that touch as :mod:`fem2tmm.lpm.positive` defines it, found from the elements' cluster labels
+    (not from the A matrix): they share a DOF, or each owns a DOF of one element (the detailed conduction couples
+    all the DOFs of an element), e.g. a cluster touching a corner of an element whose edge is a boundary node."""
     model, rm = result.model, result.reduced
     labels = result.clustering.labels[model.elements]
     ed = model.element_dofs
@@ -31,8 +33,8 @@ def touching_from_clusters(result) -> set:
     for d, r in row_of_dof.items():
         owners.setdefault(d, set()).add(r)
     pairs = set()
-    for rows in owners.values():
-        rows = sorted(rows)
+    for e in range(len(ed)):
+        rows = sorted(set().union(*(owners.get(int(d), set()) for d in ed[e][ed[e] >= 0])))
         pairs |= {(a, b) for i, a in enumerate(rows) for b in rows[i + 1:]}
     return pairs
 

@@ -263,11 +263,10 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
 
 
 METHODS = ("growing", "metis")
-_DIM = {"line": 1, "shell": 2, "solid": 3}  # dimension of the element weights (length, area, volume)
 BALANCE_TOL = 0.05  # clusters of a region within ±5 % of their mean weight where growing and smoothing allow
 
 
-def _cluster_region(ptr, ind, lengths, X, w, k, seed, smoothing_layers, times, balance=True, dim=2,
+def _cluster_region(ptr, ind, lengths, X, w, k, seed, smoothing_layers, times, balance=True,
                     method="growing"):
     """Labels 0..k-1 of one connected region and the smoothing statistics.
 
@@ -286,13 +285,13 @@ def _cluster_region(ptr, ind, lengths, X, w, k, seed, smoothing_layers, times, b
         labels = metis_region(ptr, ind, lengths, X, w, k, seed=int(np.sum(seed)))
         times["growing"] += time.perf_counter() - t0
         return labels, None
-    # balanced growing moves the seeds itself (Lloyd steps on the mesh graph): one k-means++ start and a few
-    # Lloyd iterations are enough (measurements: docs/design-notes.md, cluster/driver.py)
+    # balanced growing evens the weights out itself (boundary moves): one k-means++ start and a few Lloyd
+    # iterations are enough (measurements: docs/design-notes.md, cluster/driver.py)
     kw = dict(n_init=1, max_iter=10) if balance else {}
     seeds = seed_elements(X, weighted_kmeans(X, w, k, seed=seed, **kw))
     t1 = time.perf_counter()
     if balance:
-        labels, seeds, _ = grow_balanced(ptr, ind, X, w, seeds, dim=dim, tol=BALANCE_TOL / 2)
+        labels, seeds, _ = grow_balanced(ptr, ind, X, w, seeds, lengths=lengths, tol=BALANCE_TOL / 2)
     else:
         labels = grow(ptr, ind, X, seeds)
     t2 = time.perf_counter()
@@ -406,7 +405,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
             lab, stats = _cluster_region(ptr, ind, lengths, pr.centroids[el], pr.weights[el], k,
                                          (int(seed), r), 0 if part.kind == "line" else int(smoothing_layers),
                                          pr.times, balance=balance and pr.centroids.shape[1] == 3,
-                                         dim=_DIM[part.kind], method=method)
+                                         method=method)
             local[el] = lab + k_reg
             if stats is not None:
                 smoothing.append(stats)

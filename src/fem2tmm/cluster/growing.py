@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .smoothing import cluster_lists, relink
+
 
 def grow(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, seeds: np.ndarray,
          offsets: np.ndarray | None = None) -> np.ndarray:
@@ -159,68 +161,241 @@ def _grow(indptr, indices, centroids, seeds, offsets):
 
 
 def grow_balanced(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, weights: np.ndarray,
-                  seeds: np.ndarray, dim: int = 2, tol: float = 0.02, max_iter: int = 40,
-                  lloyd_steps: int = 10, eta: float = 0.4) -> tuple[np.ndarray, np.ndarray, int]:
-    """Region growing whose clusters carry equal weight (area/volume): a capacity-constrained power diagram.
+                  seeds: np.ndarray, lengths: np.ndarray | None = None, tol: float = 0.02, max_passes: int = 10,
+                  lloyd_steps: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+    """Region growing whose clusters carry equal weight (area/volume): one growing, then local boundary moves.
 
-    Each cluster c gets an offset o_c (m²) and the growing key of an element is ``d² − o_c`` (see
-    :func:`grow`).  Raising o_c moves the cluster's boundary outwards by about ``Δo/(2 h)`` (h the distance
-    between neighbouring seeds), i.e. its area by about ``Δo`` in 2-D (``Δo·h`` in 3-D), so the update
-    ``o_c += η (W̄ − W_c) / W̄ · h²`` (h² = W̄^(2/dim): W̄² on lines, W̄ in 2-D, W̄^(2/3) in 3-D, W̄ the mean weight) drives every
-    cluster's weight towards the mean, as in capacity-constrained Voronoi tessellations (Balzer, Schlömer &
-    Deussen 2009).  During the first ``lloyd_steps`` updates each seed also moves to the element of its
-    cluster nearest the cluster's weighted centroid (one Lloyd step on the mesh graph), which keeps the
-    clusters compact and replaces k-means restarts.  η = 0.4, ``lloyd_steps`` = 10 (measurements:
-    docs/design-notes.md, cluster/growing.py).
-    Clusters stay contiguous (growing only adds a neighbour) and never leave the region (the graph is the
-    region's).  Stops when the weights' coefficient of variation is below ``tol`` or after ``max_iter``
-    growings; the best partition seen is returned.
+    The clusters are grown once from the seeds (:func:`grow`); ``lloyd_steps`` times each seed then moves to the
+    element of its cluster nearest the cluster's weighted centroid (a Lloyd step on the mesh graph) and the
+    clusters are grown again.  The weights are then balanced by :func:`balance` (a diffusion flow between
+    neighbouring clusters carried out by moving boundary elements), which replaces the up to 40 growings of the
+    earlier capacity-constrained scheme (measurements: docs/design-notes.md, cluster/growing.py).  Clusters stay
+    contiguous and never leave the region (the graph is the region's).
 
     Parameters
     ----------
     indptr, indices : CSR adjacency of one connected region (n elements)
     centroids : (n, d) element centroids (m), d = 3 (or 4 with a feature coordinate)
-    weights : (n,) element weights > 0 (m² or m³)
+    weights : (n,) element weights > 0 (m², m³ or m)
     seeds : (k,) distinct seed elements
-    dim : 1 for lines (weights are lengths), 2 for shells (areas), 3 for solids (volumes)
+    lengths : (nnz,) shared edge length (m) / face area (m²) of each link, or None (all 1): the conductance of
+        the diffusion between two clusters is the length of their common boundary
     tol : target coefficient of variation of the cluster weights
-    max_iter : most growings
-    lloyd_steps : growings during which the seeds move to their clusters' centroids
-    eta : relaxation of the offset update
+    max_passes : most balancing passes (:func:`balance`)
+    lloyd_steps : growings after the first with the seeds moved to their clusters' centroids
 
     Returns
     -------
     labels : (n,) int64, cluster of each element
     seeds : (k,) int64, the (moved) seed of each cluster, an element of it
-    iterations : growings done
+    passes : balancing passes done
     """
     seeds = np.asarray(seeds, np.int64).copy()
     k = len(seeds)
-    n = len(centroids)
     labels = grow(indptr, indices, centroids, seeds)
     if k < 2:
-        return labels, seeds, 1
-    mean = float(weights.sum()) / k
-    h2 = mean ** (2.0 / dim)
-    off = np.zeros(k)
-    best = (np.inf, labels, seeds.copy())
+        return labels, seeds, 0
+    w = np.asarray(weights, float)
     X = centroids[:, :3]
-    for it in range(1, max_iter + 1):
-        W = np.bincount(labels, weights, minlength=k)
-        cv = float(W.std() / mean)
-        if cv < best[0]:
-            best = (cv, labels, seeds.copy())
-        if cv <= tol or it == max_iter:
-            break
-        off += eta * h2 * (mean - W) / mean
-        if it > lloyd_steps:
-            labels = grow(indptr, indices, centroids, seeds, off)
-            continue
-        # one Lloyd step on the graph: the element of each cluster nearest its weighted centroid
-        cen = np.stack([np.bincount(labels, weights * X[:, j], minlength=k) for j in range(3)], 1) / W[:, None]
+    for _ in range(lloyd_steps):
+        W = np.bincount(labels, w, minlength=k)
+        cen = np.stack([np.bincount(labels, w * X[:, j], minlength=k) for j in range(3)], 1) / W[:, None]
         d2 = ((X - cen[labels]) ** 2).sum(1)
         order = np.lexsort((d2, labels))
-        first = np.searchsorted(labels[order], np.arange(k))
-        seeds = order[first]
-        labels = grow(indptr, indices, centroids, seeds, off)
-    return best[1], best[2], it
+        seeds = order[np.searchsorted(labels[order], np.arange(k))]
+        labels = grow(indptr, indices, centroids, seeds)
+    labels, passes = balance(indptr, indices, centroids, w, labels, seeds, lengths, tol=tol, max_passes=max_passes)
+    return labels, seeds, passes
+
+
+def balance(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, weights: np.ndarray,
+            labels: np.ndarray, seeds: np.ndarray, lengths: np.ndarray | None = None, tol: float = 0.02,
+            max_passes: int = 10) -> tuple[np.ndarray, int]:
+    """Even out the weights of contiguous clusters by moving elements across their boundaries.
+
+    Each pass solves for the diffusion flow on the cluster graph (Hu & Blake 1999): with ``c_AB`` the length of
+    the boundary between clusters A and B and L the weighted Laplacian of the cluster graph, ``L φ = W − W̄``
+    (W the cluster weights, W̄ their mean) and ``f_AB = c_AB (φ_A − φ_B)`` is the weight A gives to B; it is the
+    flow of least ``Σ f²/c`` that makes every weight equal.  The flows are then carried out pair by pair, the
+    largest first (:func:`_carry`): elements of A touching B move to B in increasing order of
+    ``|x − x_B|² − |x − x_A|²`` (x_A, x_B the weighted centroids at the start of the pass: the elements most
+    B-like first, so the boundary advances as a power-diagram boundary would), as long as the moved weight
+    stays within half an element of ``f_AB``.  An element never moves if it is a seed, or if removing it could
+    disconnect A: its neighbours in A must stay connected through A's elements within two links of it (a local,
+    sufficient test); B stays connected because the element touches it.  Passes repeat, with updated centroids
+    and flows, until the coefficient of variation of the weights is at most ``tol``, a pass moves nothing or
+    ``max_passes`` passes; the best labels seen are returned.  Everything is sequential and deterministic.
+
+    Parameters
+    ----------
+    indptr, indices : CSR adjacency of one connected region (n elements)
+    centroids : (n, d) element centroids (m)
+    weights : (n,) element weights > 0
+    labels : (n,) int cluster of each element, 0..k-1, every cluster contiguous and holding its seed
+    seeds : (k,) seed element of each cluster (never moved)
+    lengths : (nnz,) shared edge length / face area of each link, or None (all 1)
+    tol : target coefficient of variation of the cluster weights
+    max_passes : most passes
+
+    Returns
+    -------
+    labels : (n,) int64 new labels (a copy), clusters contiguous, seeds in place
+    passes : passes done
+    """
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import spsolve
+
+    lab = np.array(labels, np.int64)
+    seeds = np.asarray(seeds, np.int64)
+    w = np.asarray(weights, float)
+    k = len(seeds)
+    n = len(lab)
+    indptr = np.asarray(indptr, np.int64)
+    indices = np.asarray(indices, np.int64)
+    lengths = np.ones(len(indices)) if lengths is None else np.asarray(lengths, float)
+    X = np.ascontiguousarray(centroids, dtype=np.float64)
+    mean = float(w.sum()) / k
+    if k < 2:
+        return lab, 0
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+    is_seed = np.zeros(n, np.bool_)
+    is_seed[seeds] = True
+    best_cv, best = np.inf, lab.copy()
+    passes = 0
+    for passes in range(1, max_passes + 1):
+        W = np.bincount(lab, w, minlength=k)
+        cv = float(W.std() / mean)
+        if cv < best_cv:
+            best_cv, best = cv, lab.copy()
+        if cv <= tol:
+            break
+        cut = (rows < indices) & (lab[rows] != lab[indices])
+        la, lb = lab[rows[cut]], lab[indices[cut]]
+        key, inv = np.unique(np.minimum(la, lb) * k + np.maximum(la, lb), return_inverse=True)
+        c = np.bincount(inv.ravel(), lengths[cut], minlength=len(key))
+        a, b = key // k, key % k
+        L = sp.csr_matrix((np.r_[-c, -c, np.bincount(a, c, minlength=k) + np.bincount(b, c, minlength=k)],
+                           (np.r_[a, b, np.arange(k)], np.r_[b, a, np.arange(k)])), shape=(k, k))
+        phi = np.zeros(k)
+        phi[1:] = spsolve(L[1:, 1:].tocsc(), (W - mean)[1:])  # the cluster graph of a region is connected
+        f = c * (phi[a] - phi[b])
+        src, dst = np.where(f > 0, a, b), np.where(f > 0, b, a)
+        amount = np.abs(f)
+        order = np.lexsort((key, -amount))
+        moved = _carry(indptr, indices, X, w, lab, is_seed, src[order], dst[order], amount[order], k)
+        if moved == 0:
+            passes += 1
+            break
+    W = np.bincount(lab, w, minlength=k)
+    if float(W.std() / mean) < best_cv:
+        best = lab
+    return best, passes
+
+
+@njit(cache=True, nogil=True)
+def _removable(indptr, indices, lab, e, A, mark, stamp, queue):
+    """True if element ``e`` can leave cluster A without disconnecting it: its neighbours in A are connected
+    through the elements of A within two links of ``e`` (``e`` excluded).  ``mark`` (n,) int64 scratch whose
+    entries are all < ``stamp``; uses the stamps ``stamp`` and ``stamp + 1``."""
+    first = -1
+    count = 0
+    for q in range(indptr[e], indptr[e + 1]):
+        j = indices[q]
+        if lab[j] == A:
+            count += 1
+            if first < 0:
+                first = j
+    if count <= 1:
+        return count == 1
+    for q in range(indptr[e], indptr[e + 1]):
+        j = indices[q]
+        if lab[j] != A:
+            continue
+        mark[j] = stamp
+        for r in range(indptr[j], indptr[j + 1]):
+            i = indices[r]
+            if i != e and lab[i] == A:
+                mark[i] = stamp
+    mark[first] = stamp + 1
+    queue[0] = first
+    qh, qt = 0, 1
+    while qh < qt:
+        u = queue[qh]
+        qh += 1
+        for q in range(indptr[u], indptr[u + 1]):
+            v = indices[q]
+            if mark[v] == stamp:
+                mark[v] = stamp + 1
+                queue[qt] = v
+                qt += 1
+    for q in range(indptr[e], indptr[e + 1]):
+        j = indices[q]
+        if lab[j] == A and mark[j] != stamp + 1:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _move_key(X, e, cA, cB):
+    """|x_e − c_B|² − |x_e − c_A|²: small for elements more B-like than A-like."""
+    s = 0.0
+    for a in range(X.shape[1]):
+        s += (X[e, a] - cB[a]) ** 2 - (X[e, a] - cA[a]) ** 2
+    return s
+
+
+@njit(cache=True, nogil=True)
+def _carry(indptr, indices, X, w, lab, is_seed, src, dst, amount, k):
+    """Carry out the flows ``amount[p]`` from cluster ``src[p]`` to ``dst[p]`` in that order by moving boundary
+    elements (:func:`balance`); ``lab`` modified in place.  Returns the number of elements moved."""
+    n = lab.shape[0]
+    head, nxt, prv, cnt, W, centre = cluster_lists(lab, X, w, k)
+    cap = indices.shape[0] + n + 1
+    kd = np.empty(cap)
+    ke = np.empty(cap, np.int64)
+    kc = np.zeros(cap, np.int64)
+    mark = np.zeros(n, np.int64)
+    queue = np.empty(n, np.int64)
+    stamp = 1
+    w_min = w.min()
+    total = 0
+    for p in range(src.shape[0]):
+        A, B = src[p], dst[p]
+        goal = amount[p]
+        if goal < 0.5 * w_min:
+            continue
+        cA, cB = centre[A], centre[B]
+        size = 0
+        e = head[A]
+        while e >= 0:
+            if not is_seed[e]:
+                for q in range(indptr[e], indptr[e + 1]):
+                    if lab[indices[q]] == B:
+                        size = _push(kd, ke, kc, size, _move_key(X, e, cA, cB), e, 0)
+                        break
+            e = nxt[e]
+        moved = 0.0
+        while size > 0 and goal - moved >= 0.5 * w_min:
+            e, _, size = _pop(kd, ke, kc, size)
+            if lab[e] != A or moved + 0.5 * w[e] > goal:
+                continue
+            touches = False
+            for q in range(indptr[e], indptr[e + 1]):
+                if lab[indices[q]] == B:
+                    touches = True
+                    break
+            if not touches:
+                continue
+            ok = _removable(indptr, indices, lab, e, A, mark, stamp, queue)
+            stamp += 2
+            if not ok:
+                continue
+            lab[e] = B
+            relink(head, nxt, prv, e, A, B)
+            moved += w[e]
+            total += 1
+            for q in range(indptr[e], indptr[e + 1]):
+                j = indices[q]
+                if lab[j] == A and not is_seed[j]:
+                    size = _push(kd, ke, kc, size, _move_key(X, j, cA, cB), j, 0)
+    return total

@@ -229,6 +229,50 @@ def _append_neighbours(indptr, indices, lab, band, lo, hi, end, cluster, bidx):
 
 
 @njit(cache=True, nogil=True)
+def cluster_lists(lab, X, w, k):
+    """Doubly linked member lists of the k clusters of ``lab`` (n,) (each in increasing element order) and their
+    sizes: returns ``(head (k,), nxt (n,), prv (n,), cnt (k,), W (k,) total weight, centre (k, d) weighted
+    centroid of X (n, d))``."""
+    n = lab.shape[0]
+    d = X.shape[1]
+    head = np.full(k, -1, np.int64)
+    nxt = np.full(n, -1, np.int64)
+    prv = np.full(n, -1, np.int64)
+    cnt = np.zeros(k, np.int64)
+    W = np.zeros(k)
+    centre = np.zeros((k, d))
+    for e in range(n - 1, -1, -1):
+        c = lab[e]
+        nxt[e] = head[c]
+        if head[c] >= 0:
+            prv[head[c]] = e
+        head[c] = e
+        cnt[c] += 1
+        W[c] += w[e]
+        for a in range(d):
+            centre[c, a] += w[e] * X[e, a]
+    for c in range(k):
+        centre[c] /= W[c]
+    return head, nxt, prv, cnt, W, centre
+
+
+@njit(cache=True, nogil=True, inline="always")
+def relink(head, nxt, prv, e, old, new):
+    """Move element ``e`` from the member list of cluster ``old`` to the front of that of ``new``."""
+    if prv[e] >= 0:
+        nxt[prv[e]] = nxt[e]
+    else:
+        head[old] = nxt[e]
+    if nxt[e] >= 0:
+        prv[nxt[e]] = prv[e]
+    prv[e] = -1
+    nxt[e] = head[new]
+    if head[new] >= 0:
+        prv[head[new]] = e
+    head[new] = e
+
+
+@njit(cache=True, nogil=True)
 def _connected(indptr, indices, lab, start, cluster, size, seen, stamp, queue):
     """True if the ``size`` elements labelled ``cluster`` are one piece containing ``start``."""
     if lab[start] != cluster:
@@ -253,25 +297,7 @@ def _smooth(indptr, indices, lengths, lab, X, w, seeds, pair_a, pair_b, k, layer
     """The loop over pairs (module docstring); ``lab`` modified in place; ``tol`` < 0: no balance check.
     Returns (accepted, rejected_longer, rejected_disconnected, rejected_unbalanced, moved)."""
     n = lab.shape[0]
-    d = X.shape[1]
-    head = np.full(k, -1, np.int64)
-    nxt = np.full(n, -1, np.int64)
-    prv = np.full(n, -1, np.int64)
-    cnt = np.zeros(k, np.int64)
-    W = np.zeros(k)
-    centre = np.zeros((k, d))
-    for e in range(n - 1, -1, -1):
-        c = lab[e]
-        nxt[e] = head[c]
-        if head[c] >= 0:
-            prv[head[c]] = e
-        head[c] = e
-        cnt[c] += 1
-        W[c] += w[e]
-        for a in range(d):
-            centre[c, a] += w[e] * X[e, a]
-    for c in range(k):
-        centre[c] /= W[c]
+    head, nxt, prv, cnt, W, centre = cluster_lists(lab, X, w, k)
     mean = W.sum() / k
     is_seed = np.zeros(n, np.bool_)
     is_seed[seeds] = True
@@ -366,18 +392,7 @@ def _smooth(indptr, indices, lengths, lab, X, w, seeds, pair_a, pair_b, k, layer
                     if new_A[i] == (i < nA):
                         continue
                     old, new = (B, A) if new_A[i] else (A, B)
-                    # unlink e from old, push it on new
-                    if prv[e] >= 0:
-                        nxt[prv[e]] = nxt[e]
-                    else:
-                        head[old] = nxt[e]
-                    if nxt[e] >= 0:
-                        prv[nxt[e]] = prv[e]
-                    prv[e] = -1
-                    nxt[e] = head[new]
-                    if head[new] >= 0:
-                        prv[head[new]] = e
-                    head[new] = e
+                    relink(head, nxt, prv, e, old, new)
                 cnt[A], cnt[B] = cntA, cntB
                 W[A] += gain
                 W[B] -= gain
