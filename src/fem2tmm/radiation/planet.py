@@ -148,6 +148,50 @@ def planet_rays(scene: TriangleScene, prim, sign, p, nrm, U, position, sun, kind
     return d, np.where(hits, e, 0.0)
 
 
+class _PlanetBatches:
+    """The batches of one planet (albedo or IR) run as a picklable callable (the scene rebuilds itself where it is
+    unpickled, e.g. on a Dask worker): ``job(b)`` traces rays b·batch .. (b + 1)·batch - 1, its generator seeded
+    from (seed, stream, 1, b) only, and returns its :func:`~.solar.arrivals` (the sides it touched)."""
+
+    distributable = True  # map_batches may send it to Dask workers
+
+    def __init__(self, scene, optics, em, per_ray, start, seed, stream, halton, offsets, batch, position, sun, kind,
+                 planet, flux, focus, min_weight, max_bounces):
+        self.scene, self.optics, self.em, self.per_ray, self.start = scene, optics, em, per_ray, start
+        self.seed, self.stream, self.halton, self.offsets, self.batch = seed, stream, halton, offsets, batch
+        self.position, self.sun, self.kind, self.planet = position, sun, kind, planet
+        self.flux, self.focus = flux, focus
+        self.min_weight, self.max_bounces = min_weight, max_bounces
+        self.total = int(start[-1])
+
+    def __call__(self, b: int):
+        scene, em, start, halton, offsets = self.scene, self.em, self.start, self.halton, self.offsets
+        batch = self.batch
+        ray = np.arange(b * batch, min((b + 1) * batch, self.total), dtype=np.int64)
+        grp = np.searchsorted(start, ray, side="right") - 1
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=self.stream + (1, b)))
+        if halton is not None:
+            U = halton.points(offsets[grp] + (ray - start[grp]))
+        else:
+            U = rng.random((ray.size, PLANET_DIMS))
+        entry, u0 = em.locate(grp, U[:, 2])
+        prim = em.entry_prim[entry]
+        back = em.entry_side[entry]
+        sign = 1.0 - 2.0 * back
+        p, nrm, wr = scene.sample_weighted(prim, u0, U[:, 3])
+        d, e = planet_rays(scene, prim, sign, p, nrm, U[:, :2], self.position, self.sun, self.kind, self.planet,
+                           self.flux, self.focus)
+        w0 = self.per_ray[grp] * e if wr is None else self.per_ray[grp] * e * wr
+        lit = np.zeros(ray.size, bool)
+        k = np.flatnonzero(w0 > 0.0)
+        o = scene.offset(prim[k], p[k].copy(), sign[k], nrm[k])
+        hit, _ = scene.intersect(o, np.ascontiguousarray(d[k]), prim[k])
+        lit[k] = hit < 0
+        side = 2 * scene.tri_face[prim] + back
+        return arrivals(scene, self.optics, side[k], prim[k], p[k], nrm[k], -d[k], w0[k], lit[k], rng,
+                        U[k, 4:] if halton is not None else None, self.min_weight, self.max_bounces, k.size)
+
+
 def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo", planet: Planet | None = None,
                  groups=None, rays_per_group=None, ray_density: float | None = None, sampling: str = "halton",
                  focus: str = "planet", seed=0, solar_flux: float = SOLAR_CONSTANT, max_bounces: int = MAX_BOUNCES,
@@ -201,30 +245,8 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
         halton = ScrambledHalton(setup, bases=HALTON_BASES + (17,))
         offsets = setup.integers(0, HALTON_SKIP, size=g)
 
-    def job(b):
-        ray = np.arange(b * batch, min((b + 1) * batch, total), dtype=np.int64)
-        grp = np.searchsorted(start, ray, side="right") - 1
-        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=stream + (1, b)))
-        if halton is not None:
-            U = halton.points(offsets[grp] + (ray - start[grp]))
-        else:
-            U = rng.random((ray.size, PLANET_DIMS))
-        entry, u0 = em.locate(grp, U[:, 2])
-        prim = em.entry_prim[entry]
-        back = em.entry_side[entry]
-        sign = 1.0 - 2.0 * back
-        p, nrm, wr = scene.sample_weighted(prim, u0, U[:, 3])
-        d, e = planet_rays(scene, prim, sign, p, nrm, U[:, :2], position, sun, kind, planet, flux, focus)
-        w0 = per_ray[grp] * e if wr is None else per_ray[grp] * e * wr
-        lit = np.zeros(ray.size, bool)
-        k = np.flatnonzero(w0 > 0.0)
-        o = scene.offset(prim[k], p[k].copy(), sign[k], nrm[k])
-        hit, _ = scene.intersect(o, np.ascontiguousarray(d[k]), prim[k])
-        lit[k] = hit < 0
-        side = 2 * scene.tri_face[prim] + back
-        return arrivals(scene, optics, side[k], prim[k], p[k], nrm[k], -d[k], w0[k], lit[k], rng,
-                        U[k, 4:] if halton is not None else None, min_weight, max_bounces, k.size)
-
+    job = _PlanetBatches(scene, optics, em, per_ray, start, seed, stream, halton, offsets, batch, position, sun,
+                         kind, planet, flux, focus, min_weight, max_bounces)
     absorbed, incident, totals, segments = gather(map_batches(job, math.ceil(total / batch) if total else 0, threads),
                                                   2 * f)
     mine = groups >= 0
