@@ -44,7 +44,7 @@ from ..errors import Fem2TmmError
 from ..orbit import EARTH, SOLAR_CONSTANT, Planet
 from .sampling import HALTON_BASES, ScrambledHalton
 from .solar import RayBalance, arrivals, gather, sun_unit, triangle_emitters
-from .surfaces import Surface, TriangleScene, pad_faces
+from .surfaces import SideOptics, Surface, TriangleScene, pad_faces
 from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
 #: Halton coordinates of a planet ray: origin (2), direction (2), first event (1), first diffuse direction (2)
@@ -211,6 +211,21 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
     ints.  ``scene``: the ray scene of ``surface`` (curved super faces pass their
     :class:`~fem2tmm.radiation.quadric.QuadricScene`).  Returns a :class:`PlanetResult`.
     """
+    job, n_batches, finish = planet_job(surface, position, sun_direction, kind, planet, groups, rays_per_group,
+                                        ray_density, sampling, focus, seed, solar_flux, max_bounces, min_weight,
+                                        scene, batch)
+    return finish(map_batches(job, n_batches, threads))
+
+
+def planet_job(surface: Surface, position, sun_direction, kind: str = "albedo", planet: Planet | None = None,
+               groups=None, rays_per_group=None, ray_density: float | None = None, sampling: str = "halton",
+               focus: str = "planet", seed=0, solar_flux: float = SOLAR_CONSTANT, max_bounces: int = MAX_BOUNCES,
+               min_weight: float = 1e-12, scene: TriangleScene | None = None, batch: int = BATCH,
+               optics: SideOptics | None = None):
+    """:func:`trace_planet` (same arguments) split into ``(job, n_batches, finish)``: the picklable batch job, its
+    number of batches, and ``finish(parts)`` that turns the batch results (in batch order) into the
+    :class:`PlanetResult` (see :func:`~.solar.solar_job`).  ``optics``: the :class:`SideOptics` of the band of
+    ``kind`` when the caller already has it (shared by its jobs)."""
     if kind not in KINDS:
         raise Fem2TmmError(f"kind must be 'albedo' or 'ir', got {kind!r}")
     check.choice("sampling", sampling, SAMPLINGS)
@@ -223,7 +238,7 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
     f = surface.n_faces
     groups, g = check.side_groups(groups, f)
     scene = TriangleScene.of(surface, scene, "trace_planet")
-    optics = surface.optics("solar" if kind == "albedo" else "ir")
+    optics = surface.optics("solar" if kind == "albedo" else "ir") if optics is None else optics
     # sides that can see the planet: the normal within 90° + θ_max of nadir (seen from the mesh origin; the
     # margin covers the mesh's extent); curved triangles are kept whole
     rho = float(np.linalg.norm(position))
@@ -247,17 +262,21 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
 
     job = _PlanetBatches(scene, optics, em, per_ray, start, seed, stream, halton, offsets, batch, position, sun,
                          kind, planet, flux, focus, min_weight, max_bounces)
-    absorbed, incident, totals, segments = gather(map_batches(job, math.ceil(total / batch) if total else 0, threads),
-                                                  2 * f)
-    mine = groups >= 0
-    per_group = lambda x: np.bincount(groups[mine], weights=x[mine], minlength=g)  # noqa: E731
-    return PlanetResult(
-        incident_side=incident, incident_face=incident.reshape(f, 2).sum(axis=1), incident_group=per_group(incident),
-        absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1), absorbed_group=per_group(absorbed),
-        rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
-        blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments), kind=kind,
-        focus=focus, sampling=sampling, engine=scene.engine.name,
-    )
+
+    def finish(parts) -> PlanetResult:
+        absorbed, incident, totals, segments = gather(parts, 2 * f)
+        mine = groups >= 0
+        per_group = lambda x: np.bincount(groups[mine], weights=x[mine], minlength=g)  # noqa: E731
+        return PlanetResult(
+            incident_side=incident, incident_face=incident.reshape(f, 2).sum(axis=1),
+            incident_group=per_group(incident), absorbed_side=absorbed,
+            absorbed_face=absorbed.reshape(f, 2).sum(axis=1), absorbed_group=per_group(absorbed),
+            rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
+            blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments), kind=kind,
+            focus=focus, sampling=sampling, engine=scene.engine.name,
+        )
+
+    return job, math.ceil(total / batch) if total else 0, finish
 
 
 def planet_fluxes(points, faces, position, sun_direction, kind="albedo", planet=None, rays_per_face=1000, seed=0, *,

@@ -305,6 +305,20 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     ``batch`` rays per batch, ``threads`` batches in parallel; the result depends only on the inputs, ``seed`` and
     ``batch``.  Returns a :class:`SolarResult`.
     """
+    job, n_batches, finish = solar_job(surface, sun_direction, solar_flux, groups, rays_per_group, ray_density,
+                                       sampling, seed, max_bounces, min_weight, scene, batch)
+    return finish(map_batches(job, n_batches, threads))
+
+
+def solar_job(surface: Surface, sun_direction, solar_flux: float, groups=None, rays_per_group=None,
+              ray_density: float | None = None, sampling: str = "halton", seed: int = 0,
+              max_bounces: int = MAX_BOUNCES, min_weight: float = 1e-12, scene: TriangleScene | None = None,
+              batch: int = BATCH, optics: SideOptics | None = None):
+    """:func:`trace_solar` (same arguments) split into ``(job, n_batches, finish)``: the picklable batch job,
+    its number of batches, and ``finish(parts)`` that turns the batch results (in batch order) into the
+    :class:`SolarResult`; for callers that run the batches of several traces together
+    (:func:`~.tracer.map_jobs`).  ``optics``: the solar :class:`SideOptics` of ``surface`` when the caller already
+    has it (shared by its jobs instead of one copy each)."""
     check.choice("sampling", sampling, SAMPLINGS)
     check.positive_int("max_bounces", max_bounces)
     if not 0.0 <= float(min_weight) < 1.0:
@@ -314,23 +328,26 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     f = surface.n_faces
     groups, g = check.side_groups(groups, f)
     scene = TriangleScene.of(surface, scene, "trace_solar")
-    optics = surface.optics("solar")
+    optics = surface.optics("solar") if optics is None else optics
     em = sunlit_emitters(scene, groups, g, sun)
     rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     power = flux * em.weight
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
     job = _SolarBatches(scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces)
     total = job.total
-    absorbed, incident, totals, segments = gather(map_batches(job, math.ceil(total / batch) if total else 0, threads),
-                                                  2 * f)
-    mine = groups >= 0
-    return SolarResult(
-        absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1),
-        absorbed_group=np.bincount(groups[mine], weights=absorbed[mine], minlength=g), power_group=power,
-        rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
-        blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments), sun_direction=sun,
-        solar_flux=flux, engine=scene.engine.name, sampling=sampling, incident_side=incident,
-    )
+
+    def finish(parts) -> SolarResult:
+        absorbed, incident, totals, segments = gather(parts, 2 * f)
+        mine = groups >= 0
+        return SolarResult(
+            absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1),
+            absorbed_group=np.bincount(groups[mine], weights=absorbed[mine], minlength=g), power_group=power,
+            rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
+            blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments),
+            sun_direction=sun, solar_flux=flux, engine=scene.engine.name, sampling=sampling, incident_side=incident,
+        )
+
+    return job, math.ceil(total / batch) if total else 0, finish
 
 
 def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, travel, w0, lit, rng, qmc,
