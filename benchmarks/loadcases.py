@@ -161,9 +161,10 @@ def _smallsat_base(positions: int, orbit_rays_per_face: int, rays_per_face: int)
 
 
 def bench_cases_smallsat(workers: int = 2, positions: int = 12, orbit_rays_per_face: int = 20,
-                         rays_per_face: int = 500) -> list[dict]:
+                         rays_per_face: int = 500, rounds: int = 3) -> list[dict]:
     """8 cases x ``positions`` orbit positions on the small satellite: serial, ``LocalCluster(1)`` and
-    ``LocalCluster(workers)`` in the same run, then the time per extra case once the shared stages are cached.
+    ``LocalCluster(workers)`` in the same run (``rounds`` interleaved rounds, medians), then the time per extra case
+    once the shared stages are cached.
 
     The cases: β = 17° or 60° x begin- or end-of-life white paint (solar absorptivity 0.25 / 0.45) x deck
     electronics 15 W or 5 W, through ``[[cases]]`` overrides.  Per case the orbit is traced (solar, albedo and
@@ -184,35 +185,51 @@ def bench_cases_smallsat(workers: int = 2, positions: int = 12, orbit_rays_per_f
     load = lambda: [round(x, 2) for x in os.getloadavg()]  # noqa: E731 - the machine is shared
     # warm-up (not timed): one small case compiles the kernels here and fills their on-disk cache for the workers
     run(Case.from_dict(_smallsat_base(1, 2, 50), base_dir=SMALLSAT.parent, source="<warm-up>"), cache=None)
-    rows, results = [], {}
-    for label, scheduler, n in (("serial", "serial", None), ("local1", "local", 1), ("local", "local", workers)):
-        data = {**base, "cases": cases, "compute": {"scheduler": scheduler, **({"workers": n} if n else {})}}
-        before = load()
-        t0 = time.perf_counter()
-        results[label] = multi = run(Case.from_dict(copy.deepcopy(data), base_dir=SMALLSAT.parent,
-                                                    source="<bench cases_smallsat>"), cache=None)
-        wall = time.perf_counter() - t0
-        res = list(multi.results.values())
-        stage = lambda name: sum(r.summary["timings_s"].get(name, 0.0) for r in res)  # noqa: E731
-        traced = {id(r.orbit_detailed): r.orbit_detailed for r in res}  # the orbit traces (shared ones once)
-        segments = sum(o.segments for o in traced.values())
-        rows.append({"bench": f"smallsat_{label}", "cases": len(res), "positions": len(res[0].orbit_fluxes.positions),
-                     "workers": n or 1, "wall_s": round(wall, 2), "orbit_s": round(stage("orbit_detailed"), 2),
-                     "radiation_s": round(stage("radiation"), 2), "orbit_traces": len(traced),
-                     "orbit_segments": int(segments),
-                     "segments_per_s": round(segments / max(stage("orbit_detailed"), 1e-9)),
-                     "orbit_rays_per_face": orbit_rays_per_face, "rays_per_face": rays_per_face,
-                     "load_before": before, "load_after": load()})
-
     def same(a, b):
         return all(np.array_equal(a.results[k].T_recovered, b.results[k].T_recovered)
                    and np.array_equal(a.results[k].orbit_T_positions, b.results[k].orbit_T_positions)
                    for k in a.results)
 
-    rows[2].update({"speedup_vs_serial": round(rows[0]["wall_s"] / rows[2]["wall_s"], 2),
-                    "speedup_vs_1_worker": round(rows[1]["wall_s"] / rows[2]["wall_s"], 2),
-                    "bit_identical": same(results["serial"], results["local1"])
-                    and same(results["serial"], results["local"]),
+    schedulers = (("serial", "serial", None), ("local1", "local", 1), ("local", "local", workers))
+    stats = {label: [] for label, _, _ in schedulers}
+    reference, identical = None, True
+    for _ in range(rounds):  # interleaved rounds: the machine is shared, its load drifts
+        for label, scheduler, n in schedulers:
+            data = {**base, "cases": cases, "compute": {"scheduler": scheduler, **({"workers": n} if n else {})}}
+            before = load()
+            t0 = time.perf_counter()
+            multi = run(Case.from_dict(copy.deepcopy(data), base_dir=SMALLSAT.parent,
+                                       source="<bench cases_smallsat>"), cache=None)
+            wall = time.perf_counter() - t0
+            res = list(multi.results.values())
+            stage = lambda name: sum(r.summary["timings_s"].get(name, 0.0) for r in res)  # noqa: E731
+            traced = {id(r.orbit_detailed): r.orbit_detailed for r in res}  # the orbit traces (shared ones once)
+            stats[label].append({"wall": wall, "orbit": stage("orbit_detailed"), "radiation": stage("radiation"),
+                                 "traces": len(traced), "segments": sum(o.segments for o in traced.values()),
+                                 "cases": len(res), "positions": len(res[0].orbit_fluxes.positions),
+                                 "load": before})
+            if reference is None:
+                reference = multi
+            else:
+                identical = identical and same(reference, multi)
+            del multi, res, traced
+    rows = []
+    for label, _, n in schedulers:
+        st = stats[label]
+        med = lambda key: float(np.median([x[key] for x in st]))  # noqa: E731
+        rows.append({"bench": f"smallsat_{label}", "cases": st[0]["cases"], "positions": st[0]["positions"],
+                     "workers": n or 1, "rounds": rounds, "wall_s": round(med("wall"), 2),
+                     "wall_s_rounds": [round(x["wall"], 2) for x in st], "orbit_s": round(med("orbit"), 2),
+                     "radiation_s": round(med("radiation"), 2), "orbit_traces": st[0]["traces"],
+                     "orbit_segments": int(st[0]["segments"]),
+                     "segments_per_s": round(st[0]["segments"] / max(med("orbit"), 1e-9)),
+                     "orbit_rays_per_face": orbit_rays_per_face, "rays_per_face": rays_per_face,
+                     "load_1min_before_each": [x["load"][0] for x in st]})
+    walls = {label: np.array([x["wall"] for x in stats[label]]) for label in stats}
+    rows[2].update({"speedup_vs_serial": round(float(np.median(walls["serial"] / walls["local"])), 2),
+                    "speedup_vs_1_worker": round(float(np.median(walls["local1"] / walls["local"])), 2),
+                    "speedups_from": "median over the rounds of the per-round ratio",
+                    "bit_identical": identical,
                     "goal": "speed-up >= 1.7 on 2 cores (issue 19)",
                     "baseline": "smallsat_serial: the same cases in this process (the tracer's 2 threads); "
                                 "smallsat_local1: one single-threaded worker"})
