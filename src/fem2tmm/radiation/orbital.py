@@ -133,7 +133,8 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     distinct, first = np.unique(positions.true_anomaly, return_index=True)
     base_seed = [int(x) for x in np.atleast_1d(seed)]  # an int or SeedSequence entropy [seed, k, ...]
     solar_budget = rays_per_group if solar_rays_per_group is None else solar_rays_per_group
-    band = {"solar": surface.optics("solar"), "albedo": surface.optics("solar"), "ir": surface.optics("ir")}
+    sunlight = surface.optics("solar")  # one copy per band, shared by the jobs (and sent to the workers once)
+    band = {"solar": sunlight, "albedo": sunlight, "ir": surface.optics("ir")}
     traces = []  # (distinct position, kind): the traces of the orbit, run ORBIT_JOBS at a time
     for jd, j0 in enumerate(first):  # loop over the distinct positions of the orbit
         for kind in kinds:
