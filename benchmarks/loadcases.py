@@ -134,3 +134,123 @@ def _sizing(multi, rays_per_s_per_worker: float, elements: float = 1e6, position
             "note": "the scene (points, faces, per-side optics, emitters) goes to each worker once per case whose "
                     "optics differ; each batch task carries its index and returns the absorbed power per side "
                     "(dense, 2 x 8 bytes per face)"}
+
+
+# ------------------------------------------------------------------------------------------------------------------
+# ``fem2tmm bench cases_smallsat``: 8 cases x 12 orbit positions on the small satellite (issue 19's orbit variant)
+
+SMALLSAT = REPO / "examples" / "smallsat" / "case.toml"
+
+
+def _smallsat_base(positions: int, orbit_rays_per_face: int, rays_per_face: int) -> dict:
+    """The small-satellite example (``examples/smallsat/case.toml``, 944 FE faces) at β = +17° (the example's
+    10:30 SSO on its date) instead of a date, so that cases can vary β; ``positions`` true anomalies (plus the
+    eclipse boundaries), ``orbit_rays_per_face`` orbital rays per FE face side and position, ``rays_per_face``
+    REF rays per super face, orbit-average and per-position steady solves, no detailed reference."""
+    import tomllib
+
+    data = tomllib.loads(SMALLSAT.read_text())
+    data["mesh"]["file"] = str(REPO / "meshes" / "smallsat.msh")
+    orbit = data["orbit"]
+    for key in ("date", "raan"):
+        orbit.pop(key)
+    orbit.update(beta=17.0, positions=positions, rays_per_face=orbit_rays_per_face, steady="positions")
+    data["radiation"]["rays_per_face"] = rays_per_face
+    data["reference"] = {"detailed": False}
+    return data
+
+
+def bench_cases_smallsat(workers: int = 2, positions: int = 12, orbit_rays_per_face: int = 20,
+                         rays_per_face: int = 500, rounds: int = 3) -> list[dict]:
+    """8 cases x ``positions`` orbit positions on the small satellite: serial, ``LocalCluster(1)`` and
+    ``LocalCluster(workers)`` in the same run (``rounds`` interleaved rounds, medians), then the time per extra case
+    once the shared stages are cached.
+
+    The cases: β = 17° or 60° x begin- or end-of-life white paint (solar absorptivity 0.25 / 0.45) x deck
+    electronics 15 W or 5 W, through ``[[cases]]`` overrides.  Per case the orbit is traced (solar, albedo and
+    planet IR at every position) unless a case with the same β and optics traced it already; the REFs (IR optics
+    unchanged), clustering and reduction are shared through the memory cache.  ``orbit_rays_per_face`` and
+    ``rays_per_face`` are the example's budgets divided by 10 and 4 (200, 2000), so that each scheduler's run
+    takes about a minute on 2 cores.  Rows: ``smallsat_serial`` / ``smallsat_local1`` / ``smallsat_local`` (wall
+    time, summed stage times, segments traced; speed-ups and bit-identity of every case's temperatures and
+    per-position temperatures across the three), ``smallsat_extra`` (one full run from an empty cache, then 8
+    cases differing only in the deck power: time per extra case against the full run)."""
+    import os
+
+    base = _smallsat_base(positions, orbit_rays_per_face, rays_per_face)
+    cases = [{"name": f"b{beta}_{life}_{q}W", "orbit": {"beta": float(beta)},
+              "optics": {"white_paint": {"absorptivity": alpha}},
+              "boundary": {"electronics_on_deck": {"value": float(q)}}}
+             for beta in (17, 60) for life, alpha in (("bol", 0.25), ("eol", 0.45)) for q in (15, 5)]
+    load = lambda: [round(x, 2) for x in os.getloadavg()]  # noqa: E731 - the machine is shared
+    # warm-up (not timed): one small case compiles the kernels here and fills their on-disk cache for the workers
+    run(Case.from_dict(_smallsat_base(1, 2, 50), base_dir=SMALLSAT.parent, source="<warm-up>"), cache=None)
+    def same(a, b):
+        return all(np.array_equal(a.results[k].T_recovered, b.results[k].T_recovered)
+                   and np.array_equal(a.results[k].orbit_T_positions, b.results[k].orbit_T_positions)
+                   for k in a.results)
+
+    schedulers = (("serial", "serial", None), ("local1", "local", 1), ("local", "local", workers))
+    stats = {label: [] for label, _, _ in schedulers}
+    reference, identical = None, True
+    for _ in range(rounds):  # interleaved rounds: the machine is shared, its load drifts
+        for label, scheduler, n in schedulers:
+            data = {**base, "cases": cases, "compute": {"scheduler": scheduler, **({"workers": n} if n else {})}}
+            before = load()
+            t0 = time.perf_counter()
+            multi = run(Case.from_dict(copy.deepcopy(data), base_dir=SMALLSAT.parent,
+                                       source="<bench cases_smallsat>"), cache=None)
+            wall = time.perf_counter() - t0
+            res = list(multi.results.values())
+            stage = lambda name: sum(r.summary["timings_s"].get(name, 0.0) for r in res)  # noqa: E731
+            traced = {id(r.orbit_detailed): r.orbit_detailed for r in res}  # the orbit traces (shared ones once)
+            stats[label].append({"wall": wall, "orbit": stage("orbit_detailed"), "radiation": stage("radiation"),
+                                 "traces": len(traced), "segments": sum(o.segments for o in traced.values()),
+                                 "cases": len(res), "positions": len(res[0].orbit_fluxes.positions),
+                                 "load": before})
+            if reference is None:
+                reference = multi
+            else:
+                identical = identical and same(reference, multi)
+            del multi, res, traced
+    rows = []
+    for label, _, n in schedulers:
+        st = stats[label]
+        med = lambda key: float(np.median([x[key] for x in st]))  # noqa: E731
+        rows.append({"bench": f"smallsat_{label}", "cases": st[0]["cases"], "positions": st[0]["positions"],
+                     "workers": n or 1, "rounds": rounds, "wall_s": round(med("wall"), 2),
+                     "wall_s_rounds": [round(x["wall"], 2) for x in st], "orbit_s": round(med("orbit"), 2),
+                     "radiation_s": round(med("radiation"), 2), "orbit_traces": st[0]["traces"],
+                     "orbit_segments": int(st[0]["segments"]),
+                     "segments_per_s": round(st[0]["segments"] / max(med("orbit"), 1e-9)),
+                     "orbit_rays_per_face": orbit_rays_per_face, "rays_per_face": rays_per_face,
+                     "load_1min_before_each": [x["load"][0] for x in st]})
+    walls = {label: np.array([x["wall"] for x in stats[label]]) for label in stats}
+    rows[2].update({"speedup_vs_serial": round(float(np.median(walls["serial"] / walls["local"])), 2),
+                    "speedup_vs_1_worker": round(float(np.median(walls["local1"] / walls["local"])), 2),
+                    "speedups_from": "median over the rounds of the per-round ratio",
+                    "bit_identical": identical,
+                    "goal": "speed-up >= 1.7 on 2 cores (issue 19)",
+                    "baseline": "smallsat_serial: the same cases in this process (the tracer's 2 threads); "
+                                "smallsat_local1: one single-threaded worker"})
+
+    # the time per extra case once the shared stages are cached, against the full run of one case
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        run(Case.from_dict(copy.deepcopy(base), base_dir=SMALLSAT.parent, source="<bench>"), cache=tmp)
+        full = time.perf_counter() - t0
+        powers = [{"name": f"deck{k}", "boundary": {"electronics_on_deck": {"value": 5.0 + 2.5 * k}}}
+                  for k in range(len(cases))]
+        t0 = time.perf_counter()
+        warm = run(Case.from_dict(copy.deepcopy({**base, "cases": powers}), base_dir=SMALLSAT.parent,
+                                  source="<bench>"), cache=tmp)
+        wall = time.perf_counter() - t0
+    per_case = [sum(r.summary["timings_s"].values()) for r in warm.results.values()]
+    reused = sorted({k for r in warm.results.values() for k, v in (r.summary["cache"] or {}).items() if v == "reused"})
+    rows.append({"bench": "smallsat_extra", "full_run_s": round(full, 2), "cases": len(powers),
+                 "warm_wall_s": round(wall, 2), "per_extra_case_s": round(float(np.median(per_case)), 3),
+                 "ratio_to_full": round(float(np.median(per_case)) / full, 3), "reused": reused,
+                 "per_case_stages_s": {k: round(v, 3)
+                                       for k, v in next(iter(warm.results.values())).summary["timings_s"].items()},
+                 "goal": "<= 10 % of a full run (issue 19)", "load_after": load()})
+    return rows

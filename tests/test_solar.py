@@ -4,6 +4,7 @@ shadows, specular concentration, transmission, diffuse reflection, energy balanc
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -12,7 +13,8 @@ from scipy.integrate import quad
 from fem2tmm import Fem2TmmError
 from fem2tmm.mesh import shapes
 from scenarios import PERIHELION_FLUX, SUN_10DEG, eui_cone
-from fem2tmm.radiation.solar import solar_fluxes, sun_origins, sunlit_emitters, trace_solar
+from fem2tmm.compute import SerialExecutor, using
+from fem2tmm.radiation.solar import side_sums, solar_fluxes, sun_origins, sunlit_emitters, trace_solar
 from fem2tmm.radiation.surfaces import Surface, TriangleScene
 from fem2tmm.radiation.tracer import trace_paths
 
@@ -430,3 +432,138 @@ def test_bad_input_raises_clear_errors():
         trace_solar(surf, [0, 0, 1], S, rays_per_group=10, ray_density=5.0)
     with pytest.raises(Fem2TmmError, match="absorptivity"):
         solar_fluxes(pts, faces, [0, 0, 1], S, absorptivity=[0.1, 0.2])
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Batch results: the sides a batch touched, not a dense array over the model (issue 19)
+
+
+class _Shipping(SerialExecutor):
+    """A distributed-looking executor in this process: every batch job and result goes through pickle (as to and
+    from a Dask worker); records the pickled size of each result."""
+
+    distributed = True
+
+    def __init__(self):
+        self.sizes, self.results = [], []
+
+    def map(self, fn, items, shared=None, what="work units"):
+        shared = pickle.loads(pickle.dumps(shared))
+        out = []
+        for r in super().map(fn, items, shared, what):
+            blob = pickle.dumps(r, protocol=pickle.HIGHEST_PROTOCOL)
+            self.sizes.append(len(blob))
+            out.append(pickle.loads(blob))
+        self.results += out
+        return out
+
+
+def test_side_sums_are_the_nonempty_bins_of_bincount():
+    # bit-for-bit np.bincount's values on the bins hit, nothing elsewhere; sorted distinct int32 bins
+    rng = np.random.default_rng(3)
+    n = 10**6
+    idx = rng.integers(0, n, 5000)
+    idx[:2000] = idx[0]  # a heavily hit bin: its sum runs over 2000 weights in array order
+    w = rng.uniform(0.0, 1.0, idx.size)
+    bins, sums = side_sums(idx, w, n)
+    dense = np.bincount(idx, weights=w, minlength=n)
+    assert bins.dtype == np.int32 and np.all(np.diff(bins) > 0)
+    assert np.array_equal(dense[bins], sums)
+    assert np.array_equal(np.flatnonzero(dense), bins)  # weights > 0: every bin hit is non-zero
+    e_bins, e_sums = side_sums(np.zeros(0, np.int64), np.zeros(0), n)
+    assert e_bins.size == 0 and e_sums.size == 0
+
+
+@pytest.mark.parametrize("n", [10, 100])
+def test_batch_result_scales_with_the_rays_not_the_faces(n):
+    # a lit plate, rays from 5 of its faces only (normal incidence: no reflection comes back): each batch returns
+    # the 5 sides its rays touched, so its pickled size is the same at 2 x 10^2 and 2 x 10^4 sides (within a few
+    # bytes of pickle framing), far below the two dense (2f,) float64 arrays of the old batch result
+    p, faces = plate(1.0, 1.0, n, n)
+    f = len(faces)
+    surf = Surface(p, faces, emissivity=0.0, absorptivity=0.3, active=True)
+    groups = np.full(2 * f, -1)
+    groups[2 * np.arange(5)] = np.arange(5)
+    ex = _Shipping()
+    with using(ex):
+        res = trace_solar(surf, [0.0, 0.0, 1.0], S, groups=groups, rays_per_group=40, batch=64)
+    assert len(ex.results) == 4  # 200 rays in batches of 64
+    for part in ex.results:
+        hit = np.unique(np.concatenate([part.absorbed[0], part.incident[0]]))
+        assert hit.size <= 5 and part.absorbed[0].size <= 64  # at most one entry per side touched, <= rays
+    assert max(ex.sizes) < 1500, ex.sizes  # bytes: 5 sides x 12 B x 2 + totals + framing
+    if n == 100:
+        assert max(ex.sizes) < 0.01 * 2 * 2 * f * 8
+    # exact: each lit side absorbs α S A (A = 1/n²; 1e-12 relative: a sum of 40 ray powers)
+    assert np.allclose(res.absorbed_side[2 * np.arange(5)], 0.3 * S / n**2, rtol=1e-12, atol=0)
+
+
+def test_sparse_batches_sum_exactly_as_dense_batch_arrays():
+    # a box with random specular / diffuse / transmissive sides, small batches so that most sides are hit by many
+    # batches: the traced totals are bit-for-bit the batch results expanded to dense (2f,) arrays and summed in
+    # batch order (the previous gather), and the same with the jobs and results pickled (a Dask worker)
+    pts, faces = _box(n=4, skip=("z1",))
+    f = len(faces)
+    surf = Surface(pts, faces, **_random_optics(f, np.random.default_rng(7)))
+    kw = dict(rays_per_group=60, batch=512, threads=1)
+    plain = trace_solar(surf, sun_at(30, 10), S, **kw)
+    ex = _Shipping()
+    with using(ex):
+        shipped = trace_solar(surf, sun_at(30, 10), S, **kw)
+    assert len(ex.results) == 10  # 80 Sun-facing sides (of 160) x 60 rays = 4 800 rays in batches of 512
+    absorbed, incident = np.zeros(2 * f), np.zeros(2 * f)
+    for part in ex.results:  # the dense reference, batch by batch
+        a, i = np.zeros(2 * f), np.zeros(2 * f)
+        a[part.absorbed[0]] = part.absorbed[1]
+        i[part.incident[0]] = part.incident[1]
+        absorbed += a
+        incident += i
+    for r in (plain, shipped):
+        assert np.array_equal(r.absorbed_side, absorbed) and np.array_equal(r.incident_side, incident)
+    assert plain.escaped == shipped.escaped and plain.segments == shipped.segments
+
+
+@pytest.mark.parametrize("kind", ["albedo", "ir"])
+def test_planet_batches_ship_to_workers_with_identical_results(kind):
+    # the planet tracer's batch job is picklable (map_batches sends it to Dask workers): through pickle its
+    # batches give bit-for-bit the in-process result, and each returns only the sides its rays touched
+    from fem2tmm.radiation.planet import trace_planet
+
+    pts, faces = _box(n=4, skip=("z1",))
+    f = len(faces)
+    surf = Surface(pts, faces, emissivity=0.7, absorptivity=0.4, specular=0.5, active=True)
+    kw = dict(kind=kind, rays_per_group=50, batch=1024, threads=1)
+    position, sun = np.array([0.0, 0.0, -7.0e6]), np.array([0.0, 0.6, -0.8])
+    plain = trace_planet(surf, position, sun, **kw)
+    ex = _Shipping()
+    with using(ex):
+        shipped = trace_planet(surf, position, sun, **kw)
+    assert len(ex.results) == -(-plain.rays // 1024) > 1
+    assert np.array_equal(plain.absorbed_side, shipped.absorbed_side)
+    assert np.array_equal(plain.incident_side, shipped.incident_side) and plain.escaped == shipped.escaped
+    assert all(p.absorbed[0].size < 2 * f for p in ex.results)
+
+
+def test_map_jobs_returns_each_jobs_batches_in_order():
+    # several jobs' batches in one map (threads, or pickled to workers): each job gets its own results in batch
+    # order, exactly what one map_batches call per job gives
+    from fem2tmm.radiation.tracer import map_batches, map_jobs
+
+    jobs = [_Scaled(k) for k in (1, 10, 100)]
+    counts = [3, 0, 5]
+    expect = [map_batches(j, n, 1) for j, n in zip(jobs, counts)]
+    assert map_jobs(jobs, counts, threads=2) == expect == [[0, 1, 2], [], [0, 100, 200, 300, 400]]
+    ex = _Shipping()
+    with using(ex):
+        assert map_jobs(jobs, counts, threads=1) == expect
+    assert len(ex.results) == 8  # one pickled map over all the batches
+
+
+class _Scaled:
+    distributable = True
+
+    def __init__(self, k):
+        self.k = k
+
+    def __call__(self, b):
+        return self.k * b

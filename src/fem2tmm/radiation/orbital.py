@@ -17,12 +17,15 @@ import numpy as np
 
 from ..errors import Fem2TmmError
 from ..orbit import Attitude, Orbit, OrbitPositions
-from .planet import optics_surface, trace_planet
-from .solar import trace_solar
+from .planet import optics_surface, planet_job
+from .solar import solar_job
 from .surfaces import Surface, TriangleScene, pad_faces
-from .tracer import MAX_BOUNCES
+from .tracer import MAX_BOUNCES, map_jobs
 
 KINDS = ("solar", "albedo", "ir")
+#: traces (position x kind) whose batches run together in one map: enough units to keep the threads or Dask
+#: workers busy, while bounding what lives at once (each trace's emission tables, ~ tens of bytes per triangle)
+ORBIT_JOBS = 24
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,7 +98,10 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     ``solar_rays_per_group`` the solar one (default the same).  ``per`` "side" (n = 2f), "face" (n = f, both sides
     summed) or "group" (n = groups).  ``focus`` "planet" (PFHS) or "hemisphere" (plain sampling, for
     comparison).  Position j of the orbit traces with the seed entropy [``seed``..., j'] (j' the index of its
-    distinct true anomaly; ``seed`` an int or a list of ints).  Returns :class:`OrbitalFluxes`.
+    distinct true anomaly; ``seed`` an int or a list of ints).  The batches of the traces (position x kind) run
+    together, ``ORBIT_JOBS`` traces per :func:`~.tracer.map_jobs` call, so that many short traces spread over the
+    ``threads`` or the Dask workers (results in batch order: the same numbers as one trace after the other).
+    Returns :class:`OrbitalFluxes`.
     """
     kinds = check_kinds(kinds)
     if per not in ("side", "face", "group"):
@@ -127,27 +133,37 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     distinct, first = np.unique(positions.true_anomaly, return_index=True)
     base_seed = [int(x) for x in np.atleast_1d(seed)]  # an int or SeedSequence entropy [seed, k, ...]
     solar_budget = rays_per_group if solar_rays_per_group is None else solar_rays_per_group
+    sunlight = surface.optics("solar")  # one copy per band, shared by the jobs (and sent to the workers once)
+    band = {"solar": sunlight, "albedo": sunlight, "ir": surface.optics("ir")}
+    traces = []  # (distinct position, kind): the traces of the orbit, run ORBIT_JOBS at a time
     for jd, j0 in enumerate(first):  # loop over the distinct positions of the orbit
-        rows = np.flatnonzero(positions.true_anomaly == distinct[jd])
         for kind in kinds:
-            lit = positions.lit[rows]
-            if kind == "solar":
-                if not (lit > 0).any() or orbit.solar_flux == 0:
-                    continue
-                res = trace_solar(surface, sun[j0], orbit.solar_flux, groups=groups, rays_per_group=solar_budget,
-                                  ray_density=ray_density, sampling=sampling, seed=base_seed + [jd],
-                                  max_bounces=max_bounces, scene=scene, threads=threads)
-                inc, ab = res.incident_side, res.absorbed_side
-            else:
-                res = trace_planet(surface, pos[j0], sun[j0], kind=kind, planet=orbit.planet, groups=groups,
-                                   rays_per_group=rays_per_group, ray_density=ray_density, sampling=sampling,
-                                   seed=base_seed + [jd], solar_flux=orbit.solar_flux, max_bounces=max_bounces,
-                                   scene=scene, threads=threads, focus=focus)
-                inc, ab = res.incident_side, res.absorbed_side
-                lit = np.ones(len(rows))
+            if kind == "solar" and (not (positions.lit[positions.true_anomaly == distinct[jd]] > 0).any()
+                                    or orbit.solar_flux == 0):
+                continue
+            traces.append((jd, j0, kind))
+
+    def job(jd, j0, kind):
+        if kind == "solar":
+            return solar_job(surface, sun[j0], orbit.solar_flux, groups=groups, rays_per_group=solar_budget,
+                             ray_density=ray_density, sampling=sampling, seed=base_seed + [jd],
+                             max_bounces=max_bounces, scene=scene, optics=band[kind])
+        return planet_job(surface, pos[j0], sun[j0], kind=kind, planet=orbit.planet, groups=groups,
+                          rays_per_group=rays_per_group, ray_density=ray_density, sampling=sampling,
+                          seed=base_seed + [jd], solar_flux=orbit.solar_flux, max_bounces=max_bounces,
+                          scene=scene, focus=focus, optics=band[kind])
+
+    for c in range(0, len(traces), ORBIT_JOBS):  # loop over chunks of traces
+        chunk = traces[c:c + ORBIT_JOBS]
+        built = [job(*t) for t in chunk]
+        parts = map_jobs([b[0] for b in built], [b[1] for b in built], threads, what="orbit ray batches")
+        for (jd, j0, kind), (_, _, finish), p in zip(chunk, built, parts):
+            res = finish(p)
+            rows = np.flatnonzero(positions.true_anomaly == distinct[jd])
+            lit = positions.lit[rows] if kind == "solar" else np.ones(len(rows))
             scale = lit[:, None]
-            incident[kind][rows] = scale * pick(res, inc)[None, :]
-            absorbed[kind][rows] = scale * pick(res, ab)[None, :]
+            incident[kind][rows] = scale * pick(res, res.incident_side)[None, :]
+            absorbed[kind][rows] = scale * pick(res, res.absorbed_side)[None, :]
             lost[kind][rows] = lit * (res.escaped + res.blocked + res.capped)
             escaped[kind][rows] = lit * res.escaped
             rays[kind][rows] = res.rays

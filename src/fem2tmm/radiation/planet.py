@@ -44,7 +44,7 @@ from ..errors import Fem2TmmError
 from ..orbit import EARTH, SOLAR_CONSTANT, Planet
 from .sampling import HALTON_BASES, ScrambledHalton
 from .solar import RayBalance, arrivals, gather, sun_unit, triangle_emitters
-from .surfaces import Surface, TriangleScene, pad_faces
+from .surfaces import SideOptics, Surface, TriangleScene, pad_faces
 from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
 #: Halton coordinates of a planet ray: origin (2), direction (2), first event (1), first diffuse direction (2)
@@ -148,6 +148,50 @@ def planet_rays(scene: TriangleScene, prim, sign, p, nrm, U, position, sun, kind
     return d, np.where(hits, e, 0.0)
 
 
+class _PlanetBatches:
+    """The batches of one planet (albedo or IR) run as a picklable callable (the scene rebuilds itself where it is
+    unpickled, e.g. on a Dask worker): ``job(b)`` traces rays b·batch .. (b + 1)·batch - 1, its generator seeded
+    from (seed, stream, 1, b) only, and returns its :func:`~.solar.arrivals` (the sides it touched)."""
+
+    distributable = True  # map_batches may send it to Dask workers
+
+    def __init__(self, scene, optics, em, per_ray, start, seed, stream, halton, offsets, batch, position, sun, kind,
+                 planet, flux, focus, min_weight, max_bounces):
+        self.scene, self.optics, self.em, self.per_ray, self.start = scene, optics, em, per_ray, start
+        self.seed, self.stream, self.halton, self.offsets, self.batch = seed, stream, halton, offsets, batch
+        self.position, self.sun, self.kind, self.planet = position, sun, kind, planet
+        self.flux, self.focus = flux, focus
+        self.min_weight, self.max_bounces = min_weight, max_bounces
+        self.total = int(start[-1])
+
+    def __call__(self, b: int):
+        scene, em, start, halton, offsets = self.scene, self.em, self.start, self.halton, self.offsets
+        batch = self.batch
+        ray = np.arange(b * batch, min((b + 1) * batch, self.total), dtype=np.int64)
+        grp = np.searchsorted(start, ray, side="right") - 1
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=self.stream + (1, b)))
+        if halton is not None:
+            U = halton.points(offsets[grp] + (ray - start[grp]))
+        else:
+            U = rng.random((ray.size, PLANET_DIMS))
+        entry, u0 = em.locate(grp, U[:, 2])
+        prim = em.entry_prim[entry]
+        back = em.entry_side[entry]
+        sign = 1.0 - 2.0 * back
+        p, nrm, wr = scene.sample_weighted(prim, u0, U[:, 3])
+        d, e = planet_rays(scene, prim, sign, p, nrm, U[:, :2], self.position, self.sun, self.kind, self.planet,
+                           self.flux, self.focus)
+        w0 = self.per_ray[grp] * e if wr is None else self.per_ray[grp] * e * wr
+        lit = np.zeros(ray.size, bool)
+        k = np.flatnonzero(w0 > 0.0)
+        o = scene.offset(prim[k], p[k].copy(), sign[k], nrm[k])
+        hit, _ = scene.intersect(o, np.ascontiguousarray(d[k]), prim[k])
+        lit[k] = hit < 0
+        side = 2 * scene.tri_face[prim] + back
+        return arrivals(scene, self.optics, side[k], prim[k], p[k], nrm[k], -d[k], w0[k], lit[k], rng,
+                        U[k, 4:] if halton is not None else None, self.min_weight, self.max_bounces, k.size)
+
+
 def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo", planet: Planet | None = None,
                  groups=None, rays_per_group=None, ray_density: float | None = None, sampling: str = "halton",
                  focus: str = "planet", seed=0, solar_flux: float = SOLAR_CONSTANT, max_bounces: int = MAX_BOUNCES,
@@ -167,6 +211,21 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
     ints.  ``scene``: the ray scene of ``surface`` (curved super faces pass their
     :class:`~fem2tmm.radiation.quadric.QuadricScene`).  Returns a :class:`PlanetResult`.
     """
+    job, n_batches, finish = planet_job(surface, position, sun_direction, kind, planet, groups, rays_per_group,
+                                        ray_density, sampling, focus, seed, solar_flux, max_bounces, min_weight,
+                                        scene, batch)
+    return finish(map_batches(job, n_batches, threads))
+
+
+def planet_job(surface: Surface, position, sun_direction, kind: str = "albedo", planet: Planet | None = None,
+               groups=None, rays_per_group=None, ray_density: float | None = None, sampling: str = "halton",
+               focus: str = "planet", seed=0, solar_flux: float = SOLAR_CONSTANT, max_bounces: int = MAX_BOUNCES,
+               min_weight: float = 1e-12, scene: TriangleScene | None = None, batch: int = BATCH,
+               optics: SideOptics | None = None):
+    """:func:`trace_planet` (same arguments) split into ``(job, n_batches, finish)``: the picklable batch job, its
+    number of batches, and ``finish(parts)`` that turns the batch results (in batch order) into the
+    :class:`PlanetResult` (see :func:`~.solar.solar_job`).  ``optics``: the :class:`SideOptics` of the band of
+    ``kind`` when the caller already has it (shared by its jobs)."""
     if kind not in KINDS:
         raise Fem2TmmError(f"kind must be 'albedo' or 'ir', got {kind!r}")
     check.choice("sampling", sampling, SAMPLINGS)
@@ -179,7 +238,7 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
     f = surface.n_faces
     groups, g = check.side_groups(groups, f)
     scene = TriangleScene.of(surface, scene, "trace_planet")
-    optics = surface.optics("solar" if kind == "albedo" else "ir")
+    optics = surface.optics("solar" if kind == "albedo" else "ir") if optics is None else optics
     # sides that can see the planet: the normal within 90° + θ_max of nadir (seen from the mesh origin; the
     # margin covers the mesh's extent); curved triangles are kept whole
     rho = float(np.linalg.norm(position))
@@ -201,41 +260,23 @@ def trace_planet(surface: Surface, position, sun_direction, kind: str = "albedo"
         halton = ScrambledHalton(setup, bases=HALTON_BASES + (17,))
         offsets = setup.integers(0, HALTON_SKIP, size=g)
 
-    def job(b):
-        ray = np.arange(b * batch, min((b + 1) * batch, total), dtype=np.int64)
-        grp = np.searchsorted(start, ray, side="right") - 1
-        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=stream + (1, b)))
-        if halton is not None:
-            U = halton.points(offsets[grp] + (ray - start[grp]))
-        else:
-            U = rng.random((ray.size, PLANET_DIMS))
-        entry, u0 = em.locate(grp, U[:, 2])
-        prim = em.entry_prim[entry]
-        back = em.entry_side[entry]
-        sign = 1.0 - 2.0 * back
-        p, nrm, wr = scene.sample_weighted(prim, u0, U[:, 3])
-        d, e = planet_rays(scene, prim, sign, p, nrm, U[:, :2], position, sun, kind, planet, flux, focus)
-        w0 = per_ray[grp] * e if wr is None else per_ray[grp] * e * wr
-        lit = np.zeros(ray.size, bool)
-        k = np.flatnonzero(w0 > 0.0)
-        o = scene.offset(prim[k], p[k].copy(), sign[k], nrm[k])
-        hit, _ = scene.intersect(o, np.ascontiguousarray(d[k]), prim[k])
-        lit[k] = hit < 0
-        side = 2 * scene.tri_face[prim] + back
-        return arrivals(scene, optics, side[k], prim[k], p[k], nrm[k], -d[k], w0[k], lit[k], rng,
-                        U[k, 4:] if halton is not None else None, min_weight, max_bounces, k.size)
+    job = _PlanetBatches(scene, optics, em, per_ray, start, seed, stream, halton, offsets, batch, position, sun,
+                         kind, planet, flux, focus, min_weight, max_bounces)
 
-    absorbed, incident, totals, segments = gather(map_batches(job, math.ceil(total / batch) if total else 0, threads),
-                                                  2 * f)
-    mine = groups >= 0
-    per_group = lambda x: np.bincount(groups[mine], weights=x[mine], minlength=g)  # noqa: E731
-    return PlanetResult(
-        incident_side=incident, incident_face=incident.reshape(f, 2).sum(axis=1), incident_group=per_group(incident),
-        absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1), absorbed_group=per_group(absorbed),
-        rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
-        blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments), kind=kind,
-        focus=focus, sampling=sampling, engine=scene.engine.name,
-    )
+    def finish(parts) -> PlanetResult:
+        absorbed, incident, totals, segments = gather(parts, 2 * f)
+        mine = groups >= 0
+        per_group = lambda x: np.bincount(groups[mine], weights=x[mine], minlength=g)  # noqa: E731
+        return PlanetResult(
+            incident_side=incident, incident_face=incident.reshape(f, 2).sum(axis=1),
+            incident_group=per_group(incident), absorbed_side=absorbed,
+            absorbed_face=absorbed.reshape(f, 2).sum(axis=1), absorbed_group=per_group(absorbed),
+            rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
+            blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments), kind=kind,
+            focus=focus, sampling=sampling, engine=scene.engine.name,
+        )
+
+    return job, math.ceil(total / batch) if total else 0, finish
 
 
 def planet_fluxes(points, faces, position, sun_direction, kind="albedo", planet=None, rays_per_face=1000, seed=0, *,

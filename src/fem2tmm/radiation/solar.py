@@ -229,14 +229,26 @@ def _follow(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, d, w, 
 
 
 class Arrivals(NamedTuple):
-    """What one batch of source rays delivered (:func:`arrivals`): ``absorbed`` (2f,) W per side, ``incident`` (2f,) W
-    per side (lit arrivals), ``totals`` (5,) = (incident, shadowed, escaped, blocked, capped) W, ``segments``
-    intersection queries."""
+    """What one batch of source rays delivered (:func:`arrivals`), as sparse vectors over the 2f sides: the sides it
+    touched and their powers, so a batch result scales with its rays, not with the model (it is what a Dask worker
+    sends back).  ``absorbed`` = ``(sides (k,) int32 or int64 sorted distinct, powers (k,) W)``, ``incident`` the
+    same for the lit arrivals, ``totals`` (5,) = (incident, shadowed, escaped, blocked, capped) W, ``segments``
+    intersection queries.  :func:`gather` sums the batches."""
 
-    absorbed: np.ndarray
-    incident: np.ndarray
+    absorbed: tuple
+    incident: tuple
     totals: np.ndarray
     segments: int
+
+
+def side_sums(index: np.ndarray, weights: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The non-empty bins of ``np.bincount(index, weights, minlength=n)`` as ``(bins (k,) sorted distinct, int32
+    when n < 2**31 else int64, sums (k,))``, bit-for-bit the dense values (each bin sums its weights in array order,
+    as bincount does), in O(r log r) for r = len(index) whatever n.  ``index`` (r,) ints in [0, n), ``weights``
+    (r,) float."""
+    bins, inverse = np.unique(index, return_inverse=True)
+    sums = np.bincount(inverse.ravel(), weights=weights, minlength=bins.size)
+    return bins.astype(np.int32 if n < 2**31 else np.int64), sums
 
 
 class _SolarBatches:
@@ -293,6 +305,20 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     ``batch`` rays per batch, ``threads`` batches in parallel; the result depends only on the inputs, ``seed`` and
     ``batch``.  Returns a :class:`SolarResult`.
     """
+    job, n_batches, finish = solar_job(surface, sun_direction, solar_flux, groups, rays_per_group, ray_density,
+                                       sampling, seed, max_bounces, min_weight, scene, batch)
+    return finish(map_batches(job, n_batches, threads))
+
+
+def solar_job(surface: Surface, sun_direction, solar_flux: float, groups=None, rays_per_group=None,
+              ray_density: float | None = None, sampling: str = "halton", seed: int = 0,
+              max_bounces: int = MAX_BOUNCES, min_weight: float = 1e-12, scene: TriangleScene | None = None,
+              batch: int = BATCH, optics: SideOptics | None = None):
+    """:func:`trace_solar` (same arguments) split into ``(job, n_batches, finish)``: the picklable batch job,
+    its number of batches, and ``finish(parts)`` that turns the batch results (in batch order) into the
+    :class:`SolarResult`; for callers that run the batches of several traces together
+    (:func:`~.tracer.map_jobs`).  ``optics``: the solar :class:`SideOptics` of ``surface`` when the caller already
+    has it (shared by its jobs instead of one copy each)."""
     check.choice("sampling", sampling, SAMPLINGS)
     check.positive_int("max_bounces", max_bounces)
     if not 0.0 <= float(min_weight) < 1.0:
@@ -302,23 +328,26 @@ def trace_solar(surface: Surface, sun_direction, solar_flux: float, groups=None,
     f = surface.n_faces
     groups, g = check.side_groups(groups, f)
     scene = TriangleScene.of(surface, scene, "trace_solar")
-    optics = surface.optics("solar")
+    optics = surface.optics("solar") if optics is None else optics
     em = sunlit_emitters(scene, groups, g, sun)
     rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     power = flux * em.weight
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
     job = _SolarBatches(scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces)
     total = job.total
-    absorbed, incident, totals, segments = gather(map_batches(job, math.ceil(total / batch) if total else 0, threads),
-                                                  2 * f)
-    mine = groups >= 0
-    return SolarResult(
-        absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1),
-        absorbed_group=np.bincount(groups[mine], weights=absorbed[mine], minlength=g), power_group=power,
-        rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
-        blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments), sun_direction=sun,
-        solar_flux=flux, engine=scene.engine.name, sampling=sampling, incident_side=incident,
-    )
+
+    def finish(parts) -> SolarResult:
+        absorbed, incident, totals, segments = gather(parts, 2 * f)
+        mine = groups >= 0
+        return SolarResult(
+            absorbed_side=absorbed, absorbed_face=absorbed.reshape(f, 2).sum(axis=1),
+            absorbed_group=np.bincount(groups[mine], weights=absorbed[mine], minlength=g), power_group=power,
+            rays_group=rays, incident=float(totals[0]), shadowed=float(totals[1]), escaped=float(totals[2]),
+            blocked=float(totals[3]), capped=float(totals[4]), rays=total, segments=int(segments),
+            sun_direction=sun, solar_flux=flux, engine=scene.engine.name, sampling=sampling, incident_side=incident,
+        )
+
+    return job, math.ceil(total / batch) if total else 0, finish
 
 
 def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, travel, w0, lit, rng, qmc,
@@ -333,7 +362,7 @@ def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, trave
 
     Returns :class:`Arrivals`; incident = absorbed + escaped + blocked + capped."""
     n_sides = len(optics.active)
-    incident_side = np.bincount(side[lit], weights=w0[lit], minlength=n_sides)
+    incident_side = side_sums(side[lit], w0[lit], n_sides)
     shadowed = float(w0[~lit].sum())
     incident = float(w0[lit].sum())
     live = lit & optics.active[side]
@@ -342,19 +371,21 @@ def arrivals(scene: TriangleScene, optics: SideOptics, side, prim, p, nrm, trave
     out = _follow(scene, optics, side[k], prim[k], p[k], nrm[k], np.array(travel[k], dtype=float), w0[k],
                   min_weight * w0[k], rng, None if qmc is None else qmc[k], max_bounces)
     sides, powers, escaped, blocked2, capped, segs = out
-    absorbed = np.bincount(sides, weights=powers, minlength=n_sides)
+    absorbed = side_sums(sides, powers, n_sides)
     return Arrivals(absorbed, incident_side, np.array([incident, shadowed, escaped, blocked + blocked2, capped]),
                     segs + queries)
 
 
 def gather(parts: list[Arrivals], n_sides: int):
     """Sum the :func:`arrivals` of the batches, in batch order (deterministic sums): ``(absorbed (2f,), incident
-    (2f,), totals (5,), segments)``."""
+    (2f,), totals (5,), segments)``.  Each batch adds its touched sides into the dense totals (its sides are
+    distinct), so every side's sum runs over the batches in order: the same floats as adding dense per-batch
+    arrays."""
     absorbed, incident, totals = np.zeros(n_sides), np.zeros(n_sides), np.zeros(5)
     segments = 0
     for part in parts:  # loop over batches
-        absorbed += part.absorbed
-        incident += part.incident
+        absorbed[part.absorbed[0]] += part.absorbed[1]
+        incident[part.incident[0]] += part.incident[1]
         totals += part.totals
         segments += part.segments
     return absorbed, incident, totals, segments

@@ -345,6 +345,30 @@ def _call_batch(b: int, job):
     return job(b)
 
 
+class _Jobs:
+    """Several batch jobs as one: batch k of the whole is batch k - first[j] of job j (the jobs in order)."""
+
+    def __init__(self, jobs, counts):
+        self.jobs = list(jobs)
+        self.first = np.concatenate([[0], np.cumsum(counts, dtype=np.int64)])
+        self.distributable = all(getattr(job, "distributable", False) for job in self.jobs)
+
+    def __call__(self, k: int):
+        j = int(np.searchsorted(self.first, k, side="right")) - 1
+        return self.jobs[j](k - int(self.first[j]))
+
+
+def map_jobs(jobs, counts, threads: int, what: str = "ray batches") -> list[list]:
+    """The batches of several jobs (``jobs[j]`` with ``counts[j]`` batches, e.g. the traces of every position of
+    an orbit) run as one :func:`map_batches` call, so that they spread over the threads or the Dask workers
+    together (a trace of one batch alone keeps one worker busy); returns each job's results in batch order, the
+    same as ``[map_batches(job, n, threads) for job, n in zip(jobs, counts)]``.  The jobs are sent to the workers
+    once, in one piece: objects they share (the scene, the optics) travel once."""
+    whole = _Jobs(jobs, counts)
+    parts = map_batches(whole, int(whole.first[-1]), threads, what)
+    return [parts[int(whole.first[j]):int(whole.first[j + 1])] for j in range(len(whole.jobs))]
+
+
 @dataclass(frozen=True, eq=False)
 class ExchangeResult:
     """Radiative exchange factors between g groups of sides (super faces) plus space.
