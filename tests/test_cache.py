@@ -71,3 +71,40 @@ def test_untrusted_or_foreign_entries_are_never_loaded(tmp_path):
     assert StageCache(folder).get("reduce", "other") is MISSING
     (folder / "reduce-bad.pkl").write_bytes(b"not a pickle")
     assert StageCache(folder).get("reduce", "bad") is MISSING
+
+
+def test_concurrent_callers_compute_a_shared_entry_once():
+    """Two load cases in client threads (a multi-case run on Dask) asking for the same entry: one computes it,
+    the other waits and reuses it; a different key is computed independently."""
+    import threading
+    import time
+
+    c = StageCache()
+    calls, started = [], threading.Event()
+
+    def slow():
+        started.set()
+        time.sleep(0.3)  # long enough for the other thread to arrive while this one computes
+        calls.append(1)
+        return np.arange(3)
+
+    out = {}
+
+    def case(name):
+        out[name] = c.get_or_compute("reduce", "k", slow, f"{name}/reduce")
+
+    a = threading.Thread(target=case, args=("a",))
+    a.start()
+    started.wait(5.0)
+    b = threading.Thread(target=case, args=("b",))
+    b.start()
+    a.join(10.0)
+    b.join(10.0)
+    assert len(calls) == 1  # computed once, not once per thread
+    assert out["a"][1] == "computed" and out["b"][1] == "reused"
+    assert out["b"][0] is out["a"][0]
+    assert c.status == {"a/reduce": "computed", "b/reduce": "reused"}
+    # a caller whose computation fails leaves the entry missing: the next caller computes it itself
+    with pytest.raises(ZeroDivisionError):
+        c.get_or_compute("cluster", "k", lambda: 1 / 0)
+    assert c.get_or_compute("cluster", "k", lambda: 7) == (7, "computed")

@@ -86,17 +86,32 @@ def _three_cases(scheduler: str, workers: int | None = None) -> dict:
     return {**BASE, "cases": cases, "compute": {"scheduler": scheduler, **({"workers": workers} if workers else {})}}
 
 
-def test_serial_and_local_clusters_are_bit_identical(mesh):
+def test_serial_and_local_clusters_are_bit_identical(mesh, capsys):
     pytest.importorskip("distributed")
+    from fem2tmm.radiation.tracer import BATCH
+
     runs = {}
     for scheduler, workers in (("serial", None), ("local", 1), ("local", 2)):
-        multi = run(case_of(_three_cases(scheduler, workers)), mesh=mesh)  # a fresh in-memory cache per run
+        capsys.readouterr()
+        # a fresh in-memory cache per run; on Dask the cases run concurrently (client threads)
+        multi = run(case_of(_three_cases(scheduler, workers)), mesh=mesh, quiet=scheduler == "serial")
         assert multi.summary["compute"]["workers"] == (workers or 1)
         runs[(scheduler, workers)] = multi
+        if scheduler == "local":  # one bar over all work units, with the worker count, and its total at the end
+            err = capsys.readouterr().err
+            # the ray batches of the traces each case computed (solar, REFs; not the reused ones) and one steady
+            # solve per case
+            units = sum((r.cache["solar_detailed"] == "computed") * -(-r.solar_detailed.rays // BATCH)
+                        + (r.cache["radiation"] == "computed") * -(-int(np.sum(r.radiation.rays)) // BATCH) + 1
+                        for r in multi.results.values())
+            s = "s" if workers > 1 else ""
+            assert f"[fem2tmm] {units} work units on {workers} worker{s}\n" in err
+            assert "ray batches on" not in err and "steady solves on" not in err  # no bar per map_units call
     ref = runs[("serial", None)]
     for multi in runs.values():
         for name, r in multi.results.items():
             e = ref.results[name]
+            assert r.cache == e.cache  # computed by the first case that needs it, reused by the others
             assert np.array_equal(r.T_recovered, e.T_recovered)
             assert np.array_equal(r.reduced.GR, e.reduced.GR) and np.array_equal(r.reduced.Q, e.reduced.Q)
             assert np.array_equal(r.solar_detailed.absorbed_side, e.solar_detailed.absorbed_side)
@@ -119,3 +134,33 @@ def test_rerun_reuses_what_did_not_change(mesh, tmp_path):
     assert third.summary["cache"] == {"cluster": "reused", "solar_detailed": "reused", "reduce": "reused",
                                       "radiation": "computed"}
     assert len(list((out / ".cache").iterdir())) == 5  # cluster, solar, reduce, radiation x 2
+
+
+def test_a_failing_case_on_dask_stops_the_others_and_raises_its_error(mesh, monkeypatch):
+    """A case that fails in its client thread: the run raises that case's Fem2TmmError (unchanged), not a
+    cancellation of the others; an interrupt raised in a case thread (Ctrl-C) propagates the same way."""
+    pytest.importorskip("distributed")
+    import fem2tmm.pipeline as pipeline
+    from fem2tmm.errors import Fem2TmmError
+
+    check = pipeline.check_transient
+
+    def failing(exc):
+        def f(model, case):
+            if case.name == "b":
+                raise exc
+            return check(model, case)
+        return f
+
+    from fem2tmm.compute import DaskExecutor
+
+    cancels = []
+    cancel = DaskExecutor.cancel
+    monkeypatch.setattr(DaskExecutor, "cancel", lambda self: cancels.append(1) or cancel(self))
+    monkeypatch.setattr(pipeline, "check_transient", failing(Fem2TmmError("case b: boom")))
+    with pytest.raises(Fem2TmmError, match="^case b: boom$"):
+        run(case_of(_three_cases("local", 2)), mesh=mesh)
+    assert cancels == [1]  # the other cases' units were cancelled once
+    monkeypatch.setattr(pipeline, "check_transient", failing(KeyboardInterrupt()))
+    with pytest.raises(KeyboardInterrupt):
+        run(case_of(_three_cases("local", 2)), mesh=mesh)

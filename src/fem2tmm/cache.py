@@ -21,6 +21,7 @@ import os
 import pickle
 import stat
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -134,6 +135,10 @@ class StageCache:
     :meth:`get_or_compute` returns a cached value or computes and remembers it; :attr:`status` records per
     label (e.g. ``"hot/cluster"``) whether it was "computed" or "reused".  New entries are written to disk by
     :meth:`commit` (the pipeline commits once the run has succeeded).  ``folder`` None: memory only.
+
+    Thread-safe: load cases running concurrently (:func:`fem2tmm.pipeline.run` on a Dask executor) that need the
+    same ``(stage, key)`` compute it once; :meth:`get_or_compute` holds a lock per key while computing, and the
+    other callers wait for the value and report it "reused".
     """
 
     def __init__(self, folder: str | Path | None = None):
@@ -141,6 +146,8 @@ class StageCache:
         self._memory: dict[tuple[str, str], Any] = {}
         self._pending: list[tuple[str, str]] = []
         self.status: dict[str, str] = {}
+        self._guard = threading.Lock()  # guards _locks
+        self._locks: dict[tuple[str, str], threading.Lock] = {}
 
     def path(self, stage: str, key: str, folder: Path | None = None) -> Path:
         return Path(folder or self.folder) / f"{stage}-{key}.pkl"
@@ -172,12 +179,17 @@ class StageCache:
         self._pending.append((stage, key))
 
     def get_or_compute(self, stage: str, key: str, compute: Callable[[], Any], label: str | None = None):
-        """``(value, "reused" | "computed")``; records the status under ``label`` (default ``stage``)."""
-        value = self.get(stage, key)
-        how = "reused"
-        if value is MISSING:
-            value, how = compute(), "computed"
-            self.put(stage, key, value)
+        """``(value, "reused" | "computed")``; records the status under ``label`` (default ``stage``).  A caller
+        in another thread asking for the same ``(stage, key)`` meanwhile waits and gets the value "reused" (if
+        ``compute`` raised, it computes itself)."""
+        with self._guard:
+            lock = self._locks.setdefault((stage, key), threading.Lock())
+        with lock:
+            value = self.get(stage, key)
+            how = "reused"
+            if value is MISSING:
+                value, how = compute(), "computed"
+                self.put(stage, key, value)
         self.status[label or stage] = how
         return value, how
 

@@ -12,6 +12,10 @@ and worker count.
 On Dask, ``shared`` objects (the ray scene, K, ...) are scattered once to every worker (``broadcast``), not sent
 with each task; a unit whose worker dies is re-run elsewhere (same item, same result); Ctrl-C cancels the
 submitted units.  Scenes rebuild their ray-tracing structures where they are unpickled (once per worker).
+
+A :class:`DaskExecutor` may be used from several threads at once (the pipeline runs the load cases of a
+multi-case file concurrently, so that the units of several cases are in flight); :meth:`DaskExecutor.cancel`
+cancels every call in flight and refuses new ones.
 """
 
 from __future__ import annotations
@@ -19,11 +23,12 @@ from __future__ import annotations
 import contextvars
 import logging
 import os
+import threading
 from contextlib import contextmanager
 from typing import Any, Callable, Sequence
 
 from .errors import Fem2TmmError
-from .progress import report
+from .progress import report, report_units
 
 #: seconds to wait for a Dask scheduler before giving up (the whole check stays within 10 s)
 CONNECT_TIMEOUT = 3.0
@@ -50,8 +55,13 @@ class SerialExecutor:
         pass
 
 
+class Cancelled(Exception):
+    """A :meth:`DaskExecutor.map` call stopped by :meth:`DaskExecutor.cancel` (another thread failed)."""
+
+
 class DaskExecutor:
-    """Runs units as Dask tasks on ``client``'s cluster (``cluster``: a LocalCluster we started and close)."""
+    """Runs units as Dask tasks on ``client``'s cluster (``cluster``: a LocalCluster we started and close).
+    Thread-safe; progress goes to :func:`~fem2tmm.progress.report_units` (``what`` "... on N workers")."""
 
     distributed = True
 
@@ -59,6 +69,23 @@ class DaskExecutor:
         self.client = client
         self.cluster = cluster
         self.name = name
+        self._cancelled = threading.Event()
+        self._lock = threading.Lock()
+        self._inflight: dict[int, list] = {}  # id of a map call -> its futures (tasks and scattered data)
+
+    def cancel(self) -> None:
+        """Cancel the units of every :meth:`map` call in flight (they raise :class:`Cancelled`) and refuse new
+        calls."""
+        self._cancelled.set()
+        with self._lock:
+            futures = [f for fs in self._inflight.values() for f in fs]
+        if futures:
+            self.client.cancel(futures, force=True)
+
+    def check_cancelled(self) -> None:
+        """Raise :class:`Cancelled` once :meth:`cancel` was called."""
+        if self._cancelled.is_set():
+            raise Cancelled("cancelled: another load case failed or the run was interrupted")
 
     @property
     def workers(self) -> int:
@@ -70,19 +97,28 @@ class DaskExecutor:
         items = list(items)
         if not items:
             return []
+        self.check_cancelled()
         client = self.client
-        scattered = {k: client.scatter(v, broadcast=True, hash=False) for k, v in (shared or {}).items()}
-        futures = []
+        scattered, futures, call = {}, [], object()
         try:
+            for k, v in (shared or {}).items():
+                scattered[k] = client.scatter(v, broadcast=True, hash=False)
             futures = client.map(fn, items, pure=False, retries=RETRIES, **scattered)
+            with self._lock:
+                self._inflight[id(call)] = futures + list(scattered.values())
+            self.check_cancelled()  # cancelled while submitting: cancel() may have missed these
             label = f"{what} on {self.workers} workers"
             for k, _ in enumerate(as_completed(futures)):
-                report(k + 1, len(futures), label)
+                self.check_cancelled()
+                report_units(k + 1, len(futures), label)
+            self.check_cancelled()
             return client.gather(futures)
         except BaseException:
             client.cancel(futures + list(scattered.values()), force=True)
             raise
         finally:
+            with self._lock:
+                self._inflight.pop(id(call), None)
             del futures
             scattered.clear()
 

@@ -4,18 +4,25 @@ Long loops call :func:`report` ``(done, total, what)``; it does nothing unless a
 callback with :func:`reporting` (the pipeline does, with the tqdm bars of :class:`Progress`, unless
 ``--quiet``).  The callback is looked up in a context variable, so stages stay plain functions and tests see
 no output.
+
+The executors of :mod:`fem2tmm.compute` report their work units with :func:`report_units`: to the callback
+installed by :func:`reporting_units` when there is one (a multi-case run on Dask shows one bar over the units of
+all cases, :class:`UnitsBar`), otherwise like :func:`report`.
 """
 
 from __future__ import annotations
 
 import contextvars
 import sys
+import threading
 import time
 from contextlib import contextmanager
 from typing import Callable
 
 _callback: contextvars.ContextVar[Callable[[int, int, str], None] | None] = contextvars.ContextVar(
     "fem2tmm_progress", default=None)
+_units: contextvars.ContextVar[Callable[[int, int, str], None] | None] = contextvars.ContextVar(
+    "fem2tmm_units", default=None)
 
 
 def report(done: int, total: int, what: str) -> None:
@@ -33,6 +40,72 @@ def reporting(callback: Callable[[int, int, str], None] | None):
         yield
     finally:
         _callback.reset(token)
+
+
+def report_units(done: int, total: int, what: str) -> None:
+    """Like :func:`report`, for an executor's work units: ``done`` of the ``total`` units of one
+    :func:`~fem2tmm.compute.map_units` call are finished.  Goes to the :func:`reporting_units` callback when one is
+    installed, else to :func:`report`."""
+    cb = _units.get()
+    if cb is not None:
+        cb(done, total, what)
+    else:
+        report(done, total, what)
+
+
+@contextmanager
+def reporting_units(callback: Callable[[int, int, str], None] | None):
+    """Install ``callback(done, total, what)`` for the calls to :func:`report_units` made inside the block."""
+    token = _units.set(callback)
+    try:
+        yield
+    finally:
+        _units.reset(token)
+
+
+class UnitsBar:
+    """One progress bar over the work units of many concurrent :func:`~fem2tmm.compute.map_units` calls (threads):
+    units finished / units submitted so far, ``desc`` e.g. "work units on 2 workers".  Use it as the
+    :func:`reporting_units` callback; thread-safe.  ``done`` / ``submitted`` count every unit seen (also when
+    quiet); ``close()`` ends the bar."""
+
+    def __init__(self, desc: str, quiet: bool = False, stream=None):
+        self.desc = desc
+        self.quiet = quiet
+        self.stream = stream or sys.stderr
+        self.done = self.submitted = 0
+        self._calls: dict[tuple[int, str], int] = {}  # (thread, what) -> units of that call finished
+        self._lock = threading.Lock()
+        self._bar = None
+
+    def __call__(self, done: int, total: int, what: str) -> None:
+        key = (threading.get_ident(), what)  # one thread makes its map_units calls one after the other
+        with self._lock:
+            prev = self._calls.get(key)
+            if prev is None or done <= prev:  # a new call (a finished one was forgotten; a retried call restarts)
+                self.submitted += total
+                prev = 0
+            self.done += done - prev
+            if done >= total:
+                self._calls.pop(key, None)
+            else:
+                self._calls[key] = done
+            if self.quiet:
+                return
+            if self._bar is None:
+                from tqdm.auto import tqdm
+
+                self._bar = tqdm(total=self.submitted, desc=self.desc, file=self.stream, leave=False)
+            self._bar.total = self.submitted
+            self._bar.update(self.done - self._bar.n)  # tqdm limits the redraw rate
+            if self.done >= self.submitted:
+                self._bar.refresh()
+
+    def close(self) -> None:
+        with self._lock:
+            if self._bar is not None:
+                self._bar.close()
+                self._bar = None
 
 
 class Progress:
