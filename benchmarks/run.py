@@ -36,6 +36,8 @@ REGISTRY: dict[str, str] = {
     "accuracy_composite": "benchmarks.accuracy:bench_accuracy_composite",
     "accuracy_truss": "benchmarks.accuracy:bench_accuracy_truss",
     "allocation": "benchmarks.accuracy:bench_allocation",
+    "accuracy_quiet": "benchmarks.accuracy:bench_composite_quiet",
+    "accuracy_floor": "benchmarks.accuracy:bench_composite_floor",
     "reduce": "benchmarks.reduce:bench_reduce",
     "rays": "benchmarks.radiation:bench_rays",
     "solar": "benchmarks.solar:bench_solar",
