@@ -38,6 +38,7 @@ REGISTRY: dict[str, str] = {
     "allocation": "benchmarks.accuracy:bench_allocation",
     "accuracy_quiet": "benchmarks.accuracy:bench_composite_quiet",
     "accuracy_floor": "benchmarks.accuracy:bench_composite_floor",
+    "accuracy_mismatch": "benchmarks.accuracy:bench_composite_mismatch",
     "reduce": "benchmarks.reduce:bench_reduce",
     "rays": "benchmarks.radiation:bench_rays",
     "solar": "benchmarks.solar:bench_solar",
