@@ -45,6 +45,7 @@ REGISTRY: dict[str, str] = {
     "quadric": "benchmarks.quadric:bench_quadric",
     "network": "benchmarks.network:bench_network",
     "cases": "benchmarks.loadcases:bench_cases",
+    "cases_warm": "benchmarks.loadcases:bench_cases_warm",
     "cases_smallsat": "benchmarks.loadcases:bench_cases_smallsat",
     "network_positive": "benchmarks.network:bench_network_positive",
     "transient": "benchmarks.transient:bench_transient",
