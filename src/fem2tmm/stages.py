@@ -693,7 +693,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
 # -------------------------------------------------------------------------------- radiation-aware reduction
 OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this
 # Largest cluster Biot number below which the radiation-aware reduction warns that it is not needed: the EUI
-# baffle (cluster Bi <= 0.0044) lost to the thesis' method; the composite box, which it wins, has cluster Bi 2-60
+# baffle (cluster Bi <= 0.0044) gains nothing resolvable from it; the composite box, which it wins, has Bi 2-60
 LOW_BIOT = 0.1
 
 
@@ -922,10 +922,9 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 
                 warnings.warn(f"every cluster has a Biot number h_rad A/(k t) below {LOW_BIOT} (max "
                               f"{biot['cluster_max']:.3g}): the thesis' uniform-load assumption already holds, and "
-                              "the radiation-aware reduction, which places the emission per FE face but keeps the "
-                              "absorbed IR lumped per super face, can be less accurate here (EUI-optics baffle, 100 "
-                              "super nodes: 0.012 K against the thesis' 0.0017 K, docs/design-notes.md); consider "
-                              "[reduction] radiation_aware = false", stacklevel=2)
+                              "the radiation-aware reduction adds outer iterations for little gain here (and with "
+                              "ir_on = \"super_faces\", absorbed IR lumped per super face, it can be less accurate: "
+                              "docs/design-notes.md); consider [reduction] radiation_aware = false", stacklevel=2)
             warn_coarse_mesh(biot["elements_over_1"], biot["element_max"])
         T_ref = T
         if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
