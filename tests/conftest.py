@@ -44,6 +44,23 @@ def make_case(parts, boundary=(), optics=None, materials=None, **sections) -> Ca
     return Case.from_dict(data)
 
 
+def composite_box_case(n_sn: int, k: float = 5.0, reduction: dict | None = None, detailed: bool = True) -> Case:
+    """A composite-like box case (its mesh: ``meshes.box`` with groups xmin ... zmax): 1 mm panels of conductivity
+    ``k`` W/(m K) with ``n_sn`` super nodes on a held deck (zmin, 20 °C, one super node), ε 0.85 both sides, 5 W
+    spread on the top panel, space-only radiation (-270 °C)."""
+    thick = 1e-3
+    return make_case([{"name": "panels", "groups": ["xmin", "xmax", "ymin", "ymax", "zmax"], "material": "m",
+                       "thickness": thick, "front": "paint", "back": "paint", "super_nodes": n_sn},
+                      {"name": "deck", "groups": ["zmin"], "material": "m", "thickness": thick, "front": "paint",
+                       "back": "paint", "super_nodes": 1}],
+                     [{"kind": "temperature", "groups": ["zmin"], "value": 20.0},
+                      {"kind": "power", "groups": ["zmax"], "value": 5.0}],
+                     optics={"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
+                     materials={"m": {"conductivity": k, "density": 1600.0, "specific_heat": 900.0}},
+                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                     reduction=reduction or {}, reference={"detailed": detailed})
+
+
 def fin_reference(k=170.0, t=1e-3, eps=1.0, r_in=0.05, r_out=0.15, T_in=293.15, T_sink=173.15):
     """Circular radiating fin, thesis eq. 4.18, solved with scipy's solve_bvp (independent of the FE code).
 

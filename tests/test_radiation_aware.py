@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_bvp
 
-from conftest import make_case
+from conftest import composite_box_case, make_case
 from fem2tmm import meshes
 from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import run
@@ -191,20 +191,10 @@ def test_trace_absorption_per_side_agrees_with_the_refs_and_closes():
 
 
 def composite_box(k, n_sn, aware, iterations=1, detailed=True):
-    """A small version of examples/composite: a 0.3 x 0.3 x 0.25 m box of 1.5 cm quads, the bottom held at 20 °C,
-    1 mm panels of conductivity k, ε 0.85 both sides, 5 W spread on the top panel, space-only radiation."""
+    """A small version of examples/composite: a 0.3 x 0.3 x 0.25 m box of 1.5 cm quads (the case:
+    conftest.composite_box_case)."""
     box = meshes.box(0.3, 0.3, 0.25, 20, 20, 17)
-    return make_case([{"name": "panels", "groups": ["xmin", "xmax", "ymin", "ymax", "zmax"], "material": "m",
-                       "thickness": T_THICK, "front": "paint", "back": "paint", "super_nodes": n_sn},
-                      {"name": "deck", "groups": ["zmin"], "material": "m", "thickness": T_THICK, "front": "paint",
-                       "back": "paint", "super_nodes": 1}],
-                     [{"kind": "temperature", "groups": ["zmin"], "value": 20.0},
-                      {"kind": "power", "groups": ["zmax"], "value": 5.0}],
-                     optics={"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
-                     materials={"m": {"conductivity": k, "density": 1600.0, "specific_heat": 900.0}},
-                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
-                     reduction={"radiation_aware": aware, "outer_iterations": iterations},
-                     reference={"detailed": detailed}), box
+    return composite_box_case(n_sn, k, {"radiation_aware": aware, "outer_iterations": iterations}, detailed), box
 
 
 def test_composite_box_radiation_aware_converges_where_the_thesis_does_not():

@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from conftest import make_case
+from conftest import composite_box_case, make_case
 from fem2tmm import meshes
 from fem2tmm.errors import Fem2TmmError
 from fem2tmm.export.summary import summary_table
@@ -180,15 +180,7 @@ def test_split_keeps_clusters_contiguous_and_within_parts_and_regions():
 def small_box(n_sn, **reduction):
     """The composite box of tests/test_radiation_aware.py, coarser (3 cm quads): the thesis' reduction, space only."""
     box = meshes.box(0.3, 0.3, 0.24, 10, 10, 8)
-    return make_case([{"name": "panels", "groups": ["xmin", "xmax", "ymin", "ymax", "zmax"], "material": "m",
-                       "thickness": T_THICK, "front": "paint", "back": "paint", "super_nodes": n_sn},
-                      {"name": "deck", "groups": ["zmin"], "material": "m", "thickness": T_THICK, "front": "paint",
-                       "back": "paint", "super_nodes": 1}],
-                     [{"kind": "temperature", "groups": ["zmin"], "value": 20.0},
-                      {"kind": "power", "groups": ["zmax"], "value": 5.0}],
-                     optics={"paint": {"emissivity": 0.85, "absorptivity": 0.2}}, materials=MAT,
-                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
-                     reduction=reduction, reference={"detailed": True}), box
+    return composite_box_case(n_sn, K_LOW, reduction), box
 
 
 def test_refinement_meets_its_target_against_the_detailed_solve(tmp_path):
