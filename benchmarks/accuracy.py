@@ -63,6 +63,17 @@ def slope_above_noise(n: list[int], rms: list[float], noise: float) -> float | N
     return float(-np.polyfit(x, y, 1)[0])
 
 
+def _fit_row(pts: list[dict], **label) -> dict:
+    """The fit row of a series of rows (``super_nodes``, ``rms_K``, ``thesis_rms_K``, ``reference_noise_rms_K``):
+    both methods' slopes above 3x the largest reference noise of the series."""
+    noise = max(p["reference_noise_rms_K"] or 0.0 for p in pts)
+    n_sn = [p["super_nodes"] for p in pts]
+    return {**label, "reference_noise_rms_K": noise,
+            "slope_radiation_aware": slope_above_noise(n_sn, [p["rms_K"] for p in pts], noise),
+            "slope_thesis": slope_above_noise(n_sn, [p["thesis_rms_K"] for p in pts], noise),
+            "fit_rule": "log-log least squares over the points with RMS > 3x the reference noise"}
+
+
 def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
     """One row per (study, n_SN) and one summary row per study (slopes above 3x the noise); writes the plot."""
     from fem2tmm.pipeline import run
@@ -88,13 +99,10 @@ def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
             rows.append(row)
             pts.append(row)
             print("BENCH_PROGRESS", name, n, round(a["rms_K"], 4), th.get("rms_K"), flush=True)
-        noise = max(p["reference_noise_rms_K"] or 0.0 for p in pts)
-        n_sn = [p["super_nodes"] for p in pts]
-        rows.append({"bench": "accuracy_fit", "study": name, "reference_noise_rms_K": noise,
-                     "slope_radiation_aware": slope_above_noise(n_sn, [p["rms_K"] for p in pts], noise),
-                     "slope_thesis": slope_above_noise(n_sn, [p["thesis_rms_K"] for p in pts], noise),
-                     "fit_rule": "log-log least squares over the points with RMS > 3x the reference noise"})
-        curves[name] = (n_sn, [p["rms_K"] for p in pts], [p["thesis_rms_K"] for p in pts], noise)
+        fit = _fit_row(pts, bench="accuracy_fit", study=name)
+        rows.append(fit)
+        curves[name] = ([p["super_nodes"] for p in pts], [p["rms_K"] for p in pts], [p["thesis_rms_K"] for p in pts],
+                        fit["reference_noise_rms_K"])
     rows.append({"bench": "accuracy_plot", "png": _plot(curves)})
     return rows
 
@@ -170,13 +178,7 @@ def bench_allocation(ns=ALLOCATION_NS, variants=tuple(ALLOCATION_VARIANTS)[:5]) 
             pts[v].append(row)
             print("BENCH_PROGRESS", v, n, round(a["rms_K"], 4), th.get("rms_K"), flush=True)
     for v in variants:
-        p = pts[v]
-        noise = max(r["reference_noise_rms_K"] or 0.0 for r in p)
-        n_sn = [r["super_nodes"] for r in p]
-        rows.append({"bench": "allocation_fit", "variant": v, "reference_noise_rms_K": noise,
-                     "slope_radiation_aware": slope_above_noise(n_sn, [r["rms_K"] for r in p], noise),
-                     "slope_thesis": slope_above_noise(n_sn, [r["thesis_rms_K"] for r in p], noise),
-                     "fit_rule": "log-log least squares over the points with RMS > 3x the reference noise"})
+        rows.append(_fit_row(pts[v], bench="allocation_fit", variant=v))
     return rows
 
 
