@@ -191,7 +191,7 @@ class _Newton:
         else:
             self.Cff = sp.csr_matrix(C)[free][:, free].tocsc()
         self.linear = not ops.radiative
-        self.krylov = ops.Lf is not None and not ops.dense
+        self.krylov = ops.Gf is not None and not ops.dense
         self.cache: dict[float, object] = {}  # linear: β -> factor
         self.current = None  # radiative: (β, factor)
 
