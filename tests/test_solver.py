@@ -37,3 +37,32 @@ def test_faced_radiation_newton_krylov_equals_dense_newton():
     assert s1.balance["relative"] < 1e-9 and s2.balance["relative"] < 1e-9
     # face-to-face exchange is internal: the same heat leaves through the fixed edge and the sink
     assert abs(s1.balance["imbalance_W"]) < 1e-9 * s1.balance["applied_W"]
+
+
+def test_faced_radiation_is_the_laplacian_of_the_node_couplings():
+    """The face-to-face term is σ[diag(C1) − C]T⁴ with C = Wᵀ G W (lumped emission, FacedRadiation): checked
+    against the explicit dense Laplacian on a random network, to round-off (1e-12 relative: float64 sums)."""
+    import scipy.sparse as sp
+
+    from fem2tmm.constants import SIGMA
+    from fem2tmm.solve.steady import FacedRadiation, SteadyProblem, residual
+
+    rng = np.random.default_rng(7)
+    n, f = 9, 6
+    W = rng.random((f, n)) * (rng.random((f, n)) < 0.5)
+    W[np.arange(f), rng.integers(0, n, f)] += 1.0
+    W /= W.sum(axis=1, keepdims=True)
+    G = rng.random((f, f))
+    G = 0.5 * (G + G.T)
+    np.fill_diagonal(G, 0.0)
+    T = 250.0 + 100.0 * rng.random(n)
+    p = SteadyProblem(K=sp.csr_matrix((n, n)), Q=np.zeros(n), fixed=np.zeros(n, bool), T_fixed=np.zeros(n),
+                      g_space=np.zeros(n), T_sink=3.0, faced=FacedRadiation(W=sp.csr_matrix(W), G=sp.csr_matrix(G)))
+    C = W.T @ G @ W
+    expected = SIGMA * (np.diag(C.sum(axis=1)) - C) @ T**4
+    r = residual(p, T)
+    np.testing.assert_allclose(r, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+    assert abs(r.sum()) < 1e-12 * np.abs(r).sum()  # energy conserved between the faces
+    # and not the face-averaged form σ Wᵀ diag(G1) W T⁴ − σ C T⁴ (different whenever a face's nodes differ in T)
+    other = SIGMA * (W.T @ (G.sum(axis=1) * (W @ T**4)) - C @ T**4)
+    assert np.abs(r - other).max() > 1e-6 * np.abs(r).max()
