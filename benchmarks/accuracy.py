@@ -278,6 +278,62 @@ def bench_composite_floor(n=None, combos=None) -> list[dict]:
     return rows
 
 
+#: the emission-mode series: both ``ir_on`` modes at ×4 rays in both models, two reduced-model seeds per point
+MODES = {"ns": (10, 25, 50, 100, 300, 1000), "modes": ("faces", "detailed"), "seeds": (0, 1), "factor": 4}
+
+
+def bench_composite_modes(ns=None, modes=None, seeds=None, factor=None) -> list[dict]:
+    """``fem2tmm bench accuracy_modes``: the composite error against n_SN with each super face emitting at its
+    super node's temperature (``ir_on = "detailed"``) and with every FE face side emitting at the recovered field
+    (``"faces"``), :data:`MODES`' ray factor in both models, and the *combined* noise beside each point: the
+    reference's (two independent half references) and the reduced model's own, from two runs that differ only in
+    ``[radiation] seed`` (the difference of two independent runs has twice one run's variance: own noise =
+    RMS(T_seed0 − T_seed1)/√2 over the mesh nodes).  The error of a point is the mean of its seeds' RMS; the
+    slope is fitted over the points with RMS > 3x the combined noise of the series (its largest)."""
+    from fem2tmm.pipeline import run
+
+    ns = MODES["ns"] if ns is None else ns
+    modes = MODES["modes"] if modes is None else modes
+    seeds = MODES["seeds"] if seeds is None else seeds
+    f = MODES["factor"] if factor is None else factor
+    cache, rows = _cache_dir(), []
+    for mode in modes:
+        pts = []
+        for n in ns:
+            runs = []
+            for seed in seeds:
+                case = _quiet_case(n, f, f, ir_on=mode)
+                case = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation, seed=seed))
+                t0 = time.perf_counter()
+                res = run(case, cache=cache)
+                runs.append((case, res, time.perf_counter() - t0))
+            m = runs[0][1].model
+            on = m.node_dof >= 0
+            own = None
+            if len(runs) >= 2:
+                d = (m.node_temperatures(runs[0][1].T_recovered) - m.node_temperatures(runs[1][1].T_recovered))[on]
+                own = float(np.sqrt(np.mean(d**2)) / np.sqrt(2.0))
+            a = [r[1].summary["accuracy"] for r in runs]
+            ref = a[0].get("reference_noise_rms_K") or 0.0
+            row = _quiet_row("accuracy_modes", runs[0][0], runs[0][1], sum(r[2] for r in runs), requested=n,
+                             seeds=list(seeds))
+            row.update({"rms_K_seeds": [x["rms_K"] for x in a], "rms_K": float(np.mean([x["rms_K"] for x in a])),
+                        "max_K_seeds": [x["max_K"] for x in a], "own_noise_rms_K": own,
+                        "combined_noise_K": float(np.hypot(ref, own or 0.0))})
+            rows.append(row)
+            pts.append(row)
+        noise = max(p["combined_noise_K"] for p in pts)
+        n_sn = [p["super_nodes"] for p in pts]
+        rms = [p["rms_K"] for p in pts]
+        rows.append({"bench": "accuracy_modes_fit", "ir_on": mode, "combined_noise_K": noise,
+                     "points": [k for k, r in zip(n_sn, rms) if r > 3 * noise],
+                     "slope_radiation_aware": slope_above_noise(n_sn, rms, noise),
+                     "slope_all_points": slope_above_noise(n_sn, rms, 0.0),
+                     "slope_thesis": slope_above_noise(n_sn, [p["thesis_rms_K"] for p in pts], noise),
+                     "fit_rule": "log-log least squares over the points with RMS > 3x the combined noise"})
+    return rows
+
+
 def emission_mismatch(res, rays_per_face: int = 100) -> np.ndarray:
     """First-order temperature change (n_dof,) K from replacing the detailed model's emission of the FE faces that
     see each other, σ Wᵀ(G1 ⊙ W T⁴) (face-averaged T⁴ spread back by Wᵀ, the reference's form), by the nodal-lumped

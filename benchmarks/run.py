@@ -39,6 +39,7 @@ REGISTRY: dict[str, str] = {
     "accuracy_quiet": "benchmarks.accuracy:bench_composite_quiet",
     "accuracy_floor": "benchmarks.accuracy:bench_composite_floor",
     "accuracy_mismatch": "benchmarks.accuracy:bench_composite_mismatch",
+    "accuracy_modes": "benchmarks.accuracy:bench_composite_modes",
     "reduce": "benchmarks.reduce:bench_reduce",
     "rays": "benchmarks.radiation:bench_rays",
     "solar": "benchmarks.solar:bench_solar",

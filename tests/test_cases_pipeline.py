@@ -4,6 +4,7 @@ shared stages reused from the stage cache across cases and reruns, per-case fold
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 
 import numpy as np
@@ -116,6 +117,47 @@ def test_serial_and_local_clusters_are_bit_identical(mesh, capsys):
             assert np.array_equal(r.reduced.GR, e.reduced.GR) and np.array_equal(r.reduced.Q, e.reduced.Q)
             assert np.array_equal(r.solar_detailed.absorbed_side, e.solar_detailed.absorbed_side)
             assert np.array_equal(r.reduced_solution.T, e.reduced_solution.T)
+
+
+def test_cases_share_one_ray_scene_per_geometry(mesh, monkeypatch):
+    """The load cases of one run build each ray scene once (the scene depends on the geometry and the quadric fit,
+    not on the optics, which come with each trace), and still give the temperatures of separate runs (1e-12 K)."""
+    import fem2tmm.pipeline as pipeline
+
+    built = []
+    real = pipeline.QuadricScene
+
+    class Counting(real):
+        def __init__(self, *args, **kw):
+            built.append(1)
+            super().__init__(*args, **kw)
+
+    monkeypatch.setattr(pipeline, "QuadricScene", Counting)
+    base = copy.deepcopy(BASE)
+    base["parts"] = [{**BASE["parts"][0], "quadric": ["front_cone", "main_cone"]}]
+    multi = run(case_of({**base, "cases": HOT_COLD}), mesh=mesh, cache=False)
+    assert len(built) == 1  # two cases whose optics differ: one scene
+    for entry in HOT_COLD:
+        alone = run(case_of(deep_merge(base, {k: v for k, v in entry.items() if k != "name"})), mesh=mesh,
+                    cache=False)
+        assert np.nanmax(np.abs(multi.results[entry["name"]].T_nodes - alone.T_nodes)) <= 1e-12
+    assert len(built) == 3  # each separate run builds its own
+
+
+def test_a_scene_refuses_a_surface_of_another_geometry(mesh):
+    from fem2tmm.errors import Fem2TmmError
+    from fem2tmm.fem.model import build_model
+    from fem2tmm.radiation.surfaces import TriangleScene
+    from fem2tmm.stages import radiation_surface
+
+    a = radiation_surface(build_model(mesh, case_of(BASE)))
+    hot = radiation_surface(build_model(mesh, case_of(deep_merge(BASE, {"optics": HOT_COLD[1]["optics"]}))))
+    assert not np.array_equal(hot.emissivity, a.emissivity)
+    scene = TriangleScene(a, "numpy")
+    assert TriangleScene.of(hot, scene, "test") is scene  # other optics, same geometry: shared
+    moved = dataclasses.replace(a, points=a.points + 1e-3)
+    with pytest.raises(Fem2TmmError, match="another surface"):
+        TriangleScene.of(moved, scene, "test")
 
 
 def test_rerun_reuses_what_did_not_change(mesh, tmp_path):

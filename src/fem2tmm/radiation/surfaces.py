@@ -233,11 +233,13 @@ class TriangleScene:
 
     @classmethod
     def of(cls, surface: Surface, scene: "TriangleScene | None", caller: str, backend: str = "auto") -> "TriangleScene":
-        """``scene`` if it was built for ``surface``, a new scene of ``surface`` if it is None; an error naming
-        ``caller`` otherwise (the argument check of every tracer that accepts a ready scene)."""
+        """``scene`` if it was built for ``surface`` or for a surface of the same geometry (same points and faces:
+        the scene's structures do not depend on the optics, which come with each trace, so the load cases of a run
+        share one scene), a new scene of ``surface`` if it is None; an error naming ``caller`` otherwise (the
+        argument check of every tracer that accepts a ready scene)."""
         if scene is None:
             return cls(surface, backend)
-        if scene.surface is not surface:
+        if scene.surface is not surface and not same_geometry(scene.surface, surface):
             raise Fem2TmmError(f"{caller}: `scene` was built for another surface; pass the scene of this surface")
         return scene
 
@@ -514,6 +516,12 @@ class GroupEmitters:
 #: scenes rebuilt in this process from pickles, by geometry token (a Dask worker keeps the last few)
 _REBUILT: dict[str, TriangleScene] = {}
 _REBUILT_MAX = 4
+
+
+def same_geometry(a: Surface, b: Surface) -> bool:
+    """Whether two surfaces have the same points (n, 3) and faces (f, 4): a scene of one traces the other."""
+    return all(x is y or (x.shape == y.shape and np.array_equal(x, y))
+               for x, y in ((a.points, b.points), (a.faces, b.faces)))
 
 
 def _rebuild_scene(token: str, cls: type, args: tuple) -> TriangleScene:
