@@ -692,6 +692,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
 
 # -------------------------------------------------------------------------------- radiation-aware reduction
 OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this
+OUTER_WARN = 0.05  # K: a warning when the last outer iteration still moved the field by more than this
 # Largest cluster Biot number below which the radiation-aware reduction warns that it is not needed: the EUI
 # baffle (cluster Bi <= 0.0044) gains nothing resolvable from it; the composite box, which it wins, has Bi 2-60
 LOW_BIOT = 0.1
@@ -929,6 +930,15 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         T_ref = T
         if history[-1]["max_dT_K"] < OUTER_TOLERANCE:
             break
+    last = history[-1]["max_dT_K"]
+    if last > OUTER_WARN:
+        import warnings
+
+        warnings.warn(f"the radiation-aware reduction did not converge in [reduction] outer_iterations = "
+                      f"{len(history)}: its last step still moved the recovered field by {last:.3g} K (steps "
+                      f"{', '.join(format(h['max_dT_K'], '.3g') for h in history)} K); the temperatures are off by about "
+                      "that much: raise outer_iterations (the steps shrink quadratically once they are small; fewer "
+                      "super nodes need more)", stacklevel=2)
     ra.history = history
     return ra_rm, sol, T, history
 
