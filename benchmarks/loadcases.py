@@ -198,6 +198,13 @@ def bench_cases_warm(n_cases: int = 8, workers: int = 2, rays_per_face: int = 20
                     "speedup_bound_vs_1_worker": round(med["local1"] / floor, 2),
                     "bound": "wall(1 worker) / ((client CPU + workers' CPU of the 2-worker run) / cores)",
                     "goal": "speed-up >= 1.7 on 2 cores (issue 19), here against 1 worker, clusters running"})
+    # sizing from the one-worker run's CPU seconds: rays per worker CPU second (Dask's overhead on the worker
+    # included, the waiting of the cases that share it excluded; cases_sizing divides by the cases' summed stage
+    # times instead, which count the time two concurrent cases wait for the same worker)
+    traced = [(r.solar_detailed.rays, int(np.sum(r.radiation.rays))) for r in results["local1"].results.values()]
+    rate = sum(a + b for a, b in traced) / max(worker_cpu["local1"], 1e-9)
+    rows.append({**_sizing(results["local1"], rate), "bench": "cases_warm_sizing",
+                 "rate_from": "rays traced / worker CPU seconds of the one-worker run (median of the rounds)"})
     return rows
 
 
