@@ -93,6 +93,46 @@ def test_a_worker_killed_mid_run_is_replaced_with_identical_results(serial_run, 
     _assert_identical(got, expected)  # the rays are the same on 2 workers, one of them killed, as in this process
 
 
+def test_the_scene_goes_to_the_workers_once_per_executor(serial_run, cluster2, monkeypatch):
+    """Four traces of one geometry (two exchange, two solar, each building its own scene object) scatter the scene
+    once; each trace sends only its job without the scene (optics, emitters, seeds), and the results stay
+    bit-identical to this process's."""
+    from fem2tmm.radiation.surfaces import TriangleScene
+
+    (surface, groups, sun), expected = serial_run
+    ex = cluster2
+    ex.release_kept()
+    sent = []
+    real = ex.client.scatter
+
+    def scatter(obj, **kw):
+        sent.append(obj)
+        return real(obj, **kw)
+
+    monkeypatch.setattr(ex.client, "scatter", scatter)
+    with using(ex):
+        first, second = _trace(surface, groups, sun), _trace(surface, groups, sun)
+    _assert_identical(first, expected)
+    _assert_identical(second, expected)
+    assert sum(isinstance(o, TriangleScene) for o in sent) == 1 and len(ex._kept) == 1
+    blobs = [o[0] for o in sent if isinstance(o, tuple)]
+    assert len(blobs) == 4  # one job per trace
+    import io
+    import pickle
+
+    token = next(iter(ex._kept))[1]
+    for blob in blobs:  # each job refers to the scene by its geometry digest instead of carrying it
+        refs = []
+
+        class Refs(pickle.Unpickler):
+            def persistent_load(self, pid):
+                refs.append(pid)
+                return None
+
+        Refs(io.BytesIO(blob[16:])).load()
+        assert refs and all(r == ("scene", token) for r in refs)
+
+
 def test_ctrl_c_cancels_the_submitted_units(serial_run, cluster2):
     (surface, groups, sun), _ = serial_run
     ex = cluster2
@@ -107,7 +147,12 @@ def test_ctrl_c_cancels_the_submitted_units(serial_run, cluster2):
     while any(ex.client.processing().values()) and time.perf_counter() < deadline:
         time.sleep(0.1)
     assert not any(ex.client.processing().values())  # nothing left running on the workers
-    assert not ex.client.who_has()  # no result or scattered scene left in the cluster
+    # no result and no per-call data left in the cluster: only the scene the executor keeps for later traces
+    assert set(ex.client.who_has()) == {f.key for f in ex._kept.values()} and len(ex._kept) == 1
+    ex.release_kept()  # what closing the executor does
+    while ex.client.who_has() and time.perf_counter() < deadline + 10.0:
+        time.sleep(0.1)
+    assert not ex.client.who_has()
 
 
 def test_cli_unreachable_scheduler_exits_2_before_computing(tmp_path):

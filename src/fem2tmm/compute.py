@@ -9,9 +9,10 @@ seeds its generator from its identity, e.g. ``SeedSequence(seed, spawn_key=(stre
 tracer), and callers combine results in item order, so the output is bit-for-bit the same on every scheduler
 and worker count.
 
-On Dask, ``shared`` objects (the ray scene, K, ...) are scattered once to every worker (``broadcast``), not sent
-with each task; a unit whose worker dies is re-run elsewhere (same item, same result); Ctrl-C cancels the
-submitted units.  Scenes rebuild their ray-tracing structures where they are unpickled (once per worker).
+On Dask, ``shared`` objects (K, a trace's job ...) are scattered once per call to every worker (``broadcast``), not
+sent with each task, and objects that many calls share (the ray scene) once per executor
+(:meth:`DaskExecutor.keep`); a unit whose worker dies is re-run elsewhere (same item, same result); Ctrl-C cancels
+the submitted units.  Scenes rebuild their ray-tracing structures where they are unpickled (once per worker).
 
 A :class:`DaskExecutor` may be used from several threads at once (the pipeline runs the load cases of a
 multi-case file concurrently, so that the units of several cases are in flight); :meth:`DaskExecutor.cancel`
@@ -72,6 +73,7 @@ class DaskExecutor:
         self._cancelled = threading.Event()
         self._lock = threading.Lock()
         self._inflight: dict[int, list] = {}  # id of a map call -> its futures (tasks and scattered data)
+        self._kept: dict = {}  # key -> future of a shared object scattered once for the executor's life (keep)
 
     def cancel(self) -> None:
         """Cancel the units of every :meth:`map` call in flight (they raise :class:`Cancelled`) and refuse new
@@ -87,6 +89,16 @@ class DaskExecutor:
         if self._cancelled.is_set():
             raise Cancelled("cancelled: another load case failed or the run was interrupted")
 
+    def keep(self, key, obj):
+        """A future of ``obj`` on every worker, scattered on the first call with this ``key`` and reused by every
+        later :meth:`map` of this executor (e.g. a ray scene, by its geometry digest: the traces of all load
+        cases and orbit positions send it once).  Scattered again if the workers that held it are gone."""
+        with self._lock:
+            fut = self._kept.get(key)
+            if fut is None or fut.status != "finished":
+                fut = self._kept[key] = self.client.scatter(obj, broadcast=True, hash=False)
+            return fut
+
     @property
     def workers(self) -> int:
         return len(self.client.scheduler_info().get("workers", {}))
@@ -99,13 +111,19 @@ class DaskExecutor:
             return []
         self.check_cancelled()
         client = self.client
+        from distributed import Future
+
         scattered, futures, call = {}, [], object()
+        kept = {k: v for k, v in (shared or {}).items() if isinstance(v, Future)}  # from keep(): not ours to release
         try:
             for k, v in (shared or {}).items():
-                scattered[k] = client.scatter(v, broadcast=True, hash=False)
+                if k not in kept:
+                    scattered[k] = client.scatter(v, broadcast=True, hash=False)
+            scattered_here = list(scattered.values())
+            scattered.update(kept)
             futures = client.map(fn, items, pure=False, retries=RETRIES, **scattered)
             with self._lock:
-                self._inflight[id(call)] = futures + list(scattered.values())
+                self._inflight[id(call)] = futures + scattered_here
             self.check_cancelled()  # cancelled while submitting: cancel() may have missed these
             label = f"{what} on {self.workers} workers"
             for k, _ in enumerate(as_completed(futures)):
@@ -114,7 +132,7 @@ class DaskExecutor:
             self.check_cancelled()
             return client.gather(futures)
         except BaseException:
-            client.cancel(futures + list(scattered.values()), force=True)
+            client.cancel(futures + [v for k, v in scattered.items() if k not in kept], force=True)
             raise
         finally:
             with self._lock:
@@ -122,7 +140,15 @@ class DaskExecutor:
             del futures
             scattered.clear()
 
+    def release_kept(self) -> None:
+        """Drop the objects :meth:`keep` scattered (the workers free them once no task needs them)."""
+        with self._lock:
+            kept, self._kept = list(self._kept.values()), {}
+        for fut in kept:
+            fut.release()
+
     def close(self) -> None:
+        self.release_kept()
         try:
             self.client.close()
         finally:

@@ -24,6 +24,8 @@ Layers:
 from __future__ import annotations
 
 import math
+import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
@@ -327,7 +329,10 @@ def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") ->
 
     ex = current()
     if ex.distributed and n_batches and getattr(job, "distributable", False):
-        return ex.map(_call_batch, range(n_batches), shared={"job": job}, what=what)
+        blob, scenes = _detach_scenes(job)
+        kept = {f"scene{i}": ex.keep(("scene", token), scene) for i, (token, scene) in enumerate(scenes.items())}
+        return ex.map(_call_detached, range(n_batches),
+                      shared={"blob": (blob, {t: f"scene{i}" for i, t in enumerate(scenes)}), **kept}, what=what)
     out = []
     if threads > 1 and n_batches > 1:
         with ThreadPoolExecutor(max_workers=threads) as pool:
@@ -341,7 +346,60 @@ def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") ->
     return out
 
 
-def _call_batch(b: int, job):
+def _detach_scenes(job) -> tuple[bytes, dict]:
+    """``job`` pickled with every ray scene in it replaced by its geometry digest, and those scenes by digest: the
+    scenes go to the workers once per executor (:meth:`fem2tmm.compute.DaskExecutor.keep`), the rest of the job
+    (optics, emitters, seeds) with each trace.  The bytes start with a random key under which each worker keeps
+    the job it unpickled (:func:`_call_detached`)."""
+    import io
+    import pickle
+
+    from .surfaces import TriangleScene
+
+    scenes: dict = {}
+
+    class _Pickler(pickle.Pickler):
+        def persistent_id(self, obj):
+            if isinstance(obj, TriangleScene):
+                scenes[obj.geometry_token] = obj
+                return ("scene", obj.geometry_token)
+            return None
+
+    buf = io.BytesIO()
+    buf.write(os.urandom(16))
+    _Pickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump(job)
+    return buf.getvalue(), scenes
+
+
+#: jobs unpickled on this worker by :func:`_call_detached`, most recent last (a trace's batches share one)
+_DETACHED: dict = {}
+_DETACHED_MAX = 8
+_DETACHED_LOCK = threading.Lock()
+
+
+def _call_detached(b: int, blob, **scenes):
+    """Batch ``b`` of the job that :func:`_detach_scenes` pickled; ``blob`` is ``(bytes, {digest: name})`` and
+    ``scenes`` the scattered scenes by name."""
+    import io
+    import pickle
+
+    data, names = blob
+    key = data[:16]
+    with _DETACHED_LOCK:
+        job = _DETACHED.get(key)
+    if job is None:
+        class _Unpickler(pickle.Unpickler):
+            def persistent_load(self, pid):
+                kind, token = pid
+                if kind != "scene":
+                    raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
+                return scenes[names[token]]
+
+        job = _Unpickler(io.BytesIO(data[16:])).load()
+        with _DETACHED_LOCK:
+            _DETACHED[key] = job
+            while len(_DETACHED) > _DETACHED_MAX:
+                _DETACHED.pop(next(iter(_DETACHED)))
     return job(b)
 
 
