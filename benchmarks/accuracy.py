@@ -138,6 +138,7 @@ def _plot(curves: dict) -> str:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     fig, axes = plt.subplots(1, len(curves), figsize=(4.2 * len(curves), 3.8), squeeze=False)
     for ax, (name, (n, ra, th, noise)) in zip(axes[0], curves.items()):
@@ -145,6 +146,7 @@ def _plot(curves: dict) -> str:
         ax.loglog(n, ra, "o-", label="radiation-aware")
         if noise > 0:
             ax.axhline(noise, color="grey", lw=1, ls=":", label="noise (RMS; reference and own)")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # decades only: no overlapping labels
         ax.set_title(name)
         ax.set_xlabel("super nodes")
         ax.set_ylabel("RMS error (K)")
