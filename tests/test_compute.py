@@ -133,6 +133,37 @@ def test_the_scene_goes_to_the_workers_once_per_executor(serial_run, cluster2, m
         assert refs and all(r == ("scene", token) for r in refs)
 
 
+def test_a_traces_job_goes_to_two_workers_not_all(serial_run):
+    """On three workers each trace's job is placed on REPLICAS = 2 of them (one may die; the third fetches it from a
+    peer when it runs a batch), the scene on all three; results bit-identical."""
+    from distributed import Future
+
+    from fem2tmm.compute import REPLICAS
+
+    (surface, groups, sun), expected = serial_run
+    ex = _cluster(3)
+    placed = []
+    real_map = ex.client.map
+
+    def map_(fn, items, **kw):  # where the shared data is when the units are submitted (none has run yet)
+        futs = [f for v in kw.values() for f in (v if isinstance(v, (tuple, list)) else [v]) if isinstance(f, Future)]
+        kept = {f.key for f in ex._kept.values()}
+        where = ex.client.who_has(futs)
+        placed.append({f.key: (len(where[f.key]), f.key in kept) for f in futs})
+        return real_map(fn, items, **kw)
+
+    ex.client.map = map_
+    try:
+        with using(ex):
+            got = _trace(surface, groups, sun)
+    finally:
+        ex.close()
+    _assert_identical(got, expected)
+    assert len(placed) == 2  # the exchange and the solar trace
+    for call in placed:
+        assert sorted(set(call.values())) == [(REPLICAS, False), (3, True)]  # the jobs on 2, the scene on all 3
+
+
 def test_ctrl_c_cancels_the_submitted_units(serial_run, cluster2):
     (surface, groups, sun), _ = serial_run
     ex = cluster2

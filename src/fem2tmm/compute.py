@@ -9,8 +9,9 @@ seeds its generator from its identity, e.g. ``SeedSequence(seed, spawn_key=(stre
 tracer), and callers combine results in item order, so the output is bit-for-bit the same on every scheduler
 and worker count.
 
-On Dask, ``shared`` objects (K, a trace's job ...) are scattered once per call to every worker (``broadcast``), not
-sent with each task, and objects that many calls share (the ray scene) once per executor
+On Dask, ``shared`` objects (K, a trace's job ...) are scattered once per call to :data:`REPLICAS` workers (the
+others fetch them from their peers when they run a unit), not sent with each task, and objects that many calls
+share (the ray scene) once per executor to every worker
 (:meth:`DaskExecutor.keep`); a unit whose worker dies is re-run elsewhere (same item, same result); Ctrl-C cancels
 the submitted units.  Scenes rebuild their ray-tracing structures where they are unpickled (once per worker).
 
@@ -35,6 +36,9 @@ from .progress import report, report_units
 CONNECT_TIMEOUT = 3.0
 #: a unit that raised is re-run this many times (a unit on a worker that died is always re-run by Dask)
 RETRIES = 1
+#: workers that hold a copy of each map call's shared data (a trace's job): enough to survive one dead worker
+#: without sending every trace's job to every worker (at 10^6 faces a job is ~250 MB)
+REPLICAS = 2
 
 
 class SerialExecutor:
@@ -117,8 +121,10 @@ class DaskExecutor:
         kept = {k: v for k, v in (shared or {}).items() if isinstance(v, Future)}  # from keep(): not ours to release
         try:
             for k, v in (shared or {}).items():
-                if k not in kept:
-                    scattered[k] = client.scatter(v, broadcast=True, hash=False)
+                if k not in kept:  # on REPLICAS workers: one may die; the others fetch it from them when needed
+                    scattered[k] = client.scatter(v, hash=False)
+            if scattered:
+                client.replicate(list(scattered.values()), n=min(REPLICAS, max(self.workers, 1)))
             scattered_here = list(scattered.values())
             scattered.update(kept)
             futures = client.map(fn, items, pure=False, retries=RETRIES, **scattered)
