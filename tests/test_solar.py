@@ -426,8 +426,8 @@ def test_bad_input_raises_clear_errors():
         trace_solar(surf, [0, 0, 1], S, min_weight=1.0)
     with pytest.raises(Fem2TmmError, match="max_bounces"):
         trace_solar(surf, [0, 0, 1], S, max_bounces=0)
-    with pytest.raises(Fem2TmmError, match="scene"):
-        trace_solar(surf, [0, 0, 1], S, scene=TriangleScene(Surface(pts, faces)))
+    with pytest.raises(Fem2TmmError, match="scene"):  # a scene of another geometry (the same one is shared)
+        trace_solar(surf, [0, 0, 1], S, scene=TriangleScene(Surface(pts + 0.5, faces)))
     with pytest.raises(Fem2TmmError, match="either"):
         trace_solar(surf, [0, 0, 1], S, rays_per_group=10, ray_density=5.0)
     with pytest.raises(Fem2TmmError, match="absorptivity"):

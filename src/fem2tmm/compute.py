@@ -56,6 +56,10 @@ class SerialExecutor:
             report(k + 1, len(items), what)
         return out
 
+    def keep(self, key, obj):
+        """``obj`` itself (in this process nothing is sent; :meth:`DaskExecutor.keep` scatters it once)."""
+        return obj
+
     def close(self) -> None:
         pass
 
