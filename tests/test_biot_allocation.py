@@ -7,6 +7,7 @@ import dataclasses
 import warnings
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 
 from conftest import make_case
@@ -145,6 +146,15 @@ def test_ir_on_faces_emits_from_the_fe_faces_and_agrees_with_super_faces_at_unif
     lit = p["detailed"] > 0.1 * p["detailed"].max()
     rel = (p["faces"][lit] - p["detailed"][lit]) / p["detailed"][lit]
     assert np.sqrt(np.mean(rel**2)) < 0.15, np.sqrt(np.mean(rel**2))
+    # the per-side REFs of "faces" come with the detailed reference's estimator: reciprocity (εA_i F_ij = εA_j F_ji,
+    # to round-off) and closure (each row plus its share to space is 1; here the outer sides see only space)
+    from fem2tmm.reduce.network import super_faces
+
+    ia = ir_absorption(model, rm, case("faces"), surface)
+    side = np.flatnonzero(super_faces(model, rm)[0] >= 0)
+    G = (sp.diags(ia.eps_area) @ ia.A[:, side]).toarray()
+    assert np.abs(G - G.T).max() <= 1e-12 * G.max()
+    assert np.asarray(ia.A.sum(axis=1)).max() <= 1.0 + 1e-12
     res = run(case("faces"), mesh=mesh)
     s = res.summary
     assert s["energy_balance_W"]["reduced"]["relative"] < 1e-9

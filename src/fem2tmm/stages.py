@@ -704,8 +704,9 @@ class IRAbsorption:
 
     ``A`` (g, 2f) csr: fraction of emitter i's emitted energy absorbed by FE side k; ``owner`` (g,) the super node
     of each emitter; ``eps_area`` (g,) m² its emitting εA.  ``"detailed"``: the emitters are the super faces,
-    each at its super node's temperature; ``"faces"``: the emitters are the active FE face sides, ``face`` (g,)
-    the FE face of each, at the recovered field's face temperature ((W T⁴)^¼, as the detailed model's REFs).
+    each at its super node's temperature (raw ray tally); ``"faces"``: the emitters are the active FE face sides,
+    ``face`` (g,) the FE face of each, at the recovered field's face temperature ((W T⁴)^¼, as the detailed
+    model's REFs), and A their REFs after reciprocity and closure (the detailed reference's estimator, own rays).
     """
 
     A: sp.csr_matrix
@@ -727,16 +728,26 @@ def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface
     super face, so every FE side receives enough rays for its own absorbed power) and tally each ray on the FE side
     that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`).  ``ir_on = "faces"``: every active FE
     face side is an emitter of its own (the same number of rays: ``ir_rays_per_face`` per side), so the emission
-    follows the recovered field inside a super face; A has up to (rays per side) entries per side."""
+    follows the recovered field inside a super face; its REFs are traced by
+    :func:`~fem2tmm.radiation.trace_exchange` with reciprocity and closure, as the detailed reference's (own
+    random stream), which halves the variance of a raw tally; A has up to (rays per side) entries per side."""
     surface = radiation_surface(model) if surface is None else surface
     groups, owner = super_faces(model, rm) if sf is None else sf
     if case.radiation.ir_on == "faces":
+        # every active side a REF node of its own, traced like the detailed reference's REFs (own random stream):
+        # reciprocity and closure halve the variance of the raw tally (measured on examples/composite: own noise
+        # 0.45 K with the raw per-side tally, 100 rays per side)
         side = np.flatnonzero(groups >= 0)
         emitters = np.full(len(groups), -1, np.int64)
         emitters[side] = np.arange(len(side))
-        A, _, eps = trace_absorption(surface, emitters, scene=scene,
-                                     rays_per_group=np.full(len(side), case.radiation.ir_rays_per_face),
-                                     **tracer_settings(case, exchange=False, role="absorption"))
+        res = trace_exchange(surface, emitters, scene=scene,
+                             **tracer_settings(case, rays_per_face=case.radiation.ir_rays_per_face,
+                                               role="absorption"))
+        g = len(side)
+        eps = res.eps_area
+        F = (sp.diags(np.where(eps > 0, 1.0 / np.maximum(eps, 1e-300), 0.0)) @ sp.csr_matrix(res.GR)[:, :g]).tocsr()
+        F.sort_indices()
+        A = sp.csr_matrix((F.data, side[F.indices], F.indptr), shape=(g, len(groups)))  # group j -> its side
         return IRAbsorption(A=A, owner=np.asarray(owner, np.int64)[groups[side]], eps_area=eps, face=side // 2)
     faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
     A, _, eps = trace_absorption(surface, groups, scene=scene,
