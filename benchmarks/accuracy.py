@@ -124,8 +124,9 @@ def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
 
 
 def bench_accuracy_composite() -> list[dict]:
-    """``fem2tmm bench accuracy_composite``: the composite box alone (both methods, 10 -> 1 000 super nodes)."""
-    return bench_accuracy(("composite",))
+    """``fem2tmm bench accuracy_composite``: the composite box alone (both methods, 10 -> 1 000 super nodes), in
+    composite panels (k = 5) and in aluminium (k = 170)."""
+    return bench_accuracy(("composite", "composite_k170"))
 
 
 def bench_accuracy_truss() -> list[dict]:
