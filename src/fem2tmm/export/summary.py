@@ -78,7 +78,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 "outer_iterations": result.radiation_aware,
                 "last_step_K": (result.radiation_aware or [{}])[-1].get("max_dT_K"),
                 "H_W_per_K": float(rm.radiative.H[~rm.fixed].sum()),
-                "biot": (result.radiation_aware or [{}])[0].get("biot"),
+                "biot": (result.radiation_aware or [{}])[-1].get("biot"),
                 "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
             "refinement": None if result.refinement is None else {
