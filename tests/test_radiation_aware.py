@@ -63,6 +63,13 @@ def test_exact_at_the_reference_state_and_outer_iterations_converge_to_the_detai
         hist = ra_summary["outer_iterations"]
         assert len(hist) == it
         assert ra_summary["last_step_K"] == hist[-1]["max_dT_K"]
+        # the reduced heat flows add up like the detailed ones: loads + heat in at the fixed edge = heat radiated
+        # (part of it leaves through the correction load and the distribution with K', not the couplings to space)
+        red = res.summary["reduced"]
+        into = -sum(red["heat_into_fixed_W"].values())  # the summary's sign: positive into the fixed boundary
+        assert ra_summary["radiated_W"] == pytest.approx(2.0 + into, rel=1e-9)
+        assert ra_summary["radiated_W"] == pytest.approx(red["to_space_W"] + ra_summary["radiated_by_correction_W"])
+        assert ra_summary["radiated_W"] == pytest.approx(res.summary["detailed"]["to_space_W"], rel=0.05)
         # a budget that stops the iterations while the field still moves (> OUTER_WARN) says so, with the step
         unconverged = [str(x.message) for x in w if "did not converge" in str(x.message)]
         assert bool(unconverged) == (hist[-1]["max_dT_K"] > 0.05) == (it == 1), (it, hist[-1]["max_dT_K"])

@@ -952,6 +952,9 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                       "that much: raise outer_iterations (the steps shrink quadratically once they are small; fewer "
                       "super nodes need more)", stacklevel=2)
     ra.history = history
+    # what the network was given (W): the known loads before their distribution; the network's Q sums to less, the
+    # difference being the heat its correction load and the distribution with K' radiate (summary radiated_W)
+    ra.known_load_W = float(np.sum(q_detailed) + np.sum(q_lumped))
     return ra_rm, sol, T, history
 
 

@@ -267,7 +267,14 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     det_in = det.get("heat_into_fixed_W", {})
     for name in sorted(set(red_in) | set(det_in)):
         flows.append((f"into fixed boundary '{name}'", _fmt(red_in.get(name), " W"), _fmt(det_in.get(name), " W")))
-    flows.append(("radiated to space", _fmt((red or {}).get("to_space_W"), " W"), _fmt(det.get("to_space_W"), " W")))
+    ra = (red or {}).get("radiation_aware") or {}
+    if ra.get("radiated_W") is not None:  # part of the radiation goes through the correction load
+        flows.append(("radiated (to space and through the radiation-aware correction load)",
+                      f"{_fmt(ra['radiated_W'], ' W')} ({_fmt(red.get('to_space_W'), ' W')} by the couplings to "
+                      f"space, {_fmt(ra['radiated_by_correction_W'], ' W')} by the correction)",
+                      _fmt(det.get("to_space_W"), " W")))
+    else:
+        flows.append(("radiated to space", _fmt((red or {}).get("to_space_W"), " W"), _fmt(det.get("to_space_W"), " W")))
     for k in ("reduced", "detailed"):
         eb = (s.get("energy_balance_W") or {}).get(k)
         if eb:

@@ -78,6 +78,11 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 "outer_iterations": result.radiation_aware,
                 "last_step_K": (result.radiation_aware or [{}])[-1].get("max_dT_K"),
                 "H_W_per_K": float(rm.radiative.H[~rm.fixed].sum()),
+                # the heat radiated outside the couplings to space (by the correction load and the distribution
+                # with K' = K + diag(h): the known loads minus the network's Q), and the total heat radiated
+                "radiated_by_correction_W": _by_correction(rm),
+                "radiated_W": None if _by_correction(rm) is None
+                else float(rs.to_space.sum()) + _by_correction(rm),
                 "biot": (result.radiation_aware or [{}])[-1].get("biot"),
                 "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
@@ -373,3 +378,10 @@ def summary_table(s: dict) -> str:
         rows.append(("time", ", ".join(f"{k} {v:.2f} s" for k, v in t.items())))
     w = max(len(r[0]) for r in rows)
     return "\n".join(f"  {a.ljust(w)}  {b}" for a, b in rows)
+
+
+def _by_correction(rm) -> float | None:
+    """Heat (W) a radiation-aware network radiates outside its couplings to space: its known loads minus the sum of
+    its Q (the correction load and the distribution with K' = K + diag(h) take it out); None for other networks."""
+    known = getattr(rm.radiative, "known_load_W", None) if rm.radiative is not None else None
+    return None if known is None else float(known - np.sum(rm.Q))
