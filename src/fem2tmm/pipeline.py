@@ -448,7 +448,9 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         if case.reduction.radiation_aware:
             ir_abs = None  # (not ``ir``: that name holds the IR optics, part of the reference's trace key below)
             if trace and case.radiation.ir_on in ("detailed", "faces"):
-                with prog.stage("ir_detailed", "tracing where the super faces' IR is absorbed (FE sides)"):
+                with prog.stage("ir_detailed", "tracing the FE sides' IR exchange factors (ir_on = faces)"
+                                if case.radiation.ir_on == "faces" else
+                                "tracing where the super faces' IR is absorbed (FE sides)"):
                     ir_abs = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
             with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
                 result.thesis_T_recovered = result.T_recovered
