@@ -81,8 +81,11 @@ def _fit_row(pts: list[dict], **label) -> dict:
                         "noise, or reference and own noise combined where the own noise was measured)"}
 
 
-def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
-    """One row per (study, n_SN) and one summary row per study (slopes above 3x the noise); writes the plot."""
+def bench_accuracy(studies=tuple(STUDIES), clustering: bool | None = None) -> list[dict]:
+    """One row per (study, n_SN) and one summary row per study (slopes above 3x the noise); writes the plot; with
+    ``clustering`` (default: when every study runs) also the baffle's clustering time and balance against METIS
+    (:func:`benchmarks.cluster.bench_cluster_metis`, baffle -> 100, no accuracy runs)."""
+    clustering = tuple(studies) == tuple(STUDIES) if clustering is None else clustering
     from fem2tmm.pipeline import run
 
     rows, curves = [], {}
@@ -120,6 +123,15 @@ def bench_accuracy(studies=tuple(STUDIES)) -> list[dict]:
         curves[name] = ([p["super_nodes"] for p in pts], [p["rms_K"] for p in pts], [p["thesis_rms_K"] for p in pts],
                         fit["noise_K"])
     rows.append({"bench": "accuracy_plot", "png": _plot(curves)})
+    if clustering:  # the issue's "clustering time and balance against METIS in one run": the baffle -> 100
+        try:
+            import pymetis  # noqa: F401
+        except ImportError:
+            rows.append({"bench": "cluster_metis", "skipped": "pymetis is not installed (pip install pymetis)"})
+        else:
+            from .cluster import bench_cluster_metis
+
+            rows += bench_cluster_metis(sizes=("baffle",), accuracy=False)
     return rows
 
 
