@@ -124,9 +124,9 @@ def bench_accuracy(studies=tuple(STUDIES), clustering: bool | None = None) -> li
                         fit["noise_K"])
     rows.append({"bench": "accuracy_plot", "png": _plot(curves)})
     if clustering:  # the "clustering time and balance against METIS in one run": the baffle -> 100
-        try:
-            import pymetis  # noqa: F401
-        except ImportError:
+        import importlib.util
+
+        if importlib.util.find_spec("pymetis") is None:
             rows.append({"bench": "cluster_metis", "skipped": "pymetis is not installed (pip install pymetis)"})
         else:
             from .cluster import bench_cluster_metis
