@@ -221,3 +221,24 @@ def test_serial_runs_never_import_dask():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120,
                    env={**os.environ, "PYTHONPATH": os.path.join(root, "src")})
+
+
+def test_emitters_and_optics_travel_compactly_and_come_back_unchanged(serial_run):
+    """A trace's job goes to the workers by pickle: the emitter tables' indices in int32/int8 (restored to the
+    build's dtypes), the optics without their cached tables; everything equal after the round trip."""
+    import pickle
+
+    from fem2tmm.radiation.solar import sunlit_emitters
+    from fem2tmm.radiation.surfaces import TriangleScene
+
+    (surface, groups, sun), _ = serial_run
+    scene = TriangleScene(surface, "numpy")
+    em = sunlit_emitters(scene, np.arange(2 * surface.n_faces), 2 * surface.n_faces, np.asarray(sun, float))
+    optics = surface.optics("solar")
+    optics.rows  # a cached table, not pickled
+    for obj in (em, optics):
+        back = pickle.loads(pickle.dumps(obj))
+        for k, v in vars(back).items():
+            assert np.array_equal(v, vars(obj)[k]) and v.dtype == vars(obj)[k].dtype, k
+    assert len(pickle.dumps(em)) < 0.8 * sum(v.nbytes for v in vars(em).values())
+    assert "rows" not in vars(pickle.loads(pickle.dumps(optics)))

@@ -96,6 +96,9 @@ class SideOptics:
     cum: np.ndarray
     active: np.ndarray
 
+    def __getstate__(self):  # pickled without the cached tables (rebuilt on first use where unpickled)
+        return {k: v for k, v in self.__dict__.items() if k in ("absorb", "cum", "active")}
+
     @cached_property
     def rows(self) -> np.ndarray:
         """(2f, 4) per side, as the compiled bounce reads it: stop probability (the absorptance, or 2 on an inactive
@@ -477,6 +480,25 @@ class GroupEmitters:
     weight: np.ndarray
     area: np.ndarray
     start: np.ndarray
+
+    _COMPACT = {"entry_prim": np.int32, "entry_side": np.int8, "entry_group": np.int32}
+
+    def __getstate__(self):
+        """Pickled with the entry indices in the smallest exact integer types (a trace's job travels to the Dask
+        workers with them: 17 instead of 24 bytes per entry); restored to the build's dtypes on unpickling."""
+        state = dict(self.__dict__)
+        for k, small in self._COMPACT.items():
+            a = state[k]
+            if a.size and np.iinfo(small).min <= a.min() and a.max() <= np.iinfo(small).max:
+                state[k] = (a.dtype.str, a.astype(small))
+        return state
+
+    def __setstate__(self, state):
+        for k in self._COMPACT:
+            if isinstance(state[k], tuple):
+                dtype, a = state[k]
+                state[k] = a.astype(np.dtype(dtype))
+        self.__dict__.update(state)
 
     @classmethod
     def build(cls, scene: TriangleScene | TriangleWeights, groups: np.ndarray, emit: np.ndarray,
