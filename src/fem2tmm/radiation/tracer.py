@@ -323,8 +323,9 @@ def map_batches(job, n_batches: int, threads: int, what: str = "ray batches") ->
     batch index gives output independent of where and in which order the batches ran.  In this process
     (the default, :mod:`fem2tmm.compute` serial) ``threads`` Python threads run the batches (numpy and Embree
     release the GIL); on a Dask executor (:func:`fem2tmm.compute.using`) a ``job`` marked ``distributable`` (a
-    picklable object, e.g. :class:`_ExchangeBatches`) is scattered to the workers once and every batch is one
-    task; other jobs (closures) run here.  Progress is reported after each batch."""
+    picklable object, e.g. :class:`_ExchangeBatches`) goes to the workers without its ray scenes
+    (:func:`_detach_scenes`; the scenes once per executor, :meth:`~fem2tmm.compute.DaskExecutor.keep`) and every
+    batch is one task; other jobs (closures) run here.  Progress is reported after each batch."""
     from ..compute import current
 
     ex = current()
