@@ -230,7 +230,8 @@ def _sizing(multi, rays_per_s_per_worker: float, elements: float = 1e6, position
     g = 2 * faces
     em = sunlit_emitters(scene, np.arange(g, dtype=np.int64), g, sun)  # the detailed solar job, as trace_solar builds it
     rays = check.ray_budget(r.case.environment.solar_rays_per_face, None, em.area, em.weight > 0)
-    job = _SolarBatches(scene, surface.optics("solar"), em, rays, np.ones(g), sun, "halton", 0, 1 << 17, 1e-12, 1000)
+    job = _SolarBatches(scene, surface.optics("solar"), em, rays, np.ones(g), sun, "halton", 0, 1 << 17, 1e-12, 1000,
+                        groups=np.arange(g, dtype=np.int64))
     job_bytes = len(pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL))
     detached, _ = _detach_scenes(job)  # what each trace sends on Dask: the job without its scene
     scene_bytes = len(pickle.dumps(scene, protocol=pickle.HIGHEST_PROTOCOL))  # sent once per executor

@@ -258,18 +258,43 @@ class _SolarBatches:
 
     distributable = True  # map_batches may send it to Dask workers
 
-    def __init__(self, scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces):
+    def __init__(self, scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces,
+                 groups=None):
+        """``groups`` (2f,) the group of each side that built ``em`` (:func:`sunlit_emitters`): given, the job is
+        pickled without its emitter tables and its Halton tables, which are rebuilt where it is unpickled (a Dask
+        worker) from the scene, ``groups`` and the seed: the same arrays, a third of the bytes."""
         self.scene, self.optics, self.em, self.per_ray, self.sun = scene, optics, em, per_ray, sun
         self.seed, self.batch, self.min_weight, self.max_bounces = seed, batch, min_weight, max_bounces
+        self.sampling, self.groups = sampling, groups
         self.start = np.concatenate([[0], np.cumsum(rays)])
         self.total = int(self.start[-1])
-        setup = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
+        self._sampling_tables()
+
+    def _sampling_tables(self):
+        setup = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(7,)))
         self.halton = self.offsets = None
-        if sampling == "halton":
+        if self.sampling == "halton":
             self.halton = ScrambledHalton(setup, bases=HALTON_BASES[:SOLAR_DIMS])
-            self.offsets = setup.integers(0, HALTON_SKIP, size=len(rays))
+            self.offsets = setup.integers(0, HALTON_SKIP, size=len(self.start) - 1)
+
+    def __getstate__(self):
+        state = {**self.__dict__, "halton": None, "offsets": None}
+        g = self.groups
+        if g is not None:
+            small = g.astype(np.int32) if g.size and g.max() < 2**31 else g
+            state.update(em=None, groups=(g.dtype.str, small))
+        return state
+
+    def __setstate__(self, state):
+        groups = state.get("groups")
+        if isinstance(groups, tuple):
+            state["groups"] = groups[1].astype(np.dtype(groups[0]))
+        self.__dict__.update(state)
+        self._sampling_tables()
 
     def __call__(self, b: int):
+        if self.em is None:  # unpickled: the emitter tables, built once (concurrent first batches build the same)
+            self.em = sunlit_emitters(self.scene, self.groups, len(self.per_ray), self.sun)
         scene, start, halton, batch = self.scene, self.start, self.halton, self.batch
         ray = np.arange(b * batch, min((b + 1) * batch, self.total), dtype=np.int64)
         grp = np.searchsorted(start, ray, side="right") - 1
@@ -333,7 +358,8 @@ def solar_job(surface: Surface, sun_direction, solar_flux: float, groups=None, r
     rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     power = flux * em.weight
     per_ray = np.divide(power, rays, out=np.zeros(g), where=rays > 0)
-    job = _SolarBatches(scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces)
+    job = _SolarBatches(scene, optics, em, rays, per_ray, sun, sampling, seed, batch, min_weight, max_bounces,
+                        groups=groups)
     total = job.total
 
     def finish(parts) -> SolarResult:

@@ -492,13 +492,34 @@ class _ExchangeTracer:
         self.scene = scene
         self.optics = surface.optics("ir")
         scene.hit_rows(self.optics)  # built once here, not by the first batch of every worker thread
-        emit = np.where(surface.active, surface.emissivity, 0.0)
-        self.emitters = GroupEmitters.build(self.scene, groups, emit, n_groups)
+        self._emit = np.where(surface.active, surface.emissivity, 0.0)
+        self.emitters = GroupEmitters.build(self.scene, groups, self._emit, n_groups)
         self.groups = groups
         self.g = n_groups
         # tally columns: the absorbing side's group (REFs), or the side itself (per_side: absorbed-IR maps)
         self.n_cols = 2 * surface.n_faces if per_side else n_groups
         self.per_side = per_side
+
+    def __getstate__(self):
+        """Pickled (to a Dask worker) without the emitter tables, rebuilt there from the scene, ``groups`` and the
+        emissive weights on first use (the same arrays)."""
+        state = {k: v for k, v in self.__dict__.items() if k != "emitters"}
+        g = self.groups
+        if g.size and g.max() < 2**31 and g.min() >= -2**31:
+            state["groups"] = (g.dtype.str, g.astype(np.int32))
+        return state
+
+    def __setstate__(self, state):
+        if isinstance(state.get("groups"), tuple):
+            dtype, a = state["groups"]
+            state["groups"] = a.astype(np.dtype(dtype))
+        self.__dict__.update(state)
+
+    def __getattr__(self, name):
+        if name == "emitters" and "_emit" in self.__dict__:  # unpickled: built on first use
+            self.emitters = GroupEmitters.build(self.scene, self.groups, self._emit, self.g)
+            return self.emitters
+        raise AttributeError(name)
 
     def run(self, rays: np.ndarray, sampling: str, seed, stream: int, batch: int, threads: int, max_bounces: int):
         g = self.g
@@ -549,26 +570,37 @@ class _ExchangeBatches:
         self.start = np.concatenate([[0], np.cumsum(self.rays)])
         self.total = int(self.start[-1])
         self.n_batches = math.ceil(self.total / batch) if self.total else 0
-        ss = np.random.SeedSequence(seed, spawn_key=(stream,))
+        self.sampling = sampling
+        self._tables()
+        self.ncol = tracer.n_cols + 3
+        # column index type of the tally: int32 when it fits (scipy keeps such arrays without a copy)
+        self.itmpl = np.empty(0, np.int32 if self.total < 2**31 - 1 and self.ncol < 2**31 - 1 else np.int64)
+        self.buffers = None
+
+    def _tables(self):
+        """The Halton tables and start offsets (from the seed) and each side's tally column (from the groups):
+        built here and again where the job is unpickled, instead of travelling with it."""
+        tracer, g = self.tracer, self.tracer.g
+        ss = np.random.SeedSequence(self.seed, spawn_key=(self.stream,))
         setup = np.random.default_rng(ss.spawn(1)[0])
         self.halton = self.offsets = None
         self.dims = 4
-        if sampling == "halton":
+        if self.sampling == "halton":
             self.halton = ScrambledHalton(setup, bases=HALTON_BASES[:HALTON_DIMS])
             self.offsets = setup.integers(0, HALTON_SKIP, size=g)
             # coordinates 5-6 (a first diffuse direction) only when some side scatters diffusely
             self.dims = HALTON_DIMS if tracer.optics.scatters_diffusely else 4
-        self.ncol = tracer.n_cols + 3
-        # column index type of the tally: int32 when it fits (scipy keeps such arrays without a copy)
-        self.itmpl = np.empty(0, np.int32 if self.total < 2**31 - 1 and self.ncol < 2**31 - 1 else np.int64)
         # destination column of an absorbing side: its group, or "blocked" when it is not a REF node (per_side: the
         # side itself, for absorbed-IR maps)
         self.side_col = (np.arange(tracer.groups.size) if tracer.per_side
                          else np.where(tracer.groups >= 0, tracer.groups, g + 1))
-        self.buffers = None
 
     def __getstate__(self):
-        return {**self.__dict__, "buffers": None}
+        return {**self.__dict__, "buffers": None, "halton": None, "offsets": None, "side_col": None}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._tables()
 
     def __call__(self, b: int):
         tr, batch, halton = self.tracer, self.batch, self.halton
