@@ -148,6 +148,20 @@ def planet_rays(scene: TriangleScene, prim, sign, p, nrm, U, position, sun, kind
     return d, np.where(hits, e, 0.0)
 
 
+def _planet_emitters(scene, groups: np.ndarray, g: int, position: np.ndarray, planet, focus: str):
+    """Emission tables of the sides that can see the planet: the normal within 90° + θ_max of nadir (seen from the
+    mesh origin; the margin covers the mesh's extent); curved triangles are kept whole.  ``position`` (3,) m."""
+    rho = float(np.linalg.norm(position))
+    points = scene.surface.points
+    reach = float(np.linalg.norm(points, axis=1).max()) if len(points) else 0.0
+    nadir = -position / rho
+    cos_n = scene.tri_normal @ nadir
+    limit = -planet.radius / rho - (reach / (rho - planet.radius) + 1e-9 if focus == "planet" else 0.0)
+    sees = np.stack([cos_n > limit, -cos_n > limit], axis=1) if focus == "planet" else np.ones((len(cos_n), 2), bool)
+    sees[scene._curved_triangles()] = True
+    return triangle_emitters(scene, groups, g, scene.tri_area[:, None] * sees)
+
+
 class _PlanetBatches:
     """The batches of one planet (albedo or IR) run as a picklable callable (the scene rebuilds itself where it is
     unpickled, e.g. on a Dask worker): ``job(b)`` traces rays b·batch .. (b + 1)·batch - 1, its generator seeded
@@ -155,16 +169,41 @@ class _PlanetBatches:
 
     distributable = True  # map_batches may send it to Dask workers
 
-    def __init__(self, scene, optics, em, per_ray, start, seed, stream, halton, offsets, batch, position, sun, kind,
-                 planet, flux, focus, min_weight, max_bounces):
+    def __init__(self, scene, optics, em, per_ray, start, seed, stream, sampling, batch, position, sun, kind,
+                 planet, flux, focus, min_weight, max_bounces, groups):
+        """``groups`` (2f,) the group of each side that built ``em`` (:func:`_planet_emitters`): the job is pickled
+        without its emitter and Halton tables, rebuilt where it is unpickled (a Dask worker) from the scene, the
+        groups and the seed (the same arrays)."""
         self.scene, self.optics, self.em, self.per_ray, self.start = scene, optics, em, per_ray, start
-        self.seed, self.stream, self.halton, self.offsets, self.batch = seed, stream, halton, offsets, batch
+        self.seed, self.stream, self.sampling, self.batch = seed, stream, sampling, batch
         self.position, self.sun, self.kind, self.planet = position, sun, kind, planet
         self.flux, self.focus = flux, focus
-        self.min_weight, self.max_bounces = min_weight, max_bounces
+        self.min_weight, self.max_bounces, self.groups = min_weight, max_bounces, groups
         self.total = int(start[-1])
+        self._sampling_tables()
+
+    def _sampling_tables(self):
+        setup = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=self.stream))
+        self.halton = self.offsets = None
+        if self.sampling == "halton":
+            self.halton = ScrambledHalton(setup, bases=HALTON_BASES + (17,))
+            self.offsets = setup.integers(0, HALTON_SKIP, size=len(self.per_ray))
+
+    def __getstate__(self):
+        g = self.groups
+        small = (g.dtype.str, g.astype(np.int32)) if g.size and g.max() < 2**31 else g
+        return {**self.__dict__, "em": None, "halton": None, "offsets": None, "groups": small}
+
+    def __setstate__(self, state):
+        if isinstance(state["groups"], tuple):
+            state["groups"] = state["groups"][1].astype(np.dtype(state["groups"][0]))
+        self.__dict__.update(state)
+        self._sampling_tables()
 
     def __call__(self, b: int):
+        if self.em is None:  # unpickled: the emitter tables, built once (concurrent first batches build the same)
+            self.em = _planet_emitters(self.scene, self.groups, len(self.per_ray), self.position, self.planet,
+                                       self.focus)
         scene, em, start, halton, offsets = self.scene, self.em, self.start, self.halton, self.offsets
         batch = self.batch
         ray = np.arange(b * batch, min((b + 1) * batch, self.total), dtype=np.int64)
@@ -239,29 +278,14 @@ def planet_job(surface: Surface, position, sun_direction, kind: str = "albedo", 
     groups, g = check.side_groups(groups, f)
     scene = TriangleScene.of(surface, scene, "trace_planet")
     optics = surface.optics("solar" if kind == "albedo" else "ir") if optics is None else optics
-    # sides that can see the planet: the normal within 90° + θ_max of nadir (seen from the mesh origin; the
-    # margin covers the mesh's extent); curved triangles are kept whole
-    rho = float(np.linalg.norm(position))
-    reach = float(np.linalg.norm(surface.points, axis=1).max()) if len(surface.points) else 0.0
-    nadir = -position / rho
-    cos_n = scene.tri_normal @ nadir
-    limit = -planet.radius / rho - (reach / (rho - planet.radius) + 1e-9 if focus == "planet" else 0.0)
-    sees = np.stack([cos_n > limit, -cos_n > limit], axis=1) if focus == "planet" else np.ones((len(cos_n), 2), bool)
-    sees[scene._curved_triangles()] = True
-    em = triangle_emitters(scene, groups, g, scene.tri_area[:, None] * sees)
+    em = _planet_emitters(scene, groups, g, position, planet, focus)
     rays = check.ray_budget(rays_per_group, ray_density, em.area, em.weight > 0)
     per_ray = np.divide(em.weight, rays, out=np.zeros(g), where=rays > 0)  # m² of side per origin
     start = np.concatenate([[0], np.cumsum(rays)])
     total = int(start[-1])
     stream = (11, KINDS.index(kind))
-    setup = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=stream))
-    halton = offsets = None
-    if sampling == "halton":
-        halton = ScrambledHalton(setup, bases=HALTON_BASES + (17,))
-        offsets = setup.integers(0, HALTON_SKIP, size=g)
-
-    job = _PlanetBatches(scene, optics, em, per_ray, start, seed, stream, halton, offsets, batch, position, sun,
-                         kind, planet, flux, focus, min_weight, max_bounces)
+    job = _PlanetBatches(scene, optics, em, per_ray, start, seed, stream, sampling, batch, position, sun,
+                         kind, planet, flux, focus, min_weight, max_bounces, groups)
 
     def finish(parts) -> PlanetResult:
         absorbed, incident, totals, segments = gather(parts, 2 * f)
