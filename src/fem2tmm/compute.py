@@ -37,7 +37,7 @@ CONNECT_TIMEOUT = 3.0
 #: a unit that raised is re-run this many times (a unit on a worker that died is always re-run by Dask)
 RETRIES = 1
 #: workers that hold a copy of each map call's shared data (a trace's job): enough to survive one dead worker
-#: without sending every trace's job to every worker (at 10^6 faces a job is ~250 MB)
+#: without sending every trace's job to every worker (at 10^6 faces a job is ~0.12 GB)
 REPLICAS = 2
 
 

@@ -242,21 +242,30 @@ class SceneShelf:
     """The ray scenes of one :func:`run`, shared by its load cases (and refinement rounds): a scene depends only on
     the geometry (the surface's points and faces, and the quadric fit; the optics come with each trace), so cases
     that share it build it once (on the baffle, a quadric scene is ~1.7 s and its sunlit areas ~0.8 s per case).
-    Thread-safe: concurrent cases wanting the same scene wait for the one that builds it."""
+    Thread-safe: concurrent cases wanting the same scene wait for the one that builds it.  Keeps the ``size`` most
+    recently built scenes (refinement rounds fit new quadrics each round: their older scenes are let go)."""
 
-    def __init__(self):
+    def __init__(self, size: int = 4):
         self._scenes: dict = {}
         self._locks: dict = {}
         self._lock = threading.Lock()
+        self.size = size
 
     def get(self, key: tuple, build):
         """The scene under ``key``, ``build()``-ing it on first use."""
         with self._lock:
             lock = self._locks.setdefault(key, threading.Lock())
         with lock:
-            if key not in self._scenes:
-                self._scenes[key] = build()
-            return self._scenes[key]
+            scene = self._scenes.get(key)
+            if scene is None:
+                scene = build()
+                with self._lock:
+                    self._scenes[key] = scene
+                    while len(self._scenes) > self.size:  # the oldest (a case still using it keeps its reference)
+                        old = next(iter(self._scenes))
+                        self._scenes.pop(old)
+                        self._locks.pop(old, None)
+            return scene
 
 
 class _Scenes:
