@@ -938,7 +938,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                 history[-1]["stop"] = "estimated remaining change below the tolerance"
                 break
     # Biot numbers at the last linearisation (the pre-solve's field can be far off with few super nodes: on
-    # examples/composite at 10 super nodes it counted 132 elements over 1 where the converged field has 9)
+    # examples/composite at 10 super nodes it counted 132 elements over 1 where the converged field has none)
     biot = biot_numbers(model, ra_rm, ra.h)
     history[-1]["biot"] = biot
     if biot["cluster_max"] is not None and biot["cluster_max"] < LOW_BIOT:
@@ -956,9 +956,9 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 
         warnings.warn(f"the radiation-aware reduction did not converge in [reduction] outer_iterations = "
                       f"{len(history)}: its last step still moved the recovered field by {last:.3g} K (steps "
-                      f"{', '.join(format(h['max_dT_K'], '.3g') for h in history)} K); the temperatures are off by about "
-                      "that much: raise outer_iterations (the steps shrink quadratically once they are small; fewer "
-                      "super nodes need more)", stacklevel=2)
+                      f"{', '.join(format(h['max_dT_K'], '.3g') for h in history)} K); the temperatures are off "
+                      "by about that much: raise outer_iterations (the steps shrink quadratically once they are "
+                      "small; fewer super nodes need more)", stacklevel=2)
     ra.history = history
     # what the network was given (W): the known loads before their distribution; the network's Q sums to less, the
     # difference being the heat its correction load and the distribution with K' radiate (summary radiated_W)
