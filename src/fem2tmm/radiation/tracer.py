@@ -564,7 +564,6 @@ class _ExchangeBatches:
 
     def __init__(self, tracer: "_ExchangeTracer", rays, sampling: str, seed, stream: int, batch: int,
                  max_bounces: int):
-        g = tracer.g
         self.tracer, self.seed, self.stream, self.batch, self.max_bounces = tracer, seed, stream, batch, max_bounces
         self.rays = np.where(tracer.emitters.weight > 0, rays, 0).astype(np.int64)
         self.start = np.concatenate([[0], np.cumsum(self.rays)])
