@@ -82,6 +82,7 @@ class DaskExecutor:
         self._lock = threading.Lock()
         self._inflight: dict[int, list] = {}  # id of a map call -> its futures (tasks and scattered data)
         self._kept: dict = {}  # key -> future of a shared object scattered once for the executor's life (keep)
+        self._turn = 0  # which workers receive the next map call's shared data (REPLICAS of them, in turn)
 
     def cancel(self) -> None:
         """Cancel the units of every :meth:`map` call in flight (they raise :class:`Cancelled`) and refuse new
@@ -124,11 +125,15 @@ class DaskExecutor:
         scattered, futures, call = {}, [], object()
         kept = {k: v for k, v in (shared or {}).items() if isinstance(v, Future)}  # from keep(): not ours to release
         try:
+            # on REPLICAS workers (taken in turn, so that the calls spread): one may die; the others fetch the data
+            # from them when they run a unit; sent to both in one scatter
+            names = sorted(client.scheduler_info().get("workers", {}))
+            with self._lock:
+                first, self._turn = self._turn, self._turn + 1
+            targets = [names[(first + i) % len(names)] for i in range(min(REPLICAS, len(names)))] or None
             for k, v in (shared or {}).items():
-                if k not in kept:  # on REPLICAS workers: one may die; the others fetch it from them when needed
-                    scattered[k] = client.scatter(v, hash=False)
-            if scattered:
-                client.replicate(list(scattered.values()), n=min(REPLICAS, max(self.workers, 1)))
+                if k not in kept:
+                    scattered[k] = client.scatter(v, workers=targets, broadcast=True, hash=False)
             scattered_here = list(scattered.values())
             scattered.update(kept)
             futures = client.map(fn, items, pure=False, retries=RETRIES, **scattered)
