@@ -44,7 +44,7 @@ from ..errors import Fem2TmmError
 from ..orbit import EARTH, SOLAR_CONSTANT, Planet
 from .sampling import HALTON_BASES, ScrambledHalton
 from .solar import RayBalance, arrivals, gather, sun_unit, triangle_emitters
-from .surfaces import SideOptics, Surface, TriangleScene, pad_faces
+from .surfaces import SideOptics, Surface, TriangleScene, pack_ints, pad_faces, unpack_ints
 from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
 #: Halton coordinates of a planet ray: origin (2), direction (2), first event (1), first diffuse direction (2)
@@ -190,14 +190,10 @@ class _PlanetBatches:
             self.offsets = setup.integers(0, HALTON_SKIP, size=len(self.per_ray))
 
     def __getstate__(self):
-        g = self.groups
-        small = (g.dtype.str, g.astype(np.int32)) if g.size and g.max() < 2**31 else g
-        return {**self.__dict__, "em": None, "halton": None, "offsets": None, "groups": small}
+        return {**self.__dict__, "em": None, "halton": None, "offsets": None, "groups": pack_ints(self.groups)}
 
     def __setstate__(self, state):
-        if isinstance(state["groups"], tuple):
-            state["groups"] = state["groups"][1].astype(np.dtype(state["groups"][0]))
-        self.__dict__.update(state)
+        self.__dict__.update({**state, "groups": unpack_ints(state["groups"])})
         self._sampling_tables()
 
     def __call__(self, b: int):

@@ -37,7 +37,8 @@ import numpy as np
 from .. import _validation as check
 from ..errors import Fem2TmmError
 from .sampling import HALTON_BASES, ScrambledHalton
-from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene, TriangleWeights, pad_faces
+from .surfaces import (GroupEmitters, SideOptics, Surface, TriangleScene, TriangleWeights, pack_ints, pad_faces,
+                       unpack_ints)
 from .tracer import BATCH, HALTON_SKIP, MAX_BOUNCES, SAMPLINGS, map_batches
 
 #: coordinates of the Halton point of a solar ray: origin (2), first event (1), first diffuse direction (2)
@@ -279,17 +280,12 @@ class _SolarBatches:
 
     def __getstate__(self):
         state = {**self.__dict__, "halton": None, "offsets": None}
-        g = self.groups
-        if g is not None:
-            small = g.astype(np.int32) if g.size and g.max() < 2**31 else g
-            state.update(em=None, groups=(g.dtype.str, small))
+        if self.groups is not None:
+            state.update(em=None, groups=pack_ints(self.groups))
         return state
 
     def __setstate__(self, state):
-        groups = state.get("groups")
-        if isinstance(groups, tuple):
-            state["groups"] = groups[1].astype(np.dtype(groups[0]))
-        self.__dict__.update(state)
+        self.__dict__.update({**state, "groups": unpack_ints(state["groups"])})
         self._sampling_tables()
 
     def __call__(self, b: int):

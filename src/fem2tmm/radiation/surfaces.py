@@ -486,19 +486,10 @@ class GroupEmitters:
     def __getstate__(self):
         """Pickled with the entry indices in the smallest exact integer types (a trace's job travels to the Dask
         workers with them: 17 instead of 24 bytes per entry); restored to the build's dtypes on unpickling."""
-        state = dict(self.__dict__)
-        for k, small in self._COMPACT.items():
-            a = state[k]
-            if a.size and np.iinfo(small).min <= a.min() and a.max() <= np.iinfo(small).max:
-                state[k] = (a.dtype.str, a.astype(small))
-        return state
+        return {k: pack_ints(v, self._COMPACT[k]) if k in self._COMPACT else v for k, v in self.__dict__.items()}
 
     def __setstate__(self, state):
-        for k in self._COMPACT:
-            if isinstance(state[k], tuple):
-                dtype, a = state[k]
-                state[k] = a.astype(np.dtype(dtype))
-        self.__dict__.update(state)
+        self.__dict__.update({k: unpack_ints(v) if k in self._COMPACT else v for k, v in state.items()})
 
     @classmethod
     def build(cls, scene: TriangleScene | TriangleWeights, groups: np.ndarray, emit: np.ndarray,
@@ -538,6 +529,20 @@ class GroupEmitters:
 #: scenes rebuilt in this process from pickles, by geometry token (a Dask worker keeps the last few)
 _REBUILT: dict[str, TriangleScene] = {}
 _REBUILT_MAX = 4
+
+
+def pack_ints(a: np.ndarray, small=np.int32):
+    """An integer array for pickling: ``(dtype, a as small)`` when every value fits ``small`` exactly, else ``a``;
+    :func:`unpack_ints` restores the original dtype (jobs sent to Dask workers carry per-side index arrays)."""
+    info = np.iinfo(small)
+    if a.size and info.min <= a.min() and a.max() <= info.max:
+        return (a.dtype.str, a.astype(small))
+    return a
+
+
+def unpack_ints(x) -> np.ndarray:
+    """The array that :func:`pack_ints` packed, in its original dtype."""
+    return x[1].astype(np.dtype(x[0])) if isinstance(x, tuple) else x
 
 
 def same_geometry(a: Surface, b: Surface) -> bool:

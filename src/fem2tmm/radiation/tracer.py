@@ -43,7 +43,7 @@ from ._tracer_kernels import (END_BLOCKED, END_CAPPED, END_SPACE, bounce, empty_
                       random_state, uniform)
 from .smoothing import (RECIPROCITY_METHODS, close_exchange, convergence_rate, dense_columns, refs_from_gr, rms,
                         scale_rows)
-from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene
+from .surfaces import GroupEmitters, SideOptics, Surface, TriangleScene, pack_ints, unpack_ints
 
 MAX_BOUNCES = 1000
 SAMPLINGS = ("halton", "random")
@@ -504,16 +504,10 @@ class _ExchangeTracer:
         """Pickled (to a Dask worker) without the emitter tables, rebuilt there from the scene, ``groups`` and the
         emissive weights on first use (the same arrays)."""
         state = {k: v for k, v in self.__dict__.items() if k != "emitters"}
-        g = self.groups
-        if g.size and g.max() < 2**31 and g.min() >= -2**31:
-            state["groups"] = (g.dtype.str, g.astype(np.int32))
-        return state
+        return {**state, "groups": pack_ints(self.groups)}
 
     def __setstate__(self, state):
-        if isinstance(state.get("groups"), tuple):
-            dtype, a = state["groups"]
-            state["groups"] = a.astype(np.dtype(dtype))
-        self.__dict__.update(state)
+        self.__dict__.update({**state, "groups": unpack_ints(state["groups"])})
 
     def __getattr__(self, name):
         if name == "emitters" and "_emit" in self.__dict__:  # unpickled: built on first use
