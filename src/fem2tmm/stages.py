@@ -939,11 +939,11 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                 break
     # Biot numbers at the last linearisation (the pre-solve's field can be far off with few super nodes: on
     # examples/composite at 10 super nodes it counted 132 elements over 1 where the converged field has none)
+    import warnings
+
     biot = biot_numbers(model, ra_rm, ra.h)
     history[-1]["biot"] = biot
     if biot["cluster_max"] is not None and biot["cluster_max"] < LOW_BIOT:
-        import warnings
-
         warnings.warn(f"every cluster has a Biot number h_rad A/(k t) below {LOW_BIOT} (max "
                       f"{biot['cluster_max']:.3g}): the thesis' uniform-load assumption already holds, and "
                       "the radiation-aware reduction adds outer iterations for little gain here (and with "
@@ -952,8 +952,6 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     warn_coarse_mesh(biot["elements_over_1"], biot["element_max"])
     last = history[-1]["max_dT_K"]
     if last > OUTER_WARN:
-        import warnings
-
         warnings.warn(f"the radiation-aware reduction did not converge in [reduction] outer_iterations = "
                       f"{len(history)}: its last step still moved the recovered field by {last:.3g} K (steps "
                       f"{', '.join(format(h['max_dT_K'], '.3g') for h in history)} K); the temperatures are off "

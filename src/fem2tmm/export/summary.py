@@ -59,6 +59,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
     rm, rs = result.reduced, result.reduced_solution
     if rm is not None:
         n_links_space = int(np.count_nonzero(rm.g_space > 0))
+        by_correction = _by_correction(rm)
         s["reduced"] = {
             "super_nodes": int(np.count_nonzero(rm.kind == "cluster")),
             "boundary_nodes": int(np.count_nonzero(rm.kind == "boundary")),
@@ -80,9 +81,8 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 "H_W_per_K": float(rm.radiative.H[~rm.fixed].sum()),
                 # the heat radiated outside the couplings to space (by the correction load and the distribution
                 # with K' = K + diag(h): the known loads minus the network's Q), and the total heat radiated
-                "radiated_by_correction_W": _by_correction(rm),
-                "radiated_W": None if _by_correction(rm) is None
-                else float(rs.to_space.sum()) + _by_correction(rm),
+                "radiated_by_correction_W": by_correction,
+                "radiated_W": None if by_correction is None else float(rs.to_space.sum()) + by_correction,
                 "biot": (result.radiation_aware or [{}])[-1].get("biot"),
                 "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
