@@ -34,7 +34,7 @@ from .solve.steady import check_solvable, solve_steady
 from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
                      detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key,
                      ir_absorption, mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced,
-                     positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
+                     network_group, positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
                      reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
 from .stages import Refinement, refinement_step
@@ -120,11 +120,13 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
                 with prog.stage("read", "reading the mesh"):
                     meshes[key] = load_mesh(c)
             jobs.append((c, prog, mesh if mesh is not None else meshes[key]))
-            if not ex.distributed:  # in this process: one case after the other, as they are read
+        linearised = _shared_linearisations(cases, jobs, store, labels, shelf)
+        if not ex.distributed:  # in this process: one case after the other
+            for c, prog, m in jobs:
                 with reporting(prog.callback()):
-                    results.append(_run(c, prog, jobs[-1][2], reference, store, labels, shelf=shelf))
-        if ex.distributed:
-            results = _run_concurrently(ex, jobs, reference, store, labels, quiet, shelf)
+                    results.append(_run(c, prog, m, reference, store, labels, shelf=shelf, linearised=linearised))
+        else:
+            results = _run_concurrently(ex, jobs, reference, store, labels, quiet, shelf, linearised)
     if len(cases) == 1 and not cases[0][0]:
         result = results[0]
         if out is not None:
@@ -168,8 +170,30 @@ class _CaseStore:
         return value, how
 
 
+def _shared_linearisations(cases: list, jobs: list, store, labels, shelf) -> dict | None:
+    """One network per group of load cases (:func:`~fem2tmm.stages.network_group`) for the radiation-aware
+    reduction: ``{group: {"T": (n_dof,) K, "case": name, "cases": [names]}}``, the emission of every case of a
+    group linearised about the converged field of the group's first case (in file order, so the same on every
+    scheduler), computed by a reduced run of that case without its reference (its clustering, traces and
+    reduction are then reused by the cases through the stage cache).  None for a single case or without the
+    radiation-aware reduction."""
+    aware = [(n, c, j) for (n, c, _), j in zip(cases, jobs) if c.reduction.enabled and c.reduction.radiation_aware]
+    if len(cases) < 2 or not aware:
+        return None
+    groups: dict = {}
+    for n, c, (_, prog, m) in aware:
+        g = network_group(c)
+        if g in groups:
+            groups[g]["cases"].append(n)
+            continue
+        with reporting(prog.callback()), prog.stage("linearise", "the shared network's linearisation state"):
+            first = _run(c, Progress(quiet=True), m, False, store, labels, shelf=shelf)
+        groups[g] = {"T": first.T_recovered, "case": n, "cases": [n]}
+    return groups
+
+
 def _run_concurrently(ex, jobs: list, reference, store, labels, quiet: bool,
-                      shelf: SceneShelf | None = None) -> list[Result]:
+                      shelf: SceneShelf | None = None, linearised: dict | None = None) -> list[Result]:
     """``[_run(case, ...) for case in jobs]`` with up to :data:`CASES_PER_WORKER` x workers cases in client threads
     at once, so that the work units of several cases are in flight on the Dask executor ``ex``; results in case
     order, each the same as in a sequential run (units are seeded by their identity; a shared stage is computed
@@ -188,7 +212,7 @@ def _run_concurrently(ex, jobs: list, reference, store, labels, quiet: bool,
 
     def one(c, prog, m, view):
         with reporting(prog.callback()), reporting_units(bar):
-            return _run(c, prog, m, reference, view, labels, shelf=shelf)
+            return _run(c, prog, m, reference, view, labels, shelf=shelf, linearised=linearised)
 
     pool = ThreadPoolExecutor(max_workers=max(1, min(len(jobs), CASES_PER_WORKER * max(n, 1))),
                               thread_name_prefix="fem2tmm-case")
@@ -301,7 +325,7 @@ class _Scenes:
 
 def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, store=None,
          labels: np.ndarray | None = None, refine: Refinement | None = None,
-         shelf: SceneShelf | None = None) -> Result:
+         shelf: SceneShelf | None = None, linearised: dict | None = None) -> Result:
     if case.clustering.method == "metis" and labels is None:
         from .cluster.metis import require
 
@@ -455,6 +479,10 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
         if case.reduction.radiation_aware:
+            group = (linearised or {}).get(network_group(case))
+            shared_at = None if group is None else group["T"]
+            if group is not None:
+                result.shared_network = {"linearised_at": group["case"], "cases": list(group["cases"])}
             ir_abs = None  # (not ``ir``: that name holds the IR optics, part of the reference's trace key below)
             if trace and case.radiation.ir_on in ("detailed", "faces"):
                 with prog.stage("ir_detailed", "tracing the FE sides' IR exchange factors (ir_on = faces)"
@@ -465,7 +493,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 result.thesis_T_recovered = result.T_recovered
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
-                                            result.T_recovered, ir_abs))
+                                            result.T_recovered, ir_abs, linearised_at=shared_at))
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
@@ -474,7 +502,8 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                                       ir_abs if case.reduction.radiation_aware else None, refine,
                                       surface if trace else None, scenes.main() if trace else None)
             if nxt is not None:
-                return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=scenes.shelf)
+                return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=scenes.shelf,
+                            linearised=linearised)
             result.refinement = refine
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):

@@ -53,6 +53,7 @@ class Result:
     transient: TransientRun | None = None  # [transient]: both models in time, recovered temperatures
     # radiation-aware reduction: the thesis' pre-solve and the outer iterations
     thesis_T_recovered: np.ndarray | None = None  # (n_dof,) K recovered by the thesis' reduction (pre-solve)
+    shared_network: dict | None = None  # load-case sets: {"linearised_at": case, "cases": [...]} sharing GL, GR, C
     radiation_aware: list[dict] | None = None  # one dict per outer iteration (max_dT_K, rms_dT_K, correction_W)
     refinement: object | None = None  # stages.Refinement of [reduction] target_rms: history, labels of every round
     # the reference's own noise: {"rms_K", "max_K"} from two independent half references, and their number

@@ -84,6 +84,9 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 "radiated_by_correction_W": by_correction,
                 "radiated_W": None if by_correction is None else float(rs.to_space.sum()) + by_correction,
                 "biot": (result.radiation_aware or [{}])[-1].get("biot"),
+                # load-case sets: the cases whose decks share GL, GR and C (emission linearised once, about the
+                # converged field of case `linearised_at`); None: this case's own network
+                "shared_network": result.shared_network,
                 "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
             "refinement": None if result.refinement is None else {

@@ -121,6 +121,7 @@ class RadiationAware:
     h : (n_dof,) W/K, the linearised emission the reduction used (``4σ e T_ref,0³``)
     T_sink : K, the environment (space node) temperature
     history : one dict per outer iteration (``max_dT_K``, ``rms_dT_K`` of the recovered field)
+    shared : True when the emission was linearised once for a whole load-case set (the deck's GL shared)
     """
 
     reduction: ConductiveReduction
@@ -130,6 +131,7 @@ class RadiationAware:
     h: np.ndarray
     T_sink: float
     history: list = field(default_factory=list)
+    shared: bool = False  # linearised once for a load-case set (h fixed), not re-linearised at this case's state
 
     def correction(self, T_ref: np.ndarray, T_sn_ref: np.ndarray, e_sn: np.ndarray) -> np.ndarray:
         """Q_corr (n_SN,) W at the reference state.
