@@ -35,6 +35,7 @@ RANK = {
     "export": 10,
     "stages": 11, "inspection": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
     "pipeline": 12,
+    "handover": 12, "recovering": 12,  # the network handed over read back and checked; outside temperatures back
     "demo": 13, "cli": 14,
 }
 #: the stage packages: never the orchestration, the CLI or a benchmark

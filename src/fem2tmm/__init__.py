@@ -7,6 +7,7 @@ Public API (DESIGN §4.4)::
     result = ft.run(case, out="out")
     mesh = ft.read_mesh("part.bdf", unit="mm")
     labels = ft.partition(points, cells, n_clusters)
+    ft.recover("out", "temperatures.csv", out="out-recovered")  # outside temperatures -> FE nodes
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from .errors import Fem2TmmError
 from .io import read_mesh
 from .mesh import ElementBlock, Group, Mesh, shapes
 from .pipeline import run
+from .recovering import recover
 from .result import Result
 from .radiation import exchange_factors
 from .orbit import Attitude, Orbit, Planet
@@ -47,5 +49,6 @@ __all__ = [
     "partition",
     "solar_fluxes",
     "read_mesh",
+    "recover",
     "run",
 ]

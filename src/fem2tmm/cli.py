@@ -39,6 +39,13 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--unit", default="m", help="length unit of the file (default m)")
     i.add_argument("--unit-system", default=None, help="Nastran unit system of material values (e.g. mm-t-s)")
     i.add_argument("--json", action="store_true", help="print the report as JSON")
+    rc = sub.add_parser("recover", help="temperatures computed outside fem2tmm (CSV: super node, columns in degC) "
+                                          "back onto every FE node")
+    rc.add_argument("out_dir", help="output folder of a fem2tmm run (its reduced.npz and temperatures.vtu)")
+    rc.add_argument("--temperatures", required=True,
+                    help="CSV with a header row: super-node name, then one column per time or case (degC); optional "
+                         "rows: a named load (W or W/m2) and 'sink' (degC) per column")
+    rc.add_argument("--out", default=None, help="output folder (default: <OUT_DIR>-recovered next to it)")
     _network_parser(sub)
     return p
 
@@ -92,6 +99,8 @@ def main(argv: list[str] | None = None) -> int:
                 return _network(args)
             if args.command == "inspect":
                 return _inspect(args)
+            if args.command == "recover":
+                return _recover(args)
             if args.command == "bench":
                 return _bench(args.names)
     except Fem2TmmError as exc:
@@ -106,6 +115,20 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     finally:
         warnings.formatwarning = old_format
+    return 0
+
+
+def _recover(args) -> int:
+    import numpy as np
+
+    from .recovering import recover
+
+    src = Path(args.out_dir)
+    out = Path(args.out) if args.out else src.with_name(src.name + "-recovered")
+    res = recover(src, args.temperatures, out=out)
+    T = res["temperature"]
+    print(f"{T.shape[1]} column(s) recovered onto {int(np.isfinite(T[:, 0]).sum())} nodes "
+          f"({np.nanmin(T):.2f} .. {np.nanmax(T):.2f} degC); outputs in {res['out']}")
     return 0
 
 

@@ -34,7 +34,7 @@ from .solve.steady import check_solvable, solve_steady
 from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
                      detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key,
                      ir_absorption, mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced,
-                     network_group, positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
+                     exported_recovery, network_group, positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
                      reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
 from .stages import Refinement, refinement_step
@@ -494,6 +494,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
                                             result.T_recovered, ir_abs, linearised_at=shared_at))
+        with prog.stage("recovery", "the recovery that travels with the network"):
+            result.recovery = exported_recovery(model, case, result.reduced, result.q_recover,
+                                                ir_abs if case.reduction.radiation_aware else None)
+            if case.reduction.radiation_aware:  # the run's own field is the exported recovery's (its fixed point)
+                result.T_recovered = result.recovery.recover(result.reduced_solution.T, T0=result.T_recovered)
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
@@ -584,6 +589,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                                              result.q_recover, problem if det is not None else None,
                                              None if det is None else det.T, orbit=orbit_loads)
 
+    if result.reduced is not None:  # what the user receives: the network written, read back, solved, recovered
+        from .handover import check_deliverable
+
+        with prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
+            result.delivered = check_deliverable(result, recover=result.detailed is not None)
     result.summary = build_summary(result, prog.timings)
     return result
 

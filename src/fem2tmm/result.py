@@ -53,6 +53,8 @@ class Result:
     transient: TransientRun | None = None  # [transient]: both models in time, recovered temperatures
     # radiation-aware reduction: the thesis' pre-solve and the outer iterations
     thesis_T_recovered: np.ndarray | None = None  # (n_dof,) K recovered by the thesis' reduction (pre-solve)
+    recovery: object | None = None  # fem2tmm.reduce.exported.ExportedRecovery written into reduced.npz
+    delivered: dict | None = None  # export.deliverable.check_deliverable: the network read back, solved, recovered
     shared_network: dict | None = None  # load-case sets: {"linearised_at": case, "cases": [...]} sharing GL, GR, C
     radiation_aware: list[dict] | None = None  # one dict per outer iteration (max_dT_K, rms_dT_K, correction_W)
     refinement: object | None = None  # stages.Refinement of [reduction] target_rms: history, labels of every round

@@ -531,6 +531,47 @@ def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labe
     return digest("cluster", *args, kw, labels)
 
 
+def exported_recovery(model: FEModel, case: Case, rm: ReducedModel, q_recover: np.ndarray,
+                      ir: IRAbsorption | None = None) -> "ExportedRecovery":
+    """The recovery written into ``reduced.npz`` (:mod:`fem2tmm.reduce.exported`) for the network ``rm``.
+
+    ``q_recover`` (n_dof,) W: the detailed loads the run recovers with (boundary loads, detailed solar, orbit
+    average); each power/flux ``[[boundary]]`` becomes a named unit pattern (its value scales it), the rest is the
+    constant part.  ``ir`` (radiation-aware with ``ir_on`` = "faces" / "detailed"): where the emitted IR is
+    absorbed.  The radiation-aware network recovers in the emission mode (the constrained nonlinear problem its
+    outer iterations converge to), the thesis' in the linear mode (``T = X q + Yᵀ T_SN``).
+    """
+    import scipy.sparse as _sp
+
+    from .reduce.exported import ExportedRecovery
+
+    names, pats, vals = [], [], []
+    q0 = np.array(q_recover, float)
+    for b in case.boundaries:
+        if b.kind not in ("power", "flux"):
+            continue
+        pat = boundary_load(model, case, dataclasses.replace(b, value=1.0))
+        names.append(b.name)
+        pats.append(pat)
+        vals.append(b.value)
+        q0 = q0 - b.value * pat
+    load_q = _sp.csr_matrix(np.array(pats)) if pats else _sp.csr_matrix((0, model.n_dof))
+    ms = model.mesh.midside
+    kw = {}
+    if rm.radiative is not None:
+        kw = {"mode": "emission", "e": np.asarray(rm.radiative.e, float)}
+        if ir is not None:
+            kw.update(ir_A=ir.A.tocsr(), ir_owner=np.asarray(ir.owner, np.int64), ir_eps_area=np.asarray(ir.eps_area),
+                      ir_face=np.zeros(0, np.int64) if ir.face is None else np.asarray(ir.face, np.int64),
+                      face_W=model.faces.W.tocsr())
+    return ExportedRecovery(K=model.K.tocsr(), A=rm.supernodes.A.tocsr(), names=np.asarray(rm.names).astype(str),
+                            q0=q0, load_names=np.array(names, dtype=str), load_q=load_q,
+                            load_values=np.array(vals, float), node_dof=np.asarray(model.node_dof, np.int64),
+                            node_ids=np.asarray(model.mesh.node_ids, np.int64),
+                            midside=np.zeros((0, 3), np.int64) if ms is None else np.asarray(ms, np.int64),
+                            T_sink=float(model.T_sink), **kw)
+
+
 def network_group(case: Case) -> str:
     """Key of the reduced network a load case can share with the other cases of its set: everything but what a
     case may change and still hand over the same GL, GR and C (boundary values, sink, Sun and orbit loads,

@@ -1,7 +1,7 @@
 """The output folder of a run, written atomically: every file goes to a temporary sibling folder that
 replaces ``out`` only once everything was written.
 
-Files: ``temperatures.vtu`` and ``temperatures.bdf`` (every mesh node), ``reduced.npz``, ``model.esatan`` and
+Files: ``temperatures.vtu``, ``temperatures.bdf`` and ``temperatures.inp`` (every mesh node), ``reduced.npz``, ``model.esatan`` and
 ``model.sinda`` (the reduced network), ``report.html`` with its images, ``summary.json``, and the marker
 ``.fem2tmm`` (JSON: the version and every file written).
 
@@ -30,12 +30,11 @@ from ..constants import KELVIN
 from ..errors import Fem2TmmError
 from ..fem.model import FEModel
 from ..result import Result
-from .esatan import Deck, node_numbers, write_esatan
-from .transient import deck_transient, write_transient
+from .transient import write_transient
+from .abaqus_temp import write_inp
 from .nastran_temp import write_temp
 from .orbit import write_orbit_npz
 from .report import write_report
-from .sinda import write_sinda
 from .vtu import write_vtu
 
 
@@ -226,6 +225,13 @@ def write_case_folder(result: Result, folder: Path, t0: float | None = None) -> 
         cell_data["absorbed_solar"] = result.absorbed_solar_elements
     write_vtu(folder / "temperatures.vtu", mesh, point_data, cell_data, elements=model.elements)
     write_temp(folder / "temperatures.bdf", mesh.node_ids, T - KELVIN)
+    if result.transient is not None and result.transient.T_result is not None:  # one *STEP per output time
+        run = result.transient
+        write_inp(folder / "temperatures.inp", mesh.node_ids,
+                  np.array([model.node_temperatures(Tk) for Tk in run.T_result]).T - KELVIN,
+                  labels=[f"t = {t:.9g} s" for t in run.times])
+    else:
+        write_inp(folder / "temperatures.inp", mesh.node_ids, T - KELVIN, labels=["steady"])
     if result.reduced is not None:
         _write_reduced(folder, result)
     write_orbit_npz(folder, result)
@@ -290,25 +296,7 @@ def to_toml(data: dict, prefix: str = "") -> str:
 
 
 def _write_reduced(folder: Path, result: Result) -> None:
-    """``reduced.npz`` and ``model.esatan`` of the reduced network."""
-    rm, rs = result.reduced, result.reduced_solution
-    n = rm.n
-    GR = np.zeros((n + 1, n + 1))
-    if rm.GR is not None:
-        GR[:n, :n] = rm.GR
-    GR[:n, n] = GR[n, :n] = rm.g_space
-    C = rm.C if rm.C is not None else np.full(n, np.nan)
-    np.savez(folder / "reduced.npz", names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR,
-             Q=rm.Q, T=rs.T - KELVIN, kind=rm.kind.astype(str), part=rm.part,
-             T_sink=np.float64(rm.T_sink - KELVIN))
-    numbers, space = node_numbers(rm.part, len(result.model.parts))
-    GL = -rm.K.copy()
-    np.fill_diagonal(GL, 0.0)
-    area = rm.area if rm.area is not None else np.zeros(n)
-    eps = np.divide(rm.g_space, area, out=np.zeros(n), where=area > 0)
-    deck = Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
-                alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
-                GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
-                transient=None if result.transient is None else deck_transient(result.transient))
-    write_esatan(folder / "model.esatan", deck, title=Path(result.case.source).stem)
-    write_sinda(folder / "model.sinda", deck, submodel=Path(result.case.source).stem)
+    """``reduced.npz``, ``model.esatan`` and ``model.sinda`` of the reduced network (:mod:`fem2tmm.export.deliverable`)."""
+    from .deliverable import write_network
+
+    write_network(folder, result)

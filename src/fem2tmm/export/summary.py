@@ -97,6 +97,8 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                         "final round's partition is the one solved and compared"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
+        if result.delivered is not None:
+            s["reduced"]["delivered"] = {k: result.delivered[k] for k in ("npz_vs_in_process_K", "esatan_vs_in_process_K")}
         if detailed is not None:
             ok = model.node_dof >= 0
 
@@ -105,7 +107,13 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 return {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
                         "nodes": int(ok.sum())}
 
-            s["accuracy"] = accuracy(result.T_recovered)
+            dv = result.delivered
+            delivered = dv is not None and dv.get("T") is not None
+            # what the user receives: the network written, read back (reduced.npz), solved, recovered with the
+            # recovery read from reduced.npz (fem2tmm.export.deliverable); the in-process model's figure beside it
+            s["accuracy"] = accuracy(dv["T"] if delivered else result.T_recovered)
+            s["accuracy"]["of"] = "the exported network" if delivered else "the in-process model"
+            s["accuracy"]["in_process"] = accuracy(result.T_recovered)
             if result.thesis_T_recovered is not None:
                 s["accuracy"]["thesis_method"] = accuracy(result.thesis_T_recovered)
             s["accuracy"].update(_honesty(result))

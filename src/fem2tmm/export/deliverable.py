@@ -1,0 +1,65 @@
+"""The network handed over, and the check that it is the network measured.
+
+:func:`write_network` writes what a thermal engineer takes away: ``reduced.npz`` (the network and, under
+``recovery_*`` keys, everything the recovery needs: :mod:`fem2tmm.reduce.exported`), ``model.esatan`` and
+``model.sinda``.  :func:`fem2tmm.handover.check_deliverable` writes the same files into a scratch folder, reads them back with
+:mod:`fem2tmm.lpm` (the readers a user's deck goes through), solves them with the network solver and recovers the
+FE field with the recovery read back from ``reduced.npz``: ``summary.json`` ``accuracy`` is that field's error
+against the detailed reference, ``accuracy.in_process`` the in-process model's.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..constants import KELVIN
+from ..result import Result
+from .esatan import Deck, node_numbers, write_esatan
+from .sinda import write_sinda
+from .transient import deck_transient
+
+
+def network_arrays(result: Result) -> dict[str, np.ndarray]:
+    """The arrays of ``reduced.npz`` (DESIGN §4.3 and §4.7): the network, its solution and its recovery."""
+    rm, rs = result.reduced, result.reduced_solution
+    n = rm.n
+    GR = np.zeros((n + 1, n + 1))
+    if rm.GR is not None:
+        GR[:n, :n] = rm.GR
+    GR[:n, n] = GR[n, :n] = rm.g_space
+    C = rm.C if rm.C is not None else np.full(n, np.nan)
+    out = dict(names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR, Q=rm.Q, T=rs.T - KELVIN,
+               kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN))
+    if result.recovery is not None:
+        out.update(result.recovery.arrays())
+    return out
+
+
+def network_deck(result: Result) -> Deck:
+    """The ESATAN / SINDA deck of the reduced network."""
+    rm, rs = result.reduced, result.reduced_solution
+    n = rm.n
+    numbers, space = node_numbers(rm.part, len(result.model.parts))
+    GL = -rm.K.copy()
+    np.fill_diagonal(GL, 0.0)
+    area = rm.area if rm.area is not None else np.zeros(n)
+    eps = np.divide(rm.g_space, area, out=np.zeros(n), where=area > 0)
+    C = rm.C if rm.C is not None else np.zeros(n)
+    return Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
+                alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
+                GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
+                transient=None if result.transient is None else deck_transient(result.transient))
+
+
+def write_network(folder: Path, result: Result) -> None:
+    """``reduced.npz``, ``model.esatan`` and ``model.sinda`` into ``folder``."""
+    np.savez(folder / "reduced.npz", **network_arrays(result))
+    deck = network_deck(result)
+    stem = Path(result.case.source).stem
+    write_esatan(folder / "model.esatan", deck, title=stem)
+    write_sinda(folder / "model.sinda", deck, submodel=stem)
+
+
+__all__ = ["network_arrays", "network_deck", "write_network"]
