@@ -262,9 +262,17 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         rn = np.linalg.norm(r[free])
         step = float(np.max(np.abs(a * dT))) if len(dT) else 0.0
     if not converged:
+        flows = float(np.abs(problem.Q).sum()) + float(np.abs(r).sum()) + 1e-300
+        cold = int(np.argmin(T))
+        name = problem.names[cold] if problem.names is not None else f"node {cold}"
+        hint = (f"; {name} was driven to {T[cold]:.3g} K: its loads have no physical steady solution (a negative "
+                "net load larger than what its couplings can bring)" if T[cold] < 1.0 else
+                "; check the model (isolated parts, extreme properties) or raise [solver] max_iterations")
         raise Fem2TmmError(
-            f"the steady solve did not converge in {max_iter} Newton iterations (last max |ΔT| = {step:.3g} K); "
-            "check the model (isolated parts, extreme properties)"
+            f"the steady solve did not converge in {max_iter} Newton iterations: the last full Newton step was "
+            f"{float(np.max(np.abs(dT))) if len(free) else 0.0:.3g} K against the tolerance {tol:.3g} K (damped to "
+            f"{step:.3g} K), and the residual is {np.linalg.norm(r[free]):.3g} W, {np.linalg.norm(r[free]) / flows:.3g} "
+            f"of the heat flows{hint}"
         )
     heat_fixed = np.zeros(n)
     heat_fixed[fixed] = r[fixed]  # net heat leaving a fixed node into the network = heat supplied by the boundary
