@@ -396,3 +396,37 @@ def test_consistent_capacitance_of_a_bar(tmp_path):
     i6, i104 = model.node_dof[mesh.node_index([6, 104], where="test")]
     # GRIDs 6 and 104 share only the bar (the plates do not touch), so their coupling is the bar's alone
     assert C[i6, i104] == pytest.approx(2700.0 * 900.0 * 3e-4 * 1.0 / 6.0, rel=1e-12)
+
+
+def test_cool_down_to_a_0_K_sink_with_the_detailed_reference_matches_the_closed_form():
+    # Issue 31: a black 0.1 m aluminium plate, 1 mm, at 300 °C, no heater, sink at -273.15 °C, [transient] end
+    # 600 s step 1 s, [reference] detailed = true, failed with "the radiative Newton step did not converge" in the
+    # steady detailed solve (solution T = 0 K) that preceded every transient.  A transient from a given temperature
+    # needs no steady solve.  Closed form of a lumped plate radiating from both sides (Bi = h L / k ~ 1e-5):
+    # C dT/dt = -σ ε 2A T⁴  =>  T(t) = (T0⁻³ + 3 σ ε 2A t / C)^(-1/3); issue 31: within 0.2 K at every output time.
+    from fem2tmm.pipeline import run
+
+    plate = meshes.plate(0.1, 0.1, 6, 6)
+    rho, c, t = 2700.0, 900.0, 1e-3
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": t, "front": "black",
+                       "back": "black", "super_nodes": 2}],
+                     environment={"sink_temperature": -273.15}, radiation={"enabled": False},
+                     transient={"end": 600.0, "step": 1.0, "initial_temperature": 300.0, "output_every": 60.0},
+                     reference={"detailed": True})
+    r = run(case, mesh=plate)
+    run_ = r.transient
+    C = rho * c * t * 0.01
+    T0 = 300.0 + KELVIN
+    exact = (T0**-3 + 3 * SIGMA * 2 * 0.01 * run_.times / C) ** (-1.0 / 3.0)
+    for T in (run_.T_recovered, run_.detailed.T):
+        err = np.abs(T - exact[:, None]).max()
+        assert err < 0.2, err  # measured 0.042 K (Crank-Nicolson, 1 s steps), reduced and detailed alike
+    assert r.detailed is None  # no steady reference was needed nor solved
+
+
+def test_a_step_longer_than_the_transient_is_refused():
+    from fem2tmm.errors import Fem2TmmError
+
+    with pytest.raises(Fem2TmmError, match=r"step \(700.0 s\) is longer than the transient itself.*600"):
+        make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+                    "super_nodes": 2}], transient={"end": 600.0, "step": 700.0, "initial_temperature": 20.0})

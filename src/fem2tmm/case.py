@@ -188,6 +188,9 @@ class ReferenceSettings:
     # estimate the reference's own ray noise: two independent half-budget references (REFs; detailed solar in
     # "super_faces" mode), the reference is their mean and its noise RMS(T_a - T_b)/2
     noise: bool = True
+    # the detailed *steady* reference in a [transient] run with a numeric initial_temperature: solved only when asked
+    # (it is never needed there, and a field at or near 0 K makes it hard); always solved otherwise
+    steady: bool = False
 
 
 @dataclass(frozen=True)
@@ -834,13 +837,14 @@ class _Parser:
 
     def reference(self, d) -> ReferenceSettings:
         w = "[reference]"
-        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density", "noise"})
+        d = self.table(d, w, {"detailed", "rays_per_face", "ray_density", "noise", "steady"})
         rpf = self.number(d, "rays_per_face", w, lo=1, integer=True)
         dens = self.number(d, "ray_density", w, lo=0, lo_open=True)
         if rpf is not None and dens is not None:
             raise self.err(w, "give either rays_per_face or ray_density, not both")
         return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")), rays_per_face=rpf, ray_density=dens,
-                                 noise=self.boolean(d, "noise", w, _default(ReferenceSettings, "noise")))
+                                 noise=self.boolean(d, "noise", w, _default(ReferenceSettings, "noise")),
+                                 steady=self.boolean(d, "steady", w, _default(ReferenceSettings, "steady")))
 
     def compute(self, d) -> ComputeSettings:
         w = "[compute]"
@@ -867,6 +871,9 @@ class _Parser:
             raise self.err(f"{w}.end", f"must be after start ({start} s), got {end}")
         step = self.number(d, "step", w, lo=0, lo_open=True)
         tol = self.number(d, "tolerance", w, lo=0, lo_open=True)
+        if step is not None and step > end - start:
+            raise self.err(f"{w}.step", f"the step ({step} s) is longer than the transient itself (end - start = "
+                                       f"{end} - {start} = {end - start} s): give a step of at most {end - start} s")
         if step is None and tol is None:
             raise self.err(w, "give 'step' (s, fixed time steps) or 'tolerance' (K, adaptive steps; 'step' is then "
                               "the largest step)")

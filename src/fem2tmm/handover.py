@@ -24,8 +24,22 @@ def check_deliverable(result: Result, recover: bool = True) -> dict:
 
     Returns ``{"T_sn": (n,) K from reduced.npz, "T_sn_esatan": (n,) K from the deck, "T": (n_dof,) K recovered
     (None without a recovery), "npz_vs_in_process_K", "esatan_vs_in_process_K": max |ΔT_SN| against the in-process
-    network solution}``.  ``recover=False`` skips the recovery (a run without reference has no error to report).
+    network solution, "error" when the check could not run (its message)}``.  ``recover=False`` skips the recovery (a run without reference has no error to report).
     """
+    from .lpm.readers import read_network
+    from .lpm.solve import solve_network
+    from .reduce.exported import load
+
+    from .errors import Fem2TmmError
+
+    try:
+        return _check(result, recover)
+    except Fem2TmmError as exc:  # e.g. a 0 K sink, which the decks' boundary node cannot hold: say so, go on
+        return {"T_sn": None, "T_sn_esatan": None, "T": None, "npz_vs_in_process_K": None,
+                "esatan_vs_in_process_K": None, "error": str(exc)}
+
+
+def _check(result: Result, recover: bool) -> dict:
     from .lpm.readers import read_network
     from .lpm.solve import solve_network
     from .reduce.exported import load

@@ -561,14 +561,28 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             q_avg = orbit_average(result, q_orbit)
             problem = dataclasses.replace(problem, Q=problem.Q + q_avg)
             halves = [dataclasses.replace(h, Q=h.Q + q_avg) for h in halves]
-        with prog.stage("solve_detailed", "solving the detailed model"):
-            result.detailed = _solve(problem, case)
+        tr = case.transient
+        optional = tr is not None and tr.initial_temperature != "steady" and case.reduction.enabled
+        if not optional or case.reference.steady:
+            with prog.stage("solve_detailed", "solving the detailed model"):
+                try:
+                    result.detailed = _solve(problem, case)
+                except Fem2TmmError as exc:
+                    if not optional:
+                        raise
+                    import warnings  # asked for, but a transient from a given temperature does not need it
+
+                    warnings.warn(f"the detailed steady reference failed and is left out; the transient goes on: {exc}",
+                                  stacklevel=2)
+                    halves = []
+        else:  # a transient from a given temperature: its detailed reference needs no steady solution
+            halves = []
         if halves:
             with prog.stage("reference_noise", "solving the two half references (reference noise)"):
                 Ta, Tb = (s.T for s in map_units(_solve_unit, halves, shared=_solver_settings(case),
                                                  what="steady solves"))
             result.reference_noise = reference_noise(model, Ta, Tb)
-        if q_orbit is not None and orbit.steady == "positions":
+        if q_orbit is not None and orbit.steady == "positions" and result.detailed is not None:
             with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
                 T = orbit_positions_detailed(base, q_orbit, result.detailed.T, case)
                 if case.reduction.enabled:
@@ -586,7 +600,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_orbit, q_dof=q_orbit,
                                          recover_dof=orbit.fluxes_on == "detailed")
             result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
-                                             result.q_recover, problem if det is not None else None,
+                                             result.q_recover, problem if (do_ref or not case.reduction.enabled) else None,
                                              None if det is None else det.T, orbit=orbit_loads)
 
     if result.reduced is not None:  # what the user receives: the network written, read back, solved, recovered

@@ -190,12 +190,21 @@ def check_solvable(problem: SteadyProblem, describe=None) -> None:
         )
 
 
+#: Newton also stops, for a field with a node below COLD_FIELD (K), once every free node's residual is below
+#: RESIDUAL_FLOOR times the heat-flow scale (loads + the start's imbalance, W): near 0 K the Jacobian 4σεA·T³
+#: vanishes (a 0 K sink and no load: T -> 3/4 T per step, singular in floating point below ~0.003 K), so the step
+#: criterion alone cannot be met there
+RESIDUAL_FLOOR = 1e-11
+COLD_FIELD = 1.0
+
+
 def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, tol: float = 1e-9,
                  max_iter: int = 200) -> SteadySolution:
     """Solve the steady network by damped Newton.
 
     ``T0`` start temperature(s) in K (default: mean of the fixed temperatures, else the sink).
-    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T).  Sparse problems with factored
+    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T), or, for a field at or near 0 K, when every
+    free node's residual is below :data:`RESIDUAL_FLOOR` times the heat flows (W).  Sparse problems with factored
     face radiation use Newton-Krylov: GMRES on the exact Jacobian, preconditioned by the LU of the
     conduction matrix plus the lumped radiative conductances (the exact Jacobian would be dense-ish).
     """
@@ -229,12 +238,24 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
 
     r = ops.residual(T)
     rn = np.linalg.norm(r[free])
+    # the residual criterion's scale (W): the applied loads and the start's imbalance (its heat flows); a field at or
+    # near 0 K (a 0 K sink, no load) converges on it, where the step criterion alone would follow T -> 3/4 T towards
+    # an underflowing Jacobian
+    flow_scale = float(np.abs(problem.Q).sum() + np.abs(r).sum()) + 1e-300
     converged, it, step = False, 0, np.inf
     if len(free) == 0:
         converged = True
     while not converged and it < max_iter:
         it += 1
-        dT = np.asarray(step_solve(T, -r[free])).ravel()
+        if np.abs(r[free]).max(initial=0.0) <= RESIDUAL_FLOOR * flow_scale and T[free].min(initial=np.inf) < COLD_FIELD:
+            step, converged = 0.0, True
+            break
+        try:
+            dT = np.asarray(step_solve(T, -r[free])).ravel()
+        except np.linalg.LinAlgError:
+            raise Fem2TmmError(f"the steady solve met a singular Jacobian at Newton iteration {it} (residual "
+                               f"{np.linalg.norm(r[free]):.3g} W, coldest node {T.min():.3g} K); check boundary "
+                               "conditions") from None
         if not np.all(np.isfinite(dT)):
             raise Fem2TmmError("the steady solve failed (singular or ill-conditioned system); check boundary conditions")
         full = float(np.max(np.abs(dT))) if len(dT) else 0.0
