@@ -220,6 +220,16 @@ class TransientSpec:
 
 
 @dataclass(frozen=True)
+class ExportSettings:
+    """How the decks name and number their model: ``model_name`` (ESATAN ``$MODEL``, SINDA submodel; "" = from
+    the case file's name) and ``node_offset`` added to every node number, so that several exports merge into one
+    spacecraft model without a clash."""
+
+    model_name: str = ""
+    node_offset: int = 0
+
+
+@dataclass(frozen=True)
 class ComputeSettings:
     """Where the work units run (``[compute]``, or ``fem2tmm run --scheduler``): ``scheduler`` "serial"
     (in-process, no Dask), "local" (a ``dask.distributed.LocalCluster`` of ``workers`` processes, default one per
@@ -286,6 +296,7 @@ class Case:
     reference: ReferenceSettings = field(default_factory=ReferenceSettings)
     solver: SolverSettings = field(default_factory=SolverSettings)
     compute: ComputeSettings = field(default_factory=ComputeSettings)
+    export: ExportSettings = field(default_factory=ExportSettings)
     transient: TransientSpec | None = None
     orbit: OrbitSettings | None = None
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
@@ -453,7 +464,7 @@ class _Parser:
     def case(self, data: Mapping[str, Any]) -> Case:
         top = self.table(data, "case", {"mesh", "materials", "optics", "parts", "boundary", "environment",
                                         "radiation", "reduction", "clustering", "reference", "solver", "joints",
-                                        "transient", "compute", "cases", "sweep", "orbit"},
+                                        "transient", "compute", "cases", "sweep", "orbit", "export"},
                          {"parts"})
         from .loadcases import expand, has_cases
 
@@ -518,6 +529,7 @@ class _Parser:
             reference=self.reference(top.get("reference", {})),
             solver=self.solver(top.get("solver", {})),
             compute=self.compute(top.get("compute", {})),
+            export=self.export(top.get("export", {})),
             transient=transient,
             orbit=orbit,
             raw=dict(data),
@@ -845,6 +857,16 @@ class _Parser:
         return ReferenceSettings(detailed=self.boolean(d, "detailed", w, _default(ReferenceSettings, "detailed")), rays_per_face=rpf, ray_density=dens,
                                  noise=self.boolean(d, "noise", w, _default(ReferenceSettings, "noise")),
                                  steady=self.boolean(d, "steady", w, _default(ReferenceSettings, "steady")))
+
+    def export(self, d) -> ExportSettings:
+        w = "[export]"
+        d = self.table(d, w, {"model_name", "node_offset"})
+        name = self.string(d, "model_name", w, default="")
+        if name and not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,23}", name):
+            raise self.err(f"{w}.model_name", f"must start with a letter and hold at most 24 letters, digits or "
+                                              f"underscores (ESATAN's model names), got {name!r}")
+        off = self.number(d, "node_offset", w, default=0, lo=0, integer=True)
+        return ExportSettings(model_name=name, node_offset=int(off))
 
     def compute(self, d) -> ComputeSettings:
         w = "[compute]"

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..constants import KELVIN
 from ..result import Result
-from .esatan import Deck, node_numbers, write_esatan
+from .esatan import Deck, constant_name, node_numbers, write_esatan
 from .sinda import write_sinda
 from .transient import deck_transient
 
@@ -42,6 +42,16 @@ def network_deck(result: Result) -> Deck:
     rm, rs = result.reduced, result.reduced_solution
     n = rm.n
     numbers, space = node_numbers(rm.part, len(result.model.parts))
+    ex = result.case.export
+    numbers, space = numbers + ex.node_offset, space + ex.node_offset
+    load_terms = ()
+    rec = result.recovery
+    if rec is not None and len(rec.load_names):  # each named power / flux: its distribution Y'q per unit value
+        pats = rec.load_q.toarray()
+        load_terms = tuple((constant_name(nm), float(v), rm.reduction.distribute(p))
+                           for nm, v, p in zip(rec.load_names, rec.load_values, pats))
+    temps = {b.name for b in result.case.boundaries if b.kind == "temperature"}
+    temperature_terms = {int(i): constant_name(rm.names[i]) for i in np.flatnonzero(rm.fixed) if rm.names[i] in temps}
     GL = -rm.K.copy()
     np.fill_diagonal(GL, 0.0)
     area = rm.area if rm.area is not None else np.zeros(n)
@@ -50,7 +60,9 @@ def network_deck(result: Result) -> Deck:
     return Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
                 alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
                 GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
-                transient=None if result.transient is None else deck_transient(result.transient))
+                transient=None if result.transient is None else deck_transient(result.transient),
+                model_name=ex.model_name or Path(result.case.source).stem, load_terms=load_terms,
+                temperature_terms=temperature_terms)
 
 
 def write_network(folder: Path, result: Result) -> None:
@@ -59,7 +71,7 @@ def write_network(folder: Path, result: Result) -> None:
     deck = network_deck(result)
     stem = Path(result.case.source).stem
     write_esatan(folder / "model.esatan", deck, title=stem)
-    write_sinda(folder / "model.sinda", deck, submodel=stem)
+    write_sinda(folder / "model.sinda", deck, submodel=deck.model_name)
 
 
 __all__ = ["network_arrays", "network_deck", "write_network"]

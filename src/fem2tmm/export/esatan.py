@@ -12,12 +12,12 @@ comment.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..constants import KELVIN
+from ..constants import KELVIN, SIGMA
 
 
 @dataclass(frozen=True)
@@ -80,6 +80,12 @@ class Deck:
     space: int
     T_space: float
     transient: DeckTransient | None = None
+    model_name: str = "FEM2TMM"
+    #: named, parametric loads: (constant NAME, its value, fractions (n,)): node i's QI is the rest of Q_i plus
+    #: Σ fraction_i × NAME, so that changing NAME in the deck changes that load as fem2tmm would distribute it
+    load_terms: tuple = ()
+    #: named fixed temperatures: {node index: constant NAME} (°C)
+    temperature_terms: dict = field(default_factory=dict)
 
 
 def node_numbers(part: np.ndarray, n_parts: int) -> tuple[np.ndarray, int]:
@@ -103,16 +109,50 @@ def _fmt(v: float) -> str:
     return repr(float(v)) if np.isfinite(v) else "0.0"
 
 
+#: solver control of the steady solution ($CONSTANTS $CONTROL; ESATAN-TMS generated decks set the same two before
+#: CALL SOLVFM): convergence on the largest temperature change between iterations (K) and the iteration budget
+RELXCA, NLOOP = 1e-4, 1000
+#: ESATAN identifiers: a letter, then letters, digits or underscores; model names at most 24 characters
+NAME_LENGTH = 24
+_RESERVED = {"TIMEO", "TIMEND", "TIMEM", "DTIMEI", "OUTINT", "STEFAN", "RELXCA", "NLOOP", "TABS", "SPACE"}
+
+
+def identifier(name: str, fallback: str = "FEM2TMM") -> str:
+    """An ESATAN identifier from ``name``: upper case, letters / digits / underscores, a letter first, at most
+    :data:`NAME_LENGTH` characters."""
+    s = re.sub(r"[^A-Za-z0-9_]", "_", str(name)).upper().strip("_")
+    if not s or not s[0].isalpha():
+        s = (fallback[:1] or "N") + "_" + s
+    return s[:NAME_LENGTH]
+
+
+def constant_name(name: str) -> str:
+    """The deck constant of a named boundary (its identifier; prefixed ``U_`` where it would shadow a control
+    constant)."""
+    c = identifier(name, "U")
+    return ("U_" + c)[:NAME_LENGTH] if c in _RESERVED else c
+
+
 def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced model") -> dict:
-    """Write ``deck`` as an ESATAN input deck; returns counts {nodes, GL, GR, negative_GL}."""
+    """Write ``deck`` as an ESATAN input deck; returns counts {nodes, GL, GR, negative_GL}.
+
+    Blocks in the order of ESATAN-TMS generated decks: ``$MODEL``, ``$NODES``, ``$CONDUCTORS``, ``$CONSTANTS``
+    (``$REAL``: the named loads and fixed temperatures; ``$CONTROL``: STEFAN, RELXCA, NLOOP and, for a
+    transient, TIMEO, TIMEND, DTIMEI, OUTINT), ``$ARRAYS`` (time tables), ``$INITIAL``, ``$VARIABLES1`` (loads
+    QI, time-dependent boundary temperatures), ``$VARIABLES2``, ``$EXECUTION`` (``CALL SOLVFM`` or, with a
+    transient, ``CALL SLCRNC``), ``$OUTPUTS`` (``PRNDTB`` of labels, temperatures, loads and capacitances) and
+    ``$ENDMODEL``.  Every statement ends with ``;``.
+    """
     n = len(deck.numbers)
-    lines = [f"$MODEL {re.sub(r'[^A-Za-z0-9_]', '_', title)[:24].upper() or 'FEM2TMM'}",
-             f"# {title}", "# units: T degC, C J/K, A m2, GL W/K, GR m2, QI W", "$NODES"]
+    name = identifier(deck.model_name)
+    lines = [f"$MODEL {name}", f"# {title}", "# written by fem2tmm; units: T degC, C J/K, A m2, GL W/K, GR m2, QI W",
+             "$NODES"]
     for i in range(n):
         kind = "B" if deck.boundary[i] else "D"
-        lines.append(f"{kind}{deck.numbers[i]} = '{deck.labels[i]}', T = {_fmt(deck.T[i] - KELVIN)}, "
+        T = deck.temperature_terms.get(i, _fmt(deck.T[i] - KELVIN))
+        lines.append(f"    {kind}{deck.numbers[i]} = '{deck.labels[i]}', T = {T}, "
                      f"C = {_fmt(deck.C[i])}, A = {_fmt(deck.A[i])}, ALP = {_fmt(deck.alp[i])}, EPS = {_fmt(deck.eps[i])};")
-    lines.append(f"B{deck.space} = 'SPACE', T = {_fmt(deck.T_space - KELVIN)};")
+    lines.append(f"    B{deck.space} = 'SPACE', T = {_fmt(deck.T_space - KELVIN)};")
     iu, ju = np.triu_indices(n, 1)
     gl = deck.GL[iu, ju]
     nz = gl != 0
@@ -122,43 +162,63 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
                  "reduced conduction matrix as a whole and must be kept)")
     for a, b, g in zip(iu[nz], ju[nz], gl[nz]):
         tag = "  # negative" if g < 0 else ""
-        lines.append(f"GL({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};{tag}")
+        lines.append(f"    GL({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};{tag}")
     gr = deck.GR[iu, ju]
     nzr = gr != 0
     for a, b, g in zip(iu[nzr], ju[nzr], gr[nzr]):
-        lines.append(f"GR({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};")
+        lines.append(f"    GR({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};")
     nzs = np.flatnonzero(deck.GR_space != 0)
     for a in nzs:
-        lines.append(f"GR({deck.numbers[a]}, {deck.space}) = {_fmt(deck.GR_space[a])};")
+        lines.append(f"    GR({deck.numbers[a]}, {deck.space}) = {_fmt(deck.GR_space[a])};")
     tr = deck.transient
-    if tr is not None:
-        lines.append("$ARRAYS")
-        lines.append("# doublet arrays (time s, value), read by linear interpolation in time (INTRP1), constant "
-                     "outside" + ("; periodic with period TIMEND - TIMEO" if tr.periodic else ""))
-        for name, t, v, what in tr.tables():
-            pairs = ", ".join(f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(t, v))
-            lines.append(f"    {name}({2 * len(t)}) = {pairs};  # {what}")
     lines.append("$CONSTANTS")
+    named = [(c, v, "W (or W/m2): a named load, distributed over the nodes below") for c, v, _ in deck.load_terms]
+    named += [(c, float(deck.T[i] - KELVIN), "degC: a named fixed temperature") for i, c in deck.temperature_terms.items()]
+    if named:
+        lines.append("  $REAL")
+        for c, v, what in named:
+            lines.append(f"    {c} = {_fmt(v)};  # {what}")
+    lines.append("  $CONTROL")
+    lines.append(f"    STEFAN = {_fmt(SIGMA)};")
+    lines.append(f"    RELXCA = {_fmt(RELXCA)};")
+    lines.append(f"    NLOOP = {NLOOP};")
     if tr is not None:
         lines.append(f"    TIMEO = {_fmt(tr.start)};")
         lines.append(f"    TIMEND = {_fmt(tr.end)};")
         if tr.step is not None:
             lines.append(f"    DTIMEI = {_fmt(tr.step)};")
         lines.append(f"    OUTINT = {_fmt(tr.output if tr.output is not None else tr.end - tr.start)};")
+        lines.append("$ARRAYS")
+        lines.append("  $REAL")
+        lines.append("# doublet arrays (time s, value), read by linear interpolation in time (INTRP1), constant "
+                     "outside" + ("; periodic with period TIMEND - TIMEO" if tr.periodic else ""))
+        for aname, t, v, what in tr.tables():
+            pairs = ", ".join(f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(t, v))
+            lines.append(f"    {aname}({2 * len(t)}) = {pairs};  # {what}")
+    lines.append("$INITIAL")
+    lines.append("# the boundary temperatures are those of $NODES (and $VARIABLES1 where they follow a table)")
     lines.append("$VARIABLES1")
+    rest = np.array(deck.Q, float)
+    for c, v, frac in deck.load_terms:
+        rest = rest - v * np.asarray(frac, float)
     for i in range(n):
         terms = [] if tr is None else tr.load_terms(i)
-        if deck.Q[i] != 0 or terms:
-            rhs = "".join(f" {'-' if c < 0 else '+'} {_fmt(abs(c))} * (INTRP1(TIMEM, {a}) - {_fmt(v0)})"
-                          for a, c, v0 in terms)
-            lines.append(f"QI{deck.numbers[i]} = {_fmt(deck.Q[i])}{rhs};")
+        par = [(c, float(frac[i])) for c, _, frac in deck.load_terms if frac[i] != 0]
+        if deck.Q[i] != 0 or terms or par:
+            rhs = "".join(f" {'-' if f < 0 else '+'} {_fmt(abs(f))} * {c}" for c, f in par)
+            rhs += "".join(f" {'-' if c < 0 else '+'} {_fmt(abs(c))} * (INTRP1(TIMEM, {a}) - {_fmt(v0)})"
+                           for a, c, v0 in terms)
+            lines.append(f"    QI{deck.numbers[i]} = {_fmt(rest[i])}{rhs};")
     if tr is not None:
         for k, (i, _, _) in enumerate(tr.temperatures):
-            lines.append(f"T{deck.numbers[i]} = INTRP1(TIMEM, TTAB{k + 1});")
+            lines.append(f"    T{deck.numbers[i]} = INTRP1(TIMEM, TTAB{k + 1});")
         if tr.sink is not None:
-            lines.append(f"T{deck.space} = INTRP1(TIMEM, TSINK);")
+            lines.append(f"    T{deck.space} = INTRP1(TIMEM, TSINK);")
+    lines.append("$VARIABLES2")
     lines.append("$EXECUTION")
-    lines.append("    SLCRNC;" if tr is not None else "    SOLVFM;")
-    lines.append("$ENDMODEL")
+    lines.append("    CALL SLCRNC;" if tr is not None else "    CALL SOLVFM;")
+    lines.append("$OUTPUTS")
+    lines.append("    CALL PRNDTB(' ', 'L, T, QI, C', CURRENT);")
+    lines.append(f"$ENDMODEL {name}")
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
     return {"nodes": n, "GL": int(nz.sum()), "GR": int(nzr.sum() + len(nzs)), "negative_GL": negative}

@@ -51,6 +51,8 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
             out.append(f"      {deck.numbers[i]}, {float(deck.Q[i])!r}")
     if tr is not None:
         _transient_blocks(out, deck, sub)
+    else:  # the steady run: build the model, solve it, print the temperatures
+        out += ["HEADER OPERATIONS DATA", "      BUILD ALL", "      CALL STEADY", f"      CALL TPRINT('{sub}')"]
     out.append("END OF DATA")
     Path(path).write_text("\n".join(out) + "\n", encoding="ascii", errors="replace")
     return {"nodes": n + 1, "linear": lin, "radiation": rad}
@@ -87,3 +89,4 @@ def _transient_blocks(out: list[str], deck: Deck, sub: str) -> None:
     out.append("HEADER OPERATIONS DATA")
     out.append("      BUILD ALL")
     out.append("      CALL TRANSIENT")
+    out.append(f"      CALL TPRINT('{sub}')")

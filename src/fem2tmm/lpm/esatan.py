@@ -41,7 +41,7 @@ _INTRP1 = re.compile(r"INTRP1\s*\(\s*TIMEM\s*,\s*([A-Za-z_]\w*)\s*\)", re.I)
 _LOADS = ("QS", "QA", "QE", "QI", "QR")
 _NODE_KEYS = ("T", "C", "A", "ALP", "EPS", "FX", "FY", "FZ") + _LOADS
 _BLOCKS = {"MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS", "EVALUATION", "VARIABLES1",
-           "VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "ENDMODEL", "REPEAT"}
+           "VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "ENDMODEL", "REPEAT", "INITIAL", "EVENTS"}
 _SUBBLOCKS = {"REAL", "INTEGER", "CHARACTER", "CONTROL"}
 
 
@@ -208,7 +208,7 @@ def read_esatan(path: str | Path) -> Network:
         elif block == "ARRAYS":
             if not _ARRAY.match(s):
                 skipped += 1
-        elif block in ("VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "EVALUATION"):
+        elif block in ("VARIABLES2", "EXECUTION", "OUTPUTS", "SUBROUTINES", "EVALUATION", "INITIAL", "EVENTS"):
             skipped += 1
         elif block not in ("CONSTANTS", "LOCALS", "MODEL", "ENDMODEL") and block is not None:
             fail(line, f"statement in unknown block ${block}")

@@ -1,0 +1,152 @@
+"""Decks that run as written (issue 30 item 1) and named parametric loads (issue 29 item 2).
+
+The rules are those of the decks ESATAN-TMS generates (public generated decks, e.g. ESATAN-TMS 2018/2020
+``$MODEL ... $ENDMODEL`` files: blocks $MODEL, $LOCALS, $NODES, $CONDUCTORS, $CONSTANTS, $ARRAYS, $EVENTS,
+$SUBROUTINES, $INITIAL, $EXECUTION, $VARIABLES1, $VARIABLES2, $OUTPUTS, $ENDMODEL; the solver called with
+``CALL SOLVFM`` / ``CALL SLCRNC`` after its control constants; ``CALL PRNDTB(' ', 'L, T, ...', CURRENT)`` in
+$OUTPUTS) and of SINDA/FLUINT input (HEADER blocks, ``HEADER OPERATIONS DATA`` with ``BUILD`` and ``CALL STEADY`` /
+``CALL TRANSIENT``, ``END OF DATA``).  What cannot be checked without the tools (that ESATAN's and SINDA's own
+parsers accept every statement) is said in docs/case-file.md."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from conftest import make_case
+from fem2tmm import meshes
+from fem2tmm.constants import KELVIN
+from fem2tmm.lpm import read_esatan, solve_network
+from fem2tmm.pipeline import run
+
+PLATE = meshes.plate(0.3, 0.2, 24, 16)
+ESATAN_ORDER = ["MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS", "EVENTS", "SUBROUTINES", "INITIAL",
+                "VARIABLES1", "VARIABLES2", "EXECUTION", "OUTPUTS", "ENDMODEL"]
+IDENT = re.compile(r"^[A-Z][A-Z0-9_]{0,23}$")
+
+
+def plate_case(power=5.0, transient=None, export=None, cases=None):
+    raw = dict(parts=[{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+                       "back": "black", "super_nodes": 8}],
+               boundary=[{"name": "edge", "kind": "temperature", "groups": ["xmin"], "value": 20.0},
+                         {"name": "heater", "kind": "power", "groups": ["plate"], "value": power}],
+               environment={"sink_temperature": -100.0}, radiation={"enabled": False},
+               reference={"detailed": False})
+    if transient:
+        raw["transient"] = transient
+    if export:
+        raw["export"] = export
+    if cases:
+        raw["cases"] = cases
+    return make_case(**raw)
+
+
+@pytest.fixture(scope="module")
+def decks(tmp_path_factory):
+    base = tmp_path_factory.mktemp("decks")
+    out = {}
+    out["steady"] = run(plate_case(), out=base / "steady", mesh=PLATE).out
+    out["transient"] = run(plate_case(transient={"end": 600.0, "step": 60.0, "initial_temperature": 20.0}),
+                           out=base / "transient", mesh=PLATE).out
+    multi = run(plate_case(cases=[{"name": "hot"}, {"name": "cold", "boundary": {"heater": {"value": 0.0}}}]),
+                out=base / "cases", mesh=PLATE)
+    out["cases_hot"], out["cases_cold"] = multi.out / "hot", multi.out / "cold"
+    return out
+
+
+def esatan_blocks(text: str) -> list[str]:
+    return [line.split()[0][1:].upper() for line in text.splitlines() if line.startswith("$")]
+
+
+def check_esatan(text: str) -> None:
+    blocks = esatan_blocks(text)
+    order = [b for b in blocks if b in ESATAN_ORDER]
+    assert order == sorted(order, key=ESATAN_ORDER.index), blocks  # block order of generated decks
+    for required in ("MODEL", "NODES", "CONDUCTORS", "CONSTANTS", "INITIAL", "EXECUTION", "OUTPUTS", "ENDMODEL"):
+        assert required in blocks, required
+    lines = text.splitlines()
+    model = lines[0].split()[1]
+    assert IDENT.match(model) and lines[-1] == f"$ENDMODEL {model}"
+    for line in lines:  # every statement is terminated (one statement per line in fem2tmm's decks)
+        body = line.split("#")[0].strip() if "'" not in line else line.strip()
+        if body and not body.startswith("$"):
+            assert re.search(r";\s*(#.*)?$", line), line
+    for m in re.finditer(r"^\s+([A-Z][A-Za-z0-9_]*)\s*(?:\(\d+\))?\s*=", text, re.M):  # constants and arrays
+        name = m.group(1)
+        if not re.match(r"^(QI|T|GL|GR)\d", name):
+            assert IDENT.match(name), name
+    numbers = [int(x) for x in re.findall(r"^\s+[DBX](\d+)\s*=", text, re.M)]
+    assert len(numbers) == len(set(numbers))
+    assert "CALL SOLVFM;" in text or "CALL SLCRNC;" in text
+    assert re.search(r"STEFAN = 5\.670374419e-08;", text)
+    assert "CALL PRNDTB(' ', 'L, T, QI, C', CURRENT);" in text
+
+
+def check_sinda(text: str) -> None:
+    heads = re.findall(r"^HEADER ([A-Z ]+?) DATA", text, re.M)
+    assert heads[0] == "OPTIONS" and "NODE" in heads and "CONDUCTOR" in heads and heads[-1] == "OPERATIONS"
+    ops = text[text.index("HEADER OPERATIONS DATA"):]
+    assert "BUILD ALL" in ops and ("CALL STEADY" in ops or "CALL TRANSIENT" in ops)
+    assert text.rstrip().endswith("END OF DATA")
+    nodes = re.findall(r"^\s+(-?\d+), [-0-9.e+]+, [-0-9.e+]+", text[text.index("HEADER NODE DATA"):
+                                                                   text.index("HEADER CONDUCTOR DATA")], re.M)
+    assert len(nodes) == len(set(abs(int(n)) for n in nodes))
+
+
+@pytest.mark.parametrize("kind", ["steady", "transient", "cases_hot", "cases_cold"])
+def test_every_study_kind_writes_conforming_decks(decks, kind):
+    folder = decks[kind]
+    check_esatan((folder / "model.esatan").read_text())
+    check_sinda((folder / "model.sinda").read_text())
+    text = (folder / "model.esatan").read_text()
+    assert ("CALL SLCRNC;" in text) == (kind == "transient")
+    if kind == "transient":
+        for c in ("TIMEO", "TIMEND", "DTIMEI", "OUTINT"):
+            assert re.search(rf"^\s+{c} = ", text, re.M), c
+
+
+def test_case_set_decks_share_their_conductors(decks):
+    # one network for the set (issue 29 item 2): the hot and cold decks differ in their loads only
+    hot, cold = ((decks[k] / "model.esatan").read_text() for k in ("cases_hot", "cases_cold"))
+    cond = lambda t: [ln for ln in t.splitlines() if re.match(r"\s+G[LR]\(", ln)]  # noqa: E731
+    assert cond(hot) == cond(cold) and cond(hot)
+    assert re.search(r"^\s+HEATER = 5\.0;", hot, re.M) and re.search(r"^\s+HEATER = 0\.0;", cold, re.M)
+
+
+def test_changing_a_named_load_in_the_deck_gives_what_fem2tmm_gives(decks, tmp_path):
+    # QI = rest + fraction x HEATER: editing HEATER in the deck and solving it (fem2tmm.lpm, independent of the
+    # run) gives a fresh run's super-node temperatures at that power: the thesis' network is state-independent
+    # (exact reduction of conduction; space-only radiation lumped alike), so to the solvers' tolerance
+    text = (decks["steady"] / "model.esatan").read_text()
+    edited = re.sub(r"^(\s+HEATER = )5\.0;", r"\g<1>12.0;", text, flags=re.M)
+    assert edited != text
+    f = tmp_path / "edited.esatan"
+    f.write_text(edited)
+    net = read_esatan(f)
+    T = solve_network(net).T
+    fresh = run(plate_case(12.0), mesh=PLATE)
+    n = fresh.reduced.n
+    labels = list(net.labels[:n])
+    assert labels == list(fresh.reduced.names)
+    assert np.abs(T[:n] - fresh.reduced_solution.T).max() < 1e-8
+    # and the named fixed temperature is a constant too
+    assert re.search(r"^\s+B\d+ = 'edge', T = EDGE,", text, re.M) and re.search(r"^\s+EDGE = 20\.0;", text, re.M)
+
+
+def test_two_exports_with_their_own_name_and_offset_merge_without_a_clash(tmp_path):
+    a = run(plate_case(export={"model_name": "PANEL_A"}), out=tmp_path / "a", mesh=PLATE).out
+    b = run(plate_case(export={"model_name": "PANEL_B", "node_offset": 100000}), out=tmp_path / "b", mesh=PLATE).out
+    ta, tb = (p.joinpath("model.esatan").read_text() for p in (a, b))
+    assert ta.startswith("$MODEL PANEL_A") and tb.startswith("$MODEL PANEL_B")
+    na = {int(x) for x in re.findall(r"^\s+[DB](\d+)\s*=", ta, re.M)}
+    nb = {int(x) for x in re.findall(r"^\s+[DB](\d+)\s*=", tb, re.M)}
+    assert na and nb and not (na & nb) and min(nb) > 100000
+    sa, sb = (p.joinpath("model.sinda").read_text() for p in (a, b))
+    assert "HEADER NODE DATA, PANELA" in sa and "HEADER NODE DATA, PANELB" in sb
+    # the offset deck still reads back to the same network (node numbers aside)
+    ra, rb = read_esatan(a / "model.esatan"), read_esatan(b / "model.esatan")
+    assert np.allclose(solve_network(ra).T, solve_network(rb).T, atol=1e-9)
+    with pytest.raises(Exception, match="model_name"):
+        plate_case(export={"model_name": "9 bad name"})
