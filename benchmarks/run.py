@@ -52,6 +52,7 @@ REGISTRY: dict[str, str] = {
     "transient": "benchmarks.transient:bench_transient",
     "orbit": "benchmarks.orbit:bench_orbit",
     "refine": "benchmarks.refine:bench_refine",
+    "envelope": "benchmarks.envelope:bench_envelope",
 }
 
 
