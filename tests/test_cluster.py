@@ -216,10 +216,29 @@ def test_allocation_caps_at_region_size_and_gives_one_per_small_region():
         assert n.sum() == total and (n >= 1).all() and (n <= [50, 20, 5, 40, 3, 30]).all()
 
 
-def test_too_few_clusters_for_the_regions_names_part_minimum_and_regions():
-    box = shapes.box(1, 1, 1, 2, 2, 2)
-    with pytest.raises(Fem2TmmError, match=r"part 'lid'.*6 regions.*at least 6.*region 0: 4 elements"):
-        cluster_parts(box.points, [shell_part(box, 5, name="lid")], box.n_elements)
+def test_fewer_clusters_than_regions_merge_the_smallest_across_the_strongest_link():
+    """Issue 33: a part may ask for fewer super nodes than it has regions.  A 1 x 0.6 x 0.3 box (six faces, six
+    regions: 0.6, 0.6, 0.3, 0.3, 0.18, 0.18 m²) asked for 4 clusters merges the two 0.6 x 0.3 ends (the smallest)
+    each into a 1 x 0.6 face (their longest shared edge, 0.6 m against 0.3 m); 1 cluster merges everything."""
+    box = shapes.box(1.0, 0.6, 0.3, 10, 6, 3)
+    c = cluster_parts(box.points, [shell_part(box, 4, name="lid")], box.n_elements)
+    rep = c.report["parts"][0]
+    assert rep["clusters"] == 4 and rep["regions"] == 4 and rep["contiguous"]
+    merged = rep["regions_merged"]
+    assert merged["regions_before"] == 6 and merged["merges"] == 2
+    for m in merged["smallest_first"]:
+        assert m["measure"] == pytest.approx(0.18) and m["link"] == pytest.approx(0.6)
+    assert (np.bincount(c.labels, minlength=4) > 0).all()
+    one = cluster_parts(box.points, [shell_part(box, 1, name="lid")], box.n_elements)
+    assert (one.labels == 0).all() and one.report["parts"][0]["regions_merged"]["merges"] == 5
+
+
+def test_disconnected_pieces_are_never_merged_and_the_refusal_lists_them():
+    a = shapes.plate(1.0, 1.0, 2, 2)
+    b = shapes.plate(1.0, 1.0, 2, 2)
+    two = shapes.merge(a, shapes.transform(b, translation=(3.0, 0.0, 0.0)))
+    with pytest.raises(Fem2TmmError, match=r"part 'lid'.*2 regions.*at least 2.*region 0: 4 elements"):
+        cluster_parts(two.points, [shell_part(two, 1, name="lid")], two.n_elements)
 
 
 # ------------------------------------------------------------------------------------------ seeding

@@ -18,7 +18,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .case import ClusteringSettings
 from .cluster.adjacency import dual_graph
-from .cluster.regions import regions as split_regions
+from .cluster.regions import merge_regions, regions as split_regions
 from .errors import Fem2TmmError
 from .mesh import Mesh
 
@@ -56,13 +56,22 @@ def _group_report(mesh: Mesh, name: str, feature_angle: float) -> dict:
     if len(el) > 1 or kind != "line":
         graph = dual_graph(mesh.points, cells, types, kind)
         normals = mesh.element_normals(el) if kind == "shell" else None
-        region, _ = split_regions(graph, len(el), kind, normals, None, feature_angle)
+        region, keep = split_regions(graph, len(el), kind, normals, None, feature_angle)
         rep["regions"] = int(region.max()) + 1 if len(el) else 0
+        # fewer super nodes merge regions, smallest first across the strongest link (cluster.regions.merge_regions);
+        # only disconnected pieces cannot merge: their count is the true floor
+        meas = (mesh.element_areas(el) if kind == "shell" else mesh.element_volumes(elements=el) if kind == "solid"
+                else mesh.element_lengths(el))
+        merged, _, merges = merge_regions(graph, region, keep, np.nan_to_num(np.asarray(meas, float)), 1)
+        rep["fewest_super_nodes"] = int(merged.max()) + 1 if len(el) else 0
+        rep["merges_below_regions"] = [{"measure": m["measure"], "link": m["link"]} for m in merges[:10]]
         if kind == "shell":
             bad = int(np.count_nonzero(~graph.consistent))
             rep["normals"] = "consistent" if bad == 0 else f"inconsistent across {bad} edges"
     else:
         rep["regions"] = 1
+        rep["fewest_super_nodes"] = 1
+        rep["merges_below_regions"] = []
     return rep
 
 
@@ -140,9 +149,10 @@ def inspection_text(rep: dict) -> str:
              + (f": larger than {LARGE_EXTENT_M:g} m, is the file in millimetres? then give --unit mm"
                 if max(ext) > LARGE_EXTENT_M else ""), "",
              f"groups (regions at the default feature angle {rep['feature_angle_deg']:g} deg = the fewest super "
-             "nodes a part of that group can take):"]
-    lines.append(f"  {'group':<18} {'kind':<6} {'elements':>8} {'regions':>7}  {'size':<22} {'thickness / section':<30} "
-                 "normals / types")
+             "nodes a part of that group takes without merging; 'min' the fewest it can take, fewer regions being "
+             "merged smallest first across the strongest link; only disconnected pieces cannot merge):"]
+    lines.append(f"  {'group':<18} {'kind':<6} {'elements':>8} {'regions':>7} {'min':>5}  {'size':<22} "
+                 f"{'thickness / section':<30} normals / types")
     for g in rep["groups"]:
         if g["kind"] == "shell":
             size = f"{g['area_m2']:.6g} m2"
@@ -156,8 +166,8 @@ def inspection_text(rep: dict) -> str:
             th = f"A {a:.6g} m2 ({g.get('section_source')})" if a is not None else "no area: set the part's 'area'"
         types = ", ".join(f"{t} {n}" for t, n in g["types"].items())
         extra = g.get("normals", "")
-        lines.append(f"  {g['group']:<18} {g['kind']:<6} {g['elements']:>8} {g['regions']:>7}  {size:<22} {th:<30} "
-                     f"{(extra + '; ') if extra else ''}{types}")
+        lines.append(f"  {g['group']:<18} {g['kind']:<6} {g['elements']:>8} {g['regions']:>7} "
+                     f"{g['fewest_super_nodes']:>5}  {size:<22} {th:<30} {(extra + '; ') if extra else ''}{types}")
     lines += ["", f"connected pieces (elements and joints): {len(rep['pieces'])}"]
     for i, p in enumerate(rep["pieces"]):
         lines.append(f"  {i + 1}: {p['elements']} elements, {p['nodes']} nodes, groups {', '.join(p['groups']) or '-'}; "

@@ -24,7 +24,7 @@ from .adjacency import DualGraph, dual_graph, induced_csr, to_csr
 from .allocate import allocate
 from .growing import grow, grow_balanced
 from .metis import metis_region, require as require_metis
-from .regions import regions as split_regions
+from .regions import merge_regions, regions as split_regions
 from .seeding import seed_elements, weighted_kmeans
 from .smoothing import smooth
 
@@ -101,6 +101,7 @@ class _Prepared:
     region: np.ndarray  # (m,)
     alloc: np.ndarray  # (r,)
     times: dict
+    merged: dict | None = None  # regions merged to meet the requested count (merge_regions)
 
 
 def _ids(part: PartInput, local: np.ndarray) -> str:
@@ -242,6 +243,12 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
             f"{_ids(part, np.flatnonzero(~graph.shared))}; remove them, merge duplicate nodes, or make them a part"
         )
     region, keep = split_regions(graph, m, part.kind, normals, part.attribute, feature_angle)
+    # fewer super nodes than regions: merge regions (smallest first, across the strongest link) instead of refusing;
+    # what cannot merge (disconnected pieces) is refused by allocate with the regions listed
+    n_split = int(region.max()) + 1 if m else 0
+    merges = []
+    if part.n_clusters < n_split:
+        region, keep, merges = merge_regions(graph, region, keep, measure, part.n_clusters)
     t2 = time.perf_counter()
     r = int(region.max()) + 1
     reg_measure = np.bincount(region, measure, minlength=r)
@@ -259,7 +266,8 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
                      shape=feature is None and not balance)
     t3 = time.perf_counter()
     times.update(geometry=t1 - t0, regions=t2 - t1, allocation=t3 - t2)
-    return _Prepared(part, weights, measure, centroids, graph, keep, region, alloc, times)
+    return _Prepared(part, weights, measure, centroids, graph, keep, region, alloc, times,
+                     merged={"regions_before": n_split, "merges": merges} if merges else None)
 
 
 METHODS = ("growing", "metis")
@@ -326,6 +334,9 @@ def _part_report(prep: _Prepared, labels: np.ndarray, k_offset: int, smoothing: 
         "elements": int(m),
         "clusters": int(k),
         "regions": int(len(prep.alloc)),
+        **({} if prep.merged is None else {"regions_merged": {
+            "regions_before": prep.merged["regions_before"], "merges": len(prep.merged["merges"]),
+            "smallest_first": prep.merged["merges"][:20]}}),
         "junctions": int(g.n_junctions),
         "measure": float(prep.measure.sum()),
         "measure_unit": _MEASURE_UNIT[part.kind],

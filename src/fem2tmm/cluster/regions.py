@@ -72,3 +72,85 @@ def regions(graph: DualGraph, m: int, kind: str, normals: np.ndarray | None = No
     rank = np.empty_like(first)
     rank[np.argsort(first, kind="stable")] = np.arange(len(first))
     return rank[comp].astype(np.int64), keep
+
+
+def merge_regions(graph: DualGraph, region: np.ndarray, keep: np.ndarray, measure: np.ndarray, n_target: int
+                  ) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """Merge regions until there are ``n_target`` (a part asking for fewer super nodes than it has regions).
+
+    Order: the region of smallest area (volume, length) first, into the neighbour it shares the strongest link
+    with (the longest shared edges, the largest shared faces: the largest conductance for a given sheet); repeated
+    on the merged regions.  Regions that touch no other region through an edge (face) of the part, disconnected
+    pieces, are never merged (a cluster stays contiguous), so fewer than ``n_target`` may be impossible: the caller
+    then refuses with the regions listed.
+
+    Parameters
+    ----------
+    graph : the part's :class:`DualGraph`
+    region : (m,) int64 region of each element (from :func:`regions`)
+    keep : (p,) bool links inside regions
+    measure : (m,) area (m²), volume (m³) or length (m) of each element
+    n_target : regions wanted
+
+    Returns
+    -------
+    region : (m,) int64 merged regions, renumbered by increasing smallest element index
+    keep : (p,) bool links inside the merged regions (the merged boundaries' links added)
+    merges : one dict per merge, in order: ``region`` (the absorbed one, original numbering of its smallest
+        element's region), ``into``, ``measure`` of the absorbed region, ``link`` (shared edge length m / face m²)
+    """
+    region = np.asarray(region, np.int64)
+    r = int(region.max()) + 1 if len(region) else 0
+    if n_target >= r:
+        return region, keep, []
+    a, b = graph.a, graph.b
+    cross = region[a] != region[b]
+    ra, rb = region[a[cross]], region[b[cross]]
+    lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
+    links: dict[int, dict[int, float]] = {i: {} for i in range(r)}
+    for i, j, w in zip(lo.tolist(), hi.tolist(), graph.measure[cross].tolist()):
+        links[i][j] = links[i].get(j, 0.0) + w
+        links[j][i] = links[j].get(i, 0.0) + w
+    size = np.bincount(region, measure, minlength=r).astype(float)
+    parent = np.arange(r)
+    alive = set(range(r))
+    merges: list[dict] = []
+    import heapq
+
+    heap = [(size[i], i) for i in range(r)]
+    heapq.heapify(heap)
+    while len(alive) > n_target and heap:
+        s, i = heapq.heappop(heap)
+        if i not in alive or s != size[i]:
+            continue  # stale entry
+        if not links[i]:
+            continue  # a disconnected piece: never merged
+        j = max(links[i], key=lambda k: (links[i][k], -k))
+        merges.append({"region": int(i), "into": int(j), "measure": float(size[i]), "link": float(links[i][j])})
+        # i into j
+        for k, w in links.pop(i).items():
+            del links[k][i]
+            if k != j:
+                links[j][k] = links[j].get(k, 0.0) + w
+                links[k][j] = links[k].get(j, 0.0) + w
+        parent[i] = j
+        size[j] += size[i]
+        alive.discard(i)
+        heapq.heappush(heap, (size[j], j))
+    # resolve the chains of merges, then renumber by smallest element index
+    root = np.arange(r)
+    for i in range(r):
+        k = i
+        while parent[k] != k:
+            k = parent[k]
+        root[i] = k
+    merged = root[region]
+    m = len(merged)
+    first = np.full(r, m, np.int64)
+    np.minimum.at(first, merged, np.arange(m))
+    used = np.flatnonzero(first < m)
+    rank = np.full(r, -1, np.int64)
+    rank[used[np.argsort(first[used], kind="stable")]] = np.arange(len(used))
+    new = rank[merged]
+    keep = keep | ((region[a] != region[b]) & (new[a] == new[b]))
+    return new, keep, merges
