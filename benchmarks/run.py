@@ -53,6 +53,7 @@ REGISTRY: dict[str, str] = {
     "orbit": "benchmarks.orbit:bench_orbit",
     "refine": "benchmarks.refine:bench_refine",
     "envelope": "benchmarks.envelope:bench_envelope",
+    "robustness": "benchmarks.robustness:bench_robustness",
 }
 
 

@@ -66,3 +66,25 @@ def test_faced_radiation_is_the_laplacian_of_the_node_couplings():
     # and not the face-averaged form σ Wᵀ diag(G1) W T⁴ − σ C T⁴ (different whenever a face's nodes differ in T)
     other = SIGMA * (W.T @ (G.sum(axis=1) * (W @ T**4)) - C @ T**4)
     assert np.abs(r - other).max() > 1e-6 * np.abs(r).max()
+
+
+def test_a_stalled_krylov_step_falls_back_to_the_exact_jacobian(monkeypatch):
+    """Issue 31: when GMRES stalls (here forced: it returns its start vector and a failure flag), the Newton step is
+    solved by a direct factorisation of the exact Jacobian, and the solve converges to the same field as the
+    Krylov path (1e-9 K: the Newton tolerance)."""
+    import scipy.sparse.linalg as spla
+
+    mesh = shapes.plate(0.3, 0.2, 12, 8)
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-4,
+                       "front": "black", "back": "black"}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
+                      {"kind": "power", "groups": ["plate"], "value": 5.0}])
+    model = build_model(mesh, case)
+    G = sp.random(model.faces.W.shape[0], model.faces.W.shape[0], density=0.05, random_state=1) * 1e-4
+    faced = dataclasses.replace(detailed_problem(model), faced=FacedRadiation(W=model.faces.W, G=sp.csr_matrix(G + G.T)))
+    good = solve_steady(faced)
+    monkeypatch.setattr(spla, "gmres", lambda A, b, **kw: (np.zeros_like(b), 1))
+    stalled = solve_steady(faced)
+    assert stalled.stats["direct_fallbacks"] >= 1
+    assert np.abs(stalled.T - good.T).max() < 1e-9
+    assert stalled.balance["relative"] < 1e-9

@@ -60,6 +60,8 @@ class Optics:
 
 
 NONE_OPTICS = "none"
+#: the smallest non-zero emissivity accepted (real surfaces: 0.02 and up; below, a steady field runs to 1e50 K)
+MIN_EMISSIVITY = 1e-3
 
 
 @dataclass(frozen=True)
@@ -611,6 +613,9 @@ class _Parser:
         d = self.table(d, w, {"emissivity", "absorptivity", "specular", "transmissivity", "transmission_specular"},
                        {"emissivity"})
         eps = self.number(d, "emissivity", w, lo=0, hi=1)
+        if 0 < eps < MIN_EMISSIVITY:
+            raise self.err(f"{w}.emissivity", f"{eps:g} is below any real surface's (polished gold about 0.02): use 0 "
+                           f"for a side that does not radiate, or at least {MIN_EMISSIVITY:g}")
         alpha = self.number(d, "absorptivity", w, default=eps, lo=0, hi=1)
         tau = self.number(d, "transmissivity", w, default=_default(Optics, "transmissivity"), lo=0, hi=1)
         if eps + tau > 1 + 1e-12:

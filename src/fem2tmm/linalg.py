@@ -24,3 +24,14 @@ def solve(A, b: np.ndarray) -> np.ndarray:
     if sp.issparse(A):
         return factorize(A).solve(np.asarray(b, dtype=float))
     return np.linalg.solve(np.asarray(A, float), b)
+
+
+#: a residual within this many machine epsilons of its terms' magnitudes is at round-off
+ROUNDOFF_ULPS = 32.0
+
+
+def roundoff(K, T: np.ndarray) -> float:
+    """Round-off level (W) of a conduction residual K T summed over the nodes: ``ROUNDOFF_ULPS`` machine epsilons of
+    Σ_ij |K_ij| |T_j|.  K (n, n) sparse or dense, W/K; T (n,) K."""
+    A = abs(sp.csr_matrix(K)) if sp.issparse(K) else np.abs(np.asarray(K, float))
+    return ROUNDOFF_ULPS * float(np.finfo(float).eps) * float(np.sum(A @ np.abs(np.asarray(T, float))))

@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 
 from .case import Case
 from .errors import Fem2TmmError
@@ -469,7 +470,19 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 q_lumped = q_lumped + q_sn_avg
         result.reduced = rm
         with prog.stage("solve_reduced", "solving the reduced model"):
-            result.reduced_solution = _solve(reduced_problem(rm), case)
+            try:
+                result.reduced_solution = _solve(reduced_problem(rm), case)
+            except Fem2TmmError:
+                negative = _negative_links(rm.K)
+                if not negative:
+                    raise
+                # the exact condensation's negative conductances break the maximum principle: with extreme loads
+                # such a network can have no positive steady solution although the detailed model has one
+                raise Fem2TmmError(
+                    f"{case.source}: the reduced network has {negative} negative conductances (the exact "
+                    f"condensation of the thesis' reduction), which break the maximum principle, and no physical "
+                    f"steady solution under these loads (the detailed model has one); use [reduction] network = \"positive\", radiation_aware = true, or more super "
+                    "nodes") from None
         if case.reduction.network == "positive":
             exact = result.reduced_solution
             with prog.stage("positive", "fitting a positive sparse network"):
@@ -610,6 +623,13 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             result.delivered = check_deliverable(result, recover=result.detailed is not None)
     result.summary = build_summary(result, prog.timings)
     return result
+
+
+def _negative_links(K) -> int:
+    """Number of negative conductances (positive off-diagonal entries, upper triangle) of a network matrix."""
+    K = sp.csr_matrix(K) if sp.issparse(K) else sp.csr_matrix(np.asarray(K, float))
+    up = sp.triu(K, k=1)
+    return int(np.count_nonzero(up.data > 1e-12 * max(float(np.abs(K.diagonal()).max(initial=0.0)), 1e-300)))
 
 
 def _solver_settings(case: Case) -> dict:

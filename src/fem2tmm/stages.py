@@ -967,12 +967,18 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         # (Without exchange that field would be the detailed solution itself: the thesis' field stays the start.)
         T_ref = solve_steady(dataclasses.replace(detailed_problem(model), Q=np.asarray(q_detailed, float)),
                              tol=0.1, max_iter=case.solver.max_iterations).T
+        presolved = True
+    else:
+        presolved = shared
+    restarted = False
     n_outer = max(int(case.reduction.outer_iterations), 1) * (SHARED_OUTER_FACTOR if shared else 1)
     if shared:  # one linearisation for the whole case set: reduce once, keep h fixed
         base = build_reduced(model, clustering, case, T_ref=np.asarray(linearised_at, float))
         base = dataclasses.replace(base, radiative=dataclasses.replace(base.radiative, T_sink=model.T_sink))
         T_ref = np.asarray(linearised_at, float).copy()
-    for it in range(n_outer):
+    for it in range(n_outer + (0 if presolved else 1)):  # (one restart may take an iteration)
+        if len(history) >= n_outer:
+            break
         # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically (shared: h fixed,
         # the steps shrink linearly)
         ra_rm = base if shared else build_reduced(model, clustering, case, T_ref=T_ref)
@@ -1000,13 +1006,29 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
             corr = corr + ra.reduction.distribute(q_abs) - absorbed
             q_rec = q_detailed + q_abs
         ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
-        with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
-            sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+        try:
+            with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
+                sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance,
+                                   max_iter=case.solver.max_iterations)
+        except Fem2TmmError:
+            if presolved:
+                raise
+            # linearised about the thesis' field, too far off (a strong heater on a thin strip: 2 000 K where the
+            # thesis' field had hundreds), the network has no physical solution: start again from the detailed
+            # field radiating to space only (without face-to-face exchange, the detailed solution itself)
+            T_ref = solve_steady(dataclasses.replace(detailed_problem(model), Q=np.asarray(q_detailed, float)),
+                                 tol=0.1, max_iter=case.solver.max_iterations).T
+            presolved = restarted = True
+            continue
         T = ra.recover(sol.T, q_rec, T_ref)
         d = T - T_ref
         history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
                         "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
                         "correction_W": float(np.abs(corr).sum())})
+        if restarted:
+            history[-1]["restarted"] = ("the network linearised about the thesis' field had no physical solution: "
+                                        "restarted from the detailed field radiating to space")
+            restarted = False
         T_ref = T
         step = history[-1]["max_dT_K"]
         if step < OUTER_TOLERANCE:

@@ -39,6 +39,7 @@ import scipy.sparse.linalg as spla
 
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
+from ..linalg import roundoff
 
 #: Newton stops once the largest temperature step is below this (K), the IR fixed point likewise
 RECOVERY_TOLERANCE = 1e-10
@@ -223,6 +224,7 @@ class ExportedRecovery:
         for _ in range(RECOVERY_MAX_ROUNDS):
             qa = q + self._absorbed(T, T_sn, T_sink)
             T_start = T.copy()
+            prev = None
             for _ in range(RECOVERY_MAX_NEWTON):
                 r1 = self.K @ T + SIGMA * self.e * (T**4 - s4) + self.A.T @ mu - qa
                 r2 = self.A @ T - T_sn
@@ -233,8 +235,16 @@ class ExportedRecovery:
                     step *= 0.5
                 T = T + step * dT
                 mu = mu + step * d[n:]
-                if np.abs(step * dT).max() < RECOVERY_TOLERANCE:
+                # the tolerance, or the round-off of the temperatures (1e-13 of the hottest node: a model whose
+                # temperatures reach 1e5 K)
+                size = float(np.abs(step * dT).max())
+                if size < max(RECOVERY_TOLERANCE, 1e-13 * float(np.abs(T).max())):
                     break
+                # Newton no longer contracts with the residual at the round-off of the conduction terms: the
+                # floating-point floor of an ill-conditioned model
+                if prev is not None and size > 0.5 * prev and np.abs(r1).sum() <= roundoff(self.K, T):
+                    break
+                prev = size
             else:
                 raise Fem2TmmError(f"the recovery's Newton did not converge in {RECOVERY_MAX_NEWTON} steps (last "
                                    f"step {np.abs(step * dT).max():.3g} K): are the super-node temperatures in K and "

@@ -23,7 +23,7 @@ import scipy.sparse as sp
 
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
-from ..linalg import factorize
+from ..linalg import factorize, roundoff
 
 
 @dataclass(frozen=True)
@@ -121,6 +121,15 @@ class _Operators:
             out = out + self.face_lumped * T4 - self.W.T @ (self.Gf @ (self.W @ T4))
         return SIGMA * np.asarray(out).ravel()
 
+    def emitting(self) -> np.ndarray:
+        """Each node's radiative conductance, to space and to the other nodes (n,) m² (ε A-like)."""
+        e = np.array(self.g, float)
+        if self.L is not None:
+            e = e + (self.L.diagonal() if sp.issparse(self.L) else np.diag(self.L))
+        if self.Gf is not None:
+            e = e + self.face_lumped
+        return e
+
     def residual(self, T: np.ndarray) -> np.ndarray:
         p = self.p
         T4 = T**4
@@ -190,12 +199,30 @@ def check_solvable(problem: SteadyProblem, describe=None) -> None:
         )
 
 
-#: Newton also stops, for a field with a node below COLD_FIELD (K), once every free node's residual is below
-#: RESIDUAL_FLOOR times the heat-flow scale (loads + the start's imbalance, W): near 0 K the Jacobian 4σεA·T³
-#: vanishes (a 0 K sink and no load: T -> 3/4 T per step, singular in floating point below ~0.003 K), so the step
-#: criterion alone cannot be met there
+#: Newton also stops, for a field with a node below COLD_FIELD (K), once the free nodes' residuals sum to less than
+#: RESIDUAL_FLOOR times the heat-flow scale (loads + the start's imbalance, W); and for a field within COLD_TOLERANCE
+#: (K) of 0 K everywhere, once they sum to less than COLD_RESIDUAL times what its radiating nodes would emit at
+#: COLD_FIELD (σ Σ g x 1 K⁴, W: a field at 0.3 K residual at most, loads at round-off, 1e-16 W, of a correction
+#: formed at a cold state).  Near 0 K the Jacobian 4σεA·T³ vanishes (a 0 K sink and no load: T -> 3/4 T per step,
+#: singular in floating point below ~1 mK), so the step criterion alone cannot be met there
 RESIDUAL_FLOOR = 1e-11
 COLD_FIELD = 1.0
+COLD_RESIDUAL = 1e-2
+COLD_TOLERANCE = 0.03
+#: Newton also stops once it no longer contracts (a step over half the previous one) with the free nodes' residuals
+#: below STALL_RESIDUAL of the gross heat flows or at the round-off of the conduction terms (linalg.roundoff): the
+#: round-off floor of an ill-conditioned model, where the step
+#: criterion cannot be met in floating point
+STALL_RESIDUAL = 1e-10
+#: the energy balance's scale is at least BALANCE_FLOOR of the start's heat flows, and at least the model's emission
+#: at BALANCE_COLD kelvin (a model whose flows are smaller, a field at or near 0 K, is measured against that)
+BALANCE_FLOOR = 1e-2
+BALANCE_CONDUCTION = 1e-4
+BALANCE_COLD = 10.0
+#: trust region: one Newton step multiplies a node's temperature by at most 1 + MAX_GROWTH and divides it by at most
+#: 1 / (1 - MAX_DROP) (a cold start under a strong load would otherwise jump to 1e20 K on the T³-small Jacobian)
+MAX_GROWTH = 4.0
+MAX_DROP = 0.8
 
 
 def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, tol: float = 1e-9,
@@ -203,8 +230,8 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     """Solve the steady network by damped Newton.
 
     ``T0`` start temperature(s) in K (default: mean of the fixed temperatures, else the sink).
-    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T), or, for a field at or near 0 K, when every
-    free node's residual is below :data:`RESIDUAL_FLOOR` times the heat flows (W).  Sparse problems with factored
+    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T), or, for a field at or near 0 K, when the
+    free nodes' residuals sum to less than :data:`RESIDUAL_FLOOR` times the heat flows (W).  Sparse problems with factored
     face radiation use Newton-Krylov: GMRES on the exact Jacobian, preconditioned by the LU of the
     conduction matrix plus the lumped radiative conductances (the exact Jacobian would be dense-ish).
     """
@@ -213,6 +240,12 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     free = np.flatnonzero(~fixed)
     if T0 is None:
         T0 = float(np.mean(problem.T_fixed[fixed])) if fixed.any() else max(problem.T_sink, 3.0)
+        # no colder than the whole model's radiative equilibrium with its loads (radiation-dominated nodes converge
+        # monotonically from above, T⁴ being convex; from far below, the first steps overshoot)
+        g_tot = float(np.sum(problem.g_space))
+        q_tot = float(np.sum(problem.Q[~fixed]))
+        if g_tot > 0 and q_tot > 0:
+            T0 = max(T0, float(((q_tot / (SIGMA * g_tot)) + problem.T_sink**4) ** 0.25))
     T = np.broadcast_to(np.asarray(T0, float), (n,)).copy()
     T[fixed] = problem.T_fixed[fixed]
     if np.any(T <= 0):
@@ -242,13 +275,25 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     # near 0 K (a 0 K sink, no load) converges on it, where the step criterion alone would follow T -> 3/4 T towards
     # an underflowing Jacobian
     flow_scale = float(np.abs(problem.Q).sum() + np.abs(r).sum()) + 1e-300
-    converged, it, step = False, 0, np.inf
+    cold_scale = SIGMA * COLD_FIELD**4 * float(ops.emitting()[free].sum())
+    cold_floor = COLD_RESIDUAL * cold_scale
+    emitting = ops.emitting()
+
+    def gross_flows(T, r):
+        """Gross heat flows (W): loads, into the fixed nodes, emitted and absorbed from the sink."""
+        return (float(np.abs(problem.Q).sum() + np.abs(r[fixed]).sum())
+                + SIGMA * float(emitting @ (T**4 + problem.T_sink**4)))
+
+    converged, it, step, prev_full = False, 0, np.inf, None
     if len(free) == 0:
         converged = True
     while not converged and it < max_iter:
         it += 1
-        if np.abs(r[free]).max(initial=0.0) <= RESIDUAL_FLOOR * flow_scale and T[free].min(initial=np.inf) < COLD_FIELD:
+        res = np.abs(r[free]).sum()
+        if ((T[free].min(initial=np.inf) < COLD_FIELD and res <= RESIDUAL_FLOOR * flow_scale)
+                or (T[free].max(initial=0.0) < COLD_TOLERANCE and res <= cold_floor)):
             step, converged = 0.0, True
+            stats["stopped_on"] = "cold field"
             break
         try:
             dT = np.asarray(step_solve(T, -r[free])).ravel()
@@ -259,17 +304,27 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         if not np.all(np.isfinite(dT)):
             raise Fem2TmmError("the steady solve failed (singular or ill-conditioned system); check boundary conditions")
         full = float(np.max(np.abs(dT))) if len(dT) else 0.0
-        if full < tol or full < 1e-13 * float(np.max(np.abs(T))):
-            # converged: the step is below the tolerance (or round-off); take it without line search
+        stalled = (prev_full is not None and full > 0.5 * prev_full
+                   and np.abs(r[free]).sum() <= max(STALL_RESIDUAL * gross_flows(T, r), roundoff(ops.K, T)))
+        if full < tol or full < 1e-13 * float(np.max(np.abs(T))) or stalled:
+            # converged: the step is below the tolerance (or round-off), or Newton no longer contracts with the
+            # residual at round-off of the heat flows (an ill-conditioned model: a sliver, extreme temperatures);
+            # take it without line search
             T[free] += dT
             r = ops.residual(T)
             step, converged = full, True
+            stats["stopped_on"] = "round-off" if stalled and not full < tol else "step"
             break
-        # positivity: never let a temperature drop by more than 80 % in one step
+        prev_full = full
+        # trust region: never let a temperature drop by more than MAX_DROP or grow by more than MAX_GROWTH times
+        # itself in one step (positivity; a cold start under a strong load)
         a = 1.0
         dec = dT < 0
         if dec.any():
-            a = min(1.0, float(np.min(0.8 * T[free][dec] / -dT[dec])))
+            a = min(a, float(np.min(MAX_DROP * T[free][dec] / -dT[dec])))
+        inc = dT > 0
+        if inc.any():
+            a = min(a, float(np.min(MAX_GROWTH * T[free][inc] / dT[inc])))
         if ops.radiative:
             while a > 1e-6:
                 Tn = T.copy()
@@ -302,8 +357,16 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     fixed_in = float(np.sum(heat_fixed))
     space = float(np.sum(to_space))
     imbalance = applied + fixed_in - space
-    # relative to the gross heat flows (two fixed nodes may exchange heat with a zero net sum)
-    scale = max(float(np.abs(problem.Q).sum()), float(np.abs(heat_fixed).sum()), float(np.abs(to_space).sum()), 1e-300)
+    # relative to the gross heat flows (two fixed nodes may exchange heat with a zero net sum), floored at
+    # BALANCE_FLOOR of the start's heat flows: a field that settles at 0 K (a 0 K sink, no load) has flows of
+    # 1e-20 W whose round-off would otherwise read as an open balance
+    # the flows to space count gross (emitted and absorbed from the sink: near equilibrium with the sink their net is
+    # the round-off of two large terms); a model with no flow at all (held at one temperature) is measured against
+    # the conduction of a BALANCE_CONDUCTION relative temperature change
+    k_diag = np.abs(ops.K.diagonal() if not ops.dense else np.diag(ops.K))
+    scale = max(float(np.abs(problem.Q).sum()), float(np.abs(heat_fixed).sum()),
+                SIGMA * float(problem.g_space @ (T**4 + problem.T_sink**4)),
+                BALANCE_FLOOR * flow_scale, cold_scale * (BALANCE_COLD / COLD_FIELD) ** 4, BALANCE_CONDUCTION * float(k_diag @ np.abs(T)), 1e-300)
     balance = {"applied_W": applied, "fixed_W": fixed_in, "space_W": space, "imbalance_W": imbalance,
                "relative": abs(imbalance) / scale if scale > 1e-300 else 0.0}
     return SteadySolution(T=T, iterations=it, converged=converged, max_step=step, heat_fixed=heat_fixed,
@@ -338,6 +401,14 @@ def _newton_krylov_step(ops: _Operators, d: np.ndarray, free: np.ndarray, b: np.
     if info != 0:
         rel = np.linalg.norm(matvec(x) - b) / max(np.linalg.norm(b), 1e-300)
         if not rel < 1e-6:
-            raise Fem2TmmError(f"the radiative Newton step did not converge (GMRES relative residual {rel:.1e}); "
-                               "the model may be ill-posed")
+            # the Krylov residual stalled (a Jacobian dominated by the face couplings the preconditioner lumps, or
+            # near-singular near 0 K): fall back to a direct factorisation of the exact Jacobian, face couplings
+            # assembled (denser, but exact)
+            stats["direct_fallbacks"] = stats.get("direct_fallbacks", 0) + 1
+            try:
+                x = spla.splu(sp.csc_matrix(ops.jacobian(d, free))).solve(b)  # partial pivoting: a fallback
+            except (RuntimeError, np.linalg.LinAlgError, MemoryError) as exc:
+                raise Fem2TmmError(f"the radiative Newton step did not converge (GMRES relative residual {rel:.1e}) "
+                                   f"and the direct factorisation of the exact Jacobian failed ({exc}); check the "
+                                   "boundary conditions") from None
     return x
