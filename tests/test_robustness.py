@@ -71,6 +71,17 @@ REGRESSIONS = {
                                 _case(2.51, 0.871, alpha=0.863, back="none", thickness=3.28e-3, super_nodes=9,
                                       boundary=[{**HELD, "value": 6.5}, {**HEATER, "value": 596.55}], sink=-118.9,
                                       aware=True)),
+    # a 1e-13 W heater on a 24-tet solid held at 0 °C: the heat it stores per step (6e-12 J on 900 J/K) is below what
+    # float64 resolves at 273 K, so the transient books read 6.7e-9 "relative" against flows of 1e-11 J; they are
+    # now measured against the heat of a 1e-6 relative change of the temperatures
+    "transient_books_at_round_off": ("box(0.2, 0.05, 0.05, 2, 1, 2, kind='solid', element='tet4')", {
+        "materials": {"m": {"conductivity": 1.0, "density": 2000.0, "specific_heat": 900.0}},
+        "optics": {"paint": {"emissivity": 0.0, "absorptivity": 0.0, "specular": 0.0}},
+        "parts": [{"name": "p", "groups": ["box"], "material": "m", "front": "paint", "super_nodes": 2}],
+        "boundary": [{**HELD, "value": 0.0}, {**HEATER, "groups": ["box"], "value": 1e-13}],
+        "environment": {"sink_temperature": -134.55}, "radiation": {"enabled": False},
+        "reduction": {"radiation_aware": False}, "reference": {"detailed": True, "rays_per_face": 10, "noise": False},
+        "transient": {"end": 600.0, "step": 60.0, "initial_temperature": 0.0}}),
     # ε = 0, held at -26 °C, radiation-aware: the recovery's Newton stalled at 7e-10 K on round-off
     "recovery_round_off": ("plate(0.839842876083009, 0.001, 4, 1)",
                            _case(1.0, 0.0, alpha=0.85, specular=0.5, back="none", thickness=5.1e-4,

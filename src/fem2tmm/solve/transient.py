@@ -60,8 +60,8 @@ METHODS = ("crank-nicolson", "backward-euler", "bdf2")
 REFACTOR_RATE = 0.2
 #: Newton iterations per step before the step is declared failed (then halved when adaptive)
 MAX_NEWTON = 30
-#: kelvin: the energy balance's per-step scale is at least the heat of this change of the whole model (books)
-BALANCE_HEAT_K = 1e-6
+#: the energy balance's per-step scale is at least the heat of this relative change of every temperature (books)
+BALANCE_HEAT_REL = 1e-6
 #: the smallest substep, as a fraction of the run, before a failed Newton is reported
 MIN_SUBSTEP = 1e-10
 #: largest growth of the step between two accepted steps (adaptive stepping)
@@ -481,9 +481,10 @@ class _Integrator:
     def books(self, first: int = 0) -> tuple[dict, dict]:
         """Per-step records from step ``first`` on and their totals."""
         steps = {k: np.asarray(v[first:], float) for k, v in self.records.items()}
-        # each step's gross flows, floored at the heat of a BALANCE_HEAT_K change of the whole model (J): a run with
-        # no flow at all (no load, at the sink's temperature) is measured against that, not against its round-off
-        gross = np.maximum(steps.pop("gross"), BALANCE_HEAT_K * float(np.abs(self.c).sum()))
+        # each step's gross flows, floored at the heat of a BALANCE_HEAT_REL relative change of every temperature
+        # (J; float64 resolves a stored heat of ~1e-16 C T per step): a run with no flow at all, or a 1e-13 W heater
+        # on a 900 J/K part at 273 K, is measured against that, not against its round-off
+        gross = np.maximum(steps.pop("gross"), BALANCE_HEAT_REL * float(np.abs(self.c) @ np.abs(self.T)))
         tot = {k: float(steps[k].sum()) for k in ("stored", "applied", "to_space", "into_fixed", "imbalance")}
         g = float(gross.sum())
         tot["relative"] = abs(tot["imbalance"]) / g if g > 0 else 0.0
