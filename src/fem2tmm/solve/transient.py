@@ -62,6 +62,8 @@ REFACTOR_RATE = 0.2
 MAX_NEWTON = 30
 #: the energy balance's per-step scale is at least the heat of this relative change of every temperature (books)
 BALANCE_HEAT_REL = 1e-6
+#: a transient step's Newton also stops once its residual (J) is below this fraction of the step's gross heat terms
+STEP_RESIDUAL = 1e-12
 #: the smallest substep, as a fraction of the run, before a failed Newton is reported
 MIN_SUBSTEP = 1e-10
 #: largest growth of the step between two accepted steps (adaptive stepping)
@@ -356,10 +358,19 @@ class _Integrator:
         solve = newton.solver(beta, T1)
         prev, it, ok = None, 0, False
         F1 = pieces = None
+        dn = None
         while it < MAX_NEWTON:
             F1, pieces = self._flux(t1, T1)
             R = self._CdT(T1 - self.T)[free] - beta * F1[free] - r
             if newton.linear and it == 1:
+                ok = True
+                break
+            # the residual criterion (J): the step's equation holds to STEP_RESIDUAL of its gross heat terms
+            gross = (np.abs(self._CdT(T1 - self.T)[free]).sum() + beta * np.abs(F1[free]).sum()
+                     + np.abs(r).sum() + 1e-300)
+            res = float(np.abs(R).sum())
+            self._last_newton = (float(dn) if it and dn is not None else float("nan"), res / gross)
+            if it > 0 and res <= STEP_RESIDUAL * gross:
                 ok = True
                 break
             if newton.krylov:
@@ -442,9 +453,13 @@ class _Integrator:
                 # Newton failed on this step: retry on a quarter of it (with a fixed step too: the step in the case
                 # file is then the output grid and the largest step, substeps land on it)
                 if h < MIN_SUBSTEP * span:
-                    raise Fem2TmmError(f"the transient Newton iterations did not converge at t = {self.t + h:.6g} s "
-                                       f"even on a step of {h:.3g} s ({MIN_SUBSTEP:g} of the run); check the loads "
-                                       "and boundary temperatures for a physical solution")
+                    dn, rel = getattr(self, "_last_newton", (float("nan"), float("nan")))
+                    raise Fem2TmmError(
+                        f"the transient Newton iterations did not converge at t = {self.t + h:.6g} s even on a step "
+                        f"of {h:.3g} s ({MIN_SUBSTEP:g} of the run): the last correction was {dn:.3g} K against "
+                        f"the tolerance ({self.s.newton_rtol:g} of the step's change) and the residual "
+                        f"{rel:.3g} of the step's heat terms against {STEP_RESIDUAL:g}; check the loads and "
+                        "boundary temperatures for a physical solution, or give a [transient] tolerance")
                 self.stats["rejected"] += 1
                 self.h_next = 0.25 * h
                 continue
