@@ -54,6 +54,7 @@ REGISTRY: dict[str, str] = {
     "refine": "benchmarks.refine:bench_refine",
     "envelope": "benchmarks.envelope:bench_envelope",
     "robustness": "benchmarks.robustness:bench_robustness",
+    "rom": "benchmarks.rom:bench_rom_all",
 }
 
 
