@@ -230,8 +230,10 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     """Solve the steady network by damped Newton.
 
     ``T0`` start temperature(s) in K (default: mean of the fixed temperatures, else the sink).
-    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T), or, for a field at or near 0 K, when the
-    free nodes' residuals sum to less than :data:`RESIDUAL_FLOOR` times the heat flows (W).  Sparse problems with factored
+    Stops when max|ΔT| < ``tol`` K (or below round-off, 1e-13 x max T); at the round-off floor of an
+    ill-conditioned model (:data:`STALL_RESIDUAL`); or, for a field at or near 0 K, on the residual floors of
+    :data:`RESIDUAL_FLOOR` and :data:`COLD_RESIDUAL` (``stats["stopped_on"]`` says which; docs/case-file.md,
+    [solver]).  Each step stays in a trust region (:data:`MAX_GROWTH`, :data:`MAX_DROP`).  Sparse problems with factored
     face radiation use Newton-Krylov: GMRES on the exact Jacobian, preconditioned by the LU of the
     conduction matrix plus the lumped radiative conductances (the exact Jacobian would be dense-ish).
     """
@@ -275,9 +277,9 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     # near 0 K (a 0 K sink, no load) converges on it, where the step criterion alone would follow T -> 3/4 T towards
     # an underflowing Jacobian
     flow_scale = float(np.abs(problem.Q).sum() + np.abs(r).sum()) + 1e-300
-    cold_scale = SIGMA * COLD_FIELD**4 * float(ops.emitting()[free].sum())
-    cold_floor = COLD_RESIDUAL * cold_scale
     emitting = ops.emitting()
+    cold_scale = SIGMA * COLD_FIELD**4 * float(emitting[free].sum())
+    cold_floor = COLD_RESIDUAL * cold_scale
 
     def gross_flows(T, r):
         """Gross heat flows (W): loads, into the fixed nodes, emitted and absorbed from the sink."""
