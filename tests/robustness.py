@@ -47,7 +47,8 @@ def models(draw):
         part_groups, held = ["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"], "zmin"
     elif kind == "solid":
         call = (f"box(0.2, 0.05, 0.05, {draw(st.integers(1, 8))}, {draw(st.integers(1, 3))}, "
-                f"{draw(st.integers(1, 3))}, kind='solid', element={draw(st.sampled_from(['hex8', 'tet4', 'wedge6']))!r})")
+                f"{draw(st.integers(1, 3))}, kind='solid', "
+                f"element={draw(st.sampled_from(['hex8', 'tet4', 'wedge6']))!r})")
         part_groups, held = ["box"], "xmin"
     else:  # two plates touching at one corner node only
         call = "merge(plate(0.1, 0.1, 3, 3), transform(plate(0.1, 0.1, 3, 3), translation=(0.1, 0.1, 0.0)))"
@@ -66,7 +67,8 @@ def models(draw):
     boundary = []
     hold = draw(st.booleans())
     if hold:
-        boundary.append({"name": "held", "kind": "temperature", "groups": [held], "value": draw(st.floats(-150.0, 120.0))})
+        boundary.append({"name": "held", "kind": "temperature", "groups": [held],
+                         "value": draw(st.floats(-150.0, 120.0))})
     heater = draw(st.floats(0.0, 1000.0))
     if heater > 0 or not hold:
         boundary.append({"name": "heater", "kind": "power", "groups": part_groups[:1] if kind != "box" else ["zmax"],

@@ -81,7 +81,8 @@ def test_a_stalled_krylov_step_falls_back_to_the_exact_jacobian(monkeypatch):
                       {"kind": "power", "groups": ["plate"], "value": 5.0}])
     model = build_model(mesh, case)
     G = sp.random(model.faces.W.shape[0], model.faces.W.shape[0], density=0.05, random_state=1) * 1e-4
-    faced = dataclasses.replace(detailed_problem(model), faced=FacedRadiation(W=model.faces.W, G=sp.csr_matrix(G + G.T)))
+    faced = dataclasses.replace(detailed_problem(model),
+                                faced=FacedRadiation(W=model.faces.W, G=sp.csr_matrix(G + G.T)))
     good = solve_steady(faced)
     monkeypatch.setattr(spla, "gmres", lambda A, b, **kw: (np.zeros_like(b), 1))
     stalled = solve_steady(faced)

@@ -481,8 +481,8 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 raise Fem2TmmError(
                     f"{case.source}: the reduced network has {negative} negative conductances (the exact "
                     f"condensation of the thesis' reduction), which break the maximum principle, and no physical "
-                    f"steady solution under these loads (the detailed model has one); use [reduction] network = \"positive\", radiation_aware = true, or more super "
-                    "nodes") from None
+                    f"steady solution under these loads (the detailed model has one); use [reduction] network = "
+                    "\"positive\", radiation_aware = true, or more super nodes") from None
         if case.reduction.network == "positive":
             exact = result.reduced_solution
             with prog.stage("positive", "fitting a positive sparse network"):

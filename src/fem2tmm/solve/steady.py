@@ -368,7 +368,8 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     k_diag = np.abs(ops.K.diagonal() if not ops.dense else np.diag(ops.K))
     scale = max(float(np.abs(problem.Q).sum()), float(np.abs(heat_fixed).sum()),
                 SIGMA * float(problem.g_space @ (T**4 + problem.T_sink**4)),
-                BALANCE_FLOOR * flow_scale, cold_scale * (BALANCE_COLD / COLD_FIELD) ** 4, BALANCE_CONDUCTION * float(k_diag @ np.abs(T)), 1e-300)
+                BALANCE_FLOOR * flow_scale, cold_scale * (BALANCE_COLD / COLD_FIELD) ** 4,
+                BALANCE_CONDUCTION * float(k_diag @ np.abs(T)), 1e-300)
     balance = {"applied_W": applied, "fixed_W": fixed_in, "space_W": space, "imbalance_W": imbalance,
                "relative": abs(imbalance) / scale if scale > 1e-300 else 0.0}
     return SteadySolution(T=T, iterations=it, converged=converged, max_step=step, heat_fixed=heat_fixed,
