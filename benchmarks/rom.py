@@ -28,7 +28,6 @@ One JSON line per (study, method, r, test).
 
 from __future__ import annotations
 
-import copy
 import time
 import tomllib
 import warnings
@@ -448,7 +447,6 @@ def bench_rom(rs=RS) -> list[dict]:
 
     T_refA, T_refB = nodes(solA.T), nodes(solB.T)
     # steady hot / cold: the detailed steady of the same model with the heater held
-    t_hot = 4500.0 if STEADY["hot"] == 60.0 else None
     steady_ref = {}
     for name, t in (("hot", 4500.0), ("cold", 2700.0)):  # profile A holds 60 W at 4500 s and 0 W at 2700 s
         steady_ref[name] = (t, solve_steady(probA.steady_problem(t)).T)
