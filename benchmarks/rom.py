@@ -342,17 +342,8 @@ def bench_rom_smallsat(rs=RS) -> list[dict]:
     timers = {"detailed": resA.detailed_again}
     for r in rs:
         for hist, raan in (("A (training orbit)", RAAN_A), ("B (RAAN +30 deg)", RAAN_B)):
-            t0 = time.perf_counter()
-            res, _ = _capture_runs(_smallsat(raan, r, False))
-            wall = time.perf_counter() - t0
-            online = res.transient.timings.get("reduced", 0.0) + res.transient.timings.get("recover", 0.0)
-            if hist.startswith("A"):
-                timers[("super nodes", int(len(res.reduced.names)))] = res.online
-            rows.append({**common, "method": "super nodes", "r": int(len(res.reduced.names)), "test": hist,
-                         **_errors(nodes(res.transient.T_recovered), T_ref[hist[0]], ok),
-                         "online_s": round(online, 3), "offline_s": round(wall - online, 2), "training_s": 0.0,
-                         "speedup_excl_training": round(t_detA / max(online, 1e-9), 1),
-                         "speedup_incl_training": round(t_detA / max(wall, 1e-9), 2)})
+            res = _super_node_transient(_smallsat(raan, r, False), hist, T_ref[hist[0]], common, rows, timers,
+                                        nodes, ok)
             if hist.startswith("A"):
                 red = res.transient.reduced_problem
                 for name, (t, Tref) in steady_ref.items():
@@ -372,11 +363,7 @@ def bench_rom_smallsat(rs=RS) -> list[dict]:
                                               _integrate_periodic(rom, probA, times, SAT_STEP, y0, SAT_PERIODIC))
                 rows.append({**common, "method": label, "r": rom.r, **({"m": rom.m} if deim else {}),
                              "test": hist, **_errors(nodes(T), T_ref[hist[0]], ok), "periods": periods,
-                             "online_s": round(online, 3), "offline_s": round(rom.offline_s, 2),
-                             "training_s": round(t_train, 1),
-                             "speedup_excl_training": round(t_detA / max(online, 1e-9), 1),
-                             "speedup_incl_training": round(t_detA / max(online + rom.offline_s + t_train, 1e-9),
-                                                            2)})
+                             **_costs(online, rom.offline_s, t_train)})
             for name, (t, Tref) in steady_ref.items():
                 T, _ = rom.steady(probA, t)
                 rows.append({**common, "method": label, "r": rom.r, "test": f"steady {name}",
@@ -456,17 +443,7 @@ def bench_rom(rs=RS) -> list[dict]:
     for r in rs:
         # super nodes: fem2tmm's reduced transient (profile A, B) and steady hot / cold, all recovered
         for hist, prof, T_ref in (("A (training history)", PROFILE_A, T_refA), ("B", PROFILE_B, T_refB)):
-            t0 = time.perf_counter()
-            res, _ = _capture_runs(_composite(prof, r, False))
-            wall = time.perf_counter() - t0
-            online = res.transient.timings.get("reduced", 0.0) + res.transient.timings.get("recover", 0.0)
-            if hist.startswith("A"):
-                timers[("super nodes", int(len(res.reduced.names)))] = res.online
-            rows.append({**common, "method": "super nodes", "r": int(len(res.reduced.names)), "test": hist,
-                         **_errors(nodes(res.transient.T_recovered), T_ref, ok), "online_s": round(online, 3),
-                         "offline_s": round(wall - online, 2), "training_s": 0.0,
-                         "speedup_excl_training": round(t_detA / max(online, 1e-9), 1),
-                         "speedup_incl_training": round(t_detA / max(wall, 1e-9), 2)})
+            _super_node_transient(_composite(prof, r, False), hist, T_ref, common, rows, timers, nodes, ok)
         for name, (t, Tref) in steady_ref.items():
             for aware in (False, True):
                 res, _ = _capture_runs(_composite(None, r, False, steady_heater=STEADY[name], aware=aware))
@@ -487,16 +464,33 @@ def bench_rom(rs=RS) -> list[dict]:
                 if hist.startswith("A"):
                     timers[(label, rom.r)] = lambda rom=rom, y0=y0.copy(): rom.integrate(probA, times, STEP, y0)
                 rows.append({**common, "method": label, "r": rom.r, **({"m": rom.m} if deim else {}),
-                             "test": hist, **_errors(nodes(T), T_ref, ok), "online_s": round(online, 3),
-                             "offline_s": round(rom.offline_s, 2), "training_s": round(t_train, 1),
-                             "speedup_excl_training": round(t_detA / max(online, 1e-9), 1),
-                             "speedup_incl_training": round(t_detA / max(online + rom.offline_s + t_train, 1e-9),
-                                                            2)})
+                             "test": hist, **_errors(nodes(T), T_ref, ok),
+                             **_costs(online, rom.offline_s, t_train)})
             for name, (t, Tref) in steady_ref.items():
                 T, _ = rom.steady(probA, t, y0)
                 rows.append({**common, "method": label, "r": rom.r, "test": f"steady {name}",
                              **_errors(model.node_temperatures(T), model.node_temperatures(Tref), ok)})
     return _timed(rows, timers)
+
+
+def _costs(online: float, offline: float, training: float) -> dict:
+    """The cost fields of a transient row (s); the speed-ups are :func:`_timed`'s, from interleaved rounds."""
+    return {"online_s": round(online, 3), "offline_s": round(offline, 2), "training_s": round(training, 1)}
+
+
+def _super_node_transient(case, hist: str, T_ref: np.ndarray, common: dict, rows: list, timers: dict, nodes, ok):
+    """Run ``case`` with super nodes, append its row for history ``hist`` (errors against ``T_ref`` (n_t, n_nodes)
+    K), register its online part for the timing rounds when ``hist`` is the training one; the run's result."""
+    t0 = time.perf_counter()
+    res, _ = _capture_runs(case)
+    wall = time.perf_counter() - t0
+    online = res.transient.timings.get("reduced", 0.0) + res.transient.timings.get("recover", 0.0)
+    r = int(len(res.reduced.names))
+    if hist.startswith("A"):
+        timers[("super nodes", r)] = res.online
+    rows.append({**common, "method": "super nodes", "r": r, "test": hist,
+                 **_errors(nodes(res.transient.T_recovered), T_ref, ok), **_costs(online, wall - online, 0.0)})
+    return res
 
 
 def _timed(rows: list[dict], timers: dict) -> list[dict]:
@@ -513,8 +507,6 @@ def _timed(rows: list[dict], timers: dict) -> list[dict]:
                        f"{ROUNDS} interleaved rounds", speedup_excl_training=round(base / max(on, 1e-9), 1),
                        speedup_incl_training=round(base / max(on + row.get("offline_s", 0.0) + train, 1e-9), 2))
         elif "online_s" in row:  # the other histories: one run each, no speed-up claimed
-            row.pop("speedup_excl_training", None)
-            row.pop("speedup_incl_training", None)
             row["timing"] = "one run"
     return rows
 

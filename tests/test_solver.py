@@ -14,20 +14,23 @@ from fem2tmm.pipeline import detailed_problem
 from fem2tmm.solve.steady import FacedRadiation, solve_steady
 
 
-def test_faced_radiation_newton_krylov_equals_dense_newton():
+def faced_plate():
+    """(model, problem): a held, heated black plate whose detailed problem has a random symmetric, non-negative
+    face-to-face coupling (m², sparse)."""
     mesh = shapes.plate(0.3, 0.2, 12, 8)
     case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-4,
                        "front": "black", "back": "black"}],
                      [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
                       {"kind": "power", "groups": ["plate"], "value": 5.0}])
     model = build_model(mesh, case)
-    base = detailed_problem(model)
-    W = model.faces.W
-    f = W.shape[0]
-    # a random symmetric, non-negative face-to-face coupling (m²), sparse
+    f = model.faces.W.shape[0]
     G = sp.random(f, f, density=0.05, random_state=1) * 1e-4
-    G = sp.csr_matrix(G + G.T)
-    faced = dataclasses.replace(base, faced=FacedRadiation(W=W, G=G))
+    return model, dataclasses.replace(detailed_problem(model),
+                                      faced=FacedRadiation(W=model.faces.W, G=sp.csr_matrix(G + G.T)))
+
+
+def test_faced_radiation_newton_krylov_equals_dense_newton():
+    model, faced = faced_plate()
     # the same problem with a dense K takes the direct (assembled-Jacobian) Newton path
     node = dataclasses.replace(faced, K=model.K.toarray())
     s1 = solve_steady(faced)
@@ -74,15 +77,7 @@ def test_a_stalled_krylov_step_falls_back_to_the_exact_jacobian(monkeypatch):
     Krylov path (1e-9 K: the Newton tolerance)."""
     import scipy.sparse.linalg as spla
 
-    mesh = shapes.plate(0.3, 0.2, 12, 8)
-    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 1e-4,
-                       "front": "black", "back": "black"}],
-                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
-                      {"kind": "power", "groups": ["plate"], "value": 5.0}])
-    model = build_model(mesh, case)
-    G = sp.random(model.faces.W.shape[0], model.faces.W.shape[0], density=0.05, random_state=1) * 1e-4
-    faced = dataclasses.replace(detailed_problem(model),
-                                faced=FacedRadiation(W=model.faces.W, G=sp.csr_matrix(G + G.T)))
+    _, faced = faced_plate()
     good = solve_steady(faced)
     monkeypatch.setattr(spla, "gmres", lambda A, b, **kw: (np.zeros_like(b), 1))
     stalled = solve_steady(faced)

@@ -958,6 +958,10 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     history: list[dict] = []
     f = model.faces
     shared = linearised_at is not None
+    def space_only_field():  # the detailed field radiating to space only, with the run's known loads (K)
+        return solve_steady(dataclasses.replace(detailed_problem(model), Q=np.asarray(q_detailed, float)),
+                            tol=0.1, max_iter=case.solver.max_iterations).T
+
     if not shared and case.radiation.enabled and rm.GR is not None:
         # with face-to-face radiation, start from the detailed field radiating to space only, with the run's known loads (a sparse Newton on
         # the FE mesh): it has the fin shapes the thesis' pre-solve lacks.  From the thesis' field, 89 K off at 10
@@ -965,8 +969,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         # physical solution (heater 60 W: correction loads of thousands of W, the Newton driving a node to 0 K);
         # from this one 10 super nodes converge in 7 outer iterations at 30 and 60 W (10 before, and none at 60 W).
         # (Without exchange that field would be the detailed solution itself: the thesis' field stays the start.)
-        T_ref = solve_steady(dataclasses.replace(detailed_problem(model), Q=np.asarray(q_detailed, float)),
-                             tol=0.1, max_iter=case.solver.max_iterations).T
+        T_ref = space_only_field()
         presolved = True
     else:
         presolved = shared
@@ -1016,8 +1019,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
             # linearised about the thesis' field, too far off (a strong heater on a thin strip: 2 000 K where the
             # thesis' field had hundreds), the network has no physical solution: start again from the detailed
             # field radiating to space only (without face-to-face exchange, the detailed solution itself)
-            T_ref = solve_steady(dataclasses.replace(detailed_problem(model), Q=np.asarray(q_detailed, float)),
-                                 tol=0.1, max_iter=case.solver.max_iterations).T
+            T_ref = space_only_field()
             presolved = restarted = True
             continue
         T = ra.recover(sol.T, q_rec, T_ref)

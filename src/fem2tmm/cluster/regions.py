@@ -20,6 +20,8 @@ genuine fold sharper than ``180° - feature_angle`` (a hairpin) is still detecte
 
 from __future__ import annotations
 
+import heapq
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
@@ -67,11 +69,18 @@ def regions(graph: DualGraph, m: int, kind: str, normals: np.ndarray | None = No
     g = sp.csr_matrix((np.ones(len(a), np.int8), (a, b)), shape=(m, m))
     _, comp = connected_components(g, directed=False)
     # renumber by smallest element index so the numbering does not depend on scipy's traversal
-    first = np.full(comp.max() + 1 if m else 0, m, np.int64)
-    np.minimum.at(first, comp, np.arange(m))
-    rank = np.empty_like(first)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    return rank[comp].astype(np.int64), keep
+    return _by_first_element(comp), keep
+
+
+def _by_first_element(labels: np.ndarray) -> np.ndarray:
+    """(m,) int64 labels renumbered 0, 1, ... in the order of their smallest element index (unused labels dropped)."""
+    m = len(labels)
+    first = np.full(int(labels.max()) + 1 if m else 0, m, np.int64)
+    np.minimum.at(first, labels, np.arange(m))
+    used = np.flatnonzero(first < m)
+    rank = np.full(len(first), -1, np.int64)
+    rank[used[np.argsort(first[used], kind="stable")]] = np.arange(len(used))
+    return rank[labels]
 
 
 def merge_regions(graph: DualGraph, region: np.ndarray, keep: np.ndarray, measure: np.ndarray, n_target: int
@@ -115,8 +124,6 @@ def merge_regions(graph: DualGraph, region: np.ndarray, keep: np.ndarray, measur
     parent = np.arange(r)
     alive = set(range(r))
     merges: list[dict] = []
-    import heapq
-
     heap = [(size[i], i) for i in range(r)]
     heapq.heapify(heap)
     while len(alive) > n_target and heap:
@@ -144,13 +151,6 @@ def merge_regions(graph: DualGraph, region: np.ndarray, keep: np.ndarray, measur
         while parent[k] != k:
             k = parent[k]
         root[i] = k
-    merged = root[region]
-    m = len(merged)
-    first = np.full(r, m, np.int64)
-    np.minimum.at(first, merged, np.arange(m))
-    used = np.flatnonzero(first < m)
-    rank = np.full(r, -1, np.int64)
-    rank[used[np.argsort(first[used], kind="stable")]] = np.arange(len(used))
-    new = rank[merged]
+    new = _by_first_element(root[region])
     keep = keep | ((region[a] != region[b]) & (new[a] == new[b]))
     return new, keep, merges
