@@ -234,11 +234,19 @@ def test_fewer_clusters_than_regions_merge_the_smallest_across_the_strongest_lin
 
 
 def test_disconnected_pieces_are_never_merged_and_the_refusal_lists_them():
+    # two plates 2 m apart touching nothing: one super node over both would leave their difference free; the
+    # smaller piece (b) is the one without a super node of its own
     a = shapes.plate(1.0, 1.0, 2, 2)
-    b = shapes.plate(1.0, 1.0, 2, 2)
+    b = shapes.plate(0.5, 0.5, 2, 2)
     two = shapes.merge(a, shapes.transform(b, translation=(3.0, 0.0, 0.0)))
-    with pytest.raises(Fem2TmmError, match=r"part 'lid'.*2 regions.*at least 2.*region 0: 4 elements"):
+    with pytest.raises(Fem2TmmError, match=r"part 'lid': 1 disconnected piece.*4 element.*element indices 4, 5, 6, 7.*"
+                                           r"at least 2 super nodes"):
         cluster_parts(two.points, [shell_part(two, 1, name="lid")], two.n_elements)
+    # a held node on the far plate fixes its own mean: it may then share the super node (by distance)
+    held = np.zeros(two.n_nodes, bool)
+    held[12] = True  # a node of the second plate (nodes 9-17)
+    c = cluster_parts(two.points, [shell_part(two, 1, name="lid")], two.n_elements, one_node=held)
+    assert (c.labels == 0).all() and c.report["joined"]["by_distance"] == 1
 
 
 # ------------------------------------------------------------------------------------------ seeding
@@ -522,11 +530,13 @@ def test_bad_input_gives_clear_errors():
         partition(pts, tri, 2)
     with pytest.raises(Fem2TmmError, match=r"degenerate elements .*element indices 1\b"):
         partition(p.points, np.array([[0, 1, 5, 4], [1, 2, 2, 5]]), 1)
-    # isolated: a quad sharing no edge with the rest (touching at one node only)
+    # a quad sharing no edge with the rest (touching at one node only) is a piece of its own (issue 33: no longer
+    # refused): with 3 super nodes it keeps one; with 1 it joins the plate's cluster through the shared node
     pts2 = np.r_[p.points, [[2, 0, 0], [2, 1, 0], [1, 1, 0]]]
     c2 = np.r_[c, [[3, 16, 17, 18]]]
-    with pytest.raises(Fem2TmmError, match=r"isolated elements .*element indices 9"):
-        partition(pts2, c2, 3)
+    lab = partition(pts2, c2, 3)
+    assert len(np.unique(lab)) == 3 and (lab[9] != lab[:9]).all()
+    assert (partition(pts2, c2, 1) == 0).all()
     # wrong element kind for the part, overlapping parts
     s = shapes.box(1, 1, 1, 2, 2, 2, kind="solid")
     with pytest.raises(Fem2TmmError, match="shell part but contains hex8"):

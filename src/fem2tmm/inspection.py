@@ -25,8 +25,23 @@ from .mesh import Mesh
 _KIND = {1: "line", 2: "shell", 3: "solid"}
 
 
-def _group_report(mesh: Mesh, name: str, feature_angle: float) -> dict:
+def _node_use(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) how many elements use each node, and (n,) bool nodes of a shell or solid element or a joint."""
+    pc = mesh.padded_cells
+    ok = pc >= 0
+    use = np.bincount(pc[ok], minlength=mesh.n_nodes)
+    host = np.zeros(mesh.n_nodes, bool)
+    hi = pc[mesh.element_dims >= 2]
+    host[hi[hi >= 0]] = True
+    for j in mesh.joints:
+        host[j.pairs.ravel()] = True
+        use[j.pairs.ravel()] += 1
+    return use, host
+
+
+def _group_report(mesh: Mesh, name: str, feature_angle: float, node_use=None) -> dict:
     g = mesh.groups[name]
+    use, host = node_use if node_use is not None else _node_use(mesh)
     el = g.elements
     types = mesh.element_types[el]
     names = {}
@@ -63,15 +78,26 @@ def _group_report(mesh: Mesh, name: str, feature_angle: float) -> dict:
         meas = (mesh.element_areas(el) if kind == "shell" else mesh.element_volumes(elements=el) if kind == "solid"
                 else mesh.element_lengths(el))
         merged, _, merges = merge_regions(graph, region, keep, np.nan_to_num(np.asarray(meas, float)), 1)
-        rep["fewest_super_nodes"] = int(merged.max()) + 1 if len(el) else 0
+        # pieces that touch another element or a joint by a node join the clusters they touch (cluster.contact):
+        # only the pieces touching nothing else need a super node of their own
+        own = np.bincount(cells[cells >= 0], minlength=mesh.n_nodes)
+        touching = np.where(cells >= 0, (use > own)[np.maximum(cells, 0)], False).any(axis=1)
+        n_pieces = int(merged.max()) + 1 if len(el) else 0
+        alone = n_pieces - len(np.unique(merged[touching]))
+        rep["pieces"] = n_pieces
+        rep["fewest_super_nodes"] = max(1, alone) if len(el) else 0
         rep["merges_below_regions"] = [{"measure": m["measure"], "link": m["link"]} for m in merges[:10]]
         if kind == "shell":
             bad = int(np.count_nonzero(~graph.consistent))
             rep["normals"] = "consistent" if bad == 0 else f"inconsistent across {bad} edges"
     else:
         rep["regions"] = 1
+        rep["pieces"] = 1
         rep["fewest_super_nodes"] = 1
         rep["merges_below_regions"] = []
+    if kind == "line":  # bars on shell/solid nodes only: reduced with the elements they lie on (cluster.contact)
+        rep["on_other_elements"] = int(np.count_nonzero(np.where(cells >= 0, host[np.maximum(cells, 0)],
+                                                                 True).all(axis=1)))
     return rep
 
 
@@ -126,7 +152,8 @@ def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, **op
             mesh = read_mesh(path, unit=unit, **options)
     else:
         mesh = read_mesh(path, unit=unit)
-    groups = [_group_report(mesh, name, feature_angle) for name in sorted(mesh.groups)
+    use = _node_use(mesh)
+    groups = [_group_report(mesh, name, feature_angle, use) for name in sorted(mesh.groups)
               if len(mesh.groups[name].elements)]
     cards = {k: dict(v) for k, v in (mesh.cards or {}).items()}
     ext = np.ptp(mesh.points, axis=0) if mesh.n_nodes else np.zeros(3)
@@ -149,8 +176,10 @@ def inspection_text(rep: dict) -> str:
              + (f": larger than {LARGE_EXTENT_M:g} m, is the file in millimetres? then give --unit mm"
                 if max(ext) > LARGE_EXTENT_M else ""), "",
              f"groups (regions at the default feature angle {rep['feature_angle_deg']:g} deg = the fewest super "
-             "nodes a part of that group takes without merging; 'min' the fewest it can take, fewer regions being "
-             "merged smallest first across the strongest link; only disconnected pieces cannot merge):"]
+             "nodes a part of that group takes without merging; 'min' the fewest it can take: fewer regions are "
+             "merged smallest first across the strongest link, and pieces beyond the count join the clusters they "
+             "touch by a node; only pieces touching nothing need their own; bars lying on shell or solid nodes are "
+             "reduced with those elements):"]
     lines.append(f"  {'group':<18} {'kind':<6} {'elements':>8} {'regions':>7} {'min':>5}  {'size':<22} "
                  f"{'thickness / section':<30} normals / types")
     for g in rep["groups"]:
@@ -166,6 +195,8 @@ def inspection_text(rep: dict) -> str:
             th = f"A {a:.6g} m2 ({g.get('section_source')})" if a is not None else "no area: set the part's 'area'"
         types = ", ".join(f"{t} {n}" for t, n in g["types"].items())
         extra = g.get("normals", "")
+        if g.get("on_other_elements"):
+            extra = f"{g['on_other_elements']} on shell/solid nodes"
         lines.append(f"  {g['group']:<18} {g['kind']:<6} {g['elements']:>8} {g['regions']:>7} "
                      f"{g['fewest_super_nodes']:>5}  {size:<22} {th:<30} {(extra + '; ') if extra else ''}{types}")
     lines += ["", f"connected pieces (elements and joints): {len(rep['pieces'])}"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 
 def factorize(A) -> "spla.SuperLU":
@@ -35,3 +36,28 @@ def roundoff(K, T: np.ndarray) -> float:
     Σ_ij |K_ij| |T_j|.  K (n, n) sparse or dense, W/K; T (n,) K."""
     A = abs(sp.csr_matrix(K)) if sp.issparse(K) else np.abs(np.asarray(K, float))
     return ROUNDOFF_ULPS * float(np.finfo(float).eps) * float(np.sum(A @ np.abs(np.asarray(T, float))))
+
+
+#: eigenvalue ratio of a Gram matrix below which rows are taken as dependent (singular-value ratio 1e-6)
+RANK_RTOL = 1e-12
+
+
+def dependent_rows(S: sp.csr_matrix) -> list[np.ndarray]:
+    """Groups of rows of ``S`` that are linearly dependent (empty list when S has full row rank).
+
+    Works per connected block of the Gram matrix S Sᵀ (rows sharing a column), dense only on those blocks.
+    """
+    G = (S @ S.T).tocsr()
+    n_blocks, block = connected_components(G, directed=False)
+    groups = []
+    order = np.argsort(block, kind="stable")
+    bounds = np.searchsorted(block[order], np.arange(n_blocks + 1))
+    for b in range(n_blocks):
+        rows = order[bounds[b]:bounds[b + 1]]
+        g = G[rows][:, rows].toarray()
+        w, v = np.linalg.eigh(g)
+        null = w <= RANK_RTOL * max(w[-1], np.finfo(float).tiny)
+        if np.any(null):
+            vec = np.abs(v[:, null]).max(axis=1)
+            groups.append(rows[vec > 1e-8 * vec.max()])
+    return groups

@@ -20,6 +20,7 @@ from .cache import digest
 from .case import Case, RadiationSettings
 from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
+from .cluster.contact import join_dependent
 from .errors import Fem2TmmError, InternalError
 from .mesh.elements import SHELL_TYPES, TYPE_CODE
 from .fem.model import FEModel, boundary_load
@@ -107,9 +108,31 @@ def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | 
     args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None, weights=weights)
     if labels is not None:
         return from_labels(*args, labels, feature_angle=kw["feature_angle"], where="run(labels=...)")
+    index = kw.pop("part_index")
     clustering = cluster_parts(*args, **kw, progress=progress)
+    clustering = _independent(model, clustering, kw["one_node"], index)
     clustering.report["allocation"] = {"method": case.clustering.allocation, **(weights_report or {})}
     return clustering
+
+
+def _independent(model: FEModel, clustering: Clustering, one_node: np.ndarray, index: np.ndarray) -> Clustering:
+    """Model part indices for the clusters, and clusters whose super-node rows would repeat others' merged into
+    their best-connected neighbour (:func:`fem2tmm.cluster.contact.join_dependent`; the report's
+    ``merged_dependent``), so that the reduction never meets linearly dependent super nodes."""
+    cluster_part = index[clustering.cluster_part]
+    rows = np.flatnonzero(clustering.labels[model.elements] >= 0)
+    shares = model.capacity_shares if model.capacity_shares is not None else model.volume_shares
+    lab, kept, merges = join_dependent(clustering.labels[model.elements[rows]], cluster_part,
+                                       model.element_dofs[rows], shares[rows], one_node)
+    report = clustering.report
+    if not merges:
+        return dataclasses.replace(clustering, cluster_part=cluster_part)
+    labels = clustering.labels.copy()
+    labels[model.elements[rows]] = lab
+    report["merged_dependent"] = [{"cluster": int(a), "into": int(b), "part": model.parts[int(cluster_part[a])].name,
+                                   "into_part": model.parts[int(cluster_part[b])].name} for a, b in merges]
+    return dataclasses.replace(clustering, labels=labels, cluster_part=cluster_part[kept],
+                   cluster_region=clustering.cluster_region[kept], report=report)
 
 
 def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True,
@@ -121,7 +144,7 @@ def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_c
     one_node = np.zeros(model.n_dof, bool)  # DOFs that are super nodes of their own (fixed groups, kept nodes)
     one_node[[g.dof for g in model.fixed]] = True
     one_node[kept] = True
-    parts, part_weights = [], []
+    parts, part_weights, index = [], [], []
     for p, info in enumerate(model.parts):
         rows = np.flatnonzero((model.element_part == p) & ~determined)
         if not len(rows):
@@ -130,15 +153,18 @@ def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_c
             _check_count(case, info, model.element_dofs[rows], one_node)
         w = None if weights is None else weights[rows]
         part_weights.append(w if w is not None and np.isfinite(w).all() else None)
+        index.append(p)
         parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
                                cells=model.element_cells[rows], types=model.element_types[rows],
                                n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
                                ids=model.mesh.element_ids[model.elements[rows]],
                                flux=None if (flux is None or info.kind == "line")
-                               else np.nan_to_num(flux[model.elements[rows]])))
+                               else np.nan_to_num(flux[model.elements[rows]]),
+                               dofs=model.element_dofs[rows]))
     cs = case.clustering
     kw = {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
-          "balance": cs.balance, "method": cs.method}
+          "balance": cs.balance, "method": cs.method, "one_node": one_node,
+          "part_index": np.asarray(index, np.int64)}
     if any(w is not None for w in part_weights):
         kw["weights"] = part_weights
     return (model.mesh.points, parts, model.mesh.n_elements), kw

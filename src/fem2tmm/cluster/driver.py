@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -22,13 +22,15 @@ from ..mesh import geometry
 from ..mesh.elements import ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
 from .adjacency import DualGraph, dual_graph, induced_csr, to_csr
 from .allocate import allocate
+from .contact import RANK, element_rank, embedded, join_units, kind_of_rank
 from .growing import grow, grow_balanced
 from .metis import metis_region, require as require_metis
 from .regions import merge_regions, regions as split_regions
 from .seeding import seed_elements, weighted_kmeans
 from .smoothing import smooth
 
-_KIND_TYPES = {"shell": SHELL_TYPES, "solid": SOLID_TYPES, "line": LINE_TYPES}
+_KIND_TYPES = {"shell": SHELL_TYPES, "solid": SOLID_TYPES, "line": LINE_TYPES,
+               "mixed": (*LINE_TYPES, *SHELL_TYPES, *SOLID_TYPES)}
 _MEASURE_UNIT = {"shell": "m2", "solid": "m3", "line": "m"}
 _BOUNDARY_UNIT = {"shell": "m", "solid": "m2", "line": "ends"}
 _STEPS = ("geometry", "regions", "allocation", "seeding", "growing", "smoothing")
@@ -41,8 +43,9 @@ class PartInput:
     Attributes
     ----------
     name : part name (error messages, report)
-    kind : "shell", "solid" or "line" (bars: regions are the chains between junctions, clusters grow
-        along the bars, no boundary smoothing)
+    kind : "shell", "solid", "line" (bars: regions are the chains between junctions, clusters grow
+        along the bars, no boundary smoothing) or "mixed" (several kinds: the part's super nodes are shared
+        among its kinds in proportion to their elements not embedded in another kind, :mod:`.contact`)
     elements : (m,) int64 global element indices of the part
     cells : (m, 8) int64 node indices padded with -1 (rows of ``Mesh.padded_cells``)
     types : (m,) int8 type codes (:data:`fem2tmm.mesh.elements.TYPE_CODE`); shells tri3/quad4, solids
@@ -53,7 +56,10 @@ class PartInput:
     ids : (m,) int or None; original element ids used in error messages (default: ``elements``)
     flux : (m,) float or None; absorbed external flux of each element (W/m², e.g. a cheap solar pre-pass).
         Given, the clusters follow it (:func:`flux_feature`): super faces whose loads are lumped stay
-        nearly uniformly loaded
+        nearly uniformly loaded (ignored for line elements)
+    dofs : (m, 8) int or None; the thermal unknown of each cell node (-1 padded), for contact between parts
+        and kinds (:mod:`.contact`: nodes merged by an isothermal joint touch); default the cells' nodes.  Give
+        it for every part or for none
     """
 
     name: str
@@ -65,6 +71,7 @@ class PartInput:
     attribute: np.ndarray | None = None
     ids: np.ndarray | None = None
     flux: np.ndarray | None = None
+    dofs: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -102,6 +109,8 @@ class _Prepared:
     alloc: np.ndarray  # (r,)
     times: dict
     merged: dict | None = None  # regions merged to meet the requested count (merge_regions)
+    deferred: tuple = ()  # (global element indices,) of the pieces given no cluster of their own (.contact)
+    requested: int = 0  # the part's super nodes before pieces were deferred
 
 
 def _ids(part: PartInput, local: np.ndarray) -> str:
@@ -114,7 +123,7 @@ def _check_part(points: np.ndarray, part: PartInput, n_elements: int | None) -> 
     """Shape, kind, type and range checks of one part; raises Fem2TmmError."""
     where = f"part {part.name!r}"
     if part.kind not in _KIND_TYPES:
-        raise Fem2TmmError(f"{where}: kind must be 'shell', 'solid' or 'line', got {part.kind!r}")
+        raise Fem2TmmError(f"{where}: kind must be 'shell', 'solid', 'line' or 'mixed', got {part.kind!r}")
     m = len(part.elements)
     if m == 0:
         raise Fem2TmmError(f"{where} has no elements; check its groups")
@@ -124,6 +133,8 @@ def _check_part(points: np.ndarray, part: PartInput, n_elements: int | None) -> 
         raise Fem2TmmError(f"{where}: attribute must have one value per element ({m})")
     if part.flux is not None and (np.shape(part.flux) != (m,) or not np.isfinite(part.flux).all()):
         raise Fem2TmmError(f"{where}: flux must have one finite value per element ({m})")
+    if part.dofs is not None and np.shape(part.dofs) != (m, 8):
+        raise Fem2TmmError(f"{where}: dofs must be (m, 8) like cells, one row per element ({m})")
     if n_elements is not None and (part.elements.min() < 0 or part.elements.max() >= n_elements):
         raise Fem2TmmError(f"{where}: element indices outside 0..{n_elements - 1}")
     allowed = [TYPE_CODE[t] for t in _KIND_TYPES[part.kind]]
@@ -236,12 +247,19 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
             raise Fem2TmmError(f"part {part.name!r}: weights must be {m} finite positive numbers, one per element")
     t1 = time.perf_counter()
     graph = dual_graph(points, part.cells, part.types, part.kind)
-    if m > 1 and part.kind != "line" and not graph.shared.all():
-        side = "edge" if part.kind == "shell" else "face"
-        raise Fem2TmmError(
-            f"part {part.name!r}: isolated elements (sharing no {side} with any other element of the part): "
-            f"{_ids(part, np.flatnonzero(~graph.shared))}; remove them, merge duplicate nodes, or make them a part"
-        )
+    # more disconnected pieces than super nodes: the largest pieces keep the part's super nodes, the others join
+    # the clusters they touch (contact.join_units) instead of being refused
+    n_pieces, piece = connected_components(sp.csr_matrix((np.ones(len(graph.a), np.int8), (graph.a, graph.b)),
+                                                         shape=(m, m)), directed=False)
+    if n_pieces > part.n_clusters:
+        size = np.bincount(piece, measure, minlength=n_pieces)
+        order = np.lexsort((np.arange(n_pieces), -size))
+        mine = np.isin(piece, order[: part.n_clusters])
+        deferred = tuple(part.elements[piece == q] for q in np.sort(order[part.n_clusters:]))
+        sub = _subset(part, np.flatnonzero(mine))
+        pr = _prepare(points, sub, None if weights is None else np.asarray(weights)[mine], feature_angle, balance)
+        return _Prepared(pr.part, pr.weights, pr.measure, pr.centroids, pr.graph, pr.keep, pr.region, pr.alloc,
+                         pr.times, pr.merged, deferred, part.n_clusters)
     region, keep = split_regions(graph, m, part.kind, normals, part.attribute, feature_angle)
     # fewer super nodes than regions: merge regions (smallest first, across the strongest link) instead of refusing;
     # what cannot merge (disconnected pieces) is refused by allocate with the regions listed
@@ -267,7 +285,38 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
     t3 = time.perf_counter()
     times.update(geometry=t1 - t0, regions=t2 - t1, allocation=t3 - t2)
     return _Prepared(part, weights, measure, centroids, graph, keep, region, alloc, times,
-                     merged={"regions_before": n_split, "merges": merges} if merges else None)
+                     merged={"regions_before": n_split, "merges": merges} if merges else None,
+                     requested=part.n_clusters)
+
+
+def _subset(part: PartInput, rows: np.ndarray, kind: str | None = None, n_clusters: int | None = None
+            ) -> PartInput:
+    """The part restricted to its elements ``rows`` (local indices)."""
+    pick = lambda a: None if a is None else np.asarray(a)[rows]  # noqa: E731
+    return PartInput(part.name, kind or part.kind, part.elements[rows], part.cells[rows], part.types[rows],
+                     part.n_clusters if n_clusters is None else n_clusters, pick(part.attribute), pick(part.ids),
+                     pick(part.flux), pick(part.dofs))
+
+
+def _split_count(n: int, free: dict) -> dict:
+    """Share ``n`` super nodes among kinds with ``free[kind]`` elements to cluster: in proportion to the counts,
+    at least one per kind while ``n`` allows (the kinds with the most elements first), largest remainders."""
+    kinds = sorted((k for k in free if free[k] > 0), key=lambda k: (-free[k], RANK[k]))
+    out = dict.fromkeys(free, 0)
+    if not kinds:
+        return out
+    if n <= len(kinds):
+        for k in kinds[:n]:
+            out[k] = 1
+        return out
+    c = np.array([free[k] for k in kinds], float)
+    q = 1 + (n - len(kinds)) * c / c.sum()
+    base = np.floor(q).astype(int)
+    rest = n - int(base.sum())
+    base[np.argsort(-(q - base), kind="stable")[:rest]] += 1
+    for k, v in zip(kinds, base):
+        out[k] = int(v)
+    return out
 
 
 METHODS = ("growing", "metis")
@@ -373,7 +422,7 @@ def _total_report(parts: list[dict]) -> dict:
 def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[np.ndarray | None],
          feature_angle: float, seed: int, smoothing_layers: int,
          progress: Callable[[int, int], None] | None, balance: bool = True,
-         method: str = "growing") -> Clustering:
+         method: str = "growing", one_node: np.ndarray | None = None) -> Clustering:
     if method not in METHODS:
         raise Fem2TmmError(f"clustering method must be one of {', '.join(METHODS)}, got {method!r}")
     if method == "metis":
@@ -386,21 +435,85 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
     if int(smoothing_layers) < 0:
         raise Fem2TmmError(f"smoothing_layers must be >= 0, got {smoothing_layers}")
     parts = [PartInput(p.name, p.kind, np.asarray(p.elements, np.int64), np.asarray(p.cells, np.int64),
-                       np.asarray(p.types, np.int8), p.n_clusters, p.attribute, p.ids, p.flux) for p in parts]
+                       np.asarray(p.types, np.int8), p.n_clusters, p.attribute, p.ids, p.flux,
+                       None if p.dofs is None else np.asarray(p.dofs, np.int64)) for p in parts]
     for p in parts:
         _check_part(points, p, n_elements)
     owner = np.bincount(np.concatenate([p.elements for p in parts]), minlength=n_elements) if parts else None
     if owner is not None and (owner > 1).any():
         raise Fem2TmmError(f"elements {format_ids(np.flatnonzero(owner > 1))} belong to more than one part")
+    if len({p.dofs is None for p in parts}) > 1:
+        raise Fem2TmmError("dofs: give the unknowns of every part or of none")
 
-    prepared = [_prepare(points, p, w, feature_angle, balance) for p, w in zip(parts, weights)]
+    # contact across parts and kinds (.contact): rows = the parts' elements concatenated in part order
+    start = np.concatenate([[0], np.cumsum([len(p.elements) for p in parts])]).astype(np.int64)
+    n_rows = int(start[-1])
+    cells_all = np.concatenate([p.cells for p in parts]) if parts else np.zeros((0, 8), np.int64)
+    dofs_all = cells_all if not parts or parts[0].dofs is None else np.concatenate([p.dofs for p in parts])
+    n_space = len(points) if one_node is None else len(one_node)
+    if one_node is not None and dofs_all.size and dofs_all.max() >= n_space:
+        raise Fem2TmmError(f"dofs refer to unknowns beyond the {n_space} of one_node")
+    rank = element_rank(np.concatenate([p.types for p in parts])) if parts else np.zeros(0, np.int8)
+    emb = embedded(dofs_all, rank, n_space, one_node)
+    row_part = np.repeat(np.arange(len(parts)), np.diff(start))
+    unit = np.full(n_rows, -1, np.int64)
+    n_units = 0
+    joined = {}
+
+    def defer(rows: np.ndarray, whole: bool) -> None:  # rows: global row numbers; one unit, or one per row
+        nonlocal n_units
+        if not len(rows):
+            return
+        unit[rows] = n_units if whole else n_units + np.arange(len(rows))
+        n_units += 1 if whole else len(rows)
+
+    subs = []  # (part index, PartInput, weights)
+    for pi, (p, w) in enumerate(zip(parts, weights)):
+        rows = np.arange(start[pi], start[pi + 1])
+        free = ~emb[rows]
+        kinds = [kind_of_rank(r) for r in np.unique(rank[rows])]
+        counts = _split_count(p.n_clusters, {k: int(np.count_nonzero(free & (rank[rows] == RANK[k])))
+                                             for k in kinds})
+        defer(rows[~free], whole=False)  # embedded elements join, one by one, the cluster holding their nodes
+        joined[p.name] = {"embedded": int(np.count_nonzero(~free)), "pieces": 0, "elements": int(np.count_nonzero(~free))}
+        for k in kinds:
+            local = np.flatnonzero(free & (rank[rows] == RANK[k]))
+            if not len(local):
+                continue
+            sub = _subset(p, local, kind=k, n_clusters=min(counts[k], len(local)) or 1)
+            if k == "line":
+                sub = replace(sub, flux=None)
+            sw = None if w is None else np.asarray(w)[local]
+            if counts[k] == 0:  # the part's count went to its other kinds: its pieces join them
+                g = dual_graph(points, sub.cells, sub.types, k)
+                n_pc, pc = connected_components(sp.csr_matrix((np.ones(len(g.a), np.int8), (g.a, g.b)),
+                                                              shape=(len(local),) * 2), directed=False)
+                for q in range(n_pc):
+                    defer(start[pi] + local[pc == q], whole=True)
+                joined[p.name]["pieces"] += n_pc
+                joined[p.name]["elements"] += len(local)
+                continue
+            subs.append((pi, sub, sw, start[pi] + local))
+
+    prepared = [_prepare(points, sub, w, feature_angle, balance) for _, sub, w, _ in subs]
+    row_of = np.full(n_elements, -1, np.int64)
+    if parts:
+        row_of[np.concatenate([p.elements for p in parts])] = np.arange(n_rows)
+    for (pi, _, _, _), pr in zip(subs, prepared):
+        for piece in pr.deferred:
+            defer(row_of[piece], whole=True)
+            joined[parts[pi].name]["pieces"] += 1
+            joined[parts[pi].name]["elements"] += len(piece)
+    if n_units and not prepared:
+        raise Fem2TmmError("every element lies on the nodes of another kind or part: nothing to cluster (give the "
+                           "parts' host elements, e.g. the panels the bars stiffen, a part of their own)")
 
     labels = np.full(n_elements, -1, np.int64)
     region_out = np.full(n_elements, -1, np.int64)
     cluster_part, cluster_region, reports = [], [], []
     n_regions_total = sum(len(pr.alloc) for pr in prepared)
     done, k_off, r_off = 0, 0, 0
-    for pi, pr in enumerate(prepared):
+    for (pi, _, _, _), pr in zip(subs, prepared):
         part, g = pr.part, pr.graph
         m = len(pr.region)
         G = to_csr(m, g.a[pr.keep], g.b[pr.keep], g.measure[pr.keep])
@@ -428,21 +541,58 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
         labels[part.elements] = local + k_off
         region_out[part.elements] = pr.region + r_off
         cluster_part.extend([pi] * part.n_clusters)
-        reports.append(_part_report(pr, labels[part.elements], k_off, smoothing))
+        rep = _part_report(pr, labels[part.elements], k_off, smoothing)
+        if pr.requested != part.n_clusters or parts[pi].kind == "mixed" or parts[pi].n_clusters != part.n_clusters:
+            rep["requested"] = int(parts[pi].n_clusters)
+        reports.append(rep)
         k_off += part.n_clusters
         r_off += len(pr.alloc)
+    cluster_part = np.asarray(cluster_part, np.int64)
     report = {"parts": reports, "total": _total_report(reports)}
-    return Clustering(labels=labels, regions=region_out, cluster_part=np.asarray(cluster_part, np.int64),
+    if n_units:
+        lab_rows = labels[np.concatenate([p.elements for p in parts])]
+        pts = points[np.maximum(cells_all, 0)]
+        valid = (cells_all >= 0)[:, :, None]
+        centroid = (pts * valid).sum(1) / valid.sum(1)
+        unit_part = np.zeros(n_units, np.int64)
+        unit_part[unit[unit >= 0]] = row_part[unit >= 0]
+        lab_rows, jstats = join_units(lab_rows, unit, unit_part, cluster_part, dofs_all, centroid, n_space,
+                                      one_node)
+        if jstats["unanchored"]:
+            lost = np.asarray(jstats.pop("unanchored"))
+            pi = int(unit_part[lost[0]])
+            mine = lost[unit_part[lost] == pi]
+            p = parts[pi]
+            els = [np.flatnonzero(unit[start[pi]:start[pi + 1]] == u) for u in mine[:5]]
+            have = sum(1 for c in cluster_part if c == pi)
+            raise Fem2TmmError(
+                f"part {p.name!r}: {len(mine)} disconnected piece(s) touch no node of another part or kind and hold "
+                f"no fixed or kept node, so they cannot share a super node with the rest of the part: "
+                + "; ".join(f"piece of {len(e)} element(s) ({_ids(p, e)})" for e in els)
+                + f".  Ask for at least {have + len(mine)} super nodes (`fem2tmm inspect`: min), or connect the "
+                "pieces (a joint)")
+        jstats.pop("unanchored")
+        in_units = unit >= 0
+        labels[np.concatenate([p.elements for p in parts])[in_units]] = lab_rows[in_units]
+        region_out[np.concatenate([p.elements for p in parts])[in_units]] = \
+            np.asarray(cluster_region, np.int64)[lab_rows[in_units]]
+        report["joined"] = {"parts": {k: v for k, v in joined.items() if v["elements"]}, **jstats,
+                            "elements": int(in_units.sum())}
+        report["total"]["joined_elements"] = int(in_units.sum())
+    return Clustering(labels=labels, regions=region_out, cluster_part=cluster_part,
                       cluster_region=np.asarray(cluster_region, np.int64), report=report)
 
 
 def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: int, feature_angle: float = 30.0,
                   seed: int = 0, smoothing_layers: int = 2,
                   progress: Callable[[int, int], None] | None = None, balance: bool = True,
-                  method: str = "growing", weights: Sequence[np.ndarray | None] | None = None) -> Clustering:
+                  method: str = "growing", weights: Sequence[np.ndarray | None] | None = None,
+                  one_node: np.ndarray | None = None) -> Clustering:
     """Cluster every part of a mesh into its requested number of contiguous clusters (super nodes).
 
-    Each part is split into regions (:mod:`.regions`), its super nodes are shared among them
+    Elements lying on the nodes of another kind (bars along panel edges) and pieces beyond a part's count join
+    the clusters they touch (:mod:`.contact`; ``report["joined"]``).  Each part is split into regions
+    (:mod:`.regions`), its super nodes are shared among them
     (:mod:`.allocate`), and each region is clustered on its own: weighted k-means seeds (:mod:`.seeding`),
     greedy region growing (:mod:`.growing`), min-cut boundary smoothing (:mod:`.smoothing`).  Element
     weights are areas (shells, m²) and volumes (solids, m³).
@@ -466,6 +616,8 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
     weights : one (m,) array of positive element weights per part (or None: area/volume), in the part's element
         order; they replace area/volume in the allocation among regions and in the balance of the clusters (e.g.
         :func:`fem2tmm.stages.biot_weights`)
+    one_node : (n,) bool or None; unknowns (the parts' ``dofs``, or mesh nodes) that are one-node super nodes
+        (fixed temperature, kept): an element on such nodes and on higher-kind nodes only is embedded
 
     Returns
     -------
@@ -474,14 +626,13 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
     Raises
     ------
     Fem2TmmError
-        bad shapes or types, degenerate or isolated elements, a part asking for more super nodes than it
-        has elements or fewer than it has regions (the message lists the regions).
+        bad shapes or types, degenerate elements, a part asking for more super nodes than it has elements.
     """
     weights = [None] * len(parts) if weights is None else list(weights)
     if len(weights) != len(parts):
         raise Fem2TmmError(f"weights: one entry per part ({len(parts)}), got {len(weights)}")
     return _run(points, parts, int(n_elements), weights, feature_angle, seed, smoothing_layers,
-                progress, balance, method)
+                progress, balance, method, one_node)
 
 
 def partition(points: np.ndarray, cells: np.ndarray, n_clusters: int, kind: str = "shell",

@@ -37,7 +37,7 @@ _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
 @dataclass(frozen=True)
 class PartInfo:
     name: str
-    kind: str  # shell | solid | line
+    kind: str  # shell | solid | line | mixed (several kinds: bars with the panels they stiffen, ...)
     elements: np.ndarray  # global element indices
     super_nodes: int
     quadric: bool
@@ -217,13 +217,8 @@ def _part_elements(mesh: Mesh, case: Case) -> tuple[list[PartInfo], np.ndarray]:
             )
         owner[el] = p.index
         dims = mesh.element_dims[el]
-        if dims.min() != dims.max():
-            raise Fem2TmmError(
-                f"{case.source}: [[parts]] {p.name!r} mixes line, shell and solid elements; split it into one part "
-                "per kind"
-            )
-        parts.append(PartInfo(p.name, {1: "line", 2: "shell", 3: "solid"}[int(dims[0])], el, p.super_nodes,
-                              p.quadric))
+        kind = {1: "line", 2: "shell", 3: "solid"}[int(dims[0])] if dims.min() == dims.max() else "mixed"
+        parts.append(PartInfo(p.name, kind, el, p.super_nodes, p.quadric))
     return parts, owner
 
 
@@ -263,15 +258,16 @@ def _properties(mesh: Mesh, case: Case, parts, owner) -> dict[str, np.ndarray]:
                 "or use a Nastran deck whose properties reference a MAT4/MAT5 with K (and, for other length units "
                 "than m and mm, declare [mesh] unit_system)"
             )
-        if info.kind == "line" and np.isnan(props["area"][el]).any():
-            bad = el[np.isnan(props["area"][el])]
+        dims = mesh.element_dims[el]
+        if np.isnan(props["area"][el[dims == 1]]).any():
+            bad = el[(dims == 1) & np.isnan(props["area"][el])]
             raise Fem2TmmError(
                 f"{case.source}: [[parts]] {cp.name!r}: line elements {format_ids(mesh.element_ids[bad])} have no "
                 "cross-section area: set 'area' (m²) or use a Nastran deck with PBAR/PBARL/PBEAM/PBEAML/PROD/PTUBE"
             )
-        if info.kind == "shell" and np.isnan(props["t"][el]).any():
+        if np.isnan(props["t"][el[dims == 2]]).any():
             raise Fem2TmmError(
-                f"{case.source}: [[parts]] {cp.name!r} is a shell part without thickness: set 'thickness' (m) "
+                f"{case.source}: [[parts]] {cp.name!r} is a shell part without thickness (or has shells without it): set 'thickness' (m) "
                 "or use a Nastran deck with PSHELL T"
             )
     return props
@@ -801,8 +797,8 @@ def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, n
     for cp in case.parts:
         for side, oname in ((0, cp.front), (1, cp.back)):
             sel = np.flatnonzero(part == cp.index)
-            if parts[cp.index].kind == "solid" and side == 1:
-                continue  # back sides of solid outer faces are inside the material
+            if side == 1:  # back sides of solid outer faces are inside the material
+                sel = sel[kind[sel] == 0]
             if oname == "none" or not len(sel):
                 continue
             o = case.optics[oname]

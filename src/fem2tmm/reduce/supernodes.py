@@ -24,11 +24,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
+from ..linalg import dependent_rows as _dependent_rows
 from .capacitance import cluster_capacitance
-
-#: eigenvalue ratio of a Gram matrix below which rows are taken as dependent (singular-value ratio 1e-6)
-_RANK_RTOL = 1e-12
-
 
 @dataclass(frozen=True)
 class SuperNodes:
@@ -108,27 +105,6 @@ def _check_inputs(n_dof, cells, shares, labels, n_clusters):
         raise Fem2TmmError(f"clusters {format_ids(empty)} have no element; labels must be 0..n_clusters-1 "
                            "with every cluster used (renumber the labels)")
     return cells, np.where(valid, shares, 0.0), labels, valid, n_clusters
-
-
-def _dependent_rows(S: sp.csr_matrix) -> list[np.ndarray]:
-    """Groups of rows of ``S`` that are linearly dependent (empty list when S has full row rank).
-
-    Works per connected block of the Gram matrix S Sᵀ (rows sharing a column), dense only on those blocks.
-    """
-    G = (S @ S.T).tocsr()
-    n_blocks, block = connected_components(G, directed=False)
-    groups = []
-    order = np.argsort(block, kind="stable")
-    bounds = np.searchsorted(block[order], np.arange(n_blocks + 1))
-    for b in range(n_blocks):
-        rows = order[bounds[b]:bounds[b + 1]]
-        g = G[rows][:, rows].toarray()
-        w, v = np.linalg.eigh(g)
-        null = w <= _RANK_RTOL * max(w[-1], np.finfo(float).tiny)
-        if np.any(null):
-            vec = np.abs(v[:, null]).max(axis=1)
-            groups.append(rows[vec > 1e-8 * vec.max()])
-    return groups
 
 
 def _describe_rows(rows, kind, cluster, dof) -> str:

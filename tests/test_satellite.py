@@ -1,0 +1,132 @@
+"""Issue 33: a satellite structure as a structural team hands it over reduces end to end.
+
+Panels with stiffeners on their edges (bars on panel nodes only), struts with a four-bar junction, fittings that
+touch the panels by nodes only (single hexes among them), an electronics unit on RBE2 and a battery on CBUSH
+(``meshes/make_satellite.py``).  One part per kind, the usual split, and one part holding every kind.  What is
+checked is what nobody here chose: energy conservation of both models, the super-node counts asked for, and that
+a stiffener is reduced with the panel it stiffens.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fem2tmm.case import Case
+from fem2tmm.cluster.contact import join_dependent
+from fem2tmm.pipeline import run
+
+ROOT = Path(__file__).resolve().parents[1]
+PANELS = ["PID 1", "PID 2", "PID 3", "PID 4"]
+BARS = ["PID 11", "PID 12", "PID 13", "PID 14"]
+FITTINGS = ["PID 21", "PID 22", "PID 23"]
+
+
+def satellite_deck(tmp: Path, n: int = 12) -> Path:
+    spec = importlib.util.spec_from_file_location("make_satellite", ROOT / "meshes" / "make_satellite.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    path = tmp / "satellite.bdf"
+    path.write_text(mod.deck(n))
+    return path
+
+
+def satellite_case(deck: Path, parts: list[dict]) -> Case:
+    data = {
+        "mesh": {"file": deck.name},
+        "optics": {"white": {"emissivity": 0.85, "absorptivity": 0.25}, "black": {"emissivity": 0.88}},
+        "parts": [*parts, {"name": "interface", "groups": ["PID 5"]}],
+        "joints": [{"cards": ["RBE2"], "treatment": "isothermal"},
+                   {"cards": ["CBUSH"], "treatment": "conductance", "conductance": 0.5}],
+        "boundary": [{"name": "adapter", "kind": "temperature", "groups": ["PID 5"], "value": 20.0},
+                     {"name": "heater", "kind": "power", "groups": ["PID 22"], "value": 30.0}],
+        "environment": {"sink_temperature": -270.0},
+    }
+    return Case.from_dict(data, base_dir=deck.parent, source=str(deck.parent / "case.toml"))
+
+
+def quiet_run(case):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the deck's PBUSH is ignored by name (a structural stiffness)
+        return run(case)
+
+
+def per_kind(n_panels: int, n_bars: int, n_fittings: int) -> list[dict]:
+    return [{"name": "panels", "groups": PANELS, "front": "white", "back": "black", "super_nodes": n_panels},
+            {"name": "bars", "groups": BARS, "super_nodes": n_bars},
+            {"name": "fittings", "groups": FITTINGS, "front": "black", "super_nodes": n_fittings}]
+
+
+def check_balances(res) -> None:
+    # energy conservation (first law) of the detailed and the reduced model: loads in = heat into the held
+    # interface + radiation out, to round-off of the solves (1e-9 of the gross flows)
+    for key in ("detailed", "reduced"):
+        bal = res.summary["energy_balance_W"][key]
+        assert abs(bal["relative"]) < 1e-9, (key, bal)
+
+
+@pytest.fixture(scope="module")
+def deck(tmp_path_factory):
+    return satellite_deck(tmp_path_factory.mktemp("satellite"))
+
+
+@pytest.mark.parametrize("count", [1, 5, 50])
+def test_one_part_per_kind_reduces_at_every_count(deck, count):
+    res = quiet_run(satellite_case(deck, per_kind(count, count, count)))
+    check_balances(res)
+    acc = res.summary["accuracy"]
+    assert np.isfinite(acc["rms_K"]) and acc["reference_noise_rms_K"] > 0
+    report = res.clustering.report
+    got = {p: int(np.count_nonzero(res.reduced.part[res.reduced.kind == "cluster"] == i))
+           for i, p in enumerate(m.name for m in res.model.parts)}
+    # the count asked for is the count given: panels and fittings always; the bars have 32 free elements (the
+    # tripod, its post and the mast), so 50 gives them one super node per free bar
+    assert got["panels"] == count and got["fittings"] == count
+    assert got["bars"] == min(count, 32)
+    # every stiffener (bars on panel nodes only) is reduced with the panel it stiffens
+    mesh, model = res.mesh, res.model
+    stiff = np.concatenate([mesh.groups[g].elements for g in ("PID 11", "PID 12")])
+    lab = res.clustering.labels[stiff]
+    panels = [i for i, p in enumerate(model.parts) if p.name == "panels"][0]
+    assert (res.clustering.cluster_part[lab[lab >= 0]] == panels).all()
+    assert report["joined"]["parts"]["bars"]["embedded"] == int(np.count_nonzero(lab >= 0))
+
+
+def test_the_usual_split_at_the_issue_counts(deck):
+    # issue 33's acceptance: 60 super nodes on the shells, 30 on the bars, 4 on the solids
+    res = quiet_run(satellite_case(deck, per_kind(60, 30, 4)))
+    check_balances(res)
+    acc = res.summary["accuracy"]
+    assert res.summary["reduced"]["super_nodes"] == 94
+    # the recovered error is reported beside the reference's noise; bound: the 30 W unit on four RBE2 at 94 super
+    # nodes, 1.02 K RMS measured (2026-12-04): a regression, not a physical bound
+    assert acc["rms_K"] < 2.0 and acc["reference_noise_rms_K"] < 0.1
+
+
+@pytest.mark.parametrize("count", [1, 50])
+def test_one_part_of_every_kind(deck, count):
+    part = [{"name": "structure", "groups": PANELS + BARS + FITTINGS, "front": "white", "back": "black",
+             "super_nodes": count}]
+    res = quiet_run(satellite_case(deck, part))
+    check_balances(res)
+    assert res.summary["reduced"]["super_nodes"] == count
+    assert res.model.parts[0].kind == "mixed"
+
+
+def test_dependent_super_nodes_are_merged():
+    # two bars over the same two nodes (two parts' rods on the same GRIDs) have identical mean-temperature rows;
+    # the third bar has a node of its own
+    dofs = np.full((3, 8), -1)
+    dofs[:, :2] = [[0, 1], [0, 1], [1, 2]]
+    shares = np.where(dofs >= 0, 1.0, 0.0)
+    labels, kept, merges = join_dependent(np.array([0, 1, 2]), np.array([0, 1, 1]), dofs, shares,
+                                          np.zeros(3, bool))
+    assert merges == [(0, 1)] and kept.tolist() == [1, 2] and labels.tolist() == [0, 0, 1]
+    # independent rows are left alone
+    labels, kept, merges = join_dependent(np.array([0, 1]), np.array([0, 0]), dofs[[0, 2]], shares[[0, 2]],
+                                          np.zeros(3, bool))
+    assert merges == [] and labels.tolist() == [0, 1]
