@@ -130,3 +130,34 @@ def test_dependent_super_nodes_are_merged():
     labels, kept, merges = join_dependent(np.array([0, 1]), np.array([0, 0]), dofs[[0, 2]], shares[[0, 2]],
                                           np.zeros(3, bool))
     assert merges == [] and labels.tolist() == [0, 1]
+
+
+def test_a_shell_on_a_solid_face_covers_it(tmp_path):
+    # a 1 m hex (its own part) with a quad (another part) on its bottom face: the hex radiates through its five
+    # other faces only; the quad radiates with its own optics (both sides)
+    lines = ["BEGIN BULK"]
+    gid = {}
+    for k, z in enumerate((0.0, 1.0)):
+        for j, y in enumerate((0.0, 1.0)):
+            for i, x in enumerate((0.0, 1.0)):
+                gid[i, j, k] = len(gid) + 1
+                lines.append(f"GRID,{gid[i, j, k]},,{x},{y},{z}")
+    lines += [f"CHEXA,1,1,{gid[0, 0, 0]},{gid[1, 0, 0]},{gid[1, 1, 0]},{gid[0, 1, 0]},{gid[0, 0, 1]},{gid[1, 0, 1]}",
+              f",{gid[1, 1, 1]},{gid[0, 1, 1]}",
+              f"CQUAD4,2,2,{gid[0, 0, 0]},{gid[0, 1, 0]},{gid[1, 1, 0]},{gid[1, 0, 0]}",
+              "PSOLID,1,1", "PSHELL,2,1,0.001", "MAT4,1,100.0,900.0,2700.0", "ENDDATA"]
+    deck = tmp_path / "cube.bdf"
+    deck.write_text("\n".join(lines) + "\n")
+    case = Case.from_dict({"mesh": {"file": deck.name}, "optics": {"black": {"emissivity": 1.0}},
+                           "parts": [{"name": "block", "groups": ["PID 1"], "front": "black"},
+                                     {"name": "skin", "groups": ["PID 2"], "front": "black", "back": "black"}],
+                           "boundary": [{"kind": "power", "groups": ["PID 1"], "value": 10.0}]},
+                          base_dir=tmp_path, source=str(tmp_path / "case.toml"))
+    from fem2tmm.fem.model import build_model
+    from fem2tmm.io import read_mesh
+
+    model = build_model(read_mesh(deck), case)
+    f = model.faces
+    assert int((f.kind == 1).sum()) == 5 and int((f.kind == 0).sum()) == 1
+    # emitting area: 5 m² of hex faces (front only) + the quad's two sides = 7 m² at ε = 1
+    assert float((f.eps_area).sum()) == pytest.approx(7.0, rel=1e-12)

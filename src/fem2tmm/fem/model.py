@@ -8,8 +8,8 @@
 * Degrees of freedom (DOFs): every node of a thermal element, except that the nodes of each
   fixed-temperature boundary are merged into one isothermal DOF (an exact multi-point constraint).
 * Radiating faces: each shell element is one face with two sides (front = right-hand normal); each outer
-  face of the solids (a face used by exactly one solid of the model) is a face whose front (outward)
-  side has the part's ``front`` optics and whose back side is inactive.
+  face of the solids (a face used by exactly one solid of the model and covered by no shell element) is a
+  face whose front (outward) side has the part's ``front`` optics and whose back side is inactive.
 * Nodal lumping: capacity ``∫ρ c Nᵢ dV``, radiating area ``∫Nᵢ dA`` (row-sum lumping; equal shares on
   simplices and undistorted elements).
 """
@@ -336,7 +336,10 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
 
 
 def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarray):
-    """Outer faces of the solids: ((F, 4) node indices padded -1, (F,) position in ``cells``)."""
+    """Outer faces of the solids: ((F, 4) node indices padded -1, (F,) position in ``cells``).
+
+    A face used by one solid only is outer, unless a shell element of the model lies on its nodes (a skin, or a
+    panel a fitting sits on): the shell radiates with its own optics and the face beneath it is covered."""
     facelist, owner = [], []
     for code in np.unique(types):
         t = _CODE_TYPE[int(code)]
@@ -352,9 +355,14 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
         return np.zeros((0, 4), np.int64), np.zeros(0, np.int64)
     F = np.concatenate(facelist)
     own = np.concatenate(owner)
-    key = np.sort(np.where(F < 0, np.iinfo(np.int64).max, F), axis=1)
-    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    outer = cnt[inv.ravel()] == 1
+    shell = np.isin(types, [TYPE_CODE[t] for t in SHELL_TYPES])
+    S = cells[shell, :4].copy()
+    S[types[shell] == TYPE_CODE["tri3"], 3] = -1
+    big = np.iinfo(np.int64).max
+    key = np.sort(np.where(F < 0, big, F), axis=1)
+    skey = np.unique(np.sort(np.where(S < 0, big, S), axis=1), axis=0)  # each shell once (two coincident shells)
+    _, inv, cnt = np.unique(np.concatenate([key, skey]), axis=0, return_inverse=True, return_counts=True)
+    outer = cnt[inv.ravel()[: len(key)]] == 1
     return F[outer], own[outer]
 
 
