@@ -53,8 +53,11 @@ REGISTRY: dict[str, str] = {
     "orbit": "benchmarks.orbit:bench_orbit",
     "refine": "benchmarks.refine:bench_refine",
     "envelope": "benchmarks.envelope:bench_envelope",
+    "envelope_orbit": "benchmarks.envelope:bench_envelope_orbit",
     "robustness": "benchmarks.robustness:bench_robustness",
     "rom": "benchmarks.rom:bench_rom_all",
+    "satellite": "benchmarks.satellite:bench_satellite",
+    "thermoelastic": "benchmarks.thermoelastic:bench_thermoelastic",
 }
 
 

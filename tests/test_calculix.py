@@ -6,15 +6,14 @@ against those of the detailed field and of one temperature per super node."""
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
 
+from benchmarks.thermoelastic import constant_per_super_node, frd_block, model_cards, run_ccx, static_displacements
 from conftest import make_case
 from fem2tmm import meshes
 from fem2tmm.constants import KELVIN
-from fem2tmm.export.abaqus_temp import write_inp
 from fem2tmm.pipeline import run
 
 CCX = shutil.which("ccx")
@@ -39,37 +38,6 @@ def bar_case(n_sn, radiate=True, aware=False):
                      reduction={"radiation_aware": aware, "outer_iterations": 10})
 
 
-def _model_cards(mesh) -> list[str]:
-    ids = mesh.node_ids
-    lines = ["*NODE, NSET=NALL"] + [f"{i:d}, {x!r}, {y!r}, {z!r}" for i, (x, y, z) in zip(ids.tolist(), mesh.points.tolist())]
-    for t, cells, gidx in mesh.iter_blocks():
-        assert t == "hex8"
-        lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
-        lines += [f"{int(mesh.element_ids[g])}, " + ", ".join(str(int(ids[c])) for c in row) for row, g in zip(cells, gidx)]
-    return lines
-
-
-def _run_ccx(tmp, name: str, text: str):
-    (tmp / f"{name}.inp").write_text(text)
-    p = subprocess.run([CCX, "-i", name], cwd=tmp, capture_output=True, text=True, timeout=120)
-    assert p.returncode == 0 and "Job finished" in p.stdout, p.stdout[-2000:] + p.stderr[-2000:]
-    return (tmp / f"{name}.frd").read_text()
-
-
-def _frd_block(frd: str, block: str) -> dict[int, np.ndarray]:
-    """{node: values} of the last result block named ``block`` (DISP, NDTEMP) of a CalculiX .frd file."""
-    out, cur = {}, None
-    for line in frd.splitlines():
-        if line.startswith(" -4") and line.split()[1] == block:
-            cur = {}
-        elif cur is not None and line.startswith(" -1"):
-            rest = line[13:]
-            cur[int(line[3:13])] = np.array([float(rest[12 * k: 12 * k + 12]) for k in range(len(rest) // 12)])
-        elif cur is not None and line.startswith(" -3"):
-            out, cur = cur, None
-    return out
-
-
 def test_detailed_thermal_solution_agrees_with_calculix_heat_transfer(tmp_path):
     # Pure conduction on the same hex mesh (fixed root, heat into the tip face, no radiation): two independent FE
     # codes with the same trilinear elements agree to solver round-off (the issue's trial: 2.5e-5 K)
@@ -78,13 +46,13 @@ def test_detailed_thermal_solution_agrees_with_calculix_heat_transfer(tmp_path):
     T_ft = r.T_detailed_nodes - KELVIN
     tip = mesh.groups["xmax"].nodes
     q_tip = r.model.Q[r.model.node_dof[tip]]
-    lines = ["*HEADING", "fem2tmm vs CalculiX heat transfer"] + _model_cards(mesh)
+    lines = ["*HEADING", "fem2tmm vs CalculiX heat transfer"] + model_cards(mesh)
     lines += ["*MATERIAL, NAME=TI", "*CONDUCTIVITY", f"{TI['conductivity']!r}", "*SOLID SECTION, ELSET=EALL, MATERIAL=TI",
               "*STEP", "*HEAT TRANSFER, STEADY STATE", "1.0, 1.0", "*BOUNDARY"]
     lines += [f"{int(mesh.node_ids[n])}, 11, 11, 20.0" for n in mesh.groups["xmin"].nodes]
     lines += ["*CFLUX"] + [f"{int(mesh.node_ids[n])}, 11, {q!r}" for n, q in zip(tip, q_tip.tolist()) if q != 0]
     lines += ["*NODE FILE", "NT", "*END STEP"]
-    T_ccx = _frd_block(_run_ccx(tmp_path, "heat", "\n".join(lines) + "\n"), "NDTEMP")
+    T_ccx = frd_block(run_ccx(tmp_path, "heat", "\n".join(lines) + "\n"), "NDTEMP")
     err = max(abs(T_ccx[int(i)][0] - T_ft[k]) for k, i in enumerate(mesh.node_ids))
     assert err < 1e-3, err  # .frd holds 5 significant digits (E12.5: ~1e-4 relative of ~100 °C); measured 5.0e-5 K
 
@@ -98,26 +66,14 @@ def test_recovered_temperatures_give_the_detailed_displacements(tmp_path):
     # for super-node-constant temperatures (measured 2026-12-04), the radiation-aware one 6e-6 K
     mesh = bar()
     r = run(bar_case(N_SN, aware=True), mesh=mesh)
-    rm = r.reduced
-    dof_sn = np.asarray(rm.supernodes.A.argmax(axis=0)).ravel()  # the super node weighing most on each DOF
-    T_const = r.model.node_temperatures(rm.supernodes.A.shape[0] and r.reduced_solution.T[dof_sn])
-    fields = {"detailed": r.T_detailed_nodes, "recovered": r.T_recovered_nodes, "constant": T_const}
+    fields = {"detailed": r.T_detailed_nodes, "recovered": r.T_recovered_nodes, "constant": constant_per_super_node(r)}
     ids = mesh.node_ids
     p = mesh.points
-    a = int(ids[np.flatnonzero((p == [0, 0, 0]).all(axis=1))[0]])
-    b = int(ids[np.flatnonzero((p == [L, 0, 0]).all(axis=1))[0]])
-    c = int(ids[np.flatnonzero((p == [0, W, 0]).all(axis=1))[0]])
-    base = ["*HEADING", "fem2tmm thermo-elastic check"] + _model_cards(mesh)
-    base += ["*MATERIAL, NAME=TI", "*ELASTIC", "110e9, 0.34", "*EXPANSION", "8.6e-6",
-             "*SOLID SECTION, ELSET=EALL, MATERIAL=TI", "*INITIAL CONDITIONS, TYPE=TEMPERATURE", "NALL, 20.0",
-             "*BOUNDARY", f"{a}, 1, 3", f"{b}, 2, 3", f"{c}, 3, 3", "*INCLUDE, INPUT=temperatures.inp"]
-    u = {}
-    for name, T in fields.items():
-        sub = tmp_path / name
-        sub.mkdir()
-        write_inp(sub / "temperatures.inp", ids, T - KELVIN)
-        disp = _frd_block(_run_ccx(sub, "static", "\n".join(base) + "\n"), "DISP")
-        u[name] = np.array([disp[int(i)][:3] for i in ids])
+    supports = tuple(int(ids[np.flatnonzero((p == corner).all(axis=1))[0]]) for corner in ([0, 0, 0], [L, 0, 0],
+                                                                                           [0, W, 0]))
+    u = {name: static_displacements(tmp_path / name, mesh, T - KELVIN, supports,
+                                    material={"E": 110e9, "nu": 0.34, "alpha": 8.6e-6})
+         for name, T in fields.items()}
     umax = np.abs(u["detailed"]).max()
     e_rec = np.abs(u["recovered"] - u["detailed"]).max() / umax
     e_const = np.abs(u["constant"] - u["detailed"]).max() / umax

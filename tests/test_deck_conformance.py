@@ -27,7 +27,7 @@ ESATAN_ORDER = ["MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS",
 IDENT = re.compile(r"^[A-Z][A-Z0-9_]{0,23}$")
 
 
-def plate_case(power=5.0, transient=None, export=None, cases=None):
+def plate_case(power=5.0, transient=None, export=None, cases=None, reduction=None):
     raw = dict(parts=[{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
                        "back": "black", "super_nodes": 8}],
                boundary=[{"name": "edge", "kind": "temperature", "groups": ["xmin"], "value": 20.0},
@@ -40,6 +40,8 @@ def plate_case(power=5.0, transient=None, export=None, cases=None):
         raw["export"] = export
     if cases:
         raw["cases"] = cases
+    if reduction:
+        raw["reduction"] = reduction
     return make_case(**raw)
 
 
@@ -53,6 +55,18 @@ def decks(tmp_path_factory):
     multi = run(plate_case(cases=[{"name": "hot"}, {"name": "cold", "boundary": {"heater": {"value": 0.0}}}]),
                 out=base / "cases", mesh=PLATE)
     out["cases_hot"], out["cases_cold"] = multi.out / "hot", multi.out / "cold"
+    # the periodic orbit transient (orbital loads in time as arrays), and the radiation-aware network in time
+    orbit = make_case(parts=[{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3,
+                              "front": "black", "back": "black", "super_nodes": 8}],
+                      boundary=[{"name": "heater", "kind": "power", "groups": ["plate"], "value": 5.0}],
+                      environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                      reference={"detailed": False},
+                      orbit={"altitude": 700e3, "beta": 30.0, "positions": 4, "rays_per_face": 4},
+                      transient={"periodic": True, "step": 300.0, "output_every": 600.0, "tolerance": 0.5})
+    out["orbit"] = run(orbit, out=base / "orbit", mesh=PLATE).out
+    out["aware_transient"] = run(plate_case(transient={"end": 600.0, "step": 60.0, "initial_temperature": "steady"},
+                                            reduction={"radiation_aware": True, "outer_iterations": 10}),
+                                 out=base / "aware_transient", mesh=PLATE).out
     return out
 
 
@@ -95,14 +109,17 @@ def check_sinda(text: str) -> None:
     assert len(nodes) == len(set(abs(int(n)) for n in nodes))
 
 
-@pytest.mark.parametrize("kind", ["steady", "transient", "cases_hot", "cases_cold"])
+@pytest.mark.parametrize("kind", ["steady", "transient", "cases_hot", "cases_cold", "orbit", "aware_transient"])
 def test_every_study_kind_writes_conforming_decks(decks, kind):
     folder = decks[kind]
     check_esatan((folder / "model.esatan").read_text())
     check_sinda((folder / "model.sinda").read_text())
     text = (folder / "model.esatan").read_text()
-    assert ("CALL SLCRNC;" in text) == (kind == "transient")
-    if kind == "transient":
+    in_time = kind in ("transient", "orbit", "aware_transient")
+    assert ("CALL SLCRNC;" in text) == in_time
+    if kind == "orbit":  # the orbital loads in time: arrays interpolated in the variables block
+        assert "$ARRAYS" in text and "INTRP1" in text
+    if in_time:
         for c in ("TIMEO", "TIMEND", "DTIMEI", "OUTINT"):
             assert re.search(rf"^\s+{c} = ", text, re.M), c
 

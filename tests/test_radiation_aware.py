@@ -323,3 +323,35 @@ def test_composite_with_few_super_nodes_and_a_strong_heater_converges():
     assert r.reduced_solution.converged
     assert r.radiation_aware[-1]["max_dT_K"] < 1e-3 or "stop" in r.radiation_aware[-1]  # measured: 7 iterations
     assert r.summary["energy_balance_W"]["reduced"]["relative"] < 1e-9
+
+
+def test_radiation_aware_transient_follows_the_detailed_transient():
+    # issue 29: the radiation-aware network in time.  The thin composite strip (Bi >> 1 over a super node) held at
+    # one end, radiating to a -100 °C sink, 2 W spread on it from the steady start, 5 W from t = 600 s.  The
+    # network is linearised at the steady start (its correction load is that state's) and recovered about that
+    # state; the reference is the detailed FE transient with the same steps (an independent integration of the
+    # unreduced equations).  The thesis' network on the same clusters is the comparison.
+    mesh = meshes.plate(0.3, 0.1, 30, 10)
+    transient = {"start": 0.0, "end": 3600.0, "step": 60.0, "output_every": 300.0, "initial_temperature": "steady"}
+    errors = {}
+    for aware in (True, False):
+        case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
+                           "back": "black", "super_nodes": 6}],
+                         [{"kind": "temperature", "groups": ["xmin"], "value": 20.0},
+                          {"kind": "power", "groups": ["plate"], "value": [[0.0, 2.0], [599.0, 2.0], [601.0, 5.0]]}],
+                         materials=MAT, environment={"sink_temperature": -100.0}, radiation={"enabled": False},
+                         reduction={"radiation_aware": aware, "outer_iterations": 10},
+                         reference={"detailed": True}, transient=transient)
+        res = run(case, mesh=mesh)
+        tr = res.transient
+        model = res.model
+        det = np.array([model.node_temperatures(T) for T in tr.detailed.T])
+        rec = np.array([model.node_temperatures(T) for T in tr.T_recovered])
+        errors[aware] = float(np.sqrt(np.mean((rec - det) ** 2)))
+        if aware:
+            # the start is the steady state: the recovery about the network's own linearisation returns the steady
+            # recovered field to the outer iterations' tolerance (1 mK, stages.OUTER_TOLERANCE)
+            assert np.abs(rec[0] - model.node_temperatures(res.T_recovered)).max() < 2e-3
+    # measured 2026-12-04: radiation-aware 0.39 K, thesis 4.8 K RMS over space and time (the network's correction
+    # stays the 2 W state's: at 5 W its second-order error shows); bound: 5x better than the thesis
+    assert errors[True] < 0.2 * errors[False], errors

@@ -513,9 +513,6 @@ class _Parser:
             raise self.err("[radiation].ir_on", f'"{radiation.ir_on}" places absorbed IR on the FE faces through the '
                            "radiation-aware reduction: set [reduction] radiation_aware = true (and keep [radiation] "
                            "enabled)")
-        if reduction.radiation_aware and transient is not None:
-            raise self.err("[reduction].radiation_aware", "the radiation-aware reduction is for steady runs; remove "
-                           "it or the [transient] section")
         return Case(
             source=self.src,
             mesh=mesh,

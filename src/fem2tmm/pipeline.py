@@ -609,7 +609,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             orbit_loads = None
             if q_orbit is not None or q_sn_orbit is not None:  # loads in time along the orbit
                 pos = result.orbit_fluxes.positions
-                orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_orbit, q_dof=q_orbit,
+                q_sn_t = q_sn_orbit
+                if (q_orbit is not None and orbit.fluxes_on == "detailed" and result.reduced is not None
+                        and result.reduced.radiative is not None):  # the radiation-aware network's own Y'
+                    q_sn_t = result.reduced.reduction.distribute(q_orbit.T).T
+                orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_t, q_dof=q_orbit,
                                          recover_dof=orbit.fluxes_on == "detailed")
             result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
                                              result.q_recover, problem if (do_ref or not case.reduction.enabled) else None,

@@ -642,10 +642,6 @@ def check_transient(model: FEModel, case: Case) -> None:
     """Refuse a ``[transient]`` whose model has no capacitance (before any long computation)."""
     if case.transient is None:
         return
-    if case.reduction.enabled and case.reduction.radiation_aware:
-        raise Fem2TmmError(f"{case.source}: [transient] with [reduction] radiation_aware = true is not available "
-                           "(its network carries a correction linearised about one steady field); set "
-                           "radiation_aware = false for the transient")
     if model.capacity is not None:
         return
     missing = sorted({p.name for p in case.parts if p.material is None or case.materials[p.material].density is None
@@ -752,7 +748,10 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
             q = orbit.add(q, orbit.q_dof, spec.start)
         if settings.periodic:
             q = q.periodic(settings.start, settings.end - settings.start)
-        run.T_recovered = recover_series(rm.reduction.recover, run.reduced.T, q, run.times)
+        ra = rm.radiative
+        # the radiation-aware network: recovered about its own linearisation (its correction load is that state's)
+        recover = ra.recover_linearised if ra is not None and ra.T_lin is not None else rm.reduction.recover
+        run.T_recovered = recover_series(recover, run.reduced.T, q, run.times)
         clock.stop()
     if detailed is not None:
         clock = _Clock(run.timings, "detailed")
@@ -1035,6 +1034,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
             corr = corr + ra.reduction.distribute(q_abs) - absorbed
             q_rec = q_detailed + q_abs
         ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
+        lin_T, lin_q = T_ref, q_rec - q_detailed  # the network's correction is this field's (transient recovery)
         try:
             with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
                 sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance,
@@ -1088,6 +1088,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                       "small; fewer super nodes need more)", stacklevel=2)
     ra.history = history
     ra.shared = shared
+    ra.T_lin, ra.q_tally = lin_T, lin_q
     # what the network was given (W): the known loads before their distribution; the network's Q sums to less, the
     # difference being the heat its correction load and the distribution with K' radiate (summary radiated_W)
     ra.known_load_W = float(np.sum(q_detailed) + np.sum(q_lumped))

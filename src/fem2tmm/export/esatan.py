@@ -26,8 +26,8 @@ class DeckTransient:
 
     ``loads``: (pattern (n,) W per unit of the table, times (k,) s, values (k,)) — node i receives
     ``Q_i + Σ pattern_i (table(t) − table(start))``; ``temperatures``: (node index, times s, values K) of boundary
-    nodes that follow a table; ``sink``: (times s, values K) or None; ``start``, ``end``, ``step`` (s; None when the
-    run was adaptive), ``output`` (s), ``periodic`` (the tables repeat with period end − start).
+    nodes that follow a table; ``sink``: (times s, values K) or None; ``start``, ``end``, ``step`` (s; an adaptive run's largest
+    step, the solvers' DTIMEI), ``output`` (s), ``periodic`` (the tables repeat with period end − start).
     """
 
     loads: tuple = ()

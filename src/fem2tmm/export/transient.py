@@ -181,8 +181,12 @@ def deck_transient(run) -> DeckTransient | None:
     loads = tuple((pat, tb.t, tb.v) for pat, tb in zip(p.Q.patterns, p.Q.tables))
     temps = tuple((int(np.argmax(pat)), tb.t, tb.v) for pat, tb in zip(p.T_fixed.patterns, p.T_fixed.tables))
     sink = None if p.T_sink.is_constant else (p.T_sink.t, p.T_sink.v)
+    # the solvers' time step (ESATAN's SLCRNC needs DTIMEI): the fixed step, else the adaptive run's largest step,
+    # else the output interval
+    step = st.step if st.step is not None else st.output_every
     return DeckTransient(loads=loads, temperatures=temps, sink=sink, start=st.start, end=st.end,
-                         step=st.step if st.tolerance is None else None, output=st.output_every, periodic=st.periodic)
+                         step=step if step is not None else (st.end - st.start) / 100.0, output=st.output_every,
+                         periodic=st.periodic)
 
 
 def write_transient(folder: Path, result: Result) -> None:

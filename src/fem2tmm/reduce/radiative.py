@@ -122,6 +122,9 @@ class RadiationAware:
     T_sink : K, the environment (space node) temperature
     history : one dict per outer iteration (``max_dT_K``, ``rms_dT_K`` of the recovered field)
     shared : True when the emission was linearised once for a whole load-case set (the deck's GL shared)
+    T_lin : (n_dof,) K the field the network's correction load was computed at (its last outer iteration)
+    q_tally : (n_dof,) W absorbed IR tallied per FE face at T_lin (``ir_on`` "faces"/"detailed"), else zeros: the
+        recovery adds it to the applied loads
     """
 
     reduction: ConductiveReduction
@@ -132,6 +135,8 @@ class RadiationAware:
     T_sink: float
     history: list = field(default_factory=list)
     shared: bool = False  # linearised once for a load-case set (h fixed), not re-linearised at this case's state
+    T_lin: np.ndarray | None = None
+    q_tally: np.ndarray | None = None
 
     def correction(self, T_ref: np.ndarray, T_sn_ref: np.ndarray, e_sn: np.ndarray) -> np.ndarray:
         """Q_corr (n_SN,) W at the reference state.
@@ -151,6 +156,16 @@ class RadiationAware:
     def recover(self, T_sn: np.ndarray, q: np.ndarray, T_ref: np.ndarray) -> np.ndarray:
         """Detailed temperatures (n_dof,) K, ``T = X'(q + h T_ref − E(T_ref)) + Y'ᵀ T_SN``."""
         return self.reduction.recover(T_sn, self.recovery_load(q, T_ref))
+
+    def recover_linearised(self, T_sn: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Detailed temperatures about the network's own linearisation ``T_lin`` (a transient's recovery):
+        ``T_sn`` (n_SN, r) K, ``q`` (n_dof, r) W applied loads -> (n_dof, r) K.  First order in T − T_lin, like
+        the network's correction is second order (both are exact at T_lin)."""
+        extra = self.h * self.T_lin - SIGMA * self.e * (self.T_lin**4 - self.T_sink**4)
+        if self.q_tally is not None:
+            extra = extra + self.q_tally
+        q = np.asarray(q, float)
+        return self.reduction.recover(T_sn, q + (extra[:, None] if q.ndim == 2 else extra))
 
 
 __all__ = ["RadiationAware", "emission_entries", "emission_weights", "split_radiative"]
