@@ -350,6 +350,8 @@ def test_inspect_counts_regions(tmp_path, capsys):
     # 3 regions that merge down to 1 (issue 33: the U is one connected piece), area 3 m²
     assert re.search(r"PID 1\s+shell\s+6\s+3\s+1\s+3 m2", text), text
     assert re.search(r"PID 2\s+shell\s+4\s+1\s+1\s+1 m2\s+0.002 m \(PSHELL\)", text), text
+    # the merges a count below the regions implies, smallest first: a 1 m² face of the channel across its 1 m fold
+    assert re.search(r"PID 1\s+3 regions -> 1: 1 m2 across 1 m of shared edge; ", text), text
     assert "consistent" in text and "cards refused" in text and "RBAR (1)" in text and "PARAM (1)" in text
     # one piece: the CBUSH joins the channel to the plate; it touches the joint and the SPC1
     assert "connected pieces (elements and joints): 1" in text and "joint: yes, SPC: yes" in text

@@ -86,6 +86,14 @@ REGRESSIONS = {
     "recovery_round_off": ("plate(0.839842876083009, 0.001, 4, 1)",
                            _case(1.0, 0.0, alpha=0.85, specular=0.5, back="none", thickness=5.1e-4,
                                  boundary=[{**HELD, "value": -25.95}], sink=-273.15, aware=True)),
+    # ε = 0, radiation-aware, a transient of two plates touching at a corner, all at 0 °C: the network's H_SN taken as
+    # the row sums of K'_SN carried their round-off (1e-12 W/K where nothing emits), the correction load -H T_SN
+    # turned it into spurious watts and the transient books read 1.3e-9 relative; H_SN is now Y'h (exactly 0 here)
+    "radiation_aware_transient_round_off": (
+        "merge(plate(0.1, 0.1, 3, 3), transform(plate(0.1, 0.1, 3, 3), translation=(0.1, 0.1, 0.0)))",
+        _case(676.5, 0.0, alpha=6e-8, specular=1.0, thickness=1.67e-3, super_nodes=16,
+              boundary=[{**HELD, "value": 0.0}, {**HEATER, "value": 6.5e-280}], sink=83.8, aware=True,
+              transient={"end": 600.0, "step": 60.0, "initial_temperature": 0.0})),
 }
 
 
@@ -117,3 +125,32 @@ def test_a_thesis_network_with_negative_conductances_is_reported_outside_the_bou
             "reference": {"detailed": True, "rays_per_face": 10, "noise": False}}
     assert check(data, make_mesh("box(0.2, 0.15, 0.1, 4, 5, 4)")) == \
         "solved, the network's negative conductances take it outside the bounds"
+
+
+def test_a_thesis_network_driven_below_0_k_in_a_transient_is_refused_by_cause():
+    """558 W on a box of 0.1 mm walls with k = 1 W/(m K), no emission (steady 1.2e6 K): the thesis network at 45
+    super nodes has 495 negative conductances, and its transient, integrated without any damping, drops below 0 K
+    at t = 32 s while the detailed transient stays physical; the Newton steps failed there ("did not converge").
+    Now refused with the cause and the remedies."""
+    data = {"materials": {"m": {"conductivity": 1.00023, "density": 2000.0, "specific_heat": 900.0}},
+            "optics": {"paint": {"emissivity": 0.0, "absorptivity": 0.002, "specular": 0.0}},
+            "parts": [{"name": "p", "groups": ["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"], "material": "m",
+                       "front": "paint", "super_nodes": 45, "thickness": 1e-4, "back": "none"}],
+            "boundary": [{**HELD, "groups": ["zmin"], "value": 1e-4},
+                         {**HEATER, "groups": ["zmax"], "value": 557.93}],
+            "environment": {"sink_temperature": -273.15},
+            "radiation": {"enabled": True, "rays_per_face": 50}, "reduction": {"radiation_aware": False},
+            "reference": {"detailed": True, "rays_per_face": 10, "noise": False},
+            "transient": {"end": 600.0, "step": 60.0, "initial_temperature": 0.0}}
+    out = check(data, make_mesh("box(0.2, 0.15, 0.1, 5, 4, 3)"))
+    assert out.startswith("refused: the reduced network has # negative conductances"), out
+    import warnings
+
+    from fem2tmm import Fem2TmmError
+    from fem2tmm.case import Case
+    from fem2tmm.pipeline import run
+
+    with warnings.catch_warnings(), pytest.raises(Fem2TmmError, match=r"towards 0 K \(at t = 32\.\d+ s\)"):
+        warnings.simplefilter("ignore")
+        run(Case.from_dict(data), mesh=make_mesh("box(0.2, 0.15, 0.1, 5, 4, 3)"))
+

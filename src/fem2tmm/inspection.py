@@ -199,6 +199,18 @@ def inspection_text(rep: dict) -> str:
             extra = f"{g['on_other_elements']} on shell/solid nodes"
         lines.append(f"  {g['group']:<18} {g['kind']:<6} {g['elements']:>8} {g['regions']:>7} "
                      f"{g['fewest_super_nodes']:>5}  {size:<22} {th:<30} {(extra + '; ') if extra else ''}{types}")
+    merging = [g for g in rep["groups"] if g.get("merges_below_regions")]
+    if merging:
+        unit = {"shell": ("m2", "m of shared edge"), "solid": ("m3", "m2 of shared face"), "line": ("m", "shared end")}
+        lines += ["", "below its regions a group's regions merge, smallest first into the neighbour sharing the "
+                      "strongest link (the first merges; summary.json reduced.clustering.parts[].regions_merged lists "
+                      "a run's):"]
+        for g in merging:
+            mu, lu = unit[g["kind"]]
+            first = "; ".join(f"{m['measure']:.3g} {mu} across {m['link']:.3g} {lu}"
+                              for m in g["merges_below_regions"][:3])
+            lines.append(f"  {g['group']:<18} {g['regions']} regions -> {g['fewest_super_nodes']}: {first}"
+                         + (" ..." if len(g["merges_below_regions"]) > 3 else ""))
     lines += ["", f"connected pieces (elements and joints): {len(rep['pieces'])}"]
     for i, p in enumerate(rep["pieces"]):
         lines.append(f"  {i + 1}: {p['elements']} elements, {p['nodes']} nodes, groups {', '.join(p['groups']) or '-'}; "

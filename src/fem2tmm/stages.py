@@ -740,7 +740,24 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
                                 T_fixed=fixed_series(rm.T_fixed, rows, case), g_space=rm.g_space, T_sink=sink,
                                 GR=rm.GR, names=tuple(rm.names))
         run.reduced_problem = prob
-        run.reduced = solve_transient(prob, settings, initial(T_reduced))
+        try:
+            run.reduced = solve_transient(prob, settings, initial(T_reduced))
+        except Fem2TmmError as exc:
+            negative = int(rm.report.get("negative_links", 0))
+            if not negative:
+                raise
+            import re
+
+            when = re.search(r"at t = (\S+) s", str(exc))
+            # measured on a generated model (tests/test_robustness.py): the linear thesis network, integrated
+            # without the solver's positivity damping, drops below 0 K at the very time the Newton steps fail
+            raise Fem2TmmError(
+                f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation "
+                "of the thesis' reduction), which break the maximum principle: in this transient they drive super "
+                f"nodes towards 0 K{'' if when is None else ' (at t = ' + when.group(1) + ' s)'}, where the detailed "
+                "model has a physical solution; use " + ("more super nodes" if case.reduction.radiation_aware else
+                                                         "[reduction] network = \"positive\", radiation_aware = "
+                                                         "true, or more super nodes")) from None
         clock.stop()
         clock = _Clock(run.timings, "recover")
         q = load_series(model.Q if q_recover is None else q_recover, tables)

@@ -132,7 +132,11 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
         np.add.at(K, (row_of_dof[L.rows], row_of_dof[L.cols]), L.vals)
     radiative = None
     if T_ref is not None:
-        K, H = split_radiative(K)
+        # H_SN = Y' h (the identity K'_SN 1 = Y' h, module docstring of reduce/radiative.py), not the row sums of
+        # K'_SN: those carry the round-off of a zero-row-sum conduction matrix (1e-12 W/K per super node where no
+        # face emits), which the correction load would turn into spurious watts (-H T_SN)
+        K, _ = split_radiative(K)
+        H = red.distribute(h)
         radiative = RadiationAware(reduction=red, K=K, H=H, e=emission_weights(model.faces.W, model.faces.eps_area),
                                    h=h, T_sink=model.T_sink)
     report = {"method": red.method, "diagnostics": dict(red.diagnostics),
