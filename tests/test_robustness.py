@@ -94,6 +94,19 @@ REGRESSIONS = {
         _case(676.5, 0.0, alpha=6e-8, specular=1.0, thickness=1.67e-3, super_nodes=16,
               boundary=[{**HELD, "value": 0.0}, {**HEATER, "value": 6.5e-280}], sink=83.8, aware=True,
               transient={"end": 600.0, "step": 60.0, "initial_temperature": 0.0})),
+    # a 0.1 mm box under the Sun at 2 super nodes, radiation-aware without face-to-face radiation: its first reference,
+    # the thesis' recovered field, reaches -1 125 K, so h = 4σeT³ < 0 and the local saddle matrix of K' was not
+    # positive definite (refused); h is now taken at max(T_ref, 0)
+    "radiation_aware_reference_below_0_k": ("box(0.2, 0.15, 0.1, 3, 3, 1)", {
+        "materials": {"m": {"conductivity": 1.0, "density": 2000.0, "specific_heat": 900.0}},
+        "optics": {"paint": {"emissivity": 0.11266, "absorptivity": 0.16346, "specular": 0.0}},
+        "parts": [{"name": "p", "groups": ["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"], "material": "m",
+                   "front": "paint", "super_nodes": 2, "thickness": 1e-4, "back": "none"}],
+        "boundary": [{**HELD, "groups": ["zmin"], "value": 0.11266}],
+        "environment": {"sink_temperature": -272.7713, "sun_direction": [0.3, 0.2, 1.0], "solar_flux": 1361.0},
+        "radiation": {"enabled": False, "rays_per_face": 50}, "reduction": {"radiation_aware": True,
+                                                                             "outer_iterations": 20},
+        "reference": {"detailed": True, "rays_per_face": 10, "noise": False}}),
 }
 
 

@@ -110,7 +110,6 @@ class _Prepared:
     times: dict
     merged: dict | None = None  # regions merged to meet the requested count (merge_regions)
     deferred: tuple = ()  # (global element indices,) of the pieces given no cluster of their own (.contact)
-    requested: int = 0  # the part's super nodes before pieces were deferred
 
 
 def _ids(part: PartInput, local: np.ndarray) -> str:
@@ -258,8 +257,7 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
         deferred = tuple(part.elements[piece == q] for q in np.sort(order[part.n_clusters:]))
         sub = _subset(part, np.flatnonzero(mine))
         pr = _prepare(points, sub, None if weights is None else np.asarray(weights)[mine], feature_angle, balance)
-        return _Prepared(pr.part, pr.weights, pr.measure, pr.centroids, pr.graph, pr.keep, pr.region, pr.alloc,
-                         pr.times, pr.merged, deferred, part.n_clusters)
+        return replace(pr, deferred=deferred)
     region, keep = split_regions(graph, m, part.kind, normals, part.attribute, feature_angle)
     # fewer super nodes than regions: merge regions (smallest first, across the strongest link) instead of refusing;
     # what cannot merge (disconnected pieces) is refused by allocate with the regions listed
@@ -285,8 +283,7 @@ def _prepare(points: np.ndarray, part: PartInput, weights: np.ndarray | None, fe
     t3 = time.perf_counter()
     times.update(geometry=t1 - t0, regions=t2 - t1, allocation=t3 - t2)
     return _Prepared(part, weights, measure, centroids, graph, keep, region, alloc, times,
-                     merged={"regions_before": n_split, "merges": merges} if merges else None,
-                     requested=part.n_clusters)
+                     merged={"regions_before": n_split, "merges": merges} if merges else None)
 
 
 def _subset(part: PartInput, rows: np.ndarray, kind: str | None = None, n_clusters: int | None = None
@@ -467,7 +464,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
         unit[rows] = n_units if whole else n_units + np.arange(len(rows))
         n_units += 1 if whole else len(rows)
 
-    subs = []  # (part index, PartInput, weights)
+    subs = []  # (part index, the part's elements of one kind not embedded, their weights, their rows)
     for pi, (p, w) in enumerate(zip(parts, weights)):
         rows = np.arange(start[pi], start[pi + 1])
         free = ~emb[rows]
@@ -475,7 +472,8 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
         counts = _split_count(p.n_clusters, {k: int(np.count_nonzero(free & (rank[rows] == RANK[k])))
                                              for k in kinds})
         defer(rows[~free], whole=False)  # embedded elements join, one by one, the cluster holding their nodes
-        joined[p.name] = {"embedded": int(np.count_nonzero(~free)), "pieces": 0, "elements": int(np.count_nonzero(~free))}
+        n_emb = int(np.count_nonzero(~free))
+        joined[p.name] = {"embedded": n_emb, "pieces": 0, "elements": n_emb}
         for k in kinds:
             local = np.flatnonzero(free & (rank[rows] == RANK[k]))
             if not len(local):
@@ -542,7 +540,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
         region_out[part.elements] = pr.region + r_off
         cluster_part.extend([pi] * part.n_clusters)
         rep = _part_report(pr, labels[part.elements], k_off, smoothing)
-        if pr.requested != part.n_clusters or parts[pi].kind == "mixed" or parts[pi].n_clusters != part.n_clusters:
+        if parts[pi].kind == "mixed" or parts[pi].n_clusters != part.n_clusters:  # shared among kinds, or capped
             rep["requested"] = int(parts[pi].n_clusters)
         reports.append(rep)
         k_off += part.n_clusters
@@ -617,7 +615,7 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
         order; they replace area/volume in the allocation among regions and in the balance of the clusters (e.g.
         :func:`fem2tmm.stages.biot_weights`)
     one_node : (n,) bool or None; unknowns (the parts' ``dofs``, or mesh nodes) that are one-node super nodes
-        (fixed temperature, kept): an element on such nodes and on higher-kind nodes only is embedded
+        (fixed temperature, kept): a bar whose nodes are all such nodes or shell/solid nodes is embedded
 
     Returns
     -------
