@@ -133,8 +133,8 @@ def test_dependent_super_nodes_are_merged():
 
 
 def test_a_shell_on_a_solid_face_covers_it(tmp_path):
-    # a 1 m hex (its own part) with a quad (another part) on its bottom face: the hex radiates through its five
-    # other faces only; the quad radiates with its own optics (both sides)
+    # a 1 m hex (its own part) with a quad (another part) on its bottom face, its normal pointing away (-z): the two
+    # are in contact; the hex radiates through its five other faces, the quad through its front side only
     lines = ["BEGIN BULK"]
     gid = {}
     for k, z in enumerate((0.0, 1.0)):
@@ -159,5 +159,14 @@ def test_a_shell_on_a_solid_face_covers_it(tmp_path):
     model = build_model(read_mesh(deck), case)
     f = model.faces
     assert int((f.kind == 1).sum()) == 5 and int((f.kind == 0).sum()) == 1
-    # emitting area: 5 m² of hex faces (front only) + the quad's two sides = 7 m² at ε = 1
-    assert float((f.eps_area).sum()) == pytest.approx(7.0, rel=1e-12)
+    quad = int(np.flatnonzero(f.kind == 0)[0])
+    assert f.active[2 * quad] and not f.active[2 * quad + 1]  # the back side faces into the hex
+    # emitting area: 5 m² of hex faces (front only) + the quad's front = 6 m² at ε = 1
+    assert float((f.eps_area).sum()) == pytest.approx(6.0, rel=1e-12)
+    # the same quad the other way round (its front into the hex): the front is the covered side
+    flipped = deck.read_text().replace(f"CQUAD4,2,2,{gid[0, 0, 0]},{gid[0, 1, 0]},{gid[1, 1, 0]},{gid[1, 0, 0]}",
+                                       f"CQUAD4,2,2,{gid[0, 0, 0]},{gid[1, 0, 0]},{gid[1, 1, 0]},{gid[0, 1, 0]}")
+    deck.write_text(flipped)
+    f = build_model(read_mesh(deck), case).faces
+    quad = int(np.flatnonzero(f.kind == 0)[0])
+    assert not f.active[2 * quad] and f.active[2 * quad + 1]

@@ -9,7 +9,9 @@
   fixed-temperature boundary are merged into one isothermal DOF (an exact multi-point constraint).
 * Radiating faces: each shell element is one face with two sides (front = right-hand normal); each outer
   face of the solids (a face used by exactly one solid of the model and covered by no shell element) is a
-  face whose front (outward) side has the part's ``front`` optics and whose back side is inactive.
+  face whose front (outward) side has the part's ``front`` optics and whose back side is inactive.  Where a
+  shell lies on a solid's face (a panel a fitting sits on, a skin) the two are in contact: the solid's face does
+  not radiate and neither does the shell's side facing into the solid.
 * Nodal lumping: capacity ``∫ρ c Nᵢ dV``, radiating area ``∫Nᵢ dA`` (row-sum lumping; equal shares on
   simplices and undistorted elements).
 """
@@ -336,10 +338,12 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
 
 
 def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarray):
-    """Outer faces of the solids: ((F, 4) node indices padded -1, (F,) position in ``cells``).
+    """Outer faces of the solids: ((F, 4) node indices padded -1, (F,) position in ``cells``, and the contacts
+    ((c, 4) node indices of each solid face a shell lies on, in the solid's outward order; (c,) the shell's row
+    among the shells)).
 
     A face used by one solid only is outer, unless a shell element of the model lies on its nodes (a skin, or a
-    panel a fitting sits on): the shell radiates with its own optics and the face beneath it is covered."""
+    panel a fitting sits on): that face is a contact, covered; the shell keeps its other side."""
     facelist, owner = [], []
     for code in np.unique(types):
         t = _CODE_TYPE[int(code)]
@@ -351,8 +355,9 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
             fc[:, : len(f)] = cells[sel][:, list(f)]
             facelist.append(fc)
             owner.append(elem_pos[sel])
+    none = np.zeros((0, 4), np.int64), np.zeros(0, np.int64)
     if not facelist:
-        return np.zeros((0, 4), np.int64), np.zeros(0, np.int64)
+        return (*none, *none)
     F = np.concatenate(facelist)
     own = np.concatenate(owner)
     shell = np.isin(types, [TYPE_CODE[t] for t in SHELL_TYPES])
@@ -360,10 +365,19 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
     S[types[shell] == TYPE_CODE["tri3"], 3] = -1
     big = np.iinfo(np.int64).max
     key = np.sort(np.where(F < 0, big, F), axis=1)
-    skey = np.unique(np.sort(np.where(S < 0, big, S), axis=1), axis=0)  # each shell once (two coincident shells)
+    skey = np.sort(np.where(S < 0, big, S), axis=1)
     _, inv, cnt = np.unique(np.concatenate([key, skey]), axis=0, return_inverse=True, return_counts=True)
-    outer = cnt[inv.ravel()[: len(key)]] == 1
-    return F[outer], own[outer]
+    inv = inv.ravel()
+    n_solid = np.bincount(inv[: len(key)], minlength=len(cnt))  # solids using each face
+    outer_solid = n_solid[inv[: len(key)]] == 1
+    covered = np.zeros(len(cnt), bool)
+    covered[inv[len(key):]] = True  # a shell lies on it
+    outer = outer_solid & ~covered[inv[: len(key)]]
+    contact = outer_solid & covered[inv[: len(key)]]
+    # the shell (first one, if several coincide) lying on each contact face
+    shell_of = np.full(len(cnt), -1, np.int64)
+    shell_of[inv[len(key):][::-1]] = np.arange(len(skey))[::-1]
+    return F[outer], own[outer], F[contact], shell_of[inv[: len(key)][contact]]
 
 
 # ------------------------------------------------------------------------------------------ builder
@@ -772,7 +786,7 @@ def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, n
     pos = np.arange(len(elements))
     sf = cells[shell, :4].copy()
     sf[types[shell] == TYPE_CODE["tri3"], 3] = -1
-    of, own = _solid_outer_faces(cells, types, pos)
+    of, own, contact_nodes, contact_shell = _solid_outer_faces(cells, types, pos)
     fnodes = np.concatenate([sf, of])
     fpos = np.concatenate([pos[shell], own])
     kind = np.concatenate([np.zeros(len(sf), np.int8), np.ones(len(of), np.int8)])
@@ -814,6 +828,19 @@ def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, n
             eps[s], alpha[s], spec[s], tau[s], tspec[s] = (o.emissivity, o.absorptivity, o.specular,
                                                            o.transmissivity, o.transmission_specular)
             active[s] = True
+    if len(contact_shell):  # a shell lying on a solid's face: its side facing into the solid is a contact, covered
+        P = mesh.points
+
+        def face_normal(nodes):  # unnormalised, by the node order: diagonals of quads, two edges of triangles
+            tri = nodes[:, 3] < 0
+            a = np.where(tri[:, None], P[nodes[:, 1]] - P[nodes[:, 0]], P[nodes[:, 2]] - P[nodes[:, 0]])
+            b = np.where(tri[:, None], P[nodes[:, 2]] - P[nodes[:, 0]], P[np.maximum(nodes[:, 3], 0)] - P[nodes[:, 1]])
+            return np.cross(a, b)
+
+        into_solid = np.einsum("ij,ij->i", face_normal(sf[contact_shell]), face_normal(contact_nodes)) < 0
+        s = 2 * contact_shell + np.where(into_solid, 0, 1)  # front faces into the solid when opposite its outward
+        eps[s] = alpha[s] = tau[s] = 0.0
+        active[s] = False
     fd = np.where(fnodes >= 0, node_dof[np.maximum(fnodes, 0)], -1)
     ok = fd >= 0
     rows = np.repeat(np.arange(nf), 4).reshape(nf, 4)
