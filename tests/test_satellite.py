@@ -170,3 +170,20 @@ def test_a_shell_on_a_solid_face_covers_it(tmp_path):
     f = build_model(read_mesh(deck), case).faces
     quad = int(np.flatnonzero(f.kind == 0)[0])
     assert not f.active[2 * quad] and f.active[2 * quad + 1]
+    # a second hex on top of the first and the quad between them (at z = 1): solid on both sides, nothing radiates
+    lines = [ln for ln in flipped.splitlines() if ln != "ENDDATA"]
+    top = {}
+    for j, y in enumerate((0.0, 1.0)):
+        for i, x in enumerate((0.0, 1.0)):
+            top[i, j] = 100 + len(top)
+            lines.append(f"GRID,{top[i, j]},,{x},{y},2.0")
+    lines += [f"CHEXA,3,1,{gid[0, 0, 1]},{gid[1, 0, 1]},{gid[1, 1, 1]},{gid[0, 1, 1]},{top[0, 0]},{top[1, 0]}",
+              f",{top[1, 1]},{top[0, 1]}",
+              f"CQUAD4,4,2,{gid[0, 0, 1]},{gid[1, 0, 1]},{gid[1, 1, 1]},{gid[0, 1, 1]}", "ENDDATA"]
+    deck.write_text("\n".join(lines) + "\n")
+    f = build_model(read_mesh(deck), case).faces
+    shells = np.flatnonzero(f.kind == 0)
+    assert len(shells) == 2 and int((f.kind == 1).sum()) == 9  # 2 x 6 hex faces - the shared one - the bottom
+    middle = [q for q in shells if not f.active[2 * q] and not f.active[2 * q + 1]]
+    assert len(middle) == 1
+

@@ -11,7 +11,8 @@
   face of the solids (a face used by exactly one solid of the model and covered by no shell element) is a
   face whose front (outward) side has the part's ``front`` optics and whose back side is inactive.  Where a
   shell lies on a solid's face (a panel a fitting sits on, a skin) the two are in contact: the solid's face does
-  not radiate and neither does the shell's side facing into the solid.
+  not radiate and neither does the shell's side facing into the solid (neither side of a shell between two
+  solids).
 * Nodal lumping: capacity ``∫ρ c Nᵢ dV``, radiating area ``∫Nᵢ dA`` (row-sum lumping; equal shares on
   simplices and undistorted elements).
 """
@@ -338,12 +339,13 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
 
 
 def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarray):
-    """Outer faces of the solids: ((F, 4) node indices padded -1, (F,) position in ``cells``, and the contacts
+    """Outer faces of the solids: ((F, 4) node indices padded -1, (F,) position in ``cells``, the contacts
     ((c, 4) node indices of each solid face a shell lies on, in the solid's outward order; (c,) the shell's row
-    among the shells)).
+    among the shells), and (b,) the rows among the shells of those buried between two solids).
 
     A face used by one solid only is outer, unless a shell element of the model lies on its nodes (a skin, or a
-    panel a fitting sits on): that face is a contact, covered; the shell keeps its other side."""
+    panel a fitting sits on): that face is a contact, covered; the shell keeps its other side.  A shell on a face
+    between two solids (a deck through a block) has solid on both sides."""
     facelist, owner = [], []
     for code in np.unique(types):
         t = _CODE_TYPE[int(code)]
@@ -357,7 +359,7 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
             owner.append(elem_pos[sel])
     none = np.zeros((0, 4), np.int64), np.zeros(0, np.int64)
     if not facelist:
-        return (*none, *none)
+        return (*none, *none, none[1])
     F = np.concatenate(facelist)
     own = np.concatenate(owner)
     shell = np.isin(types, [TYPE_CODE[t] for t in SHELL_TYPES])
@@ -377,7 +379,8 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
     # the shell (first one, if several coincide) lying on each contact face
     shell_of = np.full(len(cnt), -1, np.int64)
     shell_of[inv[len(key):][::-1]] = np.arange(len(skey))[::-1]
-    return F[outer], own[outer], F[contact], shell_of[inv[: len(key)][contact]]
+    buried = np.flatnonzero(n_solid[inv[len(key):]] >= 2)
+    return F[outer], own[outer], F[contact], shell_of[inv[: len(key)][contact]], buried
 
 
 # ------------------------------------------------------------------------------------------ builder
@@ -786,7 +789,7 @@ def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, n
     pos = np.arange(len(elements))
     sf = cells[shell, :4].copy()
     sf[types[shell] == TYPE_CODE["tri3"], 3] = -1
-    of, own, contact_nodes, contact_shell = _solid_outer_faces(cells, types, pos)
+    of, own, contact_nodes, contact_shell, buried = _solid_outer_faces(cells, types, pos)
     fnodes = np.concatenate([sf, of])
     fpos = np.concatenate([pos[shell], own])
     kind = np.concatenate([np.zeros(len(sf), np.int8), np.ones(len(of), np.int8)])
@@ -839,6 +842,10 @@ def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, n
 
         into_solid = np.einsum("ij,ij->i", face_normal(sf[contact_shell]), face_normal(contact_nodes)) < 0
         s = 2 * contact_shell + np.where(into_solid, 0, 1)  # front faces into the solid when opposite its outward
+        eps[s] = alpha[s] = tau[s] = 0.0
+        active[s] = False
+    if len(buried):  # a shell between two solids: both sides in contact
+        s = np.concatenate([2 * buried, 2 * buried + 1])
         eps[s] = alpha[s] = tau[s] = 0.0
         active[s] = False
     fd = np.where(fnodes >= 0, node_dof[np.maximum(fnodes, 0)], -1)
