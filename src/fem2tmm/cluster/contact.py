@@ -11,7 +11,8 @@ the nodes of a panel.  Such elements cannot carry a super node of their own, or 
   keeps clusters of its own: its rows stay independent, and its radiating faces keep their part's count);
 * a part made of more disconnected pieces than the super nodes it asks for (eighteen single-hex fittings in a
   part given four) keeps its largest pieces and the others join the cluster they touch through the most shared
-  nodes, whatever its part and kind, else their part's nearest cluster (:func:`join_units`);
+  nodes, whatever its part and kind; a piece touching nothing joins its part's nearest cluster only if a held or
+  kept node fixes its own mean, and is refused otherwise (:func:`join_units`);
 * what is left (rare: two parts' clusters over the same nodes, a one-element cluster whose nodes are all shared)
   is found on the exact super-node rows and merged into its best-connected neighbour (:func:`join_dependent`), so
   that "linearly dependent super nodes" never reaches the user.
@@ -42,6 +43,7 @@ def element_rank(types: np.ndarray) -> np.ndarray:
 
 
 def kind_of_rank(rank: int) -> str:
+    """"line", "shell" or "solid" for a rank of :data:`RANK`."""
     return {v: k for k, v in RANK.items()}[int(rank)]
 
 
