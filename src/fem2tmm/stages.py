@@ -132,7 +132,7 @@ def _independent(model: FEModel, clustering: Clustering, one_node: np.ndarray, i
     report["merged_dependent"] = [{"cluster": int(a), "into": int(b), "part": model.parts[int(cluster_part[a])].name,
                                    "into_part": model.parts[int(cluster_part[b])].name} for a, b in merges]
     return dataclasses.replace(clustering, labels=labels, cluster_part=cluster_part[kept],
-                   cluster_region=clustering.cluster_region[kept], report=report)
+                               cluster_region=clustering.cluster_region[kept], report=report)
 
 
 def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True,
@@ -754,8 +754,8 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
             raise Fem2TmmError(
                 f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation "
                 "of the thesis' reduction), which break the maximum principle: in this transient they drive super "
-                f"nodes towards 0 K{'' if when is None else ' (at t = ' + when.group(1) + ' s)'}, where the detailed "
-                "model has a physical solution; use " + ("more super nodes" if case.reduction.radiation_aware else
+                f"nodes towards 0 K{'' if when is None else ' (at t = ' + when.group(1) + ' s)'}: the network's "
+                "property, not the physics'; use " + ("more super nodes" if case.reduction.radiation_aware else
                                                          "[reduction] network = \"positive\", radiation_aware = "
                                                          "true, or more super nodes")) from None
         clock.stop()
