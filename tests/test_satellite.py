@@ -10,6 +10,7 @@ a stiffener is reduced with the panel it stiffens.
 from __future__ import annotations
 
 import importlib.util
+import re
 import warnings
 from pathlib import Path
 
@@ -187,3 +188,26 @@ def test_a_shell_on_a_solid_face_covers_it(tmp_path):
     middle = [q for q in shells if not f.active[2 * q] and not f.active[2 * q + 1]]
     assert len(middle) == 1
 
+
+
+def test_inspect_a_case_says_what_each_parts_count_does(deck, capsys):
+    # issue 33 item 4: per part, the fewest count without merging (regions), the fewest at all, and what the asked
+    # count implies
+    from fem2tmm.cli import main
+
+    case = deck.parent / "inspect_case.toml"
+    case.write_text(f'[mesh]\nfile = "{deck.name}"\n\n'
+                    '[[parts]]\nname = "panels"\ngroups = ["PID 1", "PID 2", "PID 3", "PID 4"]\nsuper_nodes = 2\n\n'
+                    '[[parts]]\nname = "bars"\ngroups = ["PID 11", "PID 12", "PID 13", "PID 14"]\nsuper_nodes = 30\n\n'
+                    '[[parts]]\nname = "fittings"\ngroups = ["PID 21", "PID 22", "PID 23"]\nsuper_nodes = 4\n')
+    assert main(["inspect", str(case)]) == 0
+    text = capsys.readouterr().out
+    rows = {line.split()[0]: line for line in text[text.index("parts of the case"):].splitlines()[2:5]}
+    # the fittings: nine pieces (three feet, four mounts, the unit, the battery), five of which join what they touch
+    assert "5 of its 9 pieces join the clusters they touch" in rows["fittings"], text
+    # the panels: 11 regions (split at the box edges, the deck's T-junctions and the property changes) in 3 pieces
+    # (the deck meets the walls at junction edges only): at 2, one piece joins and 8 regions merge
+    assert re.search(r"panels\s+shell\s+\d+\s+11\s+1\s+2\s+1 of its 3 pieces joins the cluster it touches; "
+                     r"8 region merge\(s\), smallest first", rows["panels"]), text
+    # the bars: the stiffeners lie on panel nodes
+    assert "bars on shell/solid nodes join those clusters" in rows["bars"], text

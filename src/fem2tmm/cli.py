@@ -34,8 +34,9 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--quiet", action="store_true")
     b = sub.add_parser("bench", help="benchmarks of a source checkout (benchmarks/); one JSON object per line")
     b.add_argument("names", nargs="*", help="benchmarks to run (default: all); 'list' lists them")
-    i = sub.add_parser("inspect", help="what a mesh holds: groups, regions, pieces, cards (before writing a case)")
-    i.add_argument("mesh", help="mesh file (Nastran bulk data or Gmsh .msh)")
+    i = sub.add_parser("inspect", help="what a mesh holds: groups, regions, pieces, cards (before writing a case); "
+                                       "given a case file, also what its parts' counts do")
+    i.add_argument("mesh", help="mesh file (Nastran bulk data or Gmsh .msh), or a case file (.toml)")
     i.add_argument("--unit", default="m", help="length unit of the file (default m)")
     i.add_argument("--unit-system", default=None, help="Nastran unit system of material values (e.g. mm-t-s)")
     i.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -137,7 +138,15 @@ def _inspect(args) -> int:
 
     from .inspection import inspect_mesh, inspection_text
 
-    rep = inspect_mesh(args.mesh, unit=args.unit, unit_system=args.unit_system)
+    if str(args.mesh).lower().endswith(".toml"):  # a case: its mesh, with its parts' counts
+        from .case import Case
+
+        case = Case.from_toml(args.mesh)
+        parts = [(p.name, list(p.groups), p.super_nodes) for p in case.parts]
+        rep = inspect_mesh(case.mesh.file, unit=case.mesh.unit,
+                           unit_system=args.unit_system or getattr(case.mesh, "unit_system", None), parts=parts)
+    else:
+        rep = inspect_mesh(args.mesh, unit=args.unit, unit_system=args.unit_system)
     print(json.dumps(rep, indent=2) if args.json else inspection_text(rep))
     return 0
 

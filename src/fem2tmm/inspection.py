@@ -39,11 +39,68 @@ def _node_use(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     return use, host
 
 
+def _regions(mesh: Mesh, el: np.ndarray, kind: str, feature_angle: float, node_use,
+             attribute: np.ndarray | None = None) -> dict:
+    """Regions, pieces, the fewest super nodes and the first merges of the elements ``el`` of one kind (a group, or
+    a part's elements of that kind with ``attribute`` their group: regions stop at a change, as in the clustering)."""
+    use, host = node_use
+    types = mesh.element_types[el]
+    rep = {}
+    cells = mesh.padded_cells[el]
+    if len(el) > 1 or kind != "line":
+        graph = dual_graph(mesh.points, cells, types, kind)
+        normals = mesh.element_normals(el) if kind == "shell" else None
+        region, keep = split_regions(graph, len(el), kind, normals, attribute, feature_angle)
+        rep["regions"] = int(region.max()) + 1 if len(el) else 0
+        # fewer super nodes merge regions, smallest first across the strongest link (cluster.regions.merge_regions);
+        # pieces that touch another element or a joint by a node join the clusters they touch (cluster.contact):
+        # only the pieces touching nothing else need a super node of their own
+        meas = (mesh.element_areas(el) if kind == "shell" else mesh.element_volumes(elements=el) if kind == "solid"
+                else mesh.element_lengths(el))
+        merged, _, merges = merge_regions(graph, region, keep, np.nan_to_num(np.asarray(meas, float)), 1)
+        own = np.bincount(cells[cells >= 0], minlength=mesh.n_nodes)
+        touching = np.where(cells >= 0, (use > own)[np.maximum(cells, 0)], False).any(axis=1)
+        n_pieces = int(merged.max()) + 1 if len(el) else 0
+        alone = n_pieces - len(np.unique(merged[touching]))
+        rep["pieces"] = n_pieces
+        rep["fewest_super_nodes"] = max(1, alone) if len(el) else 0
+        rep["merges_below_regions"] = [{"measure": m["measure"], "link": m["link"]} for m in merges[:10]]
+        if kind == "shell":
+            bad = int(np.count_nonzero(~graph.consistent))
+            rep["normals"] = "consistent" if bad == 0 else f"inconsistent across {bad} edges"
+    else:
+        rep.update(regions=1, pieces=1, fewest_super_nodes=1, merges_below_regions=[])
+    if kind == "line":  # bars on shell/solid nodes only: reduced with the elements they lie on (cluster.contact)
+        rep["on_other_elements"] = int(np.count_nonzero(np.where(cells >= 0, host[np.maximum(cells, 0)],
+                                                                 True).all(axis=1)))
+    return rep
+
+
+def _part_reports(mesh: Mesh, parts, feature_angle: float, node_use) -> list[dict]:
+    """Per case part and element kind: its elements, regions, pieces, the fewest super nodes and the first merges,
+    beside the count the case asks for.  ``parts``: (name, groups, super_nodes) of each ``[[parts]]`` entry."""
+    out = []
+    for name, groups, asked in parts:
+        owner = np.full(mesh.n_elements, -1, np.int64)
+        for gi, g in enumerate(groups):
+            grp = mesh.group(g, where=f"[[parts]] {name!r}.groups")
+            owner[grp.elements] = gi
+        el = np.flatnonzero(owner >= 0)
+        dims = mesh.element_dims[el]
+        for d in np.unique(dims):
+            sel = el[dims == d]
+            kind = _KIND[int(d)]
+            rep = {"part": name, "kind": kind, "elements": int(len(sel)), "super_nodes": int(asked),
+                   "mixed": bool(len(np.unique(dims)) > 1)}
+            rep.update(_regions(mesh, sel, kind, feature_angle, node_use, owner[sel]))
+            out.append(rep)
+    return out
+
+
 def _group_report(mesh: Mesh, name: str, feature_angle: float, node_use=None) -> dict:
     g = mesh.groups[name]
     use, host = node_use if node_use is not None else _node_use(mesh)
     el = g.elements
-    types = mesh.element_types[el]
     names = {}
     for t, c, _ in mesh.iter_blocks(el):
         names[t] = names.get(t, 0) + len(c)
@@ -67,37 +124,7 @@ def _group_report(mesh: Mesh, name: str, feature_angle: float, node_use=None) ->
         rep["section_source"] = prop.card if prop is not None and prop.card else None
     if prop is not None:
         rep["conductivity"] = prop.conductivity if prop.conductivity_tensor is None else list(prop.conductivity_tensor)
-    cells = mesh.padded_cells[el]
-    if len(el) > 1 or kind != "line":
-        graph = dual_graph(mesh.points, cells, types, kind)
-        normals = mesh.element_normals(el) if kind == "shell" else None
-        region, keep = split_regions(graph, len(el), kind, normals, None, feature_angle)
-        rep["regions"] = int(region.max()) + 1 if len(el) else 0
-        # fewer super nodes merge regions, smallest first across the strongest link (cluster.regions.merge_regions);
-        # only disconnected pieces cannot merge: their count is the true floor
-        meas = (mesh.element_areas(el) if kind == "shell" else mesh.element_volumes(elements=el) if kind == "solid"
-                else mesh.element_lengths(el))
-        merged, _, merges = merge_regions(graph, region, keep, np.nan_to_num(np.asarray(meas, float)), 1)
-        # pieces that touch another element or a joint by a node join the clusters they touch (cluster.contact):
-        # only the pieces touching nothing else need a super node of their own
-        own = np.bincount(cells[cells >= 0], minlength=mesh.n_nodes)
-        touching = np.where(cells >= 0, (use > own)[np.maximum(cells, 0)], False).any(axis=1)
-        n_pieces = int(merged.max()) + 1 if len(el) else 0
-        alone = n_pieces - len(np.unique(merged[touching]))
-        rep["pieces"] = n_pieces
-        rep["fewest_super_nodes"] = max(1, alone) if len(el) else 0
-        rep["merges_below_regions"] = [{"measure": m["measure"], "link": m["link"]} for m in merges[:10]]
-        if kind == "shell":
-            bad = int(np.count_nonzero(~graph.consistent))
-            rep["normals"] = "consistent" if bad == 0 else f"inconsistent across {bad} edges"
-    else:
-        rep["regions"] = 1
-        rep["pieces"] = 1
-        rep["fewest_super_nodes"] = 1
-        rep["merges_below_regions"] = []
-    if kind == "line":  # bars on shell/solid nodes only: reduced with the elements they lie on (cluster.contact)
-        rep["on_other_elements"] = int(np.count_nonzero(np.where(cells >= 0, host[np.maximum(cells, 0)],
-                                                                 True).all(axis=1)))
+    rep.update(_regions(mesh, el, kind, feature_angle, (use, host)))
     return rep
 
 
@@ -129,11 +156,12 @@ def _pieces(mesh: Mesh, spc_nodes: np.ndarray) -> list[dict]:
     return out
 
 
-def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, **options) -> dict:
+def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, parts=None, **options) -> dict:
     """Report on the mesh file ``path`` (see the module docstring); ``options`` go to the reader.
 
     Unmodelled structural cards are listed (not refused); the deck's SPC/SPC1 GRIDs are read to tell which
-    pieces are held.
+    pieces are held.  ``parts``: (name, groups, super_nodes) of a case's ``[[parts]]``, reported per part and kind
+    (``report["parts"]``: regions, the fewest count, the merges a count below the regions implies).
     """
     from .io import mesh_format, read_mesh
 
@@ -157,8 +185,9 @@ def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, **op
               if len(mesh.groups[name].elements)]
     cards = {k: dict(v) for k, v in (mesh.cards or {}).items()}
     ext = np.ptp(mesh.points, axis=0) if mesh.n_nodes else np.zeros(3)
+    extra = {} if parts is None else {"parts": _part_reports(mesh, parts, feature_angle, use)}
     return {"file": str(path), "unit": unit, "nodes": int(mesh.n_nodes), "elements": int(mesh.n_elements),
-            "extent_m": [float(x) for x in ext],
+            "extent_m": [float(x) for x in ext], **extra,
             "feature_angle_deg": feature_angle, "groups": groups, "pieces": _pieces(mesh, spc),
             "joints": {j.card: int(len(j.ids)) for j in mesh.joints},
             "midside_nodes": 0 if mesh.midside is None else int(len(mesh.midside)), "cards": cards}
@@ -211,6 +240,35 @@ def inspection_text(rep: dict) -> str:
                               for m in g["merges_below_regions"][:3])
             lines.append(f"  {g['group']:<18} {g['regions']} regions -> {g['fewest_super_nodes']}: {first}"
                          + (" ..." if len(g["merges_below_regions"]) > 3 else ""))
+    if rep.get("parts"):
+        lines += ["", "parts of the case (regions = the fewest super nodes without merging; min = the fewest at all):",
+                  f"  {'part':<18} {'kind':<6} {'elements':>8} {'regions':>7} {'min':>5} {'asked':>6}  what the count does"]
+        unit = {"shell": ("m2", "m"), "solid": ("m3", "m2"), "line": ("m", "end")}
+        for p in rep["parts"]:
+            asked = p["super_nodes"]
+            if p["mixed"]:
+                what = "the part's count is shared among its kinds"
+            elif asked < p["fewest_super_nodes"]:
+                what = f"refused: at least {p['fewest_super_nodes']} (pieces touching nothing else)"
+            elif asked < p["regions"]:
+                mu, lu = unit[p["kind"]]
+                parts_ = []
+                if asked < p["pieces"]:  # the smallest pieces join the clusters they touch (cluster.contact)
+                    k = p["pieces"] - asked
+                    parts_.append(f"{k} of its {p['pieces']} pieces " + ("joins the cluster it touches" if k == 1
+                                                                         else "join the clusters they touch"))
+                n_merge = p["regions"] - max(asked, p["pieces"])
+                if n_merge > 0:
+                    first = ", ".join(f"{m['measure']:.3g} {mu} across {m['link']:.3g} {lu}"
+                                      for m in p["merges_below_regions"][:2])
+                    parts_.append(f"{n_merge} region merge(s), smallest first: {first}")
+                what = "; ".join(parts_)
+            else:
+                what = "no merge"
+            if p.get("on_other_elements"):
+                what += f"; {p['on_other_elements']} bars on shell/solid nodes join those clusters"
+            lines.append(f"  {p['part']:<18} {p['kind']:<6} {p['elements']:>8} {p['regions']:>7} "
+                         f"{p['fewest_super_nodes']:>5} {asked:>6}  {what}")
     lines += ["", f"connected pieces (elements and joints): {len(rep['pieces'])}"]
     for i, p in enumerate(rep["pieces"]):
         lines.append(f"  {i + 1}: {p['elements']} elements, {p['nodes']} nodes, groups {', '.join(p['groups']) or '-'}; "
