@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..linalg import dependent_rows
-from ..mesh.elements import ELEMENT_TYPES, LINE_TYPES, SHELL_TYPES, TYPE_CODE
+from ..mesh.elements import ELEMENT_TYPES, LINE_TYPES, SHELL_TYPES
 
 #: rank of each element kind: an element lying on the nodes of higher-ranked elements is embedded in them
 RANK = {"line": 1, "shell": 2, "solid": 3}
