@@ -436,7 +436,8 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
                        None if p.dofs is None else np.asarray(p.dofs, np.int64)) for p in parts]
     for p in parts:
         _check_part(points, p, n_elements)
-    owner = np.bincount(np.concatenate([p.elements for p in parts]), minlength=n_elements) if parts else None
+    all_elements = np.concatenate([p.elements for p in parts]) if parts else np.zeros(0, np.int64)  # the rows
+    owner = np.bincount(all_elements, minlength=n_elements) if parts else None
     if owner is not None and (owner > 1).any():
         raise Fem2TmmError(f"elements {format_ids(np.flatnonzero(owner > 1))} belong to more than one part")
     if len({p.dofs is None for p in parts}) > 1:
@@ -495,8 +496,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
 
     prepared = [_prepare(points, sub, w, feature_angle, balance) for _, sub, w, _ in subs]
     row_of = np.full(n_elements, -1, np.int64)
-    if parts:
-        row_of[np.concatenate([p.elements for p in parts])] = np.arange(n_rows)
+    row_of[all_elements] = np.arange(n_rows)
     for (pi, _, _, _), pr in zip(subs, prepared):
         for piece in pr.deferred:
             defer(row_of[piece], whole=True)
@@ -548,7 +548,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
     cluster_part = np.asarray(cluster_part, np.int64)
     report = {"parts": reports, "total": _total_report(reports)}
     if n_units:
-        lab_rows = labels[np.concatenate([p.elements for p in parts])]
+        lab_rows = labels[all_elements]
         pts = points[np.maximum(cells_all, 0)]
         valid = (cells_all >= 0)[:, :, None]
         centroid = (pts * valid).sum(1) / valid.sum(1)
@@ -571,9 +571,8 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
                 "pieces (a joint)")
         jstats.pop("unanchored")
         in_units = unit >= 0
-        labels[np.concatenate([p.elements for p in parts])[in_units]] = lab_rows[in_units]
-        region_out[np.concatenate([p.elements for p in parts])[in_units]] = \
-            np.asarray(cluster_region, np.int64)[lab_rows[in_units]]
+        labels[all_elements[in_units]] = lab_rows[in_units]
+        region_out[all_elements[in_units]] = np.asarray(cluster_region, np.int64)[lab_rows[in_units]]
         report["joined"] = {"parts": {k: v for k, v in joined.items() if v["elements"]}, **jstats,
                             "elements": int(in_units.sum())}
         report["total"]["joined_elements"] = int(in_units.sum())

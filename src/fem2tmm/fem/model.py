@@ -32,7 +32,7 @@ from ..mesh import Mesh
 from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices, line_matrices,
                        scatter_shares, to_coo, volume_shares)
 from ..mesh.elements import LINE_TYPES, MIRROR, RULES, SHELL_TYPES, SOLID_FACES, SOLID_TYPES, TYPE_CODE
-from ..mesh.geometry import cross, solid_jacobian
+from ..mesh.geometry import cross, shell_normals, solid_jacobian
 
 _CODE_TYPE = {v: k for k, v in TYPE_CODE.items()}
 
@@ -831,23 +831,17 @@ def _build_faces(mesh: Mesh, case: Case, parts, elements, types, cells, epart, n
             eps[s], alpha[s], spec[s], tau[s], tspec[s] = (o.emissivity, o.absorptivity, o.specular,
                                                            o.transmissivity, o.transmission_specular)
             active[s] = True
-    if len(contact_shell):  # a shell lying on a solid's face: its side facing into the solid is a contact, covered
-        P = mesh.points
-
-        def face_normal(nodes):  # unnormalised, by the node order: diagonals of quads, two edges of triangles
-            tri = nodes[:, 3] < 0
-            a = np.where(tri[:, None], P[nodes[:, 1]] - P[nodes[:, 0]], P[nodes[:, 2]] - P[nodes[:, 0]])
-            b = np.where(tri[:, None], P[nodes[:, 2]] - P[nodes[:, 0]], P[np.maximum(nodes[:, 3], 0)] - P[nodes[:, 1]])
-            return np.cross(a, b)
-
-        into_solid = np.einsum("ij,ij->i", face_normal(sf[contact_shell]), face_normal(contact_nodes)) < 0
-        s = 2 * contact_shell + np.where(into_solid, 0, 1)  # front faces into the solid when opposite its outward
-        eps[s] = alpha[s] = tau[s] = 0.0
-        active[s] = False
-    if len(buried):  # a shell between two solids: both sides in contact
-        s = np.concatenate([2 * buried, 2 * buried + 1])
-        eps[s] = alpha[s] = tau[s] = 0.0
-        active[s] = False
+    # shells in contact with solids: the side of a shell lying on a solid's face that faces into the solid (its
+    # front when its normal is opposite the face's outward one), both sides of a shell between two solids
+    into = np.zeros(len(contact_shell), bool)
+    for t, nk in (("tri3", 3), ("quad4", 4)):
+        sel = np.flatnonzero((contact_nodes[:, 3] < 0) if nk == 3 else (contact_nodes[:, 3] >= 0))
+        if len(sel):
+            outward = shell_normals(mesh.points, contact_nodes[sel, :nk], t)
+            into[sel] = np.einsum("ij,ij->i", normal[contact_shell[sel]], outward) < 0
+    covered = np.concatenate([2 * contact_shell + np.where(into, 0, 1), 2 * buried, 2 * buried + 1])
+    eps[covered] = alpha[covered] = tau[covered] = 0.0
+    active[covered] = False
     fd = np.where(fnodes >= 0, node_dof[np.maximum(fnodes, 0)], -1)
     ok = fd >= 0
     rows = np.repeat(np.arange(nf), 4).reshape(nf, 4)
