@@ -58,6 +58,7 @@ REGISTRY: dict[str, str] = {
     "rom": "benchmarks.rom:bench_rom_all",
     "satellite": "benchmarks.satellite:bench_satellite",
     "thermoelastic": "benchmarks.thermoelastic:bench_thermoelastic",
+    "choice": "benchmarks.choice:bench_choice",
 }
 
 

@@ -269,7 +269,8 @@ def test_ir_on_detailed_runs_end_to_end_and_keeps_the_energy_balance():
     assert s["accuracy"]["rms_K"] < s["accuracy"]["thesis_method"]["rms_K"]
     with pytest.raises(Exception, match="radiation_aware"):
         make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
-                    "super_nodes": 2}], materials=MAT, radiation={"ir_on": "detailed"})
+                    "super_nodes": 2}], materials=MAT, radiation={"ir_on": "detailed"},
+                  reduction={"radiation_aware": False})
 
 
 def test_a_load_case_set_shares_one_network_and_each_case_converges_to_its_own_detailed_solution():

@@ -92,8 +92,11 @@ def test_every_tracing_of_a_run_has_its_own_stream(spy):
     case, mesh = facing_plates_case()
     run(case, mesh=mesh, cache=False)
     seen = _assert_streams_distinct(spy)
-    # the reduced REFs and Sun, two half-budget reference REFs and two reference solar maps, the solar pre-pass
-    assert seen == {"reduced_radiation", "super_face_solar", "detailed_radiation", "detailed_solar", "solar_prepass"}
+    # the reduced REFs and Sun, two half-budget reference REFs and two reference solar maps, the solar pre-pass,
+    # and (the default radiation_aware = "auto" takes the radiation-aware reduction on these thin black plates,
+    # with ir_on = "faces") the FE sides' IR exchange factors
+    assert seen == {"reduced_radiation", "super_face_solar", "detailed_radiation", "detailed_solar", "solar_prepass",
+                    "ir_absorption"}
     assert sum(c[0] == "detailed_radiation" for c in spy) == 2 and sum(c[0] == "detailed_solar" for c in spy) == 2
 
 

@@ -180,7 +180,7 @@ def test_split_keeps_clusters_contiguous_and_within_parts_and_regions():
 def small_box(n_sn, **reduction):
     """The composite box of tests/test_radiation_aware.py, coarser (3 cm quads): the thesis' reduction, space only."""
     box = meshes.box(0.3, 0.3, 0.24, 10, 10, 8)
-    return composite_box_case(n_sn, K_LOW, reduction), box
+    return composite_box_case(n_sn, K_LOW, {"radiation_aware": False, **reduction}), box
 
 
 def test_refinement_meets_its_target_against_the_detailed_solve(tmp_path):

@@ -139,9 +139,10 @@ class RadiationSettings:
     seed: int = 0
     max_bounces: int = 1000
     target_lse: float | None = None
-    # where the reduced model puts absorbed IR: "super_faces" (thesis: uniform over each super node) or
-    # "detailed" (rays from the super faces tallied on the FE face sides that absorb them; needs radiation_aware)
-    ir_on: str = "super_faces"
+    # where the reduced model puts absorbed IR: "super_faces" (thesis: uniform over each super node), "detailed"
+    # (rays from the super faces tallied on the FE face sides that absorb them) or "faces" (every FE side emits at
+    # the recovered field): both need the radiation-aware reduction; "auto": "faces" with it, else "super_faces"
+    ir_on: str = "auto"
     ir_rays_per_face: int = 100  # ir_on = "detailed": rays per FE face of each emitting super face ("faces": side)
 
 
@@ -152,9 +153,10 @@ class ReductionSettings:
     capacitance: CapacitanceMethod = "cluster"
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
-    # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve
-    radiation_aware: bool = False
-    outer_iterations: int = 4  # re-linearisations about T_ref (each: reduction, network solve, recovery)
+    # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve; "auto":
+    # when some cluster's Biot number at the thesis' field reaches fem2tmm.stages.AUTO_BIOT (stages.choose_reduction)
+    radiation_aware: bool | str = "auto"
+    outer_iterations: int = 20  # most re-linearisations about T_ref (each: reduction, network solve, recovery)
     network: ReducedNetwork = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)
     # error-driven refinement (fem2tmm.reduce.refine): split the worst clusters until the estimated RMS <= target_rms
     target_rms: float | None = None  # K; None = no refinement
@@ -448,6 +450,12 @@ class _Parser:
             raise self.err(f"{where}.{key}", f"expected true or false, got {v!r}")
         return v
 
+    def boolean_or_auto(self, d, key, where, default):
+        v = d.get(key, default)
+        if not (isinstance(v, bool) or v == "auto"):
+            raise self.err(f"{where}.{key}", f'expected true, false or "auto", got {v!r}')
+        return v
+
     def strings(self, d, key, where) -> tuple[str, ...]:
         v = d.get(key, [])
         if isinstance(v, str):
@@ -509,10 +517,10 @@ class _Parser:
             raise self.err("[[joints]]", "expected an array of tables ([[joints]] entries)")
         joints = tuple(self.joint(i, j) for i, j in enumerate(j_raw))
         radiation, reduction = self.radiation(top.get("radiation", {})), self.reduction(top.get("reduction", {}))
-        if radiation.ir_on != "super_faces" and not (reduction.radiation_aware and radiation.enabled):
+        if radiation.ir_on in ("detailed", "faces") and (reduction.radiation_aware is False or not radiation.enabled):
             raise self.err("[radiation].ir_on", f'"{radiation.ir_on}" places absorbed IR on the FE faces through the '
-                           "radiation-aware reduction: set [reduction] radiation_aware = true (and keep [radiation] "
-                           "enabled)")
+                           "radiation-aware reduction: set [reduction] radiation_aware = true or \"auto\" (and keep "
+                           "[radiation] enabled)")
         return Case(
             source=self.src,
             mesh=mesh,
@@ -802,7 +810,7 @@ class _Parser:
             seed=self.number(d, "seed", w, default=D("seed"), lo=0, integer=True),
             max_bounces=self.number(d, "max_bounces", w, default=D("max_bounces"), lo=1, integer=True),
             target_lse=self.number(d, "target_lse", w, lo=0, lo_open=True),
-            ir_on=self.string(d, "ir_on", w, default="super_faces", choices=("super_faces", "detailed", "faces")),
+            ir_on=self.string(d, "ir_on", w, default="auto", choices=("auto", "super_faces", "detailed", "faces")),
             ir_rays_per_face=self.number(d, "ir_rays_per_face", w, default=100, lo=1, integer=True),
         )
 
@@ -821,7 +829,7 @@ class _Parser:
             capacitance=self.string(d, "capacitance", w, default=D("capacitance"), choices=get_args(CapacitanceMethod)),
             filter=self.number(d, "filter", w, default=D("filter"), lo=0, hi=1),
             keep_nodes=self.ints(d, "keep_nodes", w),
-            radiation_aware=self.boolean(d, "radiation_aware", w, D("radiation_aware")),
+            radiation_aware=self.boolean_or_auto(d, "radiation_aware", w, D("radiation_aware")),
             outer_iterations=self.number(d, "outer_iterations", w, default=D("outer_iterations"), lo=1, integer=True),
             network=self.string(d, "network", w, default=D("network"), choices=get_args(ReducedNetwork)),
             target_rms=self.number(d, "target_rms", w, lo=0, lo_open=True),

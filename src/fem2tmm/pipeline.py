@@ -31,10 +31,11 @@ from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .result import CasesResult, Result
 from .solve.steady import check_solvable, solve_steady
-from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model, describe_nodes,
-                     detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics, geometry_key,
-                     ir_absorption, mean_faced, orbit_average, orbit_positions_detailed, orbit_positions_reduced,
-                     exported_recovery, network_group, positive_reduced, quadric_regions, radiation_aware_network, radiation_surface, reduce_key,
+from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, choose_reduction, cluster_key, cluster_model,
+                     describe_nodes, detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics,
+                     geometry_key, ir_absorption, mean_faced, orbit_average, orbit_positions_detailed,
+                     orbit_positions_reduced, exported_recovery, network_group, positive_reduced, quadric_regions,
+                     radiation_aware_network, radiation_surface, reduce_key,
                      reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
 from .stages import Refinement, refinement_step
@@ -172,24 +173,32 @@ class _CaseStore:
 
 def _shared_linearisations(cases: list, jobs: list, store, labels, shelf) -> dict | None:
     """One network per group of load cases (:func:`~fem2tmm.stages.network_group`) for the radiation-aware
-    reduction: ``{group: {"T": (n_dof,) K, "case": name, "cases": [names]}}``, the emission of every case of a
-    group linearised about the converged field of the group's first case (in file order, so the same on every
-    scheduler), computed by a reduced run of that case without its reference (its clustering, traces and
-    reduction are then reused by the cases through the stage cache).  None for a single case or without the
-    radiation-aware reduction."""
-    aware = [(n, c, j) for (n, c, _), j in zip(cases, jobs) if c.reduction.enabled and c.reduction.radiation_aware]
+    reduction: ``{group: {"T": (n_dof,) K or None, "aware": bool, "case": name, "cases": [names]}}`` for the groups
+    of two cases or more, the emission of every case of a group linearised about the converged field of the
+    group's first case (in file order, so the same on every scheduler), computed by a reduced run of that case
+    without its reference (its clustering, traces and reduction are then reused by the cases through the stage
+    cache).  ``aware``: whether that run used the radiation-aware reduction (with ``radiation_aware = "auto"``
+    the first case chooses for its group; ``T`` None when it chose the thesis').  None for a single case or
+    without such groups."""
+    aware = [(n, c, j) for (n, c, _), j in zip(cases, jobs)
+             if c.reduction.enabled and c.reduction.radiation_aware is not False]
     if len(cases) < 2 or not aware:
         return None
+    members: dict = {}
+    for n, c, j in aware:
+        members.setdefault(network_group(c), []).append((n, c, j))
     groups: dict = {}
-    for n, c, (_, prog, m) in aware:
-        g = network_group(c)
-        if g in groups:
-            groups[g]["cases"].append(n)
+    for g, cs in members.items():
+        if len(cs) < 2:  # a network of its own: its own outer iterations linearise it
             continue
+        n, c, (_, prog, m) = cs[0]
         with reporting(prog.callback()), prog.stage("linearise", "the shared network's linearisation state"):
             first = _run(c, Progress(quiet=True), m, False, store, labels, shelf=shelf)
-        groups[g] = {"T": first.T_recovered, "case": n, "cases": [n]}
-    return groups
+        # radiation_aware = "auto": the group's first case decides for the whole group (one network for the set)
+        chosen = first.reduced is not None and first.reduced.radiative is not None
+        groups[g] = {"T": first.T_recovered if chosen else None, "aware": chosen, "case": n,
+                     "cases": [x[0] for x in cs]}
+    return groups or None
 
 
 def _run_concurrently(ex, jobs: list, reference, store, labels, quiet: bool,
@@ -375,7 +384,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             check_super_node_counts(model, case)  # before the pre-solve
             with prog.stage("presolve_biot", "pre-solve for the Biot numbers (emission to space only)"):
                 weights, weights_report = biot_weights(model, presolve_space(model, case))
-            if not case.reduction.radiation_aware:  # (that one warns from its own pre-solve)
+            if case.reduction.radiation_aware is not True:  # (that one warns from its own pre-solve)
                 warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
                                  max((r["max"] for r in weights_report.values()), default=None))
         ckey = cluster_key(model, case, flux, labels, weights)
@@ -490,8 +499,13 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             result.T_recovered_exact = rm.reduction.recover(exact.T, q_recover)
         with prog.stage("recover", "recovering detailed temperatures"):
             result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
+        group = (linearised or {}).get(network_group(case)) if case.reduction.radiation_aware is not False else None
+        case_asked = case  # (the refinement's next round starts again from what the case asks)
+        if group is not None and case.reduction.radiation_aware == "auto":  # the set's choice, made by its first case
+            case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction,
+                                                                          radiation_aware=group["aware"]))
+        case, result.reduction_choice = choose_reduction(model, case, rm, result.T_recovered)
         if case.reduction.radiation_aware:
-            group = (linearised or {}).get(network_group(case))
             shared_at = None if group is None else group["T"]
             if group is not None:
                 result.shared_network = {"linearised_at": group["case"], "cases": list(group["cases"])}
@@ -519,7 +533,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                                       ir_abs if case.reduction.radiation_aware else None, refine,
                                       surface if trace else None, scenes.main() if trace else None)
             if nxt is not None:
-                return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=scenes.shelf,
+                return _run(case_asked, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=scenes.shelf,
                             linearised=linearised)
             result.refinement = refine
         if q_sn_orbit is not None and orbit.steady == "positions":

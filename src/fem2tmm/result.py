@@ -55,6 +55,9 @@ class Result:
     thesis_T_recovered: np.ndarray | None = None  # (n_dof,) K recovered by the thesis' reduction (pre-solve)
     recovery: object | None = None  # fem2tmm.reduce.exported.ExportedRecovery written into reduced.npz
     delivered: dict | None = None  # export.deliverable.check_deliverable: the network read back, solved, recovered
+    # the reduction the run used: {"radiation_aware", "ir_on", "chosen_by", "biot_cluster_max"}
+    # (fem2tmm.stages.choose_reduction: what "auto" became, and why)
+    reduction_choice: dict | None = None
     shared_network: dict | None = None  # load-case sets: {"linearised_at": case, "cases": [...]} sharing GL, GR, C
     radiation_aware: list[dict] | None = None  # one dict per outer iteration (max_dT_K, rms_dT_K, correction_W)
     refinement: object | None = None  # stages.Refinement of [reduction] target_rms: history, labels of every round

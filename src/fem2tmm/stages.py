@@ -797,6 +797,52 @@ OUTER_WARN = 0.05  # K: a warning when the last outer iteration still moved the 
 LOW_BIOT = 0.1
 
 
+#: ``[reduction] radiation_aware = "auto"`` chooses the radiation-aware reduction when the largest cluster Biot number
+#: h_rad A/(k t) at the thesis' recovered field reaches this: a cluster as wide as the panel's fin length
+#: √(k t / h_rad), beyond which the thesis' uniform-load shape functions no longer hold (its error grows like Bi,
+#: docs/design-notes.md "Which reduction by default").  Measured on the committed studies (2026-12-04, the README
+#: table): the composite box (Bi 2-60: thesis 20 K RMS, radiation-aware 0.2 K) and the satellite (Bi > 1) above it;
+#: fin, cylinders, baffle (Bi ≤ 0.2: thesis within 0.1 K) below, where the radiation-aware reduction would cost its
+#: outer iterations (2-3x the run) for hundredths of a kelvin.
+AUTO_BIOT = 1.0
+
+
+def choose_reduction(model: FEModel, case: Case, rm: ReducedModel, T: np.ndarray) -> tuple[Case, dict]:
+    """Resolve ``[reduction] radiation_aware`` and ``[radiation] ir_on`` when they are ``"auto"``.
+
+    ``rm`` the thesis' reduced model, ``T`` (n_dof,) K its recovered field.  ``radiation_aware = "auto"`` becomes
+    true when ``ir_on`` asks for the FE faces ("faces", "detailed"), false with ``network = "positive"`` (not
+    defined for it) or without emission, and otherwise true when the largest cluster Biot number
+    (:func:`biot_numbers`, h = 4σ εA T³ of every active side at ``T``, as :func:`biot_weights`) is at least
+    :data:`AUTO_BIOT`.  ``ir_on = "auto"`` becomes "faces" with the radiation-aware reduction and face-to-face
+    radiation, else "super_faces".  Returns the case with both set and ``{"radiation_aware", "ir_on", "chosen_by",
+    "biot_cluster_max"}`` for the summary (the Biot number whenever something radiates, None without shells).
+    """
+    red, rad = case.reduction, case.radiation
+    g = model.space_coupling()
+    bi = None
+    if np.any(g > 0):  # (reported whatever decides: it says how far the thesis' assumption is from holding)
+        bi = biot_numbers(model, rm, 4.0 * SIGMA * g * np.maximum(np.asarray(T, float), 0.0) ** 3)["cluster_max"]
+    if red.radiation_aware != "auto":
+        aware = bool(red.radiation_aware)
+        why = f"[reduction] radiation_aware = {str(aware).lower()}"
+    elif red.network == "positive":
+        aware, why = False, "auto: network = \"positive\" is the thesis' reduction's"
+    elif rad.ir_on in ("faces", "detailed"):
+        aware, why = True, f"auto: [radiation] ir_on = \"{rad.ir_on}\" needs it"
+    elif not np.any(g > 0):
+        aware, why = False, "auto: nothing radiates"
+    else:
+        aware = bi is not None and bi >= AUTO_BIOT
+        why = (f"auto: largest cluster Biot number {bi:.3g} {'>=' if aware else '<'} {AUTO_BIOT:g}" if bi is not None
+               else "auto: no radiating shell clusters")
+    ir_on = rad.ir_on if rad.ir_on != "auto" else ("faces" if aware and rad.enabled else "super_faces")
+    resolved = dataclasses.replace(case, reduction=dataclasses.replace(red, radiation_aware=aware),
+                                   radiation=dataclasses.replace(rad, ir_on=ir_on))
+    return resolved, {"radiation_aware": aware, "ir_on": ir_on, "chosen_by": why,
+                      "biot_cluster_max": None if bi is None else float(bi)}
+
+
 @dataclass(frozen=True)
 class IRAbsorption:
     """Where the emitted IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"`` or ``"faces"``).

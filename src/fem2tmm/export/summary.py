@@ -70,6 +70,8 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             "radiative_links": n_links_space + (0 if rm.GR is None else conductive_links(rm.GR)),
             "negative_links": rm.report.get("negative_links", 0),
             "method": rm.report.get("method"),
+            # which reduction ran ([reduction] radiation_aware / [radiation] ir_on, "auto" resolved, and why)
+            "choice": result.reduction_choice,
             "filter": rm.report.get("filter"),
             "clustering": result.clustering.report if result.clustering is not None else None,
             "iterations": rs.iterations,
@@ -327,6 +329,17 @@ def refinement_rows(red: dict | None) -> list[tuple[str, str]]:
                            f"estimated RMS per round: {steps}")]
 
 
+def choice_text(choice: dict) -> str:
+    """One line saying which reduction a run used and why (summary.json ``reduced.choice``)."""
+    method = ("radiation-aware, IR on " + {"faces": "the FE face sides", "detailed": "the FE faces where it lands",
+                                           "super_faces": "the super faces"}.get(choice["ir_on"], str(choice["ir_on"]))
+              if choice["radiation_aware"] else "the thesis' (uniform load per super node)")
+    bi = choice.get("biot_cluster_max")
+    why = choice["chosen_by"] if bi is None or "Biot" in choice["chosen_by"] else \
+        f"{choice['chosen_by']}; largest cluster Biot number {bi:.3g}"
+    return f"{method} ({why})"
+
+
 def summary_table(s: dict) -> str:
     """The plain-text table the command line prints after a run, from the ``summary.json`` dict."""
     rows = [("mesh", f"{s['mesh']['nodes']} nodes, {s['mesh']['elements']} elements")]
@@ -336,6 +349,8 @@ def summary_table(s: dict) -> str:
                      f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR"))
         if red["negative_links"]:
             rows.append(("", NEGATIVE_GL_NOTE))
+        if red.get("choice"):
+            rows.append(("reduction", choice_text(red["choice"])))
     pn = s.get("positive_network")
     if pn:
         err = pn.get("recovered_error_K")

@@ -1,0 +1,61 @@
+"""``fem2tmm bench choice``: what ``[reduction] radiation_aware = "auto"`` (the default, issue 29) chooses on every
+committed study, and what each reduction gives there.
+
+Each study's case runs three ways, with the detailed reference and its own noise:
+
+- ``default``: the case file as committed (the examples that used to set ``radiation_aware``/``ir_on`` now leave
+  them at their defaults; ``case_eui.toml`` keeps its ``ir_on = "detailed"``, which auto answers with the
+  radiation-aware reduction);
+- ``thesis``: ``radiation_aware = false``, IR uniform per super node;
+- ``radiation_aware``: ``radiation_aware = true`` with IR per FE face (``ir_on = "faces"``, or the case's own).
+
+Per row: the choice (``reduced.choice``: method, ``chosen_by``, the largest cluster Biot number at the thesis'
+field), the exported network's FE-level RMS / max error (``accuracy``), the reference noise, and the whole run's
+wall time.  The threshold (``fem2tmm.stages.AUTO_BIOT`` = 1) should separate the studies where the thesis' error
+is large against what the radiation-aware reduction reaches from those where it is small against its cost.
+One JSON line per (study, method).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+from .envelope import timed_run
+
+REPO = Path(__file__).resolve().parents[1]
+STUDIES = ("fin/case.toml", "cylinders/case.toml", "baffle/case.toml", "baffle/case_100.toml", "baffle/case_eui.toml",
+           "truss/case.toml", "smallsat/case.toml", "satellite/case.toml", "composite/case.toml")
+
+
+def _case(file: str, method: str):
+    from fem2tmm.case import Case
+
+    path = REPO / "examples" / file
+    raw = tomllib.loads(path.read_text())
+    red, rad = raw.setdefault("reduction", {}), raw.setdefault("radiation", {})
+    if method == "thesis":
+        red["radiation_aware"] = False
+        rad.pop("ir_on", None)
+    elif method == "radiation_aware":
+        red["radiation_aware"] = True
+        if rad.get("enabled", True):
+            rad.setdefault("ir_on", "faces")
+    return Case.from_dict(raw, base_dir=path.parent)
+
+
+def bench_choice() -> list[dict]:
+    rows = []
+    for file in STUDIES:
+        for method in ("default", "thesis", "radiation_aware"):
+            res, seconds = timed_run(_case(file, method))
+            s = res.summary
+            acc, red = s["accuracy"], s["reduced"]
+            ch = red["choice"] or {}
+            rows.append({"study": file, "method": method, "super_nodes": red["super_nodes"],
+                         "radiation_aware": ch.get("radiation_aware"), "ir_on": ch.get("ir_on"),
+                         "chosen_by": ch.get("chosen_by"), "biot_cluster_max": ch.get("biot_cluster_max"),
+                         "rms_K": acc["rms_K"], "max_K": acc["max_K"],
+                         "reference_noise_rms_K": acc.get("reference_noise_rms_K"), "seconds": round(seconds, 1)})
+            print(rows[-1], flush=True)
+    return rows
