@@ -38,6 +38,10 @@ _ASSIGN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$", re.S)
 _QI = re.compile(r"^(QI|T)\s*(?:\(\s*(\d+)\s*\)|(\d+))\s*=\s*(.+)$", re.S | re.I)
 _ARRAY = re.compile(r"^([A-Za-z_]\w*)\s*\(\s*(\d+)\s*\)\s*=\s*(.+)$", re.S)
 _INTRP1 = re.compile(r"INTRP1\s*\(\s*TIMEM\s*,\s*([A-Za-z_]\w*)\s*\)", re.I)
+# the plain conductor, one node to one node with a number (what fem2tmm writes, ~10⁶ of them at 1 000 super nodes):
+# read without the general expression path
+_PLAIN_COND = re.compile(r"^G([LR])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)$",
+                         re.I)
 _LOADS = ("QS", "QA", "QE", "QI", "QR")
 _NODE_KEYS = ("T", "C", "A", "ALP", "EPS", "FX", "FY", "FZ") + _LOADS
 _BLOCKS = {"MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS", "EVALUATION", "VARIABLES1",
@@ -51,6 +55,29 @@ def statements(text: str):
     block = sub = None
     buf, start = [], None
     for lineno, raw in enumerate(text.splitlines(), 1):
+        if "'" not in raw and '"' not in raw:  # no quotes: split with str methods (a 10⁶-conductor deck, issue 29)
+            body = raw.split("#", 1)[0]
+            pieces = body.split(";")
+            for piece in pieces[:-1]:
+                buf.append(piece)
+                stmt = " ".join(x.strip() for x in buf if x.strip())
+                if stmt:
+                    yield block, sub, lineno if start is None else start, stmt
+                buf, start = [], None
+            rest = pieces[-1].strip()
+            if not rest:
+                continue
+            if not buf and rest.startswith("$"):
+                word = rest[1:].split()[0].upper() if len(rest) > 1 else ""
+                if word in _SUBBLOCKS:
+                    sub = word
+                else:
+                    block, sub = word, None
+                continue
+            if start is None:
+                start = lineno
+            buf.append(rest)
+            continue
         line, quote = [], None
         for ch in raw:
             if quote:
@@ -156,6 +183,7 @@ def read_esatan(path: str | Path) -> Network:
 
     nodes: list[tuple] = []
     conds: list[tuple] = []
+    plain: list[tuple] = []  # (line, is GR, a, b, value) of the plain conductors
     qi_set: list[tuple] = []
     skipped = 0
     for block, sub, line, s in stmts:
@@ -183,6 +211,10 @@ def read_esatan(path: str | Path) -> Network:
                 attrs[key] = value(line, expr, f"node {m.group(2)} {key}")
             nodes.append((line, kind, int(m.group(2)), label, attrs))
         elif block == "CONDUCTORS":
+            m = _PLAIN_COND.match(s)
+            if m:
+                plain.append((line, m.group(1).upper() == "R", int(m.group(2)), int(m.group(3)), float(m.group(4))))
+                continue
             m = _COND.match(s)
             if not m:
                 fail(line, f"cannot read the conductor {s[:60]!r} (expected GL(a, b) = value; or GR(a, b) = value;)")
@@ -234,6 +266,21 @@ def read_esatan(path: str | Path) -> Network:
 
     n = len(numbers)
     lists = {"GL": ([], [], []), "GR": ([], [], [])}
+    if plain:  # all at once; an undefined node is reported at the first statement (in file order) that uses it
+        p_line, p_gr, p_a, p_b, p_g = (np.array(v) for v in zip(*plain))
+        refs = np.concatenate([p_a, p_b]).astype(np.int64)
+        pos = np.minimum(np.searchsorted(sorted_numbers, refs), n - 1)
+        bad = (sorted_numbers[pos] != refs).reshape(2, -1).any(axis=0)
+        first_general = next((ln for ln, _, a, b, _ in conds
+                              if not np.isin(np.r_[a, b], sorted_numbers).all()), None)
+        if bad.any() and (first_general is None or p_line[bad].min() < first_general):
+            k = int(np.flatnonzero(bad)[np.argmin(p_line[bad])])
+            rows(int(p_line[k]), np.array([p_a[k], p_b[k]], np.int64))
+        ia, ib = order[pos].reshape(2, -1)
+        for kind, sel in (("GL", ~p_gr), ("GR", p_gr)):
+            lists[kind][0].append(ia[sel])
+            lists[kind][1].append(ib[sel])
+            lists[kind][2].append(p_g[sel] * (gr_scale if kind == "GR" else 1.0))
     for line, kind, a, b, g in conds:
         ia, ib = rows(line, a), rows(line, b)
         la, lb, lg = lists[kind]
