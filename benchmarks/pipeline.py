@@ -76,7 +76,7 @@ def _pipeline_row(name: str, result, wall: float) -> dict:
     return {"bench": name, "wall_s": round(wall, 2), "timings_s": {k: round(v, 3) for k, v in s["timings_s"].items()},
             "elements": s["mesh"]["elements"], "nodes": s["mesh"]["nodes"],
             "super_nodes": (s["reduced"] or {}).get("super_nodes"), "rays": (s["radiation"] or {}).get("rays"),
-            "accuracy": s["accuracy"]}
+            "accuracy": s["accuracy"], "reduction": (s["reduced"] or {}).get("choice")}
 
 
 def _run_case(name: str, case_file: str, super_nodes: int | None = None) -> list[dict]:
@@ -115,25 +115,10 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7) 
     """A generated ≈10⁶-element shell structure (closed box with two shelves, conformal), 1000 super nodes
     and ≈10⁷ rays between super faces, without the detailed reference (goal < 120 s and < 8 GB, issue 8), and the
     ratio of its wall time to one scipy spsolve of the same conduction matrix timed after it (issue 29: ≤ 3)."""
-    from fem2tmm.case import Case
     from fem2tmm.pipeline import run
 
     mesh = big_shell_structure(n)
-    n_sf = 2 * super_nodes
-    case = Case.from_dict({
-        "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
-        "optics": {"white": {"emissivity": 0.85, "absorptivity": 0.2}},
-        "parts": [{"name": "box", "groups": ["box"], "material": "al", "thickness": 1.5e-3, "front": "white",
-                   "back": "white", "super_nodes": int(super_nodes * 0.6)},
-                  {"name": "shelves", "groups": ["shelf_0", "shelf_1"], "material": "al", "thickness": 1e-3,
-                   "front": "white", "back": "white", "super_nodes": super_nodes - int(super_nodes * 0.6)}],
-        "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "base"},
-                     {"kind": "power", "groups": ["shelf_1"], "value": 200.0, "name": "electronics"}],
-        "environment": {"sink_temperature": -100.0, "sun_direction": [0.3, 0.2, 1.0], "solar_flux": 1366.0,
-                        "solar_on": "super_faces", "solar_rays_per_face": 4},
-        "radiation": {"rays_per_face": int(rays / n_sf)},
-        "reference": {"detailed": False},
-    })
+    case = pipeline_1m_case(super_nodes, rays)
     t0 = time.perf_counter()
     res = run(case, mesh=mesh, reference=False)
     wall = time.perf_counter() - t0
@@ -150,3 +135,24 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7) 
                baseline_s=round(t_base, 2), ratio_to_baseline=round(wall / t_base, 2))
     row["goal"] = "< 120 s and < 8 GB (issue 8); within 3x the spsolve baseline (issue 29)"
     return [row]
+
+
+def pipeline_1m_case(super_nodes: int = 1000, rays: float = 1e7):
+    """The case of :func:`bench_pipeline_1m` (its mesh: ``big_shell_structure``)."""
+    from fem2tmm.case import Case
+
+    n_sf = 2 * super_nodes
+    return Case.from_dict({
+        "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
+        "optics": {"white": {"emissivity": 0.85, "absorptivity": 0.2}},
+        "parts": [{"name": "box", "groups": ["box"], "material": "al", "thickness": 1.5e-3, "front": "white",
+                   "back": "white", "super_nodes": int(super_nodes * 0.6)},
+                  {"name": "shelves", "groups": ["shelf_0", "shelf_1"], "material": "al", "thickness": 1e-3,
+                   "front": "white", "back": "white", "super_nodes": super_nodes - int(super_nodes * 0.6)}],
+        "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "base"},
+                     {"kind": "power", "groups": ["shelf_1"], "value": 200.0, "name": "electronics"}],
+        "environment": {"sink_temperature": -100.0, "sun_direction": [0.3, 0.2, 1.0], "solar_flux": 1366.0,
+                        "solar_on": "super_faces", "solar_rays_per_face": 4},
+        "radiation": {"rays_per_face": int(rays / n_sf)},
+        "reference": {"detailed": False},
+    })
