@@ -5,6 +5,8 @@ sampling baseline, and the energy balance per position."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 
 import numpy as np
@@ -455,6 +457,26 @@ def test_orbit_pipeline_isothermal_plate_per_position_and_average():
     np.testing.assert_array_equal(fl.absorbed["ir"][i], fl.absorbed["ir"][i + 1])
     s = res.summary["orbit"]
     assert s["positions"] == len(fl.positions) and s["kinds"]["ir"]["max_relative_imbalance"] < 1e-12
+
+
+@pytest.mark.parametrize("fluxes_on", ["detailed", "super_faces"])
+def test_orbit_positions_with_the_radiation_aware_network(fluxes_on):
+    # steady = "positions" with the radiation-aware network: each position solves the network handed over (its loads
+    # at the orbit average plus that position's departure from it, through its own Y') and recovers about its
+    # linearisation.  The near-isothermal black plate gives T⁴ = Q_abs / (2 σ A) + T_sink⁴ at every position (the
+    # closed form of the test above): a departure counted twice or not at all would miss it by tens of kelvin.
+    from fem2tmm import run
+
+    mesh = meshes.plate(0.5, 0.5, 4, 4)
+    case = orbit_case(fluxes_on=fluxes_on)
+    case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
+    res = run(case, mesh=mesh)
+    assert res.reduced.radiative is not None
+    fl = res.orbit_detailed if fluxes_on == "detailed" else res.orbit_super_faces
+    Q = fl.total("absorbed").sum(axis=1)
+    T_exact = (Q / (2 * SIGMA * 0.25) + 3.0**4) ** 0.25
+    # super-face loads: the super face's own (noisier) trace, so the closed form uses its absorbed power
+    np.testing.assert_allclose(res.orbit_T_positions.mean(axis=1), T_exact, rtol=2e-5)
 
 
 def test_orbit_pipeline_super_faces_and_outputs(tmp_path):

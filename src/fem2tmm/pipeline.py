@@ -538,9 +538,19 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             result.refinement = refine
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
-                result.orbit_T_positions = orbit_positions_reduced(rm_base, q_recover_base, q_sn_orbit,
-                                                                   q_orbit if orbit.fluxes_on == "detailed" else None,
-                                                                   result.reduced_solution.T, case)
+                if result.reduced.radiative is not None:  # the network handed over: the average and each departure
+                    red = result.reduced
+                    if orbit.fluxes_on == "detailed":
+                        dq = q_orbit - orbit_average(result, q_orbit)
+                        pos_args = (result.q_recover, red.reduction.distribute(dq.T).T, dq)
+                    else:
+                        pos_args = (result.q_recover, q_sn_orbit - orbit_average(result, q_sn_orbit), None)
+                    result.orbit_T_positions = orbit_positions_reduced(red, *pos_args, result.reduced_solution.T,
+                                                                       case)
+                else:
+                    result.orbit_T_positions = orbit_positions_reduced(
+                        rm_base, q_recover_base, q_sn_orbit, q_orbit if orbit.fluxes_on == "detailed" else None,
+                        result.reduced_solution.T, case)
 
     # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:

@@ -440,17 +440,23 @@ def orbit_average(result, q: np.ndarray) -> np.ndarray:
 
 def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.ndarray, q_dof: np.ndarray | None,
                             T0: np.ndarray, case: Case) -> np.ndarray:
-    """Steady reduced solves with the loads of each orbit position (``rm`` without orbital loads, ``q_sn`` (k, n)
-    W), recovered on the detailed mesh with ``q_recover`` + ``q_dof[j]`` (the exact distribution) or
-    ``q_recover`` alone (super-face loads, uniform over each super node).  Starts from ``T0``; returns (k, n_dof)
-    K."""
+    """Steady reduced solves with the loads of each orbit position, recovered on the detailed mesh.
+
+    ``rm`` the network with ``q_sn`` (k, n) W added to its loads at position j (the thesis': ``rm`` without orbital
+    loads and the positions' loads; the radiation-aware network: its loads at the orbit average and each
+    position's departure from that average, through its own Y'), recovered with ``q_recover`` + ``q_dof[j]`` (the
+    exact distribution; (k, n_dof) W) or ``q_recover`` alone (super-face loads, uniform over each super node); the
+    radiation-aware network about its own linearisation (as its transient, ``RadiationAware.recover_linearised``).
+    Starts from ``T0``; returns (k, n_dof) K."""
+    ra = rm.radiative
+    recover = ra.recover_linearised if ra is not None and ra.T_lin is not None else rm.reduction.recover
     out = []
     T = T0
     for j in range(len(q_sn)):  # loop over the orbit positions (a few tens)
         sol = solve_steady(reduced_problem(dataclasses.replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
                            max_iter=case.solver.max_iterations)
         T = sol.T
-        out.append(rm.reduction.recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))
+        out.append(recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))
     return np.array(out)
 
 
