@@ -178,3 +178,43 @@ def test_reduced_npz_documents_its_recovery(plate_run):
     rec = load(plate_run.out / "reduced.npz")
     assert rec.mode == "linear" and list(rec.load_names) == ["heater"] and rec.load_values.tolist() == [5.0]
     assert rec.K.shape == (plate_run.model.n_dof,) * 2 and rec.A.shape[0] == plate_run.reduced.n
+
+
+def test_an_orbit_transient_fed_back_with_its_times_reproduces_the_runs_recovery(tmp_path):
+    # Orbital loads traced on the FE faces travel with the recovery (reduced.npz orbit_*): a column given with its
+    # time gets that time's orbital loads, interpolated as fem2tmm's own transient does.  The thesis' recovery is
+    # linear (T = X q(t) + Yᵀ T_SN(t)), so a run's own transient super-node temperatures fed back with their times
+    # reproduce its recovered transient to round-off (1e-9 K, the issue's tolerance).  A box on a nadir-pointing
+    # orbit: each cluster spans faces lit differently, so X q(t) matters and the orbit average alone misses it.
+    from fem2tmm.case import Case
+
+    box = meshes.box(0.2, 0.2, 0.2, 5, 5, 5)
+    case = Case.from_dict({
+        "materials": {"al": {"conductivity": 20.0, "density": 2700.0, "specific_heat": 900.0}},
+        "optics": {"paint": {"emissivity": 0.8, "absorptivity": 0.6}},
+        "parts": [{"name": "box", "groups": ["box"], "material": "al", "thickness": 1e-3, "front": "paint",
+                   "back": "paint", "super_nodes": 3}],
+        "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
+        "reduction": {"radiation_aware": False},
+        "orbit": {"altitude": 700e3, "inclination": 98.0, "beta": 20.0, "positions": 6, "rays_per_face": 20,
+                  "fluxes_on": "detailed", "steady": "average",
+                  "attitude": {"kind": "nadir", "primary": "-z", "secondary": "+x"}},
+        "transient": {"periodic": True, "tolerance": 1e-2, "step": 60.0, "output_every": 900.0,
+                      "periodic_tolerance": 1e-2},
+        "reference": {"detailed": False}})
+    res = run(case, out=tmp_path / "out", mesh=box)
+    tr = res.transient
+    rec = load(tmp_path / "out" / "reduced.npz")
+    assert rec.orbit_q is not None and rec.orbit_q.shape == (len(res.orbit_fluxes.positions), rec.n_dof)
+    T_sn = tr.reduced.T - KELVIN  # (n_t, n_sn) °C
+    cols = [T_sn[i] for i in range(len(tr.times))]
+    times = ["time"] + [repr(float(t)) for t in tr.times]
+    f = write_csv(tmp_path / "T.csv", rec.names, cols, header=[f"t{i}" for i in range(len(cols))], extra=[times])
+    back = recover(tmp_path / "out", f)["temperature"]
+    mine = np.array([rec.node_temperatures(T) for T in tr.T_recovered]).T - KELVIN  # (n_nodes, n_t)
+    ok = np.isfinite(mine)
+    assert np.abs(back[ok] - mine[ok]).max() < 1e-9
+    # without the times the recovery holds the orbit-average loads: measurably off (the test can fail)
+    f2 = write_csv(tmp_path / "T2.csv", rec.names, cols, header=[f"t{i}" for i in range(len(cols))])
+    avg = recover(tmp_path / "out", f2)["temperature"]
+    assert np.abs(avg[ok] - mine[ok]).max() > 1e-3

@@ -521,8 +521,12 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                     radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
                                             result.T_recovered, ir_abs, linearised_at=shared_at))
         with prog.stage("recovery", "the recovery that travels with the network"):
+            orbit_rec = None
+            if q_orbit is not None and orbit is not None and orbit.fluxes_on == "detailed":
+                pos = result.orbit_fluxes.positions
+                orbit_rec = (q_orbit, pos.time, pos.period)
             result.recovery = exported_recovery(model, case, result.reduced, result.q_recover,
-                                                ir_abs if case.reduction.radiation_aware else None)
+                                                ir_abs if case.reduction.radiation_aware else None, orbit_rec)
             if case.reduction.radiation_aware:  # the run's own field is the exported recovery's (its fixed point)
                 result.T_recovered = result.recovery.recover(result.reduced_solution.T, T0=result.T_recovered)
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round

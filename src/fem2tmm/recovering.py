@@ -7,7 +7,9 @@ thermo-elastic analysis with the recovery ``reduced.npz`` carries (:mod:`fem2tmm
 The temperature file is a CSV with a header row: first column the super-node name as in the deck (``reduced.npz``
 ``names``; case-insensitive), then one column per time or case (°C); its header names the columns.  Every super node
 of the network must have a row.  Optional rows: a named load (``[[boundary]]`` name of a power or flux boundary, in
-W or W/m²) and ``sink`` (°C) give that value per column; the design value otherwise.  Outputs (written atomically,
+W or W/m²) and ``sink`` (°C) give that value per column; the design value otherwise; ``time`` (s, on the run's
+time axis) gives each column's orbital loads to a network with orbital loads traced on the FE faces (the orbit
+average otherwise, as in the steady design case).  Outputs (written atomically,
 never over anything fem2tmm did not write): ``temperatures.vtu`` (one column) or ``temperatures.pvd`` with one VTU
 per column in ``temperatures/``, ``temperatures.bdf`` (one Nastran TEMP load set per column, SID 1, 2, ...) and
 ``temperatures.inp`` (one Abaqus/CalculiX ``*STEP`` with ``*TEMPERATURE`` per column).
@@ -26,10 +28,11 @@ from .errors import Fem2TmmError
 
 
 def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.ndarray
-                           ) -> tuple[np.ndarray, dict, np.ndarray | None, list[str]]:
+                           ) -> tuple[np.ndarray, dict, np.ndarray | None, list[str], np.ndarray | None]:
     """Parse a temperature CSV (module docstring).
 
-    Returns ``(T_sn (n_sn, k) K, loads {name: (k,)}, sinks (k,) K or None, column labels)``; raises
+    Returns ``(T_sn (n_sn, k) K, loads {name: (k,)}, sinks (k,) K or None, column labels, times (k,) s or None)``;
+    raises
     :class:`Fem2TmmError` naming the row and column of a missing or unknown node or a non-numeric value.
     """
     path = Path(path)
@@ -47,7 +50,7 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
     loads_index = {str(n).upper(): str(n) for n in load_names}
     T = np.full((len(names), k), np.nan)
     loads: dict[str, np.ndarray] = {}
-    sinks = None
+    sinks = times = None
     seen: dict[int, int] = {}
     for lineno, row in enumerate(rows[1:], start=2):
         key = row[0].strip()
@@ -74,9 +77,11 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
             loads[loads_index[up]] = vals
         elif up == "SINK":
             sinks = vals + KELVIN
+        elif up == "TIME":
+            times = vals
         else:
             raise Fem2TmmError(f"{path}: row {lineno}: {key!r} is no super node of this network (nor a named load: "
-                               f"{', '.join(map(str, load_names)) or 'none'}, nor 'sink'); its super nodes are "
+                               f"{', '.join(map(str, load_names)) or 'none'}, nor 'sink' or 'time'); its super nodes are "
                                f"{', '.join(map(str, names[:8]))}{' ...' if len(names) > 8 else ''}")
     missing = [str(names[i]) for i in range(len(names)) if i not in seen]
     if missing:
@@ -85,7 +90,7 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
                            "network needs its temperature")
     if np.any(T <= 0.0) or (sinks is not None and np.any(sinks <= 0.0)):
         raise Fem2TmmError(f"{path}: temperatures must be above absolute zero (the file is in °C)")
-    return T, loads, sinks, labels
+    return T, loads, sinks, labels, times
 
 
 def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) -> dict:
@@ -96,8 +101,8 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) ->
     out_dir : str or Path
         A ``fem2tmm run`` output folder (its ``reduced.npz`` and ``temperatures.vtu``).
     temperatures : str, Path or mapping
-        A temperature CSV (module docstring), or ``{super-node name: °C or (k,) °C}`` plus optional named loads
-        and ``"sink"`` (°C).
+        A temperature CSV (module docstring), or ``{super-node name: °C or (k,) °C}`` plus optional named loads,
+        ``"sink"`` (°C) and ``"time"`` (s).
     out : str or Path, optional
         Folder to write ``temperatures.vtu`` / ``.pvd``, ``temperatures.bdf`` and ``temperatures.inp`` into
         (atomically; fem2tmm's output-folder policy).  None writes nothing.
@@ -120,10 +125,10 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) ->
         out = check_output_place(out)  # before any computation
     rec = load(npz)
     if isinstance(temperatures, (str, Path)):
-        T_sn, loads, sinks, labels = read_temperature_table(temperatures, rec.names, rec.load_names)
+        T_sn, loads, sinks, labels, times = read_temperature_table(temperatures, rec.names, rec.load_names)
     else:
-        T_sn, loads, sinks, labels = _from_mapping(temperatures, rec.names, rec.load_names)
-    T_dof = rec.recover(T_sn, loads=loads, T_sink=sinks).reshape(rec.n_dof, -1)
+        T_sn, loads, sinks, labels, times = _from_mapping(temperatures, rec.names, rec.load_names)
+    T_dof = rec.recover(T_sn, loads=loads, T_sink=sinks, times=times).reshape(rec.n_dof, -1)
     T_nodes = rec.node_temperatures(T_dof) - KELVIN
     result = {"node_id": rec.node_ids, "temperature": T_nodes, "labels": labels, "out": None}
     if out is not None:

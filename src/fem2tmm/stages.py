@@ -564,14 +564,16 @@ def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labe
 
 
 def exported_recovery(model: FEModel, case: Case, rm: ReducedModel, q_recover: np.ndarray,
-                      ir: IRAbsorption | None = None) -> "ExportedRecovery":
+                      ir: IRAbsorption | None = None, orbit: tuple | None = None) -> "ExportedRecovery":
     """The recovery written into ``reduced.npz`` (:mod:`fem2tmm.reduce.exported`) for the network ``rm``.
 
     ``q_recover`` (n_dof,) W: the detailed loads the run recovers with (boundary loads, detailed solar, orbit
     average); each power/flux ``[[boundary]]`` becomes a named unit pattern (its value scales it), the rest is the
     constant part.  ``ir`` (radiation-aware with ``ir_on`` = "faces" / "detailed"): where the emitted IR is
     absorbed.  The radiation-aware network recovers in the emission mode (the constrained nonlinear problem its
-    outer iterations converge to), the thesis' in the linear mode (``T = X q + Yᵀ T_SN``).
+    outer iterations converge to), the thesis' in the linear mode (``T = X q + Yᵀ T_SN``).  ``orbit``: ``(q (k,
+    n_dof) W, times (k,) s, period s)`` of orbital loads traced on the FE faces (``q_recover`` holding their orbit
+    average), carried with the time functions of :meth:`OrbitLoads.add` from ``[transient] start`` (or 0).
     """
     import scipy.sparse as _sp
 
@@ -601,7 +603,23 @@ def exported_recovery(model: FEModel, case: Case, rm: ReducedModel, q_recover: n
                             load_values=np.array(vals, float), node_dof=np.asarray(model.node_dof, np.int64),
                             node_ids=np.asarray(model.mesh.node_ids, np.int64),
                             midside=np.zeros((0, 3), np.int64) if ms is None else np.asarray(ms, np.int64),
-                            T_sink=float(model.T_sink), **kw)
+                            T_sink=float(model.T_sink), **kw, **_orbit_recovery(case, orbit))
+
+
+def _orbit_recovery(case: Case, orbit: tuple | None) -> dict:
+    """The orbit_* fields of :class:`~fem2tmm.reduce.exported.ExportedRecovery` (none without orbital loads)."""
+    if orbit is None:
+        return {}
+    import scipy.sparse as _sp
+
+    from .radiation.orbital import average_weights, hat_basis
+
+    q, times, period = orbit
+    start = case.transient.start if case.transient is not None else 0.0
+    nodes, H = hat_basis(times, period)
+    return {"orbit_q": _sp.csr_matrix(np.asarray(q, float)), "orbit_nodes": start + nodes, "orbit_H": H,
+            "orbit_weights": average_weights(times, period), "orbit_period": float(period),
+            "orbit_start": float(start)}
 
 
 def network_group(case: Case) -> str:

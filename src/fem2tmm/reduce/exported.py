@@ -23,7 +23,10 @@ given the exact means ``A T*`` it returns the detailed field T* itself up to the
 100 super nodes: 0.12-0.19 K RMS against the reference over five load states, the reference's own noise 0.12-0.14 K).
 
 Loads: the design loads ``q`` split into the named power/flux boundaries (``[[boundary]]`` with a ``name``; a unit
-pattern each, so another value scales it) and the rest; the sink temperature enters the emission mode.
+pattern each, so another value scales it) and the rest; the sink temperature enters the emission mode.  Orbital
+loads traced on the FE faces (``[orbit] fluxes_on = "detailed"``) are carried per position with their periodic
+piecewise-linear time functions: the design loads hold their orbit average, and a column given with its time gets
+that time's orbital loads instead (``recover(..., times=...)``, the same interpolation as fem2tmm's own transient).
 
 Cost: one sparse LU of the saddle matrix per Newton step (with the absorbed IR lagged: a fixed point over Newton
 solves, 5-10 rounds); linear in the nonzeros of K and A, never a dense n_dof matrix.
@@ -84,6 +87,11 @@ class ExportedRecovery:
         each emitter (per-FE-side emitters, ``ir_on = "faces"``), empty for super-face emitters
     ir_eps_area : (g,) m²: emitting εA of each emitter
     face_W : (f, n_dof) csr: face averaging weights (face temperature⁴ = W T⁴), with ``ir_A``
+    orbit_q : (k, n_dof) csr W or None: the absorbed orbital loads at each of the k orbit positions (loads traced on
+        the FE faces); the design loads ``q0`` hold their orbit average ``orbit_weights @ orbit_q``
+    orbit_nodes : (m,) s: times of the periodic piecewise-linear time functions (absolute: the orbit's time 0 at
+        ``orbit_start``, one period long); orbit_H : (m, k): position j's time function sampled at the nodes
+    orbit_weights : (k,): orbit-average weights; orbit_period : s; orbit_start : s (the [transient] start)
     """
 
     K: sp.csr_matrix
@@ -104,6 +112,12 @@ class ExportedRecovery:
     ir_face: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     ir_eps_area: np.ndarray = field(default_factory=lambda: np.zeros(0))
     face_W: sp.csr_matrix | None = None
+    orbit_q: sp.csr_matrix | None = None
+    orbit_nodes: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    orbit_H: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    orbit_weights: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    orbit_period: float = 0.0
+    orbit_start: float = 0.0
 
     @property
     def n_dof(self) -> int:
@@ -127,6 +141,11 @@ class ExportedRecovery:
         if self.ir_A is not None:
             out.update(_csr_arrays("ir_A", self.ir_A))
             out.update(_csr_arrays("face_W", self.face_W))
+        out["has_orbit"] = np.array(self.orbit_q is not None)
+        if self.orbit_q is not None:
+            out.update(_csr_arrays("orbit_q", self.orbit_q))
+            out.update(orbit_nodes=self.orbit_nodes, orbit_H=self.orbit_H, orbit_weights=self.orbit_weights,
+                       orbit_period=np.float64(self.orbit_period), orbit_start=np.float64(self.orbit_start))
         return {_PREFIX + k: v for k, v in out.items()}
 
     @classmethod
@@ -137,12 +156,17 @@ class ExportedRecovery:
                                "run the case again to get a reduced.npz that carries its recovery")
         g = {k[len(_PREFIX):]: z[k] for k in z if k.startswith(_PREFIX)}
         has_ir = bool(g["has_ir"])
+        orbit = {}
+        if bool(g.get("has_orbit", False)):  # (files written before 2026-12-04 carry no orbital loads)
+            orbit = dict(orbit_q=_csr_from(g, "orbit_q"), orbit_nodes=g["orbit_nodes"], orbit_H=g["orbit_H"],
+                         orbit_weights=g["orbit_weights"], orbit_period=float(g["orbit_period"]),
+                         orbit_start=float(g["orbit_start"]))
         return cls(K=_csr_from(g, "K"), A=_csr_from(g, "A"), names=g["names"].astype(str), q0=g["q0"],
                    load_names=g["load_names"].astype(str), load_q=_csr_from(g, "load_q"),
                    load_values=g["load_values"], node_dof=g["node_dof"], node_ids=g["node_ids"],
                    midside=g["midside"], mode=str(g["mode"]), e=g["e"], T_sink=float(g["T_sink"]),
                    ir_A=_csr_from(g, "ir_A") if has_ir else None, ir_owner=g["ir_owner"], ir_face=g["ir_face"],
-                   ir_eps_area=g["ir_eps_area"], face_W=_csr_from(g, "face_W") if has_ir else None)
+                   ir_eps_area=g["ir_eps_area"], face_W=_csr_from(g, "face_W") if has_ir else None, **orbit)
 
     # ----------------------------------------------------------------------------------------- recovery
     def loads(self, values: dict[str, float] | None = None) -> np.ndarray:
@@ -155,6 +179,15 @@ class ExportedRecovery:
                                    f"{', '.join(map(str, self.load_names)) or 'none'})")
             v[hit[0]] = float(val)
         return self.q0 + (np.asarray(self.load_q.T @ v).ravel() if len(v) else 0.0)
+
+    def orbit_departure(self, t: float) -> np.ndarray:
+        """(n_dof,) W: the orbital loads at time ``t`` (s, the run's time axis: periodic from ``orbit_start``) minus
+        their orbit average, which the design loads hold; zeros without orbital loads."""
+        if self.orbit_q is None:
+            return np.zeros(self.n_dof)
+        tau = self.orbit_start + np.mod(float(t) - self.orbit_start, self.orbit_period)
+        h = np.array([np.interp(tau, self.orbit_nodes, self.orbit_H[:, j]) for j in range(self.orbit_H.shape[1])])
+        return np.asarray(self.orbit_q.T @ (h - self.orbit_weights)).ravel()
 
     def _saddle(self, diag: np.ndarray | None = None) -> spla.SuperLU:
         Kd = self.K if diag is None else self.K + sp.diags(diag)
@@ -178,7 +211,7 @@ class ExportedRecovery:
         return np.asarray(self.face_W.T @ side.reshape(-1, 2).sum(axis=1)).ravel()
 
     def recover(self, T_sn: np.ndarray, loads: dict | None = None, T_sink: float | np.ndarray | None = None,
-                T0: np.ndarray | None = None) -> np.ndarray:
+                T0: np.ndarray | None = None, times: np.ndarray | None = None) -> np.ndarray:
         """Temperatures of every DOF from super-node temperatures.
 
         Parameters
@@ -191,6 +224,9 @@ class ExportedRecovery:
             Sink temperature(s) in K (emission mode); default the design sink.
         T0 : (n_dof,) or (n_dof, k) K, optional
             Start of the emission mode's Newton (default: the linear recovery).
+        times : (k,) s, optional
+            The time of each column, for a network with orbital loads (:meth:`orbit_departure`): that time's
+            orbital loads instead of their orbit average (the design).  Ignored without orbital loads.
 
         Returns
         -------
@@ -204,8 +240,12 @@ class ExportedRecovery:
         k = Ts.shape[1]
         sinks = np.broadcast_to(np.asarray(self.T_sink if T_sink is None else T_sink, float), (k,))
         q = np.empty((self.n_dof, k))
+        if times is not None and np.shape(times) != (k,):
+            raise Fem2TmmError(f"{np.size(times)} times for {k} columns of super-node temperatures")
         for j in range(k):
             q[:, j] = self.loads({n: np.broadcast_to(np.asarray(v, float), (k,))[j] for n, v in (loads or {}).items()})
+            if times is not None:
+                q[:, j] += self.orbit_departure(times[j])
         lu = self._saddle()
         T = lu.solve(np.vstack([q, Ts]))[: self.n_dof]
         if self.mode == "emission":
