@@ -645,7 +645,8 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                                          recover_dof=orbit.fluxes_on == "detailed")
             result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
                                              result.q_recover, problem if (do_ref or not case.reduction.enabled) else None,
-                                             None if det is None else det.T, orbit=orbit_loads)
+                                             None if det is None else det.T, orbit=orbit_loads,
+                                             exported=result.recovery)
 
     if result.reduced is not None:  # what the user receives: the network written, read back, solved, recovered
         from .handover import check_deliverable

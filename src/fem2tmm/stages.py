@@ -702,6 +702,42 @@ def load_series(Q_start: np.ndarray, tables, distribute=None) -> Series:
     return Series(base, tuple(pats), tuple(t for _, t, _ in tables))
 
 
+def exported_series(exported, case: Case, T_sn: np.ndarray, times: np.ndarray, sink: Table,
+                    settings: TransientSettings, orbital: bool, T0: np.ndarray | None = None) -> np.ndarray:
+    """(n_t, n_dof) K: the exported recovery (:class:`~fem2tmm.reduce.exported.ExportedRecovery`) of the super-node
+    temperatures ``T_sn`` (n_t, n_SN) K at ``times`` (n_t,) s, each column with the named loads' and the sink's
+    table values at its time and (``orbital``) that time's orbital loads, as ``fem2tmm recover`` gives them from a
+    CSV with those rows; ``T0`` (n_t, n_dof) K starts each column's Newton."""
+    def at(table: Table) -> np.ndarray:
+        tab = table.periodic(settings.start, settings.end - settings.start) if settings.periodic else table
+        return np.array([float(tab(t)) for t in times])
+
+    loads = {b.name: at(b.table) for b in case.boundaries
+             if b.table is not None and b.kind != "temperature" and b.name in set(exported.load_names)}
+    sinks = at(sink)
+    T_sn = np.asarray(T_sn, float)
+    out = np.array(T0, float) if T0 is not None else np.zeros((len(times), exported.n_dof))
+    failed = []
+    for i, t in enumerate(times):  # loop over the output times: one constrained solve each
+        try:
+            out[i] = exported.recover(T_sn[i], loads={k: v[i] for k, v in loads.items()}, T_sink=sinks[i],
+                                      times=np.array([t]) if orbital else None,
+                                      T0=None if T0 is None else out[i])
+        except Fem2TmmError:
+            if T0 is None:
+                raise
+            failed.append(float(t))  # kept: the recovery about the network's linearisation
+    if failed:
+        import warnings
+
+        warnings.warn(f"the exported recovery has no solution at t = {', '.join(format(t, 'g') for t in failed[:5])}"
+                      f"{' ...' if len(failed) > 5 else ''} s ({len(failed)} of {len(times)} output times): its "
+                      "super-node means and loads need temperatures at or below 0 K in the quasi-static field (a "
+                      "cold start under a strong load); those times keep the recovery about the network's "
+                      "linearisation, which fem2tmm recover does not reproduce", stacklevel=2)
+    return out
+
+
 def fixed_series(T_fixed: np.ndarray, rows: dict[str, int], case: Case) -> Series:
     """Fixed temperatures in time (K): ``T_fixed`` at the start with each table boundary's row (``rows``: boundary
     name -> row) following its table."""
@@ -733,7 +769,8 @@ class _Clock:
 
 def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_reduced: np.ndarray | None = None,
                   q_recover: np.ndarray | None = None, detailed: SteadyProblem | None = None,
-                  T_detailed: np.ndarray | None = None, orbit: "OrbitLoads | None" = None) -> TransientRun:
+                  T_detailed: np.ndarray | None = None, orbit: "OrbitLoads | None" = None,
+                  exported=None) -> TransientRun:
     """The ``[transient]`` stage: the reduced model in time with recovery at every output time, and the detailed
     model when ``detailed`` (its steady problem, radiation and solar loads included) is given.  ``timings`` get
     the wall and CPU seconds of each part (``reduced``, ``recover``, ``detailed``, and ``..._cpu``).
@@ -741,7 +778,9 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
     ``T_reduced`` / ``T_detailed`` (K) the steady solutions, used when ``initial_temperature = "steady"``;
     ``q_recover`` (n_dof,) W the detailed loads at the start that the recovery uses (applied + detailed solar).
     ``orbit``: the orbital loads (:class:`OrbitLoads`); the steady loads hold their orbit average, the transient
-    follows them in time (periodic with the orbital period from ``[transient] start``).
+    follows them in time (periodic with the orbital period from ``[transient] start``).  ``exported``: the
+    network's :class:`~fem2tmm.reduce.exported.ExportedRecovery`; a radiation-aware network's output times are
+    recovered with it (:func:`exported_series`), as a user's run of the deck through ``fem2tmm recover`` is.
     """
     from .fem.model import consistent_capacity
 
@@ -793,6 +832,11 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
         # the radiation-aware network: recovered about its own linearisation (its correction load is that state's)
         recover = ra.recover_linearised if ra is not None and ra.T_lin is not None else rm.reduction.recover
         run.T_recovered = recover_series(recover, run.reduced.T, q, run.times)
+        if ra is not None and exported is not None:
+            # what the user's own run of the deck recovers to: the exported recovery (reduced.npz, fem2tmm recover)
+            # at every output time, with that time's named loads, sink and orbital loads (from the linearised one)
+            run.T_recovered = exported_series(exported, case, run.reduced.T, run.times, sink, settings,
+                                              orbit is not None and orbit.recover_dof, run.T_recovered)
         clock.stop()
     if detailed is not None:
         clock = _Clock(run.timings, "detailed")
