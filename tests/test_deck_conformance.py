@@ -167,3 +167,38 @@ def test_two_exports_with_their_own_name_and_offset_merge_without_a_clash(tmp_pa
     assert np.allclose(solve_network(ra).T, solve_network(rb).T, atol=1e-9)
     with pytest.raises(Exception, match="model_name"):
         plate_case(export={"model_name": "9 bad name"})
+
+
+@pytest.mark.parametrize("kind", ["transient", "orbit", "aware_transient"])
+def test_the_transient_deck_integrates_to_the_in_process_transient(kind, tmp_path):
+    # issue 29: the deck handed over is the network measured, in time too.  The ESATAN deck of a transient run,
+    # read back and integrated as it stands (fem2tmm.handover.deck_transient: its GL, GR, C, initial temperatures
+    # and its QI / T tables in time), gives the in-process reduced transient at every output time; tolerance 1e-9 K
+    # (the acceptance's; the deck prints 16 significant digits, the same integrator takes the same steps).  Until
+    # 2026-12-04 an orbit deck's QI added its tables' departures from their value at the start to the orbit-average
+    # QI (6.3 W where the run had 14.3 W on a node of this plate at the start): this check found it.
+    if kind == "orbit":
+        case = make_case(parts=[{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3,
+                                 "front": "black", "back": "black", "super_nodes": 8}],
+                         boundary=[{"name": "heater", "kind": "power", "groups": ["plate"], "value": 5.0}],
+                         environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                         reference={"detailed": False},
+                         orbit={"altitude": 700e3, "beta": 30.0, "positions": 4, "rays_per_face": 4},
+                         transient={"periodic": True, "step": 300.0, "output_every": 600.0, "tolerance": 0.5})
+    elif kind == "transient":
+        case = plate_case(power=[[0.0, 5.0], [200.0, 5.0], [260.0, 12.0]],
+                          transient={"end": 600.0, "step": 60.0, "initial_temperature": 20.0})
+    else:
+        case = plate_case(transient={"end": 600.0, "step": 60.0, "initial_temperature": "steady"},
+                          reduction={"radiation_aware": True, "outer_iterations": 10})
+    from fem2tmm.handover import deck_transient
+
+    res = run(case, out=tmp_path / "out", mesh=PLATE)
+    tr = res.transient
+    T = deck_transient(tmp_path / "out" / "model.esatan", res)  # (the run's own check does the same on a scratch copy)
+    assert T.shape == tr.reduced.T.shape
+    assert np.abs(T - tr.reduced.T).max() < 1e-9
+    d = res.summary["reduced"]["delivered"]
+    assert d["esatan_compared"] == "transient" and d["esatan_vs_in_process_K"] < 1e-9
+    if kind == "orbit":  # the tables matter: the deck's loads at the start are not its orbit-average QI
+        assert np.abs(T[0] - T[len(T) // 2]).max() > 1.0

@@ -24,6 +24,8 @@ def check_deliverable(result: Result, recover: bool = True) -> dict:
 
     Returns ``{"T_sn": (n,) K from reduced.npz, "T_sn_esatan": (n,) K from the deck, "T": (n_dof,) K recovered
     (None without a recovery), "npz_vs_in_process_K", "esatan_vs_in_process_K": max |ΔT_SN| against the in-process
+    network solution (a transient run: the deck's transient integrated as written, :func:`deck_transient`, against
+    the in-process reduced transient at every output time; ``"esatan_compared"`` says which)
     network solution, "error" when the check could not run (its message)}``.  ``recover=False`` skips the recovery (a run without reference has no error to report).
     """
     from .lpm.readers import read_network
@@ -50,15 +52,62 @@ def _check(result: Result, recover: bool) -> dict:
         folder = Path(tmp)
         write_network(folder, result)
         T_npz = solve_network(read_network(folder / "reduced.npz"), T0=np.r_[rs.T, result.reduced.T_sink]).T[:n]
-        net = read_network(folder / "model.esatan")
-        T_deck = _by_label(net, solve_network(net, T0=None).T, result.reduced.names)
+        tr = result.transient
+        if tr is not None and tr.reduced is not None:  # a transient deck: its transient, integrated as written
+            T_deck = deck_transient(folder / "model.esatan", result)
+            esatan_vs = None if T_deck is None else float(np.abs(T_deck - tr.reduced.T).max(initial=0.0))
+            compared = "transient"
+        else:
+            net = read_network(folder / "model.esatan")
+            T_deck = _by_label(net, solve_network(net, T0=None).T, result.reduced.names)
+            esatan_vs = None if T_deck is None else float(np.abs(T_deck - rs.T).max(initial=0.0))
+            compared = "steady"
         recovery = load(folder / "reduced.npz") if result.recovery is not None else None
     T = None
     if recovery is not None and recover:
         T = recovery.recover(T_npz, T0=result.T_recovered)
     return {"T_sn": T_npz, "T_sn_esatan": T_deck, "T": T,
             "npz_vs_in_process_K": float(np.abs(T_npz - rs.T).max(initial=0.0)),
-            "esatan_vs_in_process_K": None if T_deck is None else float(np.abs(T_deck - rs.T).max(initial=0.0))}
+            "esatan_vs_in_process_K": esatan_vs, "esatan_compared": compared}
+
+
+def deck_transient(deck: Path, result: Result) -> np.ndarray | None:
+    """(n_t, n_SN) K: the transient an ESATAN deck defines, integrated as written, at the run's output times, in the
+    order of the network's names (None when a name is missing).
+
+    The deck is read back once (:func:`~fem2tmm.lpm.esatan.read_esatan_in_time`): its GL, GR, C and initial
+    temperatures, and its ``$VARIABLES1`` loads and boundary temperatures at every time of its ``$ARRAYS`` tables
+    (linear in between, as ESATAN's INTRP1; periodic with TIMEND − TIMEO for a periodic run), then integrated by
+    fem2tmm's transient solver with the run's settings: what the deck gives in a solver that integrates it the
+    same way.
+    """
+    import re
+
+    from .lpm.esatan import read_esatan_in_time
+    from .solve.transient import TransientProblem, solve_transient
+    from .timefunc import Series, Table
+
+    tr = result.transient
+    st = tr.settings
+    text = deck.read_text(encoding="utf-8")
+    times = {st.start, st.end}
+    if "$ARRAYS" in text:
+        block = text[text.index("$ARRAYS"):text.index("$INITIAL") if "$INITIAL" in text else None]
+        for m in re.finditer(r"\(\d+\)\s*=\s*([^;]+);", block):
+            vals = [float(x) for x in m.group(1).split(",")]
+            times.update(t for t in vals[0::2] if st.start <= t <= st.end)
+    bps = np.array(sorted(times))
+    net, Q_t, T_t = read_esatan_in_time(deck, bps)
+    period = {"period": st.end - st.start, "start": st.start} if st.periodic else {}
+    hats = tuple(Table(bps, np.eye(len(bps))[j], **period) for j in range(len(bps)))
+    zero = np.zeros(net.n)
+    prob = TransientProblem(K=net.K(), C=net.C, Q=Series(zero, tuple(Q_t), hats), fixed=net.boundary,
+                            T_fixed=Series(zero, tuple(T_t), hats), g_space=zero, T_sink=Table.constant(3.0),
+                            GR=net.GR if net.GR.nnz else None)
+    init = result.case.transient.initial_temperature
+    sol = solve_transient(prob, st, net.T if init == "steady" else init)
+    out = _by_label(net, sol.T.T, result.reduced.names)
+    return None if out is None else out.T
 
 
 def _by_label(net, T: np.ndarray, names: np.ndarray) -> np.ndarray | None:

@@ -25,12 +25,15 @@ class DeckTransient:
     """The time-dependent part of a deck: what the thermal tool needs to run the same transient.
 
     ``loads``: (pattern (n,) W per unit of the table, times (k,) s, values (k,)) — node i receives
-    ``Q_i + Σ pattern_i (table(t) − table(start))``; ``temperatures``: (node index, times s, values K) of boundary
+    ``base_i + Σ pattern_i table(t)``, ``base`` (n,) W the loads without their tables (the steady start's QI when
+    every table starts at its steady value; an orbit transient's steady QI holds the orbit average instead, which
+    is why the decks write ``base``, not the steady QI, beside the tables); ``temperatures``: (node index, times s, values K) of boundary
     nodes that follow a table; ``sink``: (times s, values K) or None; ``start``, ``end``, ``step`` (s; an adaptive run's largest
     step, the solvers' DTIMEI), ``output`` (s), ``periodic`` (the tables repeat with period end − start).
     """
 
     loads: tuple = ()
+    base: np.ndarray | None = None
     temperatures: tuple = ()
     sink: tuple | None = None
     start: float = 0.0
@@ -47,13 +50,9 @@ class DeckTransient:
             out.append(("TSINK", self.sink[0], self.sink[1] - KELVIN, "sink temperature degC"))
         return out
 
-    def load_terms(self, i: int) -> list[tuple[str, float, float]]:
-        """(array name, coefficient, table value at start) of the time-dependent loads of node ``i``."""
-        out = []
-        for k, (p, t, v) in enumerate(self.loads):
-            if p[i] != 0:
-                out.append((f"QTAB{k + 1}", float(p[i]), float(np.interp(self.start, t, v))))
-        return out
+    def load_terms(self, i: int) -> list[tuple[str, float]]:
+        """(array name, coefficient) of the time-dependent loads of node ``i``."""
+        return [(f"QTAB{k + 1}", float(p[i])) for k, (p, _, _) in enumerate(self.loads) if p[i] != 0]
 
 
 @dataclass(frozen=True)
@@ -198,16 +197,17 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append("$INITIAL")
     lines.append("# the boundary temperatures are those of $NODES (and $VARIABLES1 where they follow a table)")
     lines.append("$VARIABLES1")
-    rest = np.array(deck.Q, float)
+    # QI = the loads without tables (the steady QI for a steady deck) - the named loads' design share + the named
+    # constants' share + the tables: exactly the run's Q(t)
+    rest = np.array(deck.Q if tr is None or tr.base is None else tr.base, float)
     for c, v, frac in deck.load_terms:
         rest = rest - v * np.asarray(frac, float)
     for i in range(n):
         terms = [] if tr is None else tr.load_terms(i)
         par = [(c, float(frac[i])) for c, _, frac in deck.load_terms if frac[i] != 0]
-        if deck.Q[i] != 0 or terms or par:
+        if deck.Q[i] != 0 or rest[i] != 0 or terms or par:
             rhs = "".join(f" {'-' if f < 0 else '+'} {_fmt(abs(f))} * {c}" for c, f in par)
-            rhs += "".join(f" {'-' if c < 0 else '+'} {_fmt(abs(c))} * (INTRP1(TIMEM, {a}) - {_fmt(v0)})"
-                           for a, c, v0 in terms)
+            rhs += "".join(f" {'-' if c < 0 else '+'} {_fmt(abs(c))} * INTRP1(TIMEM, {a})" for a, c in terms)
             lines.append(f"    QI{deck.numbers[i]} = {_fmt(rest[i])}{rhs};")
     if tr is not None:
         for k, (i, _, _) in enumerate(tr.temperatures):

@@ -73,9 +73,9 @@ def _transient_blocks(out: list[str], deck: Deck, sub: str) -> None:
     for i in range(len(deck.numbers)):
         terms = tr.load_terms(i)
         if terms:
-            rhs = "".join(f" {'-' if c < 0 else '+'} {abs(c)!r} * (D1DEG1(TIMEM, A{ids[a]}) - {v0!r})"
-                          for a, c, v0 in terms)
-            out.append(f"      Q{deck.numbers[i]} = {float(deck.Q[i])!r}{rhs}")
+            rhs = "".join(f" {'-' if c < 0 else '+'} {abs(c)!r} * D1DEG1(TIMEM, A{ids[a]})" for a, c in terms)
+            base = float(deck.Q[i] if tr.base is None else tr.base[i])  # the loads without their tables
+            out.append(f"      Q{deck.numbers[i]} = {base!r}{rhs}")
     for k, (i, _, _) in enumerate(tr.temperatures):
         out.append(f"      T{deck.numbers[i]} = D1DEG1(TIMEM, A{ids[f'TTAB{k + 1}']})")
     if tr.sink is not None:

@@ -101,7 +101,8 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         s["energy_balance_W"]["reduced"] = rs.balance
         if result.delivered is not None:
             s["reduced"]["delivered"] = {k: result.delivered.get(k) for k in ("npz_vs_in_process_K",
-                                                                                "esatan_vs_in_process_K", "error")}
+                                                                                "esatan_vs_in_process_K",
+                                                                                "esatan_compared", "error")}
         if detailed is not None:
             ok = model.node_dof >= 0
 

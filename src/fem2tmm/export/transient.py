@@ -184,7 +184,8 @@ def deck_transient(run) -> DeckTransient | None:
     # the solvers' time step (ESATAN's SLCRNC needs DTIMEI): the fixed step, else the adaptive run's largest step,
     # else the output interval
     step = st.step if st.step is not None else st.output_every
-    return DeckTransient(loads=loads, temperatures=temps, sink=sink, start=st.start, end=st.end,
+    return DeckTransient(loads=loads, base=np.asarray(p.Q.base, float), temperatures=temps, sink=sink,
+                         start=st.start, end=st.end,
                          step=step if step is not None else (st.end - st.start) / 100.0, output=st.output_every,
                          periodic=st.periodic)
 

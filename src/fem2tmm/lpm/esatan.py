@@ -125,11 +125,25 @@ def _range(token: str) -> np.ndarray:
     return np.array([int(token)], np.int64)
 
 
-def read_esatan(path: str | Path) -> Network:
+def read_esatan(path: str | Path, time: float | None = None) -> Network:
     """Read an ESATAN input deck (see the module docstring for the subset); temperatures to K, GR to fem2tmm's σ.
+
+    ``time`` (s): evaluate the ``$VARIABLES1`` tables (``INTRP1(TIMEM, A)``) at that time instead of the start
+    ``TIMEO``: the loads and boundary temperatures of a transient deck at any time.
 
     Raises :class:`Fem2TmmError` with ``file:line`` and what to fix for the first statement it cannot read.
     """
+    return _read(path, time, None)[0]
+
+
+def read_esatan_in_time(path: str | Path, times) -> tuple[Network, np.ndarray, np.ndarray]:
+    """A transient deck read once: ``(network at TIMEO, QI (k, n) W, T (k, n) K)`` with the ``$VARIABLES1`` loads
+    and temperatures evaluated at each of ``times`` (k,) s (``INTRP1`` tables interpolated linearly, constant
+    outside, as :func:`read_esatan` with ``time``)."""
+    return _read(path, None, np.asarray(times, float))
+
+
+def _read(path, time, times):
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
@@ -167,17 +181,21 @@ def read_esatan(path: str | Path) -> Network:
                 except ExpressionError as exc:
                     fail(line, f"array {m.group(1)}: {exc}")
                 arrays[m.group(1).upper()] = np.array(vals[: int(m.group(2))], float)
-    time0 = consts.get("TIMEO", 0.0)
+    time0 = consts.get("TIMEO", 0.0) if time is None else float(time)
 
-    def at_start(m):  # INTRP1(TIMEM, A): the doublet array A (time, value) interpolated at the start time
-        a = arrays.get(m.group(1).upper())
-        if a is None or len(a) < 2:
-            raise ExpressionError(f"INTRP1 of the unknown doublet array {m.group(1)!r}")
-        return repr(float(np.interp(time0, a[0::2], a[1::2])))
+    def at(t):
+        def sub(m):  # INTRP1(TIMEM, A): the doublet array A (time, value) interpolated at time t
+            a = arrays.get(m.group(1).upper())
+            if a is None or len(a) < 2:
+                raise ExpressionError(f"INTRP1 of the unknown doublet array {m.group(1)!r}")
+            return repr(float(np.interp(t, a[0::2], a[1::2])))
+        return sub
 
-    def value(line, expr, what):
+    at_start = at(time0)
+
+    def value(line, expr, what, sub=at_start):
         try:
-            return evaluate(_INTRP1.sub(at_start, expr), consts)
+            return evaluate(_INTRP1.sub(sub, expr), consts)
         except ExpressionError as exc:
             fail(line, f"{what}: {exc}")
 
@@ -234,7 +252,8 @@ def read_esatan(path: str | Path) -> Network:
             m = _QI.match(s)
             if m:
                 qi_set.append((line, m.group(1).upper(), int(m.group(2) or m.group(3)), value(line, m.group(4),
-                                                                                        m.group(1).upper())))
+                                                                                        m.group(1).upper()),
+                               m.group(4)))
             else:
                 skipped += 1
         elif block == "ARRAYS":
@@ -291,12 +310,20 @@ def read_esatan(path: str | Path) -> Network:
     get = lambda key, default=0.0: np.array([nd[4].get(key, default) for nd in nodes], float)  # noqa: E731
     Q = sum(get(k) for k in _LOADS)
     T = get("T") + tabs
-    for line, what, num, q in qi_set:
+    Q_t = T_t = None
+    if times is not None:
+        Q_t, T_t = np.tile(Q, (len(times), 1)), np.tile(T, (len(times), 1))
+    for line, what, num, q, expr in qi_set:
         i = rows(line, np.array([num]))[0]
+        others = sum(nodes[i][4].get(k, 0.0) for k in _LOADS if k != "QI") if what == "QI" else tabs
         if what == "QI":
-            Q[i] = q + sum(nodes[i][4].get(k, 0.0) for k in _LOADS if k != "QI")
+            Q[i] = q + others
         else:
-            T[i] = q + tabs
+            T[i] = q + others
+        if times is not None:
+            vals = [value(line, expr, what, at(t)) + others for t in times] if _INTRP1.search(expr) else \
+                [q + others] * len(times)
+            (Q_t if what == "QI" else T_t)[:, i] = vals
     coords = None
     if any(("FX" in nd[4] or "FY" in nd[4] or "FZ" in nd[4]) for nd in nodes):
         has = np.array([any(k in nd[4] for k in ("FX", "FY", "FZ")) for nd in nodes])
@@ -306,10 +333,11 @@ def read_esatan(path: str | Path) -> Network:
         notes += (f"{skipped} statements of the operation blocks ($VARIABLES1/2, $EXECUTION, …) not interpreted",)
     if gr_scale != 1.0:
         notes += (f"GR rescaled from STEFAN = {consts['STEFAN']!r} to sigma = {SIGMA!r}",)
-    return Network(numbers=numbers, labels=np.array([nd[3] for nd in nodes], dtype=object).astype(str),
-                   kind=np.array([nd[1] for nd in nodes]), T=T, C=get("C"), A=get("A"),
-                   alp=get("ALP"), eps=get("EPS"), QI=Q, GL=mats["GL"], GR=mats["GR"], coordinates=coords,
-                   source=str(path), notes=notes)
+    net = Network(numbers=numbers, labels=np.array([nd[3] for nd in nodes], dtype=object).astype(str),
+                  kind=np.array([nd[1] for nd in nodes]), T=T, C=get("C"), A=get("A"),
+                  alp=get("ALP"), eps=get("EPS"), QI=Q, GL=mats["GL"], GR=mats["GR"], coordinates=coords,
+                  source=str(path), notes=notes)
+    return net, Q_t, T_t
 
 
-__all__ = ["read_esatan", "statements"]
+__all__ = ["read_esatan", "read_esatan_in_time", "statements"]
