@@ -334,11 +334,11 @@ def choice_text(choice: dict) -> str:
     """One line saying which reduction a run used and why (summary.json ``reduced.choice``)."""
     method = ("radiation-aware, IR on " + {"faces": "the FE face sides", "detailed": "the FE faces where it lands",
                                            "super_faces": "the super faces"}.get(choice["ir_on"], str(choice["ir_on"]))
-              if choice["radiation_aware"] else "the thesis' (uniform load per super node)")
+              if choice["radiation_aware"] else "the thesis' reduction, uniform load per super node")
     bi = choice.get("biot_cluster_max")
     why = choice["chosen_by"] if bi is None or "Biot" in choice["chosen_by"] else \
         f"{choice['chosen_by']}; largest cluster Biot number {bi:.3g}"
-    return f"{method} ({why})"
+    return f"{method}; {why}"
 
 
 def summary_table(s: dict) -> str:
