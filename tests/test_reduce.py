@@ -165,7 +165,9 @@ def max_clusters_per_node(pr, labels):
 
 
 @pytest.mark.parametrize("kind", ["tri", "quad", "tet", "hex", "mixed"])
-def test_local_equals_global_equals_dense_inverse(kind):
+def test_local_equals_global_equals_dense_inverse(kind, monkeypatch):
+    from fem2tmm.reduce import recovery
+
     pr, labels = make(kind, seed=3)
     rng = np.random.default_rng(7)
     # interface nodes shared by three or more clusters are part of what is tested
@@ -176,18 +178,21 @@ def test_local_equals_global_equals_dense_inverse(kind):
     X, Y, Kref = dense_inverse(pr, sn)
     q = rng.normal(size=pr.n)
     T_sn = rng.normal(size=sn.n_sn)
-    for method, dense_below in [("global", 0), ("local", 0), ("local", 10 ** 9)]:
+    # the local paths: SuperLU (no band allowed), LAPACK's banded Cholesky (the default band), dense Cholesky
+    for method, dense_below, band, path in [("global", 0, 0, None), ("local", 0, 0, "sparse"),
+                                            ("local", 0, 10 ** 9, "banded"), ("local", 10 ** 9, 0, "cholesky")]:
+        monkeypatch.setattr(recovery, "BAND_MAX", band)
         red = reduce_conduction(pr.coo, sn, labels, method=method, dense_below=dense_below)
         if method == "local":  # every cluster has interior nodes tied to its interface: one path only
-            assert set(red.diagnostics["cluster_solvers"]) == {"sparse" if dense_below == 0 else "cholesky"}
-        # all three agree with the dense inverse to round-off (issue acceptance: 1e-9 relative)
-        assert rel(red.K, Kref) < 1e-9, (method, dense_below)
+            assert set(red.diagnostics["cluster_solvers"]) == {path}
+        # all agree with the dense inverse to round-off (issue acceptance: 1e-9 relative)
+        assert rel(red.K, Kref) < 1e-9, (method, dense_below, band)
         assert rel(red.distribute(q), Y @ q) < 1e-9
         assert rel(red.recover(T_sn, q), X @ q + Y.T @ T_sn) < 1e-9
         assert rel(red.recover(T_sn), Y.T @ T_sn) < 1e-9
 
 
-def test_floating_and_disconnected_parts_and_clusters_without_interior():
+def test_floating_and_disconnected_parts_and_clusters_without_interior(monkeypatch):
     """Three parts: one held by a fixed DOF, one floating (K singular there), one floating shell of
     tets; plus one-element clusters (no interior node: their multiplier goes to the interface system)."""
     p1, c1 = quad_grid(6, 4)
@@ -226,12 +231,16 @@ def test_floating_and_disconnected_parts_and_clusters_without_interior():
     # have no interior node; the others, including those of the floating quad part, use Cholesky of K_II.
     # A zero memory budget recomputes the local factorisations at each call and must give the same results
     assert red.diagnostics["cluster_solvers"] == {"cholesky": 4, "lu": 1, "none": 3}
-    red2 = reduce_conduction(pr.coo, sn, labels, factor_memory_mb=0, dense_below=0)
-    assert red2.diagnostics["cluster_solvers"] == {"sparse": 4, "sparse_lu": 1, "none": 3}
-    assert rel(red2.K, Kref) < 1e-9
-    assert red2.diagnostics["factor_bytes"] == red2.operator.frontal.nbytes
-    assert rel(red2.recover(T_sn, q), X @ q + Y.T @ T_sn) < 1e-9
-    assert rel(red2.distribute(q), Y @ q) < 1e-9
+    from fem2tmm.reduce import recovery
+
+    for band, path in ((0, "sparse"), (10 ** 9, "banded")):  # SuperLU, then LAPACK's banded Cholesky
+        monkeypatch.setattr(recovery, "BAND_MAX", band)
+        red2 = reduce_conduction(pr.coo, sn, labels, factor_memory_mb=0, dense_below=0)
+        assert red2.diagnostics["cluster_solvers"] == {path: 4, "sparse_lu": 1, "none": 3}
+        assert rel(red2.K, Kref) < 1e-9
+        assert red2.diagnostics["factor_bytes"] == red2.operator.frontal.nbytes
+        assert rel(red2.recover(T_sn, q), X @ q + Y.T @ T_sn) < 1e-9
+        assert rel(red2.distribute(q), Y @ q) < 1e-9
 
 
 @pytest.mark.parametrize("spectral_max", [2500, 0])

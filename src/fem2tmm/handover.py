@@ -50,7 +50,7 @@ def _check(result: Result, recover: bool) -> dict:
     n = result.reduced.n
     with tempfile.TemporaryDirectory(prefix="fem2tmm-deliverable-") as tmp:
         folder = Path(tmp)
-        write_network(folder, result)
+        write_network(folder, result, sinda=False)  # (what is read back: reduced.npz and the ESATAN deck)
         T_npz = solve_network(read_network(folder / "reduced.npz"), T0=np.r_[rs.T, result.reduced.T_sink]).T[:n]
         tr = result.transient
         if tr is not None and tr.reduced is not None:  # a transient deck: its transient, integrated as written

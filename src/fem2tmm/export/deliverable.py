@@ -65,13 +65,14 @@ def network_deck(result: Result) -> Deck:
                 temperature_terms=temperature_terms)
 
 
-def write_network(folder: Path, result: Result) -> None:
-    """``reduced.npz``, ``model.esatan`` and ``model.sinda`` into ``folder``."""
+def write_network(folder: Path, result: Result, sinda: bool = True) -> None:
+    """``reduced.npz``, ``model.esatan`` and (``sinda``) ``model.sinda`` into ``folder``."""
     np.savez(folder / "reduced.npz", **network_arrays(result))
     deck = network_deck(result)
     stem = Path(result.case.source).stem
     write_esatan(folder / "model.esatan", deck, title=stem)
-    write_sinda(folder / "model.sinda", deck, submodel=deck.model_name)
+    if sinda:
+        write_sinda(folder / "model.sinda", deck, submodel=deck.model_name)
 
 
 __all__ = ["network_arrays", "network_deck", "write_network"]

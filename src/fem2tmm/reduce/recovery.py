@@ -27,8 +27,13 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from ..errors import Fem2TmmError
+
+#: widest band (reverse Cuthill-McKee order of K_II) for which a "sparse" cluster is factorised by LAPACK's banded
+#: Cholesky instead of SuperLU (measurements: docs/design-notes.md, reduce/conduction.py)
+BAND_MAX = 80
 
 
 class Factor:
@@ -121,6 +126,10 @@ class ClusterSolver:
       degree order; the condensed map comes out of a second SuperLU factorisation of the local matrix ordered
       [I, μ, B] without pivoting (its trailing factors *are* the Schur complement), so no solve with the
       nB + 1 right-hand sides is needed (``"sparse_solves"`` if that needed pivoting after all);
+    * ``"banded"`` (asked as ``"sparse"``, when K_II in reverse Cuthill-McKee order has a band of at most
+      :data:`BAND_MAX`): LAPACK's banded Cholesky of K_II, the condensed map from banded solves with the
+      nB + 1 right-hand sides (3x faster than the two SuperLU factorisations for a ~1 000-node shell cluster,
+      9x for 6 000);
     * ``"lu"`` / ``"sparse_lu"`` (floating cluster: K_II singular, P is not): dense LU / SuperLU of P.
 
     With K_II factorised, solves border the constraint in: ``u = K_II⁻¹ a_Iᵀ``, ``s = a_I u``, and
@@ -130,7 +139,7 @@ class ClusterSolver:
     dense LAPACK/BLAS reaches ~100 GFlop/s on 2 cores.
     """
 
-    _BORDERED = ("cholesky", "sparse", "sparse_solves")
+    _BORDERED = ("cholesky", "sparse", "sparse_solves", "banded")
 
     def __init__(self, P: sp.csc_matrix, kind: str, what: str):
         self.nI = nI = P.shape[0] - 1
@@ -146,7 +155,10 @@ class ClusterSolver:
             d = np.diag(self.L)
             if not d.min() > 1e-7 * d.max():
                 raise Fem2TmmError(f"{what} is singular (elements of zero conductivity?)")
-        elif kind == "sparse":
+        elif kind in ("sparse", "banded") and self._banded(P, force=kind == "banded"):
+            self.kind = "banded"  # (a cluster condensed so is factorised so again when recomputed)
+        elif kind in ("sparse", "banded"):
+            self.kind = "sparse"
             self.a = P[nI, :nI].toarray().ravel()
             try:
                 self._factor_kii()
@@ -157,6 +169,33 @@ class ClusterSolver:
         if kind in self._BORDERED:
             self.u = self._ksolve(self.a)
             self.s = float(self.a @ self.u)
+
+    def _banded(self, P: sp.csc_matrix, force: bool = False) -> bool:
+        """Banded Cholesky of K_II in reverse Cuthill-McKee order when its band is narrow (``BAND_MAX``): a
+        shell cluster of ~1 000 nodes has a band of ~30, and LAPACK's banded factorisation and solves beat two
+        SuperLU factorisations 3x there (measurements: docs/design-notes.md, reduce/conduction.py).  False
+        (nothing set) for a wider band."""
+        nI = self.nI
+        Kii = P[:nI, :nI].tocsr()
+        order = reverse_cuthill_mckee(Kii, symmetric_mode=True)
+        Kp = Kii[order][:, order].tocoo()
+        band = int(np.abs(Kp.row - Kp.col).max(initial=0))
+        if band > BAND_MAX and not force:
+            return False
+        low = Kp.row >= Kp.col
+        ab = np.zeros((band + 1, nI))
+        np.add.at(ab, ((Kp.row - Kp.col)[low], Kp.col[low]), Kp.data[low])
+        try:
+            self.cb = sla.cholesky_banded(ab, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            raise Fem2TmmError(f"{self.what} is not positive definite (elements of zero or negative "
+                               "conductivity?)") from None
+        d = self.cb[0]
+        if not d.min() > 1e-7 * d.max():  # (the diagonal of the Cholesky factor, as for the dense kind)
+            raise Fem2TmmError(f"{self.what} is singular (elements of zero conductivity?)")
+        self.order = order
+        self.a = P[nI, :nI].toarray().ravel()
+        return True
 
     def _factor_kii(self) -> None:
         self.klu = spla.splu(self.P[:self.nI, :self.nI].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
@@ -173,6 +212,11 @@ class ClusterSolver:
     def _ksolve(self, b):
         if self.kind == "cholesky":
             return sla.cho_solve((self.L, True), b, check_finite=False)
+        if self.kind == "banded":
+            out = np.empty_like(np.asarray(b, float))
+            out[self.order] = sla.cho_solve_banded((self.cb, True), np.asarray(b, float)[self.order],
+                                                   check_finite=False)
+            return out
         return self.klu.solve(b)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
@@ -201,6 +245,19 @@ class ClusterSolver:
             rhs[:, nB] = self.a
             W = sla.solve_triangular(self.L, rhs, lower=True, check_finite=False, overwrite_b=True)
             G = -(W.T @ W)
+            G[:nB, :nB] += KBB
+            G[:nB, nB] += Cd[nI]
+            G[nB, :nB] += Cd[nI]
+            g, gam = G[:nB, nB], G[nB, nB]
+            out[:nB, :nB] = G[:nB, :nB] - np.outer(g, g) / gam
+            out[:nB, nB] = out[nB, :nB] = g / gam
+            out[nB, nB] = -1.0 / gam
+        elif self.kind == "banded":  # G = [[K_BB, a_Bᵀ], [a_B, 0]] − rhsᵀ K_II⁻¹ rhs, rhs = [K_IB, a_Iᵀ]
+            Cd = C.toarray()
+            rhs = np.empty((nI, nB + 1))
+            rhs[:, :nB] = Cd[:nI]
+            rhs[:, nB] = self.a
+            G = -(rhs.T @ self._ksolve(rhs))
             G[:nB, :nB] += KBB
             G[:nB, nB] += Cd[nI]
             G[nB, :nB] += Cd[nI]
@@ -261,6 +318,8 @@ class ClusterSolver:
     def nbytes(self) -> int:
         if self.kind == "cholesky":
             return self.L.nbytes + self.u.nbytes
+        if self.kind == "banded":
+            return self.cb.nbytes + self.order.nbytes + self.u.nbytes
         if self.kind in self._BORDERED:
             return 12 * (self.klu.L.nnz + self.klu.U.nnz) + self.u.nbytes
         return self.lu.nbytes
