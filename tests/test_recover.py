@@ -218,6 +218,12 @@ def test_an_orbit_transient_fed_back_with_its_times_reproduces_the_runs_recovery
     f2 = write_csv(tmp_path / "T2.csv", rec.names, cols, header=[f"t{i}" for i in range(len(cols))])
     avg = recover(tmp_path / "out", f2)["temperature"]
     assert np.abs(avg[ok] - mine[ok]).max() > 1e-3
+    # a position given by its row (steady = "positions") is its time's loads where no eclipse boundary doubles it
+    pos = res.orbit_fluxes.positions
+    for j in np.flatnonzero(pos.event == ""):
+        a = rec.recover(tr.reduced.T[0], positions=np.array([j]))
+        b = rec.recover(tr.reduced.T[0], times=np.array([pos.time[j] + case.transient.start]))
+        assert np.abs(a - b).max() < 1e-9
 
 
 def test_a_radiation_aware_transient_fed_back_reproduces_the_runs_recovery(tmp_path):

@@ -571,7 +571,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                     else:
                         pos_args = (result.q_recover, q_sn_orbit - orbit_average(result, q_sn_orbit), None)
                     result.orbit_T_positions = orbit_positions_reduced(red, *pos_args, result.reduced_solution.T,
-                                                                       case)
+                                                                       case, exported=result.recovery)
                 else:
                     result.orbit_T_positions = orbit_positions_reduced(
                         rm_base, q_recover_base, q_sn_orbit, q_orbit if orbit.fluxes_on == "detailed" else None,

@@ -439,14 +439,15 @@ def orbit_average(result, q: np.ndarray) -> np.ndarray:
 
 
 def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.ndarray, q_dof: np.ndarray | None,
-                            T0: np.ndarray, case: Case) -> np.ndarray:
+                            T0: np.ndarray, case: Case, exported=None) -> np.ndarray:
     """Steady reduced solves with the loads of each orbit position, recovered on the detailed mesh.
 
     ``rm`` the network with ``q_sn`` (k, n) W added to its loads at position j (the thesis': ``rm`` without orbital
     loads and the positions' loads; the radiation-aware network: its loads at the orbit average and each
     position's departure from that average, through its own Y'), recovered with ``q_recover`` + ``q_dof[j]`` (the
     exact distribution; (k, n_dof) W) or ``q_recover`` alone (super-face loads, uniform over each super node); the
-    radiation-aware network about its own linearisation (as its transient, ``RadiationAware.recover_linearised``).
+    radiation-aware network with ``exported`` (its :class:`~fem2tmm.reduce.exported.ExportedRecovery`, each position's
+    orbital loads; as its transient and ``fem2tmm recover``), started from the recovery about its linearisation.
     Starts from ``T0``; returns (k, n_dof) K."""
     ra = rm.radiative
     recover = ra.recover_linearised if ra is not None and ra.T_lin is not None else rm.reduction.recover
@@ -456,7 +457,16 @@ def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.nd
         sol = solve_steady(reduced_problem(dataclasses.replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
                            max_iter=case.solver.max_iterations)
         T = sol.T
-        out.append(recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))
+        T_rec = recover(T, q_recover if q_dof is None else q_recover + q_dof[j])
+        if ra is not None and exported is not None:
+            try:
+                T_rec = exported.recover(T, T0=T_rec, positions=np.array([j]) if q_dof is not None else None)
+            except Fem2TmmError as exc:  # no quasi-static field above 0 K: keep the linearised one, say so
+                import warnings
+
+                warnings.warn(f"orbit position {j}: the exported recovery has no solution ({exc}); the position "
+                              "keeps the recovery about the network's linearisation", stacklevel=2)
+        out.append(T_rec)
     return np.array(out)
 
 

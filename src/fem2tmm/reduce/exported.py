@@ -215,7 +215,8 @@ class ExportedRecovery:
         return np.asarray(self.face_W.T @ side.reshape(-1, 2).sum(axis=1)).ravel()
 
     def recover(self, T_sn: np.ndarray, loads: dict | None = None, T_sink: float | np.ndarray | None = None,
-                T0: np.ndarray | None = None, times: np.ndarray | None = None) -> np.ndarray:
+                T0: np.ndarray | None = None, times: np.ndarray | None = None,
+                positions: np.ndarray | None = None) -> np.ndarray:
         """Temperatures of every DOF from super-node temperatures.
 
         Parameters
@@ -231,6 +232,9 @@ class ExportedRecovery:
         times : (k,) s, optional
             The time of each column, for a network with orbital loads (:meth:`orbit_departure`): that time's
             orbital loads instead of their orbit average (the design).  Ignored without orbital loads.
+        positions : (k,) int, optional
+            Instead of ``times``: the orbit position (row of ``orbit_q``) of each column, its loads exactly (a
+            position at an eclipse boundary is two rows at one time).
 
         Returns
         -------
@@ -250,6 +254,10 @@ class ExportedRecovery:
             q[:, j] = self.loads({n: np.broadcast_to(np.asarray(v, float), (k,))[j] for n, v in (loads or {}).items()})
             if times is not None:
                 q[:, j] += self.orbit_departure(times[j])
+            elif positions is not None and self.orbit_q is not None:
+                w = -np.asarray(self.orbit_weights, float)
+                w[int(positions[j])] += 1.0
+                q[:, j] += np.asarray(self.orbit_q.T @ w).ravel()
         lu = self._saddle()
         T = lu.solve(np.vstack([q, Ts]))[: self.n_dof]
         if self.mode == "emission":
