@@ -45,6 +45,17 @@ def plate_case(power=5.0, transient=None, export=None, cases=None, reduction=Non
     return make_case(**raw)
 
 
+def orbit_case():
+    """The periodic orbit transient of the plate (orbital loads in time as deck arrays)."""
+    return make_case(parts=[{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3,
+                             "front": "black", "back": "black", "super_nodes": 8}],
+                     boundary=[{"name": "heater", "kind": "power", "groups": ["plate"], "value": 5.0}],
+                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                     reference={"detailed": False},
+                     orbit={"altitude": 700e3, "beta": 30.0, "positions": 4, "rays_per_face": 4},
+                     transient={"periodic": True, "step": 300.0, "output_every": 600.0, "tolerance": 0.5})
+
+
 @pytest.fixture(scope="module")
 def decks(tmp_path_factory):
     base = tmp_path_factory.mktemp("decks")
@@ -56,14 +67,7 @@ def decks(tmp_path_factory):
                 out=base / "cases", mesh=PLATE)
     out["cases_hot"], out["cases_cold"] = multi.out / "hot", multi.out / "cold"
     # the periodic orbit transient (orbital loads in time as arrays), and the radiation-aware network in time
-    orbit = make_case(parts=[{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3,
-                              "front": "black", "back": "black", "super_nodes": 8}],
-                      boundary=[{"name": "heater", "kind": "power", "groups": ["plate"], "value": 5.0}],
-                      environment={"sink_temperature": -270.0}, radiation={"enabled": False},
-                      reference={"detailed": False},
-                      orbit={"altitude": 700e3, "beta": 30.0, "positions": 4, "rays_per_face": 4},
-                      transient={"periodic": True, "step": 300.0, "output_every": 600.0, "tolerance": 0.5})
-    out["orbit"] = run(orbit, out=base / "orbit", mesh=PLATE).out
+    out["orbit"] = run(orbit_case(), out=base / "orbit", mesh=PLATE).out
     out["aware_transient"] = run(plate_case(transient={"end": 600.0, "step": 60.0, "initial_temperature": "steady"},
                                             reduction={"radiation_aware": True, "outer_iterations": 10}),
                                  out=base / "aware_transient", mesh=PLATE).out
@@ -178,13 +182,7 @@ def test_the_transient_deck_integrates_to_the_in_process_transient(kind, tmp_pat
     # 2026-12-04 an orbit deck's QI added its tables' departures from their value at the start to the orbit-average
     # QI (6.3 W where the run had 14.3 W on a node of this plate at the start): this check found it.
     if kind == "orbit":
-        case = make_case(parts=[{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3,
-                                 "front": "black", "back": "black", "super_nodes": 8}],
-                         boundary=[{"name": "heater", "kind": "power", "groups": ["plate"], "value": 5.0}],
-                         environment={"sink_temperature": -270.0}, radiation={"enabled": False},
-                         reference={"detailed": False},
-                         orbit={"altitude": 700e3, "beta": 30.0, "positions": 4, "rays_per_face": 4},
-                         transient={"periodic": True, "step": 300.0, "output_every": 600.0, "tolerance": 0.5})
+        case = orbit_case()
     elif kind == "transient":
         case = plate_case(power=[[0.0, 5.0], [200.0, 5.0], [260.0, 12.0]],
                           transient={"end": 600.0, "step": 60.0, "initial_temperature": 20.0})

@@ -14,11 +14,9 @@ from fem2tmm.errors import Fem2TmmError
 from fem2tmm.pipeline import run
 from fem2tmm.stages import AUTO_BIOT
 
-BOX = dict(a=0.3, b=0.3, c=0.25, nx=20, ny=20, nz=17)
-
-
 def box():
-    return meshes.box(BOX["a"], BOX["b"], BOX["c"], BOX["nx"], BOX["ny"], BOX["nz"])
+    """The 0.3 x 0.3 x 0.25 m box of 1.5 cm quads (tests/test_radiation_aware.py)."""
+    return meshes.box(0.3, 0.3, 0.25, 20, 20, 17)
 
 
 def test_auto_follows_the_cluster_biot_number_and_gives_the_explicit_methods_network():

@@ -81,23 +81,12 @@ def deck_transient(deck: Path, result: Result) -> np.ndarray | None:
     fem2tmm's transient solver with the run's settings: what the deck gives in a solver that integrates it the
     same way.
     """
-    import re
-
     from .lpm.esatan import read_esatan_in_time
     from .solve.transient import TransientProblem, solve_transient
     from .timefunc import Series, Table
 
-    tr = result.transient
-    st = tr.settings
-    text = deck.read_text(encoding="utf-8")
-    times = {st.start, st.end}
-    if "$ARRAYS" in text:
-        block = text[text.index("$ARRAYS"):text.index("$INITIAL") if "$INITIAL" in text else None]
-        for m in re.finditer(r"\(\d+\)\s*=\s*([^;]+);", block):
-            vals = [float(x) for x in m.group(1).split(",")]
-            times.update(t for t in vals[0::2] if st.start <= t <= st.end)
-    bps = np.array(sorted(times))
-    net, Q_t, T_t = read_esatan_in_time(deck, bps)
+    st = result.transient.settings
+    net, bps, Q_t, T_t = read_esatan_in_time(deck, st.start, st.end)
     period = {"period": st.end - st.start, "start": st.start} if st.periodic else {}
     hats = tuple(Table(bps, np.eye(len(bps))[j], **period) for j in range(len(bps)))
     zero = np.zeros(net.n)

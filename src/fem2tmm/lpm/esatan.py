@@ -49,55 +49,44 @@ _BLOCKS = {"MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS", "EVA
 _SUBBLOCKS = {"REAL", "INTEGER", "CHARACTER", "CONTROL"}
 
 
+def _segments(raw: str) -> list[str]:
+    """One deck line cut at its ``;`` (outside quotes), the comment from ``#`` removed: the statement ends, then the
+    rest of the line (possibly empty)."""
+    if "'" not in raw and '"' not in raw:  # no quotes: str methods (a 10⁶-conductor deck, issue 29)
+        return raw.split("#", 1)[0].split(";")
+    out, line, quote = [], [], None
+    for ch in raw:
+        if quote:
+            line.append(ch)
+            if ch == quote:
+                quote = None
+            continue
+        if ch == "#":
+            break
+        if ch in "'\"":
+            quote = ch
+        if ch == ";":
+            out.append("".join(line))
+            line = []
+            continue
+        line.append(ch)
+    return out + ["".join(line)]
+
+
 def statements(text: str):
     """Yield ``(block, subblock, line, statement)`` of an ESATAN deck: comments removed, statements split at ``;``
     (outside quotes), ``$`` block headers tracked.  ``line`` is the 1-based line where the statement starts."""
     block = sub = None
     buf, start = [], None
     for lineno, raw in enumerate(text.splitlines(), 1):
-        if "'" not in raw and '"' not in raw:  # no quotes: split with str methods (a 10⁶-conductor deck, issue 29)
-            body = raw.split("#", 1)[0]
-            pieces = body.split(";")
-            for piece in pieces[:-1]:
-                buf.append(piece)
-                stmt = " ".join(x.strip() for x in buf if x.strip())
-                if stmt:
-                    yield block, sub, lineno if start is None else start, stmt
-                buf, start = [], None
-            rest = pieces[-1].strip()
-            if not rest:
-                continue
-            if not buf and rest.startswith("$"):
-                word = rest[1:].split()[0].upper() if len(rest) > 1 else ""
-                if word in _SUBBLOCKS:
-                    sub = word
-                else:
-                    block, sub = word, None
-                continue
-            if start is None:
-                start = lineno
-            buf.append(rest)
-            continue
-        line, quote = [], None
-        for ch in raw:
-            if quote:
-                line.append(ch)
-                if ch == quote:
-                    quote = None
-                continue
-            if ch == "#":
-                break
-            if ch in "'\"":
-                quote = ch
-            if ch == ";":
-                buf.append("".join(line))
-                stmt = " ".join(s.strip() for s in buf if s.strip())
-                if stmt:
-                    yield block, sub, lineno if start is None else start, stmt
-                buf, line, start = [], [], None
-                continue
-            line.append(ch)
-        rest = "".join(line).strip()
+        pieces = _segments(raw)
+        for piece in pieces[:-1]:
+            buf.append(piece)
+            stmt = " ".join(x.strip() for x in buf if x.strip())
+            if stmt:
+                yield block, sub, lineno if start is None else start, stmt
+            buf, start = [], None
+        rest = pieces[-1].strip()
         if not rest:
             continue
         if not buf and rest.startswith("$"):
@@ -136,14 +125,16 @@ def read_esatan(path: str | Path, time: float | None = None) -> Network:
     return _read(path, time, None)[0]
 
 
-def read_esatan_in_time(path: str | Path, times) -> tuple[Network, np.ndarray, np.ndarray]:
-    """A transient deck read once: ``(network at TIMEO, QI (k, n) W, T (k, n) K)`` with the ``$VARIABLES1`` loads
-    and temperatures evaluated at each of ``times`` (k,) s (``INTRP1`` tables interpolated linearly, constant
-    outside, as :func:`read_esatan` with ``time``)."""
-    return _read(path, None, np.asarray(times, float))
+def read_esatan_in_time(path: str | Path, start: float, end: float
+                        ) -> tuple[Network, np.ndarray, np.ndarray, np.ndarray]:
+    """A transient deck read once: ``(network at TIMEO, times (k,) s, QI (k, n) W, T (k, n) K)``, the
+    ``$VARIABLES1`` loads and temperatures evaluated at ``start``, ``end`` and every time of the deck's ``$ARRAYS``
+    tables in between (``INTRP1`` tables interpolated linearly, constant outside, as :func:`read_esatan` with
+    ``time``): linear interpolation between those times gives them at any time in [start, end]."""
+    return _read(path, None, (float(start), float(end)))
 
 
-def _read(path, time, times):
+def _read(path, time, window):
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
@@ -182,6 +173,10 @@ def _read(path, time, times):
                     fail(line, f"array {m.group(1)}: {exc}")
                 arrays[m.group(1).upper()] = np.array(vals[: int(m.group(2))], float)
     time0 = consts.get("TIMEO", 0.0) if time is None else float(time)
+    times = None
+    if window is not None:  # the window's ends and every table time inside it
+        lo, hi = window
+        times = np.array(sorted({lo, hi} | {float(t) for a in arrays.values() for t in a[0::2] if lo <= t <= hi}))
 
     def at(t):
         def sub(m):  # INTRP1(TIMEM, A): the doublet array A (time, value) interpolated at time t
@@ -337,7 +332,7 @@ def _read(path, time, times):
                   kind=np.array([nd[1] for nd in nodes]), T=T, C=get("C"), A=get("A"),
                   alp=get("ALP"), eps=get("EPS"), QI=Q, GL=mats["GL"], GR=mats["GR"], coordinates=coords,
                   source=str(path), notes=notes)
-    return net, Q_t, T_t
+    return net, times, Q_t, T_t
 
 
 __all__ = ["read_esatan", "read_esatan_in_time", "statements"]

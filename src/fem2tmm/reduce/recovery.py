@@ -238,26 +238,16 @@ class ClusterSolver:
         nB = KBB.shape[0]
         nI = self.nI
         out = np.empty((nB + 1, nB + 1))
-        if self.kind == "cholesky":
+        if self.kind in ("cholesky", "banded"):  # G = [[K_BB, a_Bᵀ], [a_B, 0]] − rhsᵀ K_II⁻¹ rhs, rhs = [K_IB, a_Iᵀ]
             Cd = C.toarray()
             rhs = np.empty((nI, nB + 1))
             rhs[:, :nB] = Cd[:nI]
             rhs[:, nB] = self.a
-            W = sla.solve_triangular(self.L, rhs, lower=True, check_finite=False, overwrite_b=True)
-            G = -(W.T @ W)
-            G[:nB, :nB] += KBB
-            G[:nB, nB] += Cd[nI]
-            G[nB, :nB] += Cd[nI]
-            g, gam = G[:nB, nB], G[nB, nB]
-            out[:nB, :nB] = G[:nB, :nB] - np.outer(g, g) / gam
-            out[:nB, nB] = out[nB, :nB] = g / gam
-            out[nB, nB] = -1.0 / gam
-        elif self.kind == "banded":  # G = [[K_BB, a_Bᵀ], [a_B, 0]] − rhsᵀ K_II⁻¹ rhs, rhs = [K_IB, a_Iᵀ]
-            Cd = C.toarray()
-            rhs = np.empty((nI, nB + 1))
-            rhs[:, :nB] = Cd[:nI]
-            rhs[:, nB] = self.a
-            G = -(rhs.T @ self._ksolve(rhs))
+            if self.kind == "cholesky":  # rhsᵀ K_II⁻¹ rhs = Wᵀ W with W = L⁻¹ rhs
+                W = sla.solve_triangular(self.L, rhs, lower=True, check_finite=False, overwrite_b=True)
+                G = -(W.T @ W)
+            else:
+                G = -(rhs.T @ self._ksolve(rhs))
             G[:nB, :nB] += KBB
             G[:nB, nB] += Cd[nI]
             G[nB, :nB] += Cd[nI]
