@@ -104,7 +104,7 @@ def bench_accuracy(studies=tuple(STUDIES), clustering: bool | None = None) -> li
                 other = run(dataclasses.replace(case, radiation=dataclasses.replace(case.radiation,
                                                                                      seed=case.radiation.seed + 1)))
                 m = res.model
-                d = (m.node_temperatures(res.T_recovered) - m.node_temperatures(other.T_recovered))[m.node_dof >= 0]
+                d = (m.node_temperatures(res.reduced.T_recovered) - m.node_temperatures(other.reduced.T_recovered))[m.node_dof >= 0]
                 own = float(np.sqrt(np.mean(d**2)) / np.sqrt(2.0))  # one run's: the difference has twice its variance
             row = {"bench": "accuracy", "study": name, "super_nodes": res.summary["reduced"]["super_nodes"],
                    "requested": n, "rms_K": a["rms_K"], "max_K": a["max_K"], "thesis_rms_K": th.get("rms_K"),
@@ -112,7 +112,7 @@ def bench_accuracy(studies=tuple(STUDIES), clustering: bool | None = None) -> li
                    "own_noise_rms_K": own,
                    "combined_noise_K": float(np.hypot(a.get("reference_noise_rms_K") or 0.0, own or 0.0)),
                    "radiation_share": a.get("radiation_share"), "excludes": a.get("excludes"),
-                   "outer_steps_K": [round(h["max_dT_K"], 4) for h in (res.radiation_aware or [])],
+                   "outer_steps_K": [round(h["max_dT_K"], 4) for h in (res.reduced.outer_iterations or [])],
                    "negative_links": res.summary["reduced"]["negative_links"], "wall_s": round(wall, 1),
                    "timings_s": {k: round(v, 2) for k, v in res.summary["timings_s"].items()}}
             rows.append(row)
@@ -207,7 +207,7 @@ def bench_allocation(ns=ALLOCATION_NS, variants=tuple(ALLOCATION_VARIANTS)[:5]) 
             row = {"bench": "allocation", "variant": v, "super_nodes": res.summary["reduced"]["super_nodes"],
                    "rms_K": a["rms_K"], "max_K": a["max_K"], "thesis_rms_K": th.get("rms_K"),
                    "reference_noise_rms_K": a.get("reference_noise_rms_K"),
-                   "biot": (res.radiation_aware or [{}])[-1].get("biot"), "wall_s": round(wall, 1),
+                   "biot": (res.reduced.outer_iterations or [{}])[-1].get("biot"), "wall_s": round(wall, 1),
                    "presolve_s": t.get("presolve_biot"), "cluster_s": t.get("cluster"),
                    "solve_detailed_s": t.get("solve_detailed")}
             rows.append(row)
@@ -350,7 +350,7 @@ def bench_composite_modes(ns=None, modes=None, seeds=None, factor=None) -> list[
             on = m.node_dof >= 0
             own = None
             if len(runs) >= 2:
-                d = (m.node_temperatures(runs[0][1].T_recovered) - m.node_temperatures(runs[1][1].T_recovered))[on]
+                d = (m.node_temperatures(runs[0][1].reduced.T_recovered) - m.node_temperatures(runs[1][1].reduced.T_recovered))[on]
                 own = float(np.sqrt(np.mean(d**2)) / np.sqrt(2.0))
             a = [r[1].summary["accuracy"] for r in runs]
             ref = a[0].get("reference_noise_rms_K") or 0.0
@@ -390,7 +390,7 @@ def emission_mismatch(res, rays_per_face: int = 100) -> np.ndarray:
     from fem2tmm.stages import detailed_problem, detailed_radiation, radiation_surface
 
     sigma = 5.670374419e-8
-    model, case, Ta = res.model, res.case, res.detailed.T
+    model, case, Ta = res.model, res.case, res.detailed.solution.T
     faced, gs, _ = detailed_radiation(model, case, radiation_surface(model), rays_per_face=rays_per_face,
                                       role="reference")
     W = faced.W.tocsr()
@@ -422,9 +422,9 @@ def bench_composite_mismatch(ns=(25, 50, 100, 200, 300), rays_factor=4, ref_fact
             dT = emission_mismatch(res)
         m = res.model
         ok = m.node_dof >= 0
-        Td = m.node_temperatures(res.detailed.T)
-        err = (m.node_temperatures(res.T_recovered) - Td)[ok]
-        d = (m.node_temperatures(res.detailed.T + dT) - Td)[ok]
+        Td = m.node_temperatures(res.detailed.solution.T)
+        err = (m.node_temperatures(res.reduced.T_recovered) - Td)[ok]
+        d = (m.node_temperatures(res.detailed.solution.T + dT) - Td)[ok]
         rms = lambda x: float(np.sqrt(np.mean(x**2)))  # noqa: E731
         rows.append(_quiet_row("accuracy_mismatch", case, res, time.perf_counter() - t0, requested=n,
                                mismatch_rms_K=rms(d), rms_minus_mismatch_K=rms(err - d),

@@ -11,7 +11,7 @@ Each study's case runs three ways, with the detailed reference and its own noise
 
 Per row: the choice (``reduced.choice``: method, ``chosen_by``, the largest cluster Biot number at the thesis'
 field), the exported network's FE-level RMS / max error (``accuracy``), the reference noise, and the whole run's
-wall time.  The threshold (``fem2tmm.stages.AUTO_BIOT`` = 1) should separate the studies where the thesis' error
+wall time.  The threshold (``fem2tmm.reductors.AUTO_BIOT`` = 1) should separate the studies where the thesis' error
 is large against what the radiation-aware reduction reaches from those where it is small against its cost.
 One JSON line per (study, method).
 """

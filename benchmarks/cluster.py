@@ -316,7 +316,7 @@ def bench_cluster_metis(sizes=("baffle", "1e6"), accuracy: bool = True, rounds: 
                     res = run(cc, labels=lab, cache=cache)
                     a = res.summary["accuracy"]
                     rows.append({"bench": "cluster_metis_accuracy", "case": "examples/baffle/case_100.toml",
-                                 "radiation_seed": int(seed), "clusters": name, "n_super_nodes": int(res.reduced.n),
+                                 "radiation_seed": int(seed), "clusters": name, "n_super_nodes": int(res.reduced.network.n),
                                  "rms_K": a["rms_K"], "max_K": a["max_K"],
                                  "reference_noise_rms_K": a["reference_noise_rms_K"], "excludes": a.get("excludes")})
     return rows

@@ -74,8 +74,8 @@ def _edited(design, case_result):
     from fem2tmm.solve.steady import solve_steady
     from fem2tmm.stages import reduced_problem
 
-    rm = design.reduced
-    rec = design.recovery
+    rm = design.reduced.network
+    rec = design.reduced.recovery
     other = case_result.case
     values = {b.name: b.value for b in other.boundaries}
     Q = np.array(rm.Q, float)
@@ -87,8 +87,8 @@ def _edited(design, case_result):
             T_fixed[i] = values[rm.names[i]]
     sink = other.environment.sink_temperature
     edited = dataclasses.replace(rm, Q=Q, T_fixed=T_fixed, T_sink=sink)
-    T_sn = solve_steady(reduced_problem(edited), T0=design.reduced_solution.T).T
-    return rec.recover(T_sn, loads={n: values[n] for n in rec.load_names}, T_sink=sink, T0=design.T_recovered)
+    T_sn = solve_steady(reduced_problem(edited), T0=design.reduced.solution.T).T
+    return rec.recover(T_sn, loads={n: values[n] for n in rec.load_names}, T_sink=sink, T0=design.reduced.T_recovered)
 
 
 def bench_envelope(n_sn=N_SN) -> list[dict]:
@@ -110,7 +110,7 @@ def bench_envelope(n_sn=N_SN) -> list[dict]:
                 for name, r in multi.results.items():
                     if name == "nominal":
                         continue
-                    rms, mx = _err(r.model, _edited(design, r), r.detailed.T)
+                    rms, mx = _err(r.model, _edited(design, r), r.detailed.solution.T)
                     rows.append({"bench": "envelope", "super_nodes": n, "method": "design_deck_edited", "case": name,
                                  "rms_K": rms, "max_K": mx,
                                  "reference_noise_rms_K": r.summary["accuracy"].get("reference_noise_rms_K")})

@@ -81,14 +81,14 @@ def bench_cases(n_cases: int = 8, workers: int = 2, rays_per_face: int = 2000, s
         multi = results[label]  # stage times and rays of the last round
         wall = float(np.median(walls[label]))
         stage = lambda name: sum(r.summary["timings_s"].get(name, 0.0) for r in multi.results.values())  # noqa: E731
-        traced = [(r.solar_detailed.rays, int(np.sum(r.radiation.rays))) for r in multi.results.values()]
+        traced = [(r.detailed.solar.rays, int(np.sum(r.reduced.radiation.rays))) for r in multi.results.values()]
         rays = sum(a + b for a, b in traced)
         rows.append({"bench": f"cases_{label}", "cases": n_cases, "workers": n or 1, "wall_s": round(wall, 2),
                      "wall_s_rounds": [round(w, 2) for w in walls[label]],
                      "solar_detailed_s": round(stage("solar_detailed"), 2), "radiation_s": round(stage("radiation"), 2),
                      "rays": rays, "batches": int(sum(-(-a // BATCH) - (-b // BATCH) for a, b in traced)),
                      "rays_per_s": round(rays / max(stage("solar_detailed") + stage("radiation"), 1e-9))})
-    same = all(np.array_equal(results["serial"].results[n].T_recovered, results[k].results[n].T_recovered)
+    same = all(np.array_equal(results["serial"].results[n].reduced.T_recovered, results[k].results[n].reduced.T_recovered)
                for k in ("local1", "local") for n in results["serial"].results)
     # Amdahl against the serial run: its multi-batch traces (detailed solar) already run on the tracer's 2
     # threads; the rest (assembly, single-batch REF traces, solves, recovery) on one core.  Even if 2 cores halved
@@ -179,7 +179,7 @@ def bench_cases_warm(n_cases: int = 8, workers: int = 2, rays_per_face: int = 20
         for c in clusters.values():
             c.close()
     med = {label: float(np.median(w)) for label, w in walls.items()}
-    same = all(np.array_equal(results["serial"].results[n].T_recovered, results[k].results[n].T_recovered)
+    same = all(np.array_equal(results["serial"].results[n].reduced.T_recovered, results[k].results[n].reduced.T_recovered)
                for k in ("local1", "local") for n in results["serial"].results)
     client_cpu = {label: float(np.median([c[0] for c in v])) for label, v in cpus.items()}
     worker_cpu = {label: float(np.median([c[1] for c in v])) for label, v in cpus.items()}
@@ -201,7 +201,7 @@ def bench_cases_warm(n_cases: int = 8, workers: int = 2, rays_per_face: int = 20
     # sizing from the one-worker run's CPU seconds: rays per worker CPU second (Dask's overhead on the worker
     # included, the waiting of the cases that share it excluded; cases_sizing divides by the cases' summed stage
     # times instead, which count the time two concurrent cases wait for the same worker)
-    traced = [(r.solar_detailed.rays, int(np.sum(r.radiation.rays))) for r in results["local1"].results.values()]
+    traced = [(r.detailed.solar.rays, int(np.sum(r.reduced.radiation.rays))) for r in results["local1"].results.values()]
     rate = sum(a + b for a, b in traced) / max(worker_cpu["local1"], 1e-9)
     rows.append({**_sizing(results["local1"], rate), "bench": "cases_warm_sizing",
                  "rate_from": "rays traced / worker CPU seconds of the one-worker run (median of the rounds)"})
@@ -226,7 +226,7 @@ def _sizing(multi, rays_per_s_per_worker: float, elements: float = 1e6, position
     faces = r.model.faces.n
     surface = radiation_surface(r.model)
     scene = TriangleScene(surface)
-    sun = np.asarray(r.solar_detailed.sun_direction)
+    sun = np.asarray(r.detailed.solar.sun_direction)
     g = 2 * faces
     em = sunlit_emitters(scene, np.arange(g, dtype=np.int64), g, sun)  # the detailed solar job, as trace_solar builds it
     rays = check.ray_budget(r.case.environment.solar_rays_per_face, None, em.area, em.weight > 0)
@@ -304,8 +304,8 @@ def bench_cases_smallsat(workers: int = 2, positions: int = 12, orbit_rays_per_f
     # warm-up (not timed): one small case compiles the kernels here and fills their on-disk cache for the workers
     run(Case.from_dict(_smallsat_base(1, 2, 50), base_dir=SMALLSAT.parent, source="<warm-up>"), cache=None)
     def same(a, b):
-        return all(np.array_equal(a.results[k].T_recovered, b.results[k].T_recovered)
-                   and np.array_equal(a.results[k].orbit_T_positions, b.results[k].orbit_T_positions)
+        return all(np.array_equal(a.results[k].reduced.T_recovered, b.results[k].reduced.T_recovered)
+                   and np.array_equal(a.results[k].orbit.T_positions, b.results[k].orbit.T_positions)
                    for k in a.results)
 
     schedulers = (("serial", "serial", None), ("local1", "local", 1), ("local", "local", workers))
@@ -321,10 +321,10 @@ def bench_cases_smallsat(workers: int = 2, positions: int = 12, orbit_rays_per_f
             wall = time.perf_counter() - t0
             res = list(multi.results.values())
             stage = lambda name: sum(r.summary["timings_s"].get(name, 0.0) for r in res)  # noqa: E731
-            traced = {id(r.orbit_detailed): r.orbit_detailed for r in res}  # the orbit traces (shared ones once)
+            traced = {id(r.orbit.detailed): r.orbit.detailed for r in res}  # the orbit traces (shared ones once)
             stats[label].append({"wall": wall, "orbit": stage("orbit_detailed"), "radiation": stage("radiation"),
                                  "traces": len(traced), "segments": sum(o.segments for o in traced.values()),
-                                 "cases": len(res), "positions": len(res[0].orbit_fluxes.positions),
+                                 "cases": len(res), "positions": len(res[0].orbit.fluxes.positions),
                                  "load": before})
             if reference is None:
                 reference = multi

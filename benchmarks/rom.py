@@ -348,8 +348,8 @@ def bench_rom_smallsat(rs=RS) -> list[dict]:
                 red = res.transient.reduced_problem
                 for name, (t, Tref) in steady_ref.items():
                     T_sn = solve_steady(red.steady_problem(t)).T
-                    T = np.asarray(res.reduced.reduction.recover(T_sn[:, None], probA.Q(t)[:, None]))[:, 0]
-                    rows.append({**common, "method": "super nodes", "r": int(len(res.reduced.names)),
+                    T = np.asarray(res.reduced.network.reduction.recover(T_sn[:, None], probA.Q(t)[:, None]))[:, 0]
+                    rows.append({**common, "method": "super nodes", "r": int(len(res.reduced.network.names)),
                                  "test": f"steady {name}", **_errors(model.node_temperatures(T),
                                                                      model.node_temperatures(Tref), ok)})
         for deim in (False, True):
@@ -448,8 +448,8 @@ def bench_rom(rs=RS) -> list[dict]:
             for aware in (False, True):
                 res, _ = _capture_runs(_composite(None, r, False, steady_heater=STEADY[name], aware=aware))
                 rows.append({**common, "method": "super nodes" + (" (radiation-aware)" if aware else ""),
-                             "r": int(len(res.reduced.names)), "test": f"steady {name}",
-                             **_errors(model.node_temperatures(res.T_recovered), model.node_temperatures(Tref),
+                             "r": int(len(res.reduced.network.names)), "test": f"steady {name}",
+                             **_errors(model.node_temperatures(res.reduced.T_recovered), model.node_temperatures(Tref),
                                        ok)})
         for deim in (False, True):
             label = "POD-DEIM" if deim else "POD-Galerkin"
@@ -485,7 +485,7 @@ def _super_node_transient(case, hist: str, T_ref: np.ndarray, common: dict, rows
     res, _ = _capture_runs(case)
     wall = time.perf_counter() - t0
     online = res.transient.timings.get("reduced", 0.0) + res.transient.timings.get("recover", 0.0)
-    r = int(len(res.reduced.names))
+    r = int(len(res.reduced.network.names))
     if hist.startswith("A"):
         timers[("super nodes", r)] = res.online
     rows.append({**common, "method": "super nodes", "r": r, "test": hist,

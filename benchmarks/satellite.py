@@ -58,7 +58,7 @@ def _row(counts, aware: bool, label: str) -> dict:
             "reference_noise_rms_K": acc["reference_noise_rms_K"],
             "reference_noise_max_K": acc["reference_noise_max_K"],
             "GL": red["conductive_links"], "GR": red["radiative_links"], "kept_nodes": red["kept_nodes"],
-            "joined_elements": res.clustering.report.get("joined", {}).get("elements", 0),
+            "joined_elements": res.reduced.clustering.report.get("joined", {}).get("elements", 0),
             "energy_relative": max(abs(s["energy_balance_W"][k]["relative"]) for k in ("detailed", "reduced")),
             "seconds": round(seconds, 1),
             "reduce_s": round(sum(tim.get(k, 0.0) for k in ("cluster", "reduce", "radiation", "solve_reduced",

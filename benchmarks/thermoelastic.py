@@ -92,9 +92,9 @@ def static_displacements(folder: Path, mesh, T_nodes_C: np.ndarray, supports: tu
 def constant_per_super_node(result) -> np.ndarray:
     """(n_nodes,) K: each FE node at the temperature of the super node weighing most on it (what a network gives
     without a recovery)."""
-    rm = result.reduced
+    rm = result.reduced.network
     dof_sn = np.asarray(rm.supernodes.A.argmax(axis=0)).ravel()
-    return result.model.node_temperatures(result.reduced_solution.T[dof_sn])
+    return result.model.node_temperatures(result.reduced.solution.T[dof_sn])
 
 
 def _supports(mesh) -> tuple[int, int, int]:

@@ -112,8 +112,8 @@ def check(data: dict, mesh) -> str:
         if bal:
             assert bal["relative"] < 1e-9, (which, bal)
     steady_lo = [case.environment.sink_temperature] + [b.value for b in case.boundaries if b.kind == "temperature"]
-    fields = [("reduced", r.reduced_solution.T, steady_lo), ("detailed", None if r.detailed is None else r.detailed.T,
-                                                             steady_lo)]
+    det = r.detailed.solution
+    fields = [("reduced", r.reduced.solution.T, steady_lo), ("detailed", None if det is None else det.T, steady_lo)]
     if case.transient is not None:
         for which, bal in s["transient"]["energy_balance"].items():
             if bal:
@@ -126,7 +126,7 @@ def check(data: dict, mesh) -> str:
     # thesis' exact condensation may have some) does not obey the maximum principle: its own solution is not held
     # to the bounds, the outcome says so
     heated = any(b.kind == "power" and b.value > 0 for b in case.boundaries) or case.environment.solar_flux > 0
-    K = r.reduced.K.toarray() if sp.issparse(r.reduced.K) else np.asarray(r.reduced.K, float)
+    K = r.reduced.network.K.toarray() if sp.issparse(r.reduced.network.K) else np.asarray(r.reduced.network.K, float)
     off = K - np.diag(np.diag(K))
     monotone = not np.any(off > 1e-9 * np.abs(K).max())
     outside = []

@@ -1,7 +1,8 @@
 """The package's layout rules, checked on the source text (``ast``), not by importing anything.
 
 * Imports go one way along the stage order (mesh, io, case, fem, cluster, reduce, radiation, solve, then the
-  run's result, the exporters that write it, and the orchestration: stages, pipeline, demo/cli): no module imports a later stage, and nothing imports the
+  run's result, the exporters that write it, and the orchestration: stages and the reduction methods
+  (reductors), pipeline, demo/cli): no module imports a later stage, and nothing imports the
   package root or the benchmarks (only the ``fem2tmm bench`` entry of the CLI runs the checkout's benchmarks/).
 * The installed package holds only the product: no benchmark or study module, no path that leaves the package.
 """
@@ -34,6 +35,7 @@ RANK = {
     "result": 9,
     "export": 10,
     "stages": 11, "inspection": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
+    "reductors": 11,  # the reduction methods (reduce, export, reconstruct), built on the stages
     "pipeline": 12,
     "handover": 12, "recovering": 12,  # the network handed over read back and checked; outside temperatures back
     "demo": 13, "cli": 14,
@@ -161,7 +163,21 @@ def test_bench_outside_a_checkout_is_a_clear_user_error(tmp_path, monkeypatch, c
     assert cli._checkout() == tmp_path  # found from the working directory
 
 
-def test_only_the_pipeline_imports_the_stage_adapters():
+def test_only_the_pipeline_and_the_reduction_methods_import_the_stage_adapters():
     users = sorted({str(p.relative_to(SRC)) for p in PKG.rglob("*.py") for _, mod in _imports(SRC, p)
                     if mod == "fem2tmm.stages" or mod.startswith("fem2tmm.stages.")})
-    assert users == ["fem2tmm/pipeline.py"], users
+    assert "fem2tmm/pipeline.py" in users
+    assert all(u == "fem2tmm/pipeline.py" or u.startswith("fem2tmm/reductors/") for u in users), users
+
+
+def test_a_reduction_method_is_one_module_with_one_reductor():
+    # issue 29 item 5: adding a method means adding a file (and its name in REDUCTORS)
+    from fem2tmm.reductors import REDUCTORS
+    from fem2tmm.reductors.base import Reductor
+
+    assert set(REDUCTORS) == {"thesis", "positive", "radiation_aware"}
+    modules = {cls.__module__ for cls in REDUCTORS.values()}
+    assert len(modules) == len(REDUCTORS)  # one module each
+    for name, cls in REDUCTORS.items():
+        assert issubclass(cls, Reductor) and cls.name == name
+        assert cls.reduce is not Reductor.reduce  # each method reduces its own way (export, reconstruct: inherited)

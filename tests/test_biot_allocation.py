@@ -83,8 +83,8 @@ def test_low_conductivity_plate_gets_more_super_nodes():
     mesh = two_plates(5.0, 170.0)
     res = {a: run(two_plates_case(22, a), mesh=mesh) for a in ("area", "biot")}
     model = res["area"].model
-    assert counts(model, res["area"].clustering) == (11, 11)
-    n_a, n_b = counts(model, res["biot"].clustering)
+    assert counts(model, res["area"].reduced.clustering) == (11, 11)
+    n_a, n_b = counts(model, res["biot"].reduced.clustering)
     ratio = (170.0 / 5.0) ** BIOT_EXPONENT
     assert n_a + n_b == 22 and abs(n_a - 22 * ratio / (1 + ratio)) < 1, (n_a, n_b)
     rep = res["biot"].summary["reduced"]["clustering"]["allocation"]
@@ -166,7 +166,7 @@ def test_impossible_super_node_counts_are_refused_up_front(monkeypatch):
     # asked is the count given); a 2 x 2 triangle plate (8 elements, 9 nodes, 3 of them held) cannot have 7
     # independent super nodes (6 unknown temperatures)
     one = run(two_plates_case(1, "biot"), mesh=two_plates(5.0, 170.0))
-    assert one.clustering.report["parts"][0]["regions_merged"]["merges"] == 1
+    assert one.reduced.clustering.report["parts"][0]["regions_merged"]["merges"] == 1
     assert one.summary["energy_balance_W"]["reduced"]["relative"] < 1e-9
     case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": T_THICK, "front": "black",
                        "back": "black", "super_nodes": 7}],
@@ -201,7 +201,7 @@ def test_ir_on_faces_fixed_point_does_not_depend_on_the_clustering():
                          materials={"m": {"conductivity": 5.0}}, environment={"sink_temperature": -270.0},
                          radiation={"rays_per_face": 200, "ir_on": ir_on, "ir_rays_per_face": 50},
                          reduction={"radiation_aware": True, "outer_iterations": 12}, reference={"detailed": False})
-        return run(case, mesh=mesh).T_recovered
+        return run(case, mesh=mesh).reduced.T_recovered
 
     d_faces = np.abs(field("faces", 4) - field("faces", 12)).max()
     d_detailed = np.abs(field("detailed", 4) - field("detailed", 12)).max()

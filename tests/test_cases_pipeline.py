@@ -102,8 +102,8 @@ def test_serial_and_local_clusters_are_bit_identical(mesh, capsys):
             err = capsys.readouterr().err
             # the ray batches of the traces each case computed (solar, REFs; not the reused ones) and one steady
             # solve per case
-            units = sum((r.cache["solar_detailed"] == "computed") * -(-r.solar_detailed.rays // BATCH)
-                        + (r.cache["radiation"] == "computed") * -(-int(np.sum(r.radiation.rays)) // BATCH) + 1
+            units = sum((r.cache["solar_detailed"] == "computed") * -(-r.detailed.solar.rays // BATCH)
+                        + (r.cache["radiation"] == "computed") * -(-int(np.sum(r.reduced.radiation.rays)) // BATCH) + 1
                         for r in multi.results.values())
             s = "s" if workers > 1 else ""
             assert f"[fem2tmm] {units} work units on {workers} worker{s}\n" in err
@@ -113,10 +113,10 @@ def test_serial_and_local_clusters_are_bit_identical(mesh, capsys):
         for name, r in multi.results.items():
             e = ref.results[name]
             assert r.cache == e.cache  # computed by the first case that needs it, reused by the others
-            assert np.array_equal(r.T_recovered, e.T_recovered)
-            assert np.array_equal(r.reduced.GR, e.reduced.GR) and np.array_equal(r.reduced.Q, e.reduced.Q)
-            assert np.array_equal(r.solar_detailed.absorbed_side, e.solar_detailed.absorbed_side)
-            assert np.array_equal(r.reduced_solution.T, e.reduced_solution.T)
+            assert np.array_equal(r.reduced.T_recovered, e.reduced.T_recovered)
+            assert np.array_equal(r.reduced.network.GR, e.reduced.network.GR) and np.array_equal(r.reduced.network.Q, e.reduced.network.Q)
+            assert np.array_equal(r.detailed.solar.absorbed_side, e.detailed.solar.absorbed_side)
+            assert np.array_equal(r.reduced.solution.T, e.reduced.solution.T)
 
 
 def test_cases_share_one_ray_scene_per_geometry(mesh, monkeypatch):
@@ -171,7 +171,7 @@ def test_rerun_reuses_what_did_not_change(mesh, tmp_path):
                                        "radiation": "reused"}
     assert np.nanmax(second.T_nodes - first.T_nodes) > 0.1  # 1 W more heats the baffle
     fresh = run(case_of(hotter), mesh=mesh, cache=False)  # the reused entries give exactly a fresh run's numbers
-    assert np.array_equal(second.T_recovered, fresh.T_recovered)
+    assert np.array_equal(second.reduced.T_recovered, fresh.reduced.T_recovered)
     third = run(case_of(deep_merge(hotter, {"optics": {"paint": {"emissivity": 0.07}}})), out=out, mesh=mesh)
     assert third.summary["cache"] == {"cluster": "reused", "solar_detailed": "reused", "reduce": "reused",
                                       "radiation": "computed"}

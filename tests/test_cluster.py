@@ -564,11 +564,11 @@ def test_user_labels_route_into_run_validated_and_equal_to_the_same_partition_co
                      environment={"sink_temperature": -100.0}, radiation={"enabled": False},
                      reference={"detailed": False})
     ours = run(case, mesh=plate)
-    lab = ours.clustering.labels.copy()
+    lab = ours.reduced.clustering.labels.copy()
     # the same partition fed back: identical reduced model
     again = run(case, mesh=plate, labels=lab)
-    assert np.array_equal(again.clustering.labels, lab)
-    assert np.allclose(again.reduced_solution.T, ours.reduced_solution.T, rtol=0, atol=1e-9)
+    assert np.array_equal(again.reduced.clustering.labels, lab)
+    assert np.allclose(again.reduced.solution.T, ours.reduced.solution.T, rtol=0, atol=1e-9)
     # a user partition with another count: 4 vertical strips of 5 columns (METIS-like input)
     col = (plate.element_centroids()[:, 0] // 0.1).astype(np.int64)
     strips = run(case, mesh=plate, labels=col)

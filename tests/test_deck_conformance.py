@@ -148,10 +148,10 @@ def test_changing_a_named_load_in_the_deck_gives_what_fem2tmm_gives(decks, tmp_p
     net = read_esatan(f)
     T = solve_network(net).T
     fresh = run(plate_case(12.0), mesh=PLATE)
-    n = fresh.reduced.n
+    n = fresh.reduced.network.n
     labels = list(net.labels[:n])
-    assert labels == list(fresh.reduced.names)
-    assert np.abs(T[:n] - fresh.reduced_solution.T).max() < 1e-8
+    assert labels == list(fresh.reduced.network.names)
+    assert np.abs(T[:n] - fresh.reduced.solution.T).max() < 1e-8
     # and the named fixed temperature is a constant too
     assert re.search(r"^\s+B\d+ = 'edge', T = EDGE,", text, re.M) and re.search(r"^\s+EDGE = 20\.0;", text, re.M)
 

@@ -34,7 +34,7 @@ def fin_run(tmp_path_factory):
 def test_esatan_deck_round_trip_solves_to_the_same_temperatures(fin_run):
     # issue 8: written, read back (fem2tmm.lpm's ESATAN reader), and solved to the same temperatures (1e-9 K)
     net = read_esatan(fin_run.out / "model.esatan")
-    rm, rs = fin_run.reduced, fin_run.reduced_solution
+    rm, rs = fin_run.reduced.network, fin_run.reduced.solution
     n = rm.n  # the deck's last node is SPACE
     K = net.K().toarray()[:n, :n]
     K[np.diag_indices(n)] -= np.asarray(net.GL[:n, n:].sum(axis=1)).ravel()  # links to space are GR only
@@ -55,7 +55,7 @@ def test_sinda_blocks_parse(fin_run):
     nodes = [b for b in blocks if b.startswith("NODE DATA")][0].splitlines()[1:]
     conds = [b for b in blocks if b.startswith("CONDUCTOR DATA")][0].splitlines()[1:]
     node = {int(ln.split(",")[0]): float(ln.split(",")[1]) for ln in nodes if ln.strip() and "$" in ln}
-    rm, rs = fin_run.reduced, fin_run.reduced_solution
+    rm, rs = fin_run.reduced.network, fin_run.reduced.solution
     assert len(node) == rm.n + 1  # + space
     assert sum(1 for k in node if k < 0) == int(rm.fixed.sum()) + 1  # boundary nodes and space are negative
     temps = sorted(v for k, v in node.items() if k > 0)
@@ -120,12 +120,12 @@ def test_report_references_existing_images(fin_run):
 
 def test_reduced_npz_contents(fin_run):
     d = np.load(fin_run.out / "reduced.npz")
-    n = fin_run.reduced.n
+    n = fin_run.reduced.network.n
     assert d["K"].shape == (n, n) and d["GR"].shape == (n + 1, n + 1) and d["C"].shape == (n,)
     assert np.allclose(d["GR"], d["GR"].T)
     # total capacitance of the reduced model = total capacitance of the detailed one (exact)
     assert d["C"].sum() == pytest.approx(fin_run.model.capacity.sum(), rel=1e-12)
-    assert d["T"].shape == (n,) and set(d["names"]) == set(fin_run.reduced.names)
+    assert d["T"].shape == (n,) and set(d["names"]) == set(fin_run.reduced.network.names)
 
 
 def test_nastran_deck_end_to_end(tmp_path):

@@ -318,7 +318,7 @@ def fin_out(tmp_path_factory):
 
 
 def test_round_trip_of_fem2tmm_decks_gives_the_same_reduced_solution(fin_out):
-    T_ref = fin_out.reduced_solution.T
+    T_ref = fin_out.reduced.solution.T
     sols = {}
     for name in ("reduced.npz", "model.esatan", "model.sinda"):
         net = read_network(fin_out.out / name)

@@ -18,8 +18,8 @@ def touching_from_clusters(result) -> set:
     """Super-node pairs that touch as :mod:`fem2tmm.lpm.positive` defines it, found from the elements' cluster labels
     (not from the A matrix): they share a DOF, or each owns a DOF of one element (the detailed conduction couples
     all the DOFs of an element), e.g. a cluster touching a corner of an element whose edge is a boundary node."""
-    model, rm = result.model, result.reduced
-    labels = result.clustering.labels[model.elements]
+    model, rm = result.model, result.reduced.network
+    labels = result.reduced.clustering.labels[model.elements]
     ed = model.element_dofs
     row_of_cluster = {int(c): i for i, c in enumerate(rm.supernodes.cluster) if c >= 0}
     row_of_dof = {int(d): i for i, d in enumerate(rm.supernodes.dof) if d >= 0}
@@ -40,7 +40,7 @@ def touching_from_clusters(result) -> set:
 
 
 def check_positive(result, factor: float = 2.0) -> dict:
-    rm = result.reduced
+    rm = result.reduced.network
     K = rm.K
     n = len(K)
     assert np.allclose(K, K.T, rtol=0, atol=1e-12 * np.abs(K).max())

@@ -441,15 +441,15 @@ def test_orbit_pipeline_isothermal_plate_per_position_and_average():
 
     mesh = meshes.plate(0.5, 0.5, 4, 4)
     res = run(orbit_case(), mesh=mesh)
-    fl = res.orbit_detailed
+    fl = res.orbit.detailed
     Q = fl.total("absorbed").sum(axis=1)
     area = 0.25
     T_exact = (Q / (2 * SIGMA * area) + 3.0**4) ** 0.25
-    T_pos = res.orbit_T_positions.mean(axis=1)
+    T_pos = res.orbit.T_positions.mean(axis=1)
     np.testing.assert_allclose(T_pos, T_exact, rtol=2e-5)
-    np.testing.assert_allclose(res.orbit_T_positions_detailed.mean(axis=1), T_exact, rtol=2e-5)
+    np.testing.assert_allclose(res.orbit.T_positions_detailed.mean(axis=1), T_exact, rtol=2e-5)
     Q_avg = period_average(fl.positions.time, Q, fl.positions.period)
-    assert res.reduced_solution.T[0] == pytest.approx((Q_avg / (2 * SIGMA * area) + 3.0**4) ** 0.25, rel=2e-5)
+    assert res.reduced.solution.T[0] == pytest.approx((Q_avg / (2 * SIGMA * area) + 3.0**4) ** 0.25, rel=2e-5)
     # the eclipse rows: no solar power in the shadow, albedo and IR unchanged across the boundary
     ev = list(fl.positions.event)
     i = ev.index("entry")
@@ -471,12 +471,12 @@ def test_orbit_positions_with_the_radiation_aware_network(fluxes_on):
     case = orbit_case(fluxes_on=fluxes_on)
     case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
     res = run(case, mesh=mesh)
-    assert res.reduced.radiative is not None
-    fl = res.orbit_detailed if fluxes_on == "detailed" else res.orbit_super_faces
+    assert res.reduced.network.radiative is not None
+    fl = res.orbit.detailed if fluxes_on == "detailed" else res.orbit.super_faces
     Q = fl.total("absorbed").sum(axis=1)
     T_exact = (Q / (2 * SIGMA * 0.25) + 3.0**4) ** 0.25
     # super-face loads: the super face's own (noisier) trace, so the closed form uses its absorbed power
-    np.testing.assert_allclose(res.orbit_T_positions.mean(axis=1), T_exact, rtol=2e-5)
+    np.testing.assert_allclose(res.orbit.T_positions.mean(axis=1), T_exact, rtol=2e-5)
 
 
 def test_orbit_pipeline_super_faces_and_outputs(tmp_path):
@@ -486,11 +486,11 @@ def test_orbit_pipeline_super_faces_and_outputs(tmp_path):
 
     mesh = meshes.plate(0.5, 0.5, 4, 4)
     res = run(orbit_case(fluxes_on="super_faces"), mesh=mesh, out=tmp_path / "out")
-    det = res.orbit_detailed.total("absorbed").sum(axis=1)
-    sf = res.orbit_super_faces.total("absorbed").sum(axis=1)
+    det = res.orbit.detailed.total("absorbed").sum(axis=1)
+    sf = res.orbit.super_faces.total("absorbed").sum(axis=1)
     np.testing.assert_allclose(sf, det, rtol=0.03)
     data = np.load(tmp_path / "out" / "orbit.npz", allow_pickle=False)
-    assert data["temperature_C"].shape == (len(res.orbit_super_faces.positions), mesh.n_nodes)
+    assert data["temperature_C"].shape == (len(res.orbit.super_faces.positions), mesh.n_nodes)
     assert data["super_faces_absorbed_solar_W"].shape[0] == len(data["time_s"])
     assert (tmp_path / "out" / "orbit_fluxes.png").exists() and (tmp_path / "out" / "orbit_temperatures.png").exists()
 
@@ -525,7 +525,7 @@ def test_orbit_transient_periodic_isothermal_plate_against_ode():
     case = orbit_case(steady="average", transient={"periodic": True, "tolerance": 1e-3, "step": 20.0,
                                                    "output_every": 100.0, "periodic_tolerance": 1e-3})
     res = run(case, mesh=mesh)
-    fl = res.orbit_detailed
+    fl = res.orbit.detailed
     P = fl.positions.period
     assert case.transient.end == pytest.approx(P, rel=1e-12)
     Q = fl.total("absorbed").sum(axis=1)
@@ -578,10 +578,10 @@ def test_orbit_stages_are_cached_by_exactly_their_inputs(tmp_path):
     assert first.cache["orbit_detailed"] == first.cache["orbit"] == "computed"
     heater = run(case(power=3.0), mesh=mesh, cache=cache)
     assert heater.cache["orbit_detailed"] == heater.cache["orbit"] == "reused"
-    np.testing.assert_array_equal(heater.orbit_detailed.total("absorbed"), first.orbit_detailed.total("absorbed"))
-    np.testing.assert_array_equal(heater.orbit_super_faces.total("absorbed"),
-                                  first.orbit_super_faces.total("absorbed"))
-    assert heater.reduced_solution.T.mean() > first.reduced_solution.T.mean()  # the heater itself did change
+    np.testing.assert_array_equal(heater.orbit.detailed.total("absorbed"), first.orbit.detailed.total("absorbed"))
+    np.testing.assert_array_equal(heater.orbit.super_faces.total("absorbed"),
+                                  first.orbit.super_faces.total("absorbed"))
+    assert heater.reduced.solution.T.mean() > first.reduced.solution.T.mean()  # the heater itself did change
     for changed in (case(beta=40.0), case(primary="+z"), case(absorptivity=0.5)):
         r = run(changed, mesh=mesh, cache=cache)
         assert r.cache["orbit_detailed"] == r.cache["orbit"] == "computed"

@@ -77,12 +77,12 @@ def test_exact_at_the_reference_state_and_outer_iterations_converge_to_the_detai
     assert steps[0] < thesis / 10 and steps[1] < steps[0] / 50  # measured 5.5 K -> 0.13 K -> 4.4e-4 K
     # a generous budget: the iterations stop on their own (a step below 1 mK, or contracting steps whose remaining
     # change is estimated below it) and the field is then within that tolerance of the fixed point T*
-    from fem2tmm.stages import OUTER_TOLERANCE
+    from fem2tmm.reductors.radiation_aware import OUTER_TOLERANCE
 
     res = run(strip_case(6, aware=True, iterations=20, sink=-100.0, power=2.0), mesh=mesh)
-    hist = res.radiation_aware
+    hist = res.reduced.outer_iterations
     assert len(hist) < 20 and (hist[-1]["max_dT_K"] < OUTER_TOLERANCE or "stop" in hist[-1])
-    assert np.abs(res.T_recovered - T_star).max() < OUTER_TOLERANCE
+    assert np.abs(res.reduced.T_recovered - T_star).max() < OUTER_TOLERANCE
 
 
 def test_low_biot_warns_that_the_radiation_aware_reduction_is_not_needed():
@@ -91,7 +91,7 @@ def test_low_biot_warns_that_the_radiation_aware_reduction_is_not_needed():
     # k = 5, 10 cm x 1 cm clusters: ≈ 2 > 0.1 -> no such warning (the fin regime the method is for).
     import warnings
 
-    from fem2tmm.stages import LOW_BIOT
+    from fem2tmm.reductors.radiation_aware import LOW_BIOT
 
     mesh = meshes.plate(0.3, 0.01, 60, 2)
     al = {"m": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}}
@@ -99,7 +99,7 @@ def test_low_biot_warns_that_the_radiation_aware_reduction_is_not_needed():
         with warnings.catch_warnings(record=True) as w:
             warnings.simplefilter("always")
             r = run(strip_case(n_sn, aware=True, iterations=1, materials=mats), mesh=mesh)
-        bi = r.radiation_aware[-1]["biot"]["cluster_max"]
+        bi = r.reduced.outer_iterations[-1]["biot"]["cluster_max"]
         assert (bi < LOW_BIOT) == expect, bi
         assert any("radiation_aware = false" in str(x.message) for x in w) == expect
 
@@ -230,7 +230,7 @@ def test_composite_box_radiation_aware_converges_where_the_thesis_does_not():
         case, box = composite_box(5.0, n, True, iterations=3)
         r = run(case, mesh=box)
         s = r.summary["accuracy"]
-        rms[n], thesis[n], biot[n] = s["rms_K"], s["thesis_method"]["rms_K"], r.radiation_aware[-1]["biot"]
+        rms[n], thesis[n], biot[n] = s["rms_K"], s["thesis_method"]["rms_K"], r.reduced.outer_iterations[-1]["biot"]
     slope = -np.polyfit(np.log(list(rms)), np.log(list(rms.values())), 1)[0]
     assert slope >= 0.8, rms  # issue 21: >= 0.8; measured 1.05 (0.0092, 0.0060, 0.0005 K)
     assert rms[40] * 5 <= thesis[40], (rms, thesis)  # measured 0.0060 K against 6.2 K (thesis: 17.6, 6.2, 2.8 K)
@@ -242,7 +242,7 @@ def test_composite_box_radiation_aware_converges_where_the_thesis_does_not():
     # Biot numbers of the clusters, (size / fin length)²: 15 cm / 2.4 cm -> O(10) for k = 5 (measured max 6.4 at
     # 40 super nodes, the panels being colder than 280 K), 0.5 for k = 170 (measured 0.45); 1.5 cm square
     # elements: h_rad A / (k t) = 8.5·2.25e-4/0.005 = 0.38 at 280 K at most (measured 0.24)
-    assert biot[40]["cluster_max"] > 1 > r.radiation_aware[-1]["biot"]["cluster_max"]
+    assert biot[40]["cluster_max"] > 1 > r.reduced.outer_iterations[-1]["biot"]["cluster_max"]
     assert 0.1 < biot[40]["element_max"] < 0.5 and biot[40]["elements_over_1"] == 0
 
 
@@ -278,7 +278,7 @@ def test_a_load_case_set_shares_one_network_and_each_case_converges_to_its_own_d
     # converged field); every case's deck then has the same GL (K̃), C and GR, only its loads differ, and each
     # case's outer iterations (h fixed, linear convergence) reach that case's own fixed point.  Space-only
     # radiation: that fixed point is the detailed FE solution itself (fem2tmm.reduce.radiative), so the error
-    # bound is the outer tolerance (1 mK step, stages.OUTER_TOLERANCE), not ray noise.
+    # bound is the outer tolerance (1 mK step, reductors.radiation_aware.OUTER_TOLERANCE), not ray noise.
     box = meshes.box(0.3, 0.3, 0.25, 20, 20, 17)
     base = composite_box_case(40, 5.0, {"radiation_aware": True, "outer_iterations": 20}, True)
     raw = dict(base.raw)
@@ -290,10 +290,10 @@ def test_a_load_case_set_shares_one_network_and_each_case_converges_to_its_own_d
 
     multi = run(Case.from_dict(raw), mesh=box)
     res = multi.results
-    ref = res["nominal"].reduced
+    ref = res["nominal"].reduced.network
     for name, r in res.items():
-        rm = r.reduced
-        assert r.shared_network == {"linearised_at": "nominal", "cases": ["nominal", "cold", "hot", "warm_sink"]}
+        rm = r.reduced.network
+        assert r.reduced.shared_network == {"linearised_at": "nominal", "cases": ["nominal", "cold", "hot", "warm_sink"]}
         assert np.array_equal(rm.K, ref.K) and np.array_equal(rm.C, ref.C), name  # bit-identical GL and C
         assert rm.radiative.shared
         s = r.summary["accuracy"]
@@ -302,7 +302,7 @@ def test_a_load_case_set_shares_one_network_and_each_case_converges_to_its_own_d
         assert s["max_K"] < 5e-3, (name, s)
         assert s["rms_K"] * 100 < s["thesis_method"]["rms_K"], (name, s)
     # the cases differ in their loads only: the hot case's network loads carry 15 W where the nominal has 5 W
-    assert not np.allclose(res["hot"].reduced.Q, ref.Q)
+    assert not np.allclose(res["hot"].reduced.network.Q, ref.Q)
 
 
 def test_composite_with_few_super_nodes_and_a_strong_heater_converges():
@@ -321,8 +321,8 @@ def test_composite_with_few_super_nodes_and_a_strong_heater_converges():
     raw["boundary"][1]["value"] = 60.0
     raw["reference"]["detailed"] = False
     r = run(Case.from_dict(raw, base_dir=folder))
-    assert r.reduced_solution.converged
-    assert r.radiation_aware[-1]["max_dT_K"] < 1e-3 or "stop" in r.radiation_aware[-1]  # measured: 7 iterations
+    assert r.reduced.solution.converged
+    assert r.reduced.outer_iterations[-1]["max_dT_K"] < 1e-3 or "stop" in r.reduced.outer_iterations[-1]  # measured: 7 iterations
     assert r.summary["energy_balance_W"]["reduced"]["relative"] < 1e-9
 
 
@@ -351,8 +351,8 @@ def test_radiation_aware_transient_follows_the_detailed_transient():
         errors[aware] = float(np.sqrt(np.mean((rec - det) ** 2)))
         if aware:
             # the start is the steady state: the recovery about the network's own linearisation returns the steady
-            # recovered field to the outer iterations' tolerance (1 mK, stages.OUTER_TOLERANCE)
-            assert np.abs(rec[0] - model.node_temperatures(res.T_recovered)).max() < 2e-3
+            # recovered field to the outer iterations' tolerance (1 mK, reductors.radiation_aware.OUTER_TOLERANCE)
+            assert np.abs(rec[0] - model.node_temperatures(res.reduced.T_recovered)).max() < 2e-3
     # measured 2026-12-04: radiation-aware 0.39 K, thesis 4.8 K RMS over space and time (the network's correction
     # stays the 2 W state's: at 5 W its second-order error shows); bound: 5x better than the thesis
     assert errors[True] < 0.2 * errors[False], errors

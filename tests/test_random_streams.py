@@ -121,27 +121,27 @@ def test_moving_the_reduced_models_stream_leaves_the_reference_unchanged(monkeyp
     case, mesh = facing_plates_case()
     a, b = _runs_with_role_seed(monkeypatch, case, mesh, "reduced")
     # the reference: identical, bit for bit (REFs of its first half, its solar map, its solution and noise)
-    np.testing.assert_array_equal(a.radiation_detailed.F_raw.toarray(), b.radiation_detailed.F_raw.toarray())
-    np.testing.assert_array_equal(a.solar_detailed.absorbed_face, b.solar_detailed.absorbed_face)
-    np.testing.assert_array_equal(a.detailed.T, b.detailed.T)
-    assert a.reference_noise == b.reference_noise
+    np.testing.assert_array_equal(a.detailed.radiation.F_raw.toarray(), b.detailed.radiation.F_raw.toarray())
+    np.testing.assert_array_equal(a.detailed.solar.absorbed_face, b.detailed.solar.absorbed_face)
+    np.testing.assert_array_equal(a.detailed.solution.T, b.detailed.solution.T)
+    assert a.detailed.noise == b.detailed.noise
     # the reduced model did draw other numbers (else this test could not fail)
-    assert not np.array_equal(a.radiation.F_raw.toarray(), b.radiation.F_raw.toarray())
-    assert not np.array_equal(a.solar_super_faces.absorbed_side, b.solar_super_faces.absorbed_side)
-    assert not np.array_equal(a.reduced_solution.T, b.reduced_solution.T)
+    assert not np.array_equal(a.reduced.radiation.F_raw.toarray(), b.reduced.radiation.F_raw.toarray())
+    assert not np.array_equal(a.reduced.solar.absorbed_side, b.reduced.solar.absorbed_side)
+    assert not np.array_equal(a.reduced.solution.T, b.reduced.solution.T)
 
 
 @pytest.mark.parametrize("role", ["reference", "reference_b"])
 def test_moving_a_reference_stream_leaves_the_reduced_model_unchanged(monkeypatch, role):
     case, mesh = facing_plates_case()
     a, b = _runs_with_role_seed(monkeypatch, case, mesh, role)
-    np.testing.assert_array_equal(a.radiation.F_raw.toarray(), b.radiation.F_raw.toarray())
-    np.testing.assert_array_equal(a.solar_super_faces.absorbed_side, b.solar_super_faces.absorbed_side)
-    np.testing.assert_array_equal(a.reduced_solution.T, b.reduced_solution.T)
-    np.testing.assert_array_equal(a.T_recovered, b.T_recovered)
+    np.testing.assert_array_equal(a.reduced.radiation.F_raw.toarray(), b.reduced.radiation.F_raw.toarray())
+    np.testing.assert_array_equal(a.reduced.solar.absorbed_side, b.reduced.solar.absorbed_side)
+    np.testing.assert_array_equal(a.reduced.solution.T, b.reduced.solution.T)
+    np.testing.assert_array_equal(a.reduced.T_recovered, b.reduced.T_recovered)
     # the reference moved: both halves enter its solution, each half its own stream
-    assert not np.array_equal(a.detailed.T, b.detailed.T)
-    first_half_moved = not np.array_equal(a.radiation_detailed.F_raw.toarray(), b.radiation_detailed.F_raw.toarray())
+    assert not np.array_equal(a.detailed.solution.T, b.detailed.solution.T)
+    first_half_moved = not np.array_equal(a.detailed.radiation.F_raw.toarray(), b.detailed.radiation.F_raw.toarray())
     assert first_half_moved == (role == "reference")
 
 
@@ -162,5 +162,5 @@ def test_orbital_fluxes_of_the_reference_have_their_own_stream(spy, monkeypatch)
     assert {c[0] for c in orbit_calls} == {"detailed_orbit", "super_face_orbit"}
     _assert_streams_distinct(orbit_calls)
     a, b = _runs_with_role_seed(monkeypatch, orbit_case(), mesh, "reduced")
-    np.testing.assert_array_equal(a.orbit_detailed.total("absorbed"), b.orbit_detailed.total("absorbed"))
-    assert not np.array_equal(a.orbit_super_faces.total("absorbed"), b.orbit_super_faces.total("absorbed"))
+    np.testing.assert_array_equal(a.orbit.detailed.total("absorbed"), b.orbit.detailed.total("absorbed"))
+    assert not np.array_equal(a.orbit.super_faces.total("absorbed"), b.orbit.super_faces.total("absorbed"))

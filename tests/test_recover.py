@@ -96,7 +96,7 @@ def test_a_run_reports_the_error_of_the_network_it_hands_over(plate_run):
     assert abs(s["accuracy"]["max_K"] - s["accuracy"]["in_process"]["max_K"]) < 1e-9
     assert s["reduced"]["delivered"]["npz_vs_in_process_K"] < 1e-9
     assert s["reduced"]["delivered"]["esatan_vs_in_process_K"] < 1e-9
-    assert np.abs(plate_run.delivered["T"] - plate_run.T_recovered).max() < 1e-9
+    assert np.abs(plate_run.reduced.delivered["T"] - plate_run.reduced.T_recovered).max() < 1e-9
 
 
 def test_recover_round_trip_reproduces_the_run_outputs(plate_run, tmp_path):
@@ -124,7 +124,7 @@ def test_two_columns_and_a_named_load_give_what_a_fresh_run_gives(plate_run, tmp
     # (the reduction is exact for conduction with known loads, DESIGN §3.2; space-only radiation lumped alike)
     fresh = run(plate_case(12.0), mesh=PLATE)
     z = np.load(plate_run.out / "reduced.npz")
-    f = write_csv(tmp_path / "T.csv", z["names"], [z["T"], fresh.reduced_solution.T - KELVIN],
+    f = write_csv(tmp_path / "T.csv", z["names"], [z["T"], fresh.reduced.solution.T - KELVIN],
                   header=["5 W", "12 W"], extra=[["heater", "5.0", "12.0"]])
     res = recover(plate_run.out, f, out=tmp_path / "rec2")
     T = res["temperature"]
@@ -166,9 +166,9 @@ def test_emission_mode_given_the_exact_means_returns_the_detailed_field():
     # problem's solution is T_detailed (λ = 0) — to the solvers' tolerances (detailed Newton: 1e-8 K steps)
     box = meshes.box(0.3, 0.3, 0.25, 20, 20, 17)
     r = run(composite_box_case(40, 5.0, {"radiation_aware": True, "outer_iterations": 20}, True), mesh=box)
-    assert r.recovery.mode == "emission"
-    T = r.recovery.recover(r.reduced.supernodes.A @ r.detailed.T)
-    assert np.abs(T - r.detailed.T).max() < 1e-6
+    assert r.reduced.recovery.mode == "emission"
+    T = r.reduced.recovery.recover(r.reduced.network.supernodes.A @ r.detailed.solution.T)
+    assert np.abs(T - r.detailed.solution.T).max() < 1e-6
     # and the run's own network, read back: accuracy equals in-process (the run recovers with the same recovery)
     s = r.summary["accuracy"]
     assert abs(s["rms_K"] - s["in_process"]["rms_K"]) < 1e-9
@@ -177,7 +177,7 @@ def test_emission_mode_given_the_exact_means_returns_the_detailed_field():
 def test_reduced_npz_documents_its_recovery(plate_run):
     rec = load(plate_run.out / "reduced.npz")
     assert rec.mode == "linear" and list(rec.load_names) == ["heater"] and rec.load_values.tolist() == [5.0]
-    assert rec.K.shape == (plate_run.model.n_dof,) * 2 and rec.A.shape[0] == plate_run.reduced.n
+    assert rec.K.shape == (plate_run.model.n_dof,) * 2 and rec.A.shape[0] == plate_run.reduced.network.n
 
 
 def test_an_orbit_transient_fed_back_with_its_times_reproduces_the_runs_recovery(tmp_path):
@@ -205,7 +205,7 @@ def test_an_orbit_transient_fed_back_with_its_times_reproduces_the_runs_recovery
     res = run(case, out=tmp_path / "out", mesh=box)
     tr = res.transient
     rec = load(tmp_path / "out" / "reduced.npz")
-    assert rec.orbit_q is not None and rec.orbit_q.shape == (len(res.orbit_fluxes.positions), rec.n_dof)
+    assert rec.orbit_q is not None and rec.orbit_q.shape == (len(res.orbit.fluxes.positions), rec.n_dof)
     T_sn = tr.reduced.T - KELVIN  # (n_t, n_sn) °C
     cols = [T_sn[i] for i in range(len(tr.times))]
     times = ["time"] + [repr(float(t)) for t in tr.times]
@@ -219,7 +219,7 @@ def test_an_orbit_transient_fed_back_with_its_times_reproduces_the_runs_recovery
     avg = recover(tmp_path / "out", f2)["temperature"]
     assert np.abs(avg[ok] - mine[ok]).max() > 1e-3
     # a position given by its row (steady = "positions") is its time's loads where no eclipse boundary doubles it
-    pos = res.orbit_fluxes.positions
+    pos = res.orbit.fluxes.positions
     for j in np.flatnonzero(pos.event == ""):
         a = rec.recover(tr.reduced.T[0], positions=np.array([j]))
         b = rec.recover(tr.reduced.T[0], times=np.array([pos.time[j] + case.transient.start]))

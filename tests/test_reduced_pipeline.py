@@ -128,9 +128,9 @@ def test_kept_nodes_are_one_node_super_nodes_and_conduction_stays_exact():
                       {"kind": "flux", "groups": ["plate"], "value": 300.0}],
                      reduction={"keep_nodes": [30, 40]})
     res = run(case, mesh=mesh)
-    names = list(res.reduced.names)
+    names = list(res.reduced.network.names)
     assert names.count("node_30") == 1 and names.count("node_40") == 1
     assert res.summary["reduced"]["kept_nodes"] == 2
     assert res.summary["accuracy"]["max_K"] < 1e-9 * 300.0
     k = names.index("node_30")
-    assert res.reduced_solution.T[k] == pytest.approx(res.T_detailed_nodes[mesh.node_ids == 30][0], abs=1e-9)
+    assert res.reduced.solution.T[k] == pytest.approx(res.T_detailed_nodes[mesh.node_ids == 30][0], abs=1e-9)

@@ -1,5 +1,5 @@
 """``[reduction] radiation_aware = "auto"`` (the default, issue 29): the radiation-aware reduction where some
-cluster is wider than its panel's fin length √(k t / h_rad) (cluster Biot number ≥ 1, stages.AUTO_BIOT), the thesis'
+cluster is wider than its panel's fin length √(k t / h_rad) (cluster Biot number ≥ 1, reductors.AUTO_BIOT), the thesis'
 reduction elsewhere; what ran and why in summary.json ``reduced.choice``."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from fem2tmm import meshes
 from fem2tmm.case import Case
 from fem2tmm.errors import Fem2TmmError
 from fem2tmm.pipeline import run
-from fem2tmm.stages import AUTO_BIOT
+from fem2tmm.reductors import AUTO_BIOT
 
 def box():
     """The 0.3 x 0.3 x 0.25 m box of 1.5 cm quads (tests/test_radiation_aware.py)."""
@@ -35,7 +35,7 @@ def test_auto_follows_the_cluster_biot_number_and_gives_the_explicit_methods_net
         explicit = run(composite_box_case(40, k, {"radiation_aware": expect, "outer_iterations": 20}, detailed=False),
                        mesh=mesh)
         # the same network as asking for that method: bit-identical GL, C and loads
-        assert np.array_equal(auto.reduced.K, explicit.reduced.K) and np.array_equal(auto.reduced.Q, explicit.reduced.Q)
+        assert np.array_equal(auto.reduced.network.K, explicit.reduced.network.K) and np.array_equal(auto.reduced.network.Q, explicit.reduced.network.Q)
         acc = auto.summary["accuracy"]
         if expect:  # where auto chooses it, the radiation-aware network beats the thesis' (measured 5.6e-5 vs 6.0 K)
             assert acc["rms_K"] * 100 < acc["thesis_method"]["rms_K"], acc
@@ -62,7 +62,7 @@ def test_auto_with_ir_on_the_faces_or_a_positive_network():
     # the positive network is the thesis' reduction's own fit: auto keeps the thesis there
     r = run(make_case(parts, bnd, reduction={"network": "positive"}, reference={"detailed": False}), mesh=mesh)
     assert r.summary["reduced"]["choice"]["radiation_aware"] is False
-    assert r.reduced.radiative is None
+    assert r.reduced.network.radiative is None
 
 
 def test_a_case_set_takes_its_first_cases_choice_for_every_case():
@@ -77,5 +77,5 @@ def test_a_case_set_takes_its_first_cases_choice_for_every_case():
     res = multi.results
     for name, r in res.items():
         assert r.summary["reduced"]["choice"]["radiation_aware"] is True, name
-        assert r.shared_network == {"linearised_at": "nominal", "cases": ["nominal", "cold"]}
-        assert np.array_equal(r.reduced.K, res["nominal"].reduced.K)
+        assert r.reduced.shared_network == {"linearised_at": "nominal", "cases": ["nominal", "cold"]}
+        assert np.array_equal(r.reduced.network.K, res["nominal"].reduced.network.K)

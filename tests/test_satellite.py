@@ -81,8 +81,8 @@ def test_one_part_per_kind_reduces_at_every_count(deck, count):
     check_balances(res)
     acc = res.summary["accuracy"]
     assert np.isfinite(acc["rms_K"]) and acc["reference_noise_rms_K"] > 0
-    report = res.clustering.report
-    got = {p: int(np.count_nonzero(res.reduced.part[res.reduced.kind == "cluster"] == i))
+    report = res.reduced.clustering.report
+    got = {p: int(np.count_nonzero(res.reduced.network.part[res.reduced.network.kind == "cluster"] == i))
            for i, p in enumerate(m.name for m in res.model.parts)}
     # the count asked for is the count given: panels and fittings always; the bars have 32 free elements (the
     # tripod, its post and the mast), so 50 gives them one super node per free bar
@@ -91,9 +91,9 @@ def test_one_part_per_kind_reduces_at_every_count(deck, count):
     # every stiffener (bars on panel nodes only) is reduced with the panel it stiffens
     mesh, model = res.mesh, res.model
     stiff = np.concatenate([mesh.groups[g].elements for g in ("PID 11", "PID 12")])
-    lab = res.clustering.labels[stiff]
+    lab = res.reduced.clustering.labels[stiff]
     panels = [i for i, p in enumerate(model.parts) if p.name == "panels"][0]
-    assert (res.clustering.cluster_part[lab[lab >= 0]] == panels).all()
+    assert (res.reduced.clustering.cluster_part[lab[lab >= 0]] == panels).all()
     assert report["joined"]["parts"]["bars"]["embedded"] == int(np.count_nonzero(lab >= 0))
 
 

@@ -328,7 +328,7 @@ def test_pipeline_transient_tables_and_outputs(tmp_path):
     ok = res.model.node_dof >= 0
     np.testing.assert_array_equal(data["node_id"], mesh.node_ids[ok])
     assert data["temperature"].shape == (len(times), ok.sum()) == data["reference_temperature"].shape
-    assert data["sn_temperature"].shape == (len(times), res.reduced.n)
+    assert data["sn_temperature"].shape == (len(times), res.reduced.network.n)
     edge = np.isin(data["node_id"], mesh.node_ids[mesh.groups["xmin"].nodes])
     ramp = (20.0 + 20.0 * times / 3000.0)[:, None]
     assert np.abs(data["temperature"][:, edge] - ramp).max() < 1e-9
@@ -421,7 +421,7 @@ def test_cool_down_to_a_0_K_sink_with_the_detailed_reference_matches_the_closed_
     for T in (run_.T_recovered, run_.detailed.T):
         err = np.abs(T - exact[:, None]).max()
         assert err < 0.2, err  # measured 0.042 K (Crank-Nicolson, 1 s steps), reduced and detailed alike
-    assert r.detailed is None  # no steady reference was needed nor solved
+    assert r.detailed.solution is None  # no steady reference was needed nor solved
 
 
 def test_a_step_longer_than_the_transient_is_refused():

@@ -46,12 +46,12 @@ def _check(result: Result, recover: bool) -> dict:
     from .lpm.solve import solve_network
     from .reduce.exported import load
 
-    rs = result.reduced_solution
-    n = result.reduced.n
+    rs = result.reduced.solution
+    n = result.reduced.network.n
     with tempfile.TemporaryDirectory(prefix="fem2tmm-deliverable-") as tmp:
         folder = Path(tmp)
         write_network(folder, result, sinda=False)  # (what is read back: reduced.npz and the ESATAN deck)
-        T_npz = solve_network(read_network(folder / "reduced.npz"), T0=np.r_[rs.T, result.reduced.T_sink]).T[:n]
+        T_npz = solve_network(read_network(folder / "reduced.npz"), T0=np.r_[rs.T, result.reduced.network.T_sink]).T[:n]
         tr = result.transient
         if tr is not None and tr.reduced is not None:  # a transient deck: its transient, integrated as written
             T_deck = deck_transient(folder / "model.esatan", result)
@@ -59,13 +59,13 @@ def _check(result: Result, recover: bool) -> dict:
             compared = "transient"
         else:
             net = read_network(folder / "model.esatan")
-            T_deck = _by_label(net, solve_network(net, T0=None).T, result.reduced.names)
+            T_deck = _by_label(net, solve_network(net, T0=None).T, result.reduced.network.names)
             esatan_vs = None if T_deck is None else float(np.abs(T_deck - rs.T).max(initial=0.0))
             compared = "steady"
-        recovery = load(folder / "reduced.npz") if result.recovery is not None else None
+        recovery = load(folder / "reduced.npz") if result.reduced.recovery is not None else None
     T = None
     if recovery is not None and recover:
-        T = recovery.recover(T_npz, T0=result.T_recovered)
+        T = recovery.recover(T_npz, T0=result.reduced.T_recovered)
     return {"T_sn": T_npz, "T_sn_esatan": T_deck, "T": T,
             "npz_vs_in_process_K": float(np.abs(T_npz - rs.T).max(initial=0.0)),
             "esatan_vs_in_process_K": esatan_vs, "esatan_compared": compared}
@@ -95,7 +95,7 @@ def deck_transient(deck: Path, result: Result) -> np.ndarray | None:
                             GR=net.GR if net.GR.nnz else None)
     init = result.case.transient.initial_temperature
     sol = solve_transient(prob, st, net.T if init == "steady" else init)
-    out = _by_label(net, sol.T.T, result.reduced.names)
+    out = _by_label(net, sol.T.T, result.reduced.network.names)
     return None if out is None else out.T
 
 

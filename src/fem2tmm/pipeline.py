@@ -1,7 +1,9 @@
 """``run(case) -> Result``: the stages in order, timed, with progress, and the output folder.
 
 This module knows only the order of the stages; each stage is one call to a function of
-:mod:`fem2tmm.stages` (or of a stage package) that takes the case and plain data and returns plain data.
+:mod:`fem2tmm.stages` (or of a stage package) that takes the case and plain data and returns plain data, and the
+reduction is one call to a reduction method of :mod:`fem2tmm.reductors` (the thesis' first, then the one chosen).
+The result is assembled from typed parts (:mod:`fem2tmm.result`: detailed, reduced, orbit, transient).
 Nothing is written to the output folder until the whole run has succeeded (:func:`~fem2tmm.export.output.
 write_outputs` writes a temporary folder next to it and renames it at the end).
 """
@@ -29,16 +31,16 @@ from .radiation.compiled import compile_estimate
 from .radiation.quadric import QuadricScene
 from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, refresh_reduced, super_faces
-from .result import CasesResult, Result
-from .solve.steady import check_solvable, solve_steady
-from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, choose_reduction, cluster_key, cluster_model,
+from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for
+from .result import CasesResult, Detailed, Orbit, Result
+from .solve.steady import check_solvable
+from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model,
                      describe_nodes, detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics,
                      geometry_key, ir_absorption, mean_faced, orbit_average, orbit_positions_detailed,
-                     orbit_positions_reduced, exported_recovery, network_group, positive_reduced, quadric_regions,
-                     radiation_aware_network, radiation_surface, reduce_key,
-                     reduced_problem, reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
+                     orbit_positions_reduced, network_group, quadric_regions, radiation_surface, reduce_key,
+                     reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
                      super_face_orbit, super_face_solar, trace_key, tracer_settings)
-from .stages import Refinement, refinement_step
+from .stages import Refinement, refinement_step, solve_case, solve_unit, solver_settings
 from .stages import biot_weights, check_super_node_counts, presolve_space, warn_coarse_mesh
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
@@ -195,8 +197,8 @@ def _shared_linearisations(cases: list, jobs: list, store, labels, shelf) -> dic
         with reporting(prog.callback()), prog.stage("linearise", "the shared network's linearisation state"):
             first = _run(c, Progress(quiet=True), m, False, store, labels, shelf=shelf)
         # radiation_aware = "auto": the group's first case decides for the whole group (one network for the set)
-        chosen = first.reduced is not None and first.reduced.radiative is not None
-        groups[g] = {"T": first.T_recovered if chosen else None, "aware": chosen, "case": n,
+        chosen = first.reduced is not None and first.reduced.method == "radiation_aware"
+        groups[g] = {"T": first.reduced.T_recovered if chosen else None, "aware": chosen, "case": n,
                      "cases": [x[0] for x in cs]}
     return groups or None
 
@@ -370,6 +372,10 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                          tracer_settings(case, exchange=False, role=role), *more)
 
     q_solar = None  # detailed solar nodal loads (n_dof,) W
+    dpart = Detailed()  # the detailed model's part of the result (its fields set by the stages that run)
+    opart = Orbit() if orbit is not None else None
+    clustering = reduced = None
+    extra = {}  # what the run adds to the reduction method's output (result.reduced)
 
     # clustering (following a coarse solar map when asked)
     ckey = None
@@ -388,7 +394,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
                                  max((r["max"] for r in weights_report.values()), default=None))
         ckey = cluster_key(model, case, flux, labels, weights)
-        result.clustering = _cached(
+        clustering = _cached(
             prog, store, status, "cluster", "clustering", lambda: ckey,
             lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
                                   labels=labels, weights=weights, weights_report=weights_report))
@@ -396,11 +402,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             from .reduce.refine import check_budget
 
             check_budget(case.reduction.target_rms, case.reduction.max_super_nodes,
-                         len(result.clustering.cluster_part))
+                         len(clustering.cluster_part))
 
     # quadrics where the case asks for them (the scene itself is built when a stage traces)
     if surface is not None and any(p.quadric for p in case.parts):
-        regions = quadric_regions(model, case, result.clustering)
+        regions = quadric_regions(model, case, clustering)
         scenes.fit = _cached(prog, store, status, "quadrics", "fitting quadrics", lambda: digest("quadrics", *regions),
                              lambda: fit_quadrics(*regions))
         result.quadrics = scenes.fit[2]
@@ -408,11 +414,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
 
     # solar loads on the detailed mesh
     if sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed"):
-        q_solar, result.solar_detailed = _cached(
+        q_solar, dpart.solar = _cached(
             prog, store, status, "solar_detailed", "tracing solar rays on the detailed mesh",
             lambda: sun_key("solar_detailed", skey, "reference"),
             lambda: detailed_solar(model, case, surface, scene=scenes.main()))
-        result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, result.solar_detailed)
+        result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, dpart.solar)
 
     # orbital loads (solar, albedo, planet IR at every position) on the detailed mesh
     q_orbit = None  # (k, n_dof) W per position
@@ -422,160 +428,113 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                          orbit.rays_per_face, tracer_settings(case, exchange=False), *more)
 
     if orbit is not None and (do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
-        q_orbit, result.orbit_detailed = _cached(
+        q_orbit, opart.detailed = _cached(
             prog, store, status, "orbit_detailed", "tracing orbital fluxes on the detailed mesh",
             lambda: orbit_key("orbit_detailed"), lambda: detailed_orbit(model, case, surface, scene=scenes.main()))
 
     # reduced model: conduction, radiation, solar loads, solve, recovery
     if case.reduction.enabled:
         rm = _cached(prog, store, status, "reduce", "reducing conduction", lambda: reduce_key(model, case, ckey),
-                     lambda: build_reduced(model, result.clustering, case))
+                     lambda: build_reduced(model, clustering, case))
         rm = refresh_reduced(rm, model)  # this case's loads, boundary temperatures, sink and optics
         sf = super_faces(model, rm) if surface is not None else None
         if trace:
-            GR, g_space, result.radiation, result.super_faces_count = _cached(
+            GR, g_space, extra["radiation"], extra["super_faces_count"] = _cached(
                 prog, store, status, "radiation", "tracing super-face exchange factors",
                 lambda: trace_key("radiation", geometry, ir, skey, sf, rm.n, tracer_settings(case)),
                 lambda: reduced_radiation(model, rm, case, surface, scene=scenes.main(), sf=sf))
             rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
         q_recover = model.Q
-        result.q_recover = q_recover
         q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
         if sun:
             if case.environment.solar_on == "detailed":
                 # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
                 q_sn = rm.reduction.distribute(q_solar)
                 q_recover = model.Q + q_solar
-                result.q_recover = q_recover
             else:
-                q_sn, result.solar_super_faces, _ = _cached(
+                q_sn, extra["solar"], _ = _cached(
                     prog, store, status, "solar", "tracing solar rays on the super faces",
                     lambda: sun_key("solar", skey, "reduced", sf, rm.n),
                     lambda: super_face_solar(model, rm, case, surface, scene=scenes.main(), sf=sf))
                 if result.absorbed_solar_elements is None:
                     result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(
-                        model, result.solar_super_faces)
+                        model, extra["solar"])
                 q_lumped = q_sn
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
-            result.solar_on = case.environment.solar_on
+            extra["solar_on"] = case.environment.solar_on
         if orbit is not None:
             if orbit.fluxes_on == "detailed":
                 q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
             else:
-                q_sn_orbit, result.orbit_super_faces = _cached(
+                q_sn_orbit, opart.super_faces = _cached(
                     prog, store, status, "orbit", "tracing orbital fluxes on the super faces",
                     lambda: orbit_key("orbit", sf, rm.n),
                     lambda: super_face_orbit(model, rm, case, surface, scene=scenes.main(), sf=sf))
-            result.orbit_on = orbit.fluxes_on
+            opart.fluxes_on = orbit.fluxes_on
         rm_base, q_recover_base = rm, q_recover
         if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
-            q_sn_avg = orbit_average(result, q_sn_orbit)
+            q_sn_avg = orbit_average(opart.fluxes, q_sn_orbit)
             rm = dataclasses.replace(rm, Q=rm.Q + q_sn_avg)
             if orbit.fluxes_on == "detailed":
-                q_recover = q_recover + orbit_average(result, q_orbit)
-                result.q_recover = q_recover
+                q_recover = q_recover + orbit_average(opart.fluxes, q_orbit)
             else:
                 q_lumped = q_lumped + q_sn_avg
-        result.reduced = rm
-        with prog.stage("solve_reduced", "solving the reduced model"):
-            try:
-                result.reduced_solution = _solve(reduced_problem(rm), case)
-            except Fem2TmmError:
-                negative = int(rm.report.get("negative_links", 0))  # counted by build_reduced
-                if not negative:
-                    raise
-                # the exact condensation's negative conductances break the maximum principle: with extreme loads
-                # such a network can have no positive steady solution although the detailed model has one
-                raise Fem2TmmError(
-                    f"{case.source}: the reduced network has {negative} negative conductances (the exact "
-                    f"condensation of the thesis' reduction), which break the maximum principle, and no physical "
-                    f"steady solution under these loads (the detailed model has one); use [reduction] network = "
-                    "\"positive\", radiation_aware = true, or more super nodes") from None
-        if case.reduction.network == "positive":
-            exact = result.reduced_solution
-            with prog.stage("positive", "fitting a positive sparse network"):
-                rm, result.reduced_solution, result.positive = positive_reduced(model, rm, exact, case)
-            result.reduced = rm
-            result.T_recovered_exact = rm.reduction.recover(exact.T, q_recover)
-        with prog.stage("recover", "recovering detailed temperatures"):
-            result.T_recovered = rm.reduction.recover(result.reduced_solution.T, q_recover)
-        group = (linearised or {}).get(network_group(case)) if case.reduction.radiation_aware is not False else None
         case_asked = case  # (the refinement's next round starts again from what the case asks)
+        orbit_rec = None  # orbital loads traced on the FE faces travel with the recovery
+        if q_orbit is not None and orbit.fluxes_on == "detailed":
+            pos = opart.fluxes.positions
+            orbit_rec = (q_orbit, pos.time, pos.period)
+        inputs = ReductionInputs(model=model, case=case, clustering=clustering, network=rm,
+                                 q_recover=q_recover, q_lumped=q_lumped, orbit=orbit_rec,
+                                 ir_on_asked=case.radiation.ir_on,
+                                 trace_ir=(lambda c: ir_absorption(model, rm, c, surface, scene=scenes.main(), sf=sf))
+                                 if trace else None)
+        # the thesis' reduction first: the network when nothing else is chosen, else the next method's start
+        reductor = first_reductor(case)
+        red = reductor.reduce(inputs, prog)
+        group = (linearised or {}).get(network_group(case)) if case.reduction.radiation_aware is not False else None
         if group is not None and case.reduction.radiation_aware == "auto":  # the set's choice, made by its first case
             case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction,
                                                                           radiation_aware=group["aware"]))
-        case, result.reduction_choice = choose_reduction(model, case, rm, result.T_recovered)
-        if case.reduction.radiation_aware:
-            shared_at = None if group is None else group["T"]
-            if group is not None:
-                result.shared_network = {"linearised_at": group["case"], "cases": list(group["cases"])}
-            ir_abs = None  # (not ``ir``: that name holds the IR optics, part of the reference's trace key below)
-            if trace and case.radiation.ir_on in ("detailed", "faces"):
-                with prog.stage("ir_detailed", "tracing the FE sides' IR exchange factors (ir_on = faces)"
-                                if case.radiation.ir_on == "faces" else
-                                "tracing where the super faces' IR is absorbed (FE sides)"):
-                    ir_abs = ir_absorption(model, rm, case, surface, scene=scenes.main(), sf=sf)
-            with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
-                result.thesis_T_recovered = thesis_T = result.T_recovered
-                try:
-                    result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
-                        radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
-                                                thesis_T, ir_abs, linearised_at=shared_at))
-                except Fem2TmmError as exc:
-                    if not (case_asked.radiation.ir_on == "auto" and case.radiation.ir_on == "faces"):
-                        raise
-                    # ir_on chosen by "auto": the per-side IR correction, linearised far from the solution, can
-                    # leave the network without a physical solution (a 0.1 mm panel under 745 W on one super node,
-                    # tests/test_robustness.py); the super faces' IR (ir_on = "super_faces") is the robust form
-                    import warnings
-
-                    warnings.warn(f"the radiation-aware network with ir_on = \"faces\" has no physical steady "
-                                  f"solution here ({exc}); it runs with ir_on = \"super_faces\" (absorbed IR "
-                                  "uniform per super node)", stacklevel=2)
-                    case = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation,
-                                                                                   ir_on="super_faces"))
-                    result.reduction_choice = {**result.reduction_choice, "ir_on": "super_faces",
-                                               "chosen_by": result.reduction_choice["chosen_by"] + "; ir_on = "
-                                               "\"faces\" had no network solution: \"super_faces\""}
-                    ir_abs = None
-                    result.reduced, result.reduced_solution, result.T_recovered, result.radiation_aware = (
-                        radiation_aware_network(model, result.clustering, case, rm, q_recover, q_lumped,
-                                                thesis_T, None, linearised_at=shared_at))
-        with prog.stage("recovery", "the recovery that travels with the network"):
-            orbit_rec = None
-            if q_orbit is not None and orbit is not None and orbit.fluxes_on == "detailed":
-                pos = result.orbit_fluxes.positions
-                orbit_rec = (q_orbit, pos.time, pos.period)
-            result.recovery = exported_recovery(model, case, result.reduced, result.q_recover,
-                                                ir_abs if case.reduction.radiation_aware else None, orbit_rec)
-            if case.reduction.radiation_aware:  # the run's own field is the exported recovery's (its fixed point)
-                result.T_recovered = result.recovery.recover(result.reduced_solution.T, T0=result.T_recovered)
+        case, choice = choose_reduction(model, case, red.network, red.T_recovered)
+        if group is not None and case.reduction.radiation_aware:
+            extra["shared_network"] = {"linearised_at": group["case"], "cases": list(group["cases"])}
+        inputs = dataclasses.replace(inputs, case=case, linearised_at=None if group is None else group["T"])
+        if reductor_for(case).name != reductor.name:
+            extra["thesis_T_recovered"] = red.T_recovered
+            reductor = reductor_for(case)
+            red = reductor.reduce(inputs, prog, start=red)
+            if red.notes:
+                choice = {**choice, "ir_on": red.case.radiation.ir_on,
+                          "chosen_by": "; ".join([choice["chosen_by"], *red.notes])}
+            case = red.case
+        red = reductor.deliver(dataclasses.replace(inputs, case=case), red, prog)
+        reduced = result.reduced = dataclasses.replace(red, clustering=clustering, choice=choice, **extra)
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
-                nxt = refinement_step(model, result.clustering, case, result.reduced, result.reduced_solution.T,
-                                      result.T_recovered, q_recover, q_lumped,
-                                      ir_abs if case.reduction.radiation_aware else None, refine,
+                nxt = refinement_step(model, clustering, case, reduced.network, reduced.solution.T,
+                                      reduced.T_recovered, q_recover, q_lumped, reduced.ir, refine,
                                       surface if trace else None, scenes.main() if trace else None)
             if nxt is not None:
                 return _run(case_asked, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=scenes.shelf,
                             linearised=linearised)
-            result.refinement = refine
+            reduced.refinement = refine
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
-                if result.reduced.radiative is not None:  # the network handed over: the average and each departure
-                    red = result.reduced
+                if reduced.method == "radiation_aware":  # the network handed over: the average and each departure
+                    red = reduced.network
                     if orbit.fluxes_on == "detailed":
-                        dq = q_orbit - orbit_average(result, q_orbit)
-                        pos_args = (result.q_recover, red.reduction.distribute(dq.T).T, dq)
+                        dq = q_orbit - orbit_average(opart.fluxes, q_orbit)
+                        pos_args = (reduced.q_recover, red.reduction.distribute(dq.T).T, dq)
                     else:
-                        pos_args = (result.q_recover, q_sn_orbit - orbit_average(result, q_sn_orbit), None)
-                    result.orbit_T_positions = orbit_positions_reduced(red, *pos_args, result.reduced_solution.T,
-                                                                       case, exported=result.recovery)
+                        pos_args = (reduced.q_recover, q_sn_orbit - orbit_average(opart.fluxes, q_sn_orbit), None)
+                    opart.T_positions = orbit_positions_reduced(red, *pos_args, reduced.solution.T, case,
+                                                                exported=reduced.recovery)
                 else:
-                    result.orbit_T_positions = orbit_positions_reduced(
+                    opart.T_positions = orbit_positions_reduced(
                         rm_base, q_recover_base, q_sn_orbit, q_orbit if orbit.fluxes_on == "detailed" else None,
-                        result.reduced_solution.T, case)
+                        reduced.solution.T, case)
 
     # detailed reference model (with its own random streams; two independent halves estimate its noise)
     if do_ref or not case.reduction.enabled:
@@ -598,10 +557,10 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 parts = [detailed_refs(role, 0.5) for role in ("reference", "reference_b")]
                 halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
                 faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
-                result.radiation_detailed = parts[0][2]
-                result.reference_halves = 2
+                dpart.radiation = parts[0][2]
+                dpart.halves = 2
             else:
-                faced, g_space, result.radiation_detailed = detailed_refs()
+                faced, g_space, dpart.radiation = detailed_refs()
             problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
         q_ref = q_solar
         if q_solar is not None and noise and case.reduction.enabled and case.environment.solar_on != "detailed":
@@ -619,7 +578,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
         base = problem  # without the orbital loads
         if q_orbit is not None:  # the steady case: orbit-averaged loads
-            q_avg = orbit_average(result, q_orbit)
+            q_avg = orbit_average(opart.fluxes, q_orbit)
             problem = dataclasses.replace(problem, Q=problem.Q + q_avg)
             halves = [dataclasses.replace(h, Q=h.Q + q_avg) for h in halves]
         tr = case.transient
@@ -627,7 +586,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         if not optional or case.reference.steady:
             with prog.stage("solve_detailed", "solving the detailed model"):
                 try:
-                    result.detailed = _solve(problem, case)
+                    dpart.solution = solve_case(problem, case)
                 except Fem2TmmError as exc:
                     if not optional:
                         raise
@@ -640,53 +599,43 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             halves = []
         if halves:
             with prog.stage("reference_noise", "solving the two half references (reference noise)"):
-                Ta, Tb = (s.T for s in map_units(_solve_unit, halves, shared=_solver_settings(case),
+                Ta, Tb = (s.T for s in map_units(solve_unit, halves, shared=solver_settings(case),
                                                  what="steady solves"))
-            result.reference_noise = reference_noise(model, Ta, Tb)
-        if q_orbit is not None and orbit.steady == "positions" and result.detailed is not None:
+            dpart.noise = reference_noise(model, Ta, Tb)
+        if q_orbit is not None and orbit.steady == "positions" and dpart.solution is not None:
             with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
-                T = orbit_positions_detailed(base, q_orbit, result.detailed.T, case)
+                T = orbit_positions_detailed(base, q_orbit, dpart.solution.T, case)
                 if case.reduction.enabled:
-                    result.orbit_T_positions_detailed = T
+                    opart.T_positions_detailed = T
                 else:
-                    result.orbit_T_positions = T
+                    opart.T_positions = T
+
+    result.detailed, result.orbit = dpart, opart
+    net = None if reduced is None else reduced.network
 
     # transient: the reduced model in time (recovered at every output time) and the detailed reference
     if case.transient is not None:
         with prog.stage("transient", "integrating the transient"):
-            rs, det = result.reduced_solution, result.detailed
+            rs, det = (None if reduced is None else reduced.solution), dpart.solution
             orbit_loads = None
             if q_orbit is not None or q_sn_orbit is not None:  # loads in time along the orbit
-                pos = result.orbit_fluxes.positions
+                pos = opart.fluxes.positions
                 q_sn_t = q_sn_orbit
-                if (q_orbit is not None and orbit.fluxes_on == "detailed" and result.reduced is not None
-                        and result.reduced.radiative is not None):  # the radiation-aware network's own Y'
-                    q_sn_t = result.reduced.reduction.distribute(q_orbit.T).T
+                if (q_orbit is not None and orbit.fluxes_on == "detailed" and net is not None
+                        and net.radiative is not None):  # the radiation-aware network's own Y'
+                    q_sn_t = net.reduction.distribute(q_orbit.T).T
                 orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_t, q_dof=q_orbit,
                                          recover_dof=orbit.fluxes_on == "detailed")
-            result.transient = run_transient(case, model, result.reduced, None if rs is None else rs.T,
-                                             result.q_recover, problem if (do_ref or not case.reduction.enabled) else None,
-                                             None if det is None else det.T, orbit=orbit_loads,
-                                             exported=result.recovery)
+            with_ref = do_ref or not case.reduction.enabled
+            result.transient = run_transient(case, model, net, None if rs is None else rs.T,
+                                             None if reduced is None else reduced.q_recover,
+                                             problem if with_ref else None, None if det is None else det.T,
+                                             orbit=orbit_loads, exported=None if reduced is None else reduced.recovery)
 
-    if result.reduced is not None:  # what the user receives: the network written, read back, solved, recovered
+    if reduced is not None:  # what the user receives: the network written, read back, solved, recovered
         from .handover import check_deliverable
 
         with prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
-            result.delivered = check_deliverable(result, recover=result.detailed is not None)
+            reduced.delivered = check_deliverable(result, recover=dpart.solution is not None)
     result.summary = build_summary(result, prog.timings)
     return result
-
-
-def _solver_settings(case: Case) -> dict:
-    return {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
-
-
-def _solve(problem, case: Case):
-    """The steady solution of ``problem``: one work unit (:func:`fem2tmm.compute.map_units`)."""
-    [solution] = map_units(_solve_unit, [problem], shared=_solver_settings(case), what="steady solves")
-    return solution
-
-
-def _solve_unit(problem, tol: float, max_iter: int):
-    return solve_steady(problem, tol=tol, max_iter=max_iter)

@@ -1,5 +1,5 @@
 """The stages of a run as plain functions ``(case, model, ...) -> plain data``, called in order by
-:mod:`fem2tmm.pipeline` (and only by it).
+:mod:`fem2tmm.pipeline` and by the reduction methods of :mod:`fem2tmm.reductors`.
 
 Each function adapts a stage package (clustering, radiation, solar, quadrics, steady solve) to the case: it
 reads the case's settings and the FE model and returns arrays or the stage's own result type.  A new stage
@@ -28,7 +28,7 @@ from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
-from .reduce.network import ReducedModel, build_reduced, determined_elements, face_owner, kept_dofs, super_faces
+from .reduce.network import ReducedModel, determined_elements, face_owner, kept_dofs, super_faces
 from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
 from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
                               solve_transient)
@@ -50,34 +50,23 @@ def reduced_problem(rm: ReducedModel) -> SteadyProblem:
                          T_sink=rm.T_sink, GR=rm.GR, names=tuple(rm.names))
 
 
-def positive_reduced(model: FEModel, rm: ReducedModel, exact: SteadySolution, case: Case
-                     ) -> tuple[ReducedModel, SteadySolution, dict]:
-    """``[reduction] network = "positive"``: replace the exact dense K_SN of ``rm`` by a positive sparse network
-    between touching super nodes fitted to its response (:mod:`fem2tmm.lpm.positive`, the exact solution ``exact``
-    weighing as the case's own state), solve it, and compare with the exact reduction by the network criteria
-    (:class:`fem2tmm.lpm.grouping.Criteria` defaults: δ ≤ 3 K per super node, heat into each boundary within 0.1 W
-    below 1 W, 10 % above).  Returns the new model, its solution and the report for ``summary.json``."""
-    from .lpm.grouping import Criteria, flow_errors
-    from .lpm.positive import positive_network
+def solver_settings(case: Case) -> dict:
+    """The keyword arguments of :func:`solve_unit` that ``[solver]`` sets."""
+    return {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
 
-    pn = positive_network(rm.K, rm.supernodes.A, model.K, rm.fixed, states=exact.T)
-    rm_pos = dataclasses.replace(rm, K=pn.K, report={**rm.report, "positive": pn.report, "negative_links": 0,
-                                                      "negative_GL_W_per_K": 0.0})
-    sol = solve_steady(reduced_problem(rm_pos), T0=exact.T, tol=case.solver.tolerance,
-                       max_iter=case.solver.max_iterations)
-    crit = Criteria()
-    delta = np.abs(sol.T - exact.T)
-    f = np.flatnonzero(rm.fixed)
-    err, ok = flow_errors(-exact.heat_fixed[f], -sol.heat_fixed[f], crit)
-    report = {**pn.report,
-              "T_vs_exact_K": {"max": float(delta.max(initial=0.0)), "rms": float(np.sqrt(np.mean(delta**2)))},
-              "heat_into_fixed_W": {str(rm.names[i]): {"exact": float(exact.heat_fixed[i]),
-                                                       "positive": float(sol.heat_fixed[i])} for i in f},
-              "criteria": {"delta_max_K": crit.delta_max, "q_max_W": crit.q_max, "q_lim_W": crit.q_lim,
-                           "q_rel_max": crit.q_rel_max,
-                           "met": bool((delta[~rm.fixed] < crit.delta_max).all() and ok.all()),
-                           "max_flow_error": float(err.max(initial=0.0))}}
-    return rm_pos, sol, report
+
+def solve_case(problem: SteadyProblem, case: Case) -> SteadySolution:
+    """The steady solution of ``problem`` with ``[solver]``'s settings: one work unit on the run's executor
+    (:func:`fem2tmm.compute.map_units`: in process, or on the Dask cluster of ``[compute]``)."""
+    from .compute import map_units
+
+    [solution] = map_units(solve_unit, [problem], shared=solver_settings(case), what="steady solves")
+    return solution
+
+
+def solve_unit(problem: SteadyProblem, tol: float, max_iter: int) -> SteadySolution:
+    """A steady solve as a work unit (:func:`solve_case`, the reference-noise halves)."""
+    return solve_steady(problem, tol=tol, max_iter=max_iter)
 
 
 def describe_nodes(model: FEModel) -> Callable[[np.ndarray], str]:
@@ -429,13 +418,13 @@ class OrbitLoads:
         return Series(series.base - w @ loads, series.patterns + tuple(loads), series.tables + tables)
 
 
-def orbit_average(result, q: np.ndarray) -> np.ndarray:
-    """Orbit average (n,) of loads ``q`` (k, n) given at the positions of the run's orbital fluxes (piecewise
-    linear in time, jumps at eclipse boundaries, :func:`~fem2tmm.radiation.orbital.period_average`)."""
+def orbit_average(fluxes, q: np.ndarray) -> np.ndarray:
+    """Orbit average (n,) of loads ``q`` (k, n) given at the positions of the run's orbital ``fluxes`` (an
+    :class:`~fem2tmm.radiation.orbital.OrbitalFluxes`; piecewise linear in time, jumps at eclipse boundaries,
+    :func:`~fem2tmm.radiation.orbital.period_average`)."""
     from .radiation.orbital import period_average
 
-    fl = result.orbit_fluxes
-    return period_average(fl.positions.time, q, fl.positions.period)
+    return period_average(fluxes.positions.time, q, fluxes.positions.period)
 
 
 def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.ndarray, q_dof: np.ndarray | None,
@@ -571,65 +560,6 @@ def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labe
     weights, the clustering settings and the user's ``labels``."""
     args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None, weights=weights)
     return digest("cluster", *args, kw, labels)
-
-
-def exported_recovery(model: FEModel, case: Case, rm: ReducedModel, q_recover: np.ndarray,
-                      ir: IRAbsorption | None = None, orbit: tuple | None = None) -> "ExportedRecovery":
-    """The recovery written into ``reduced.npz`` (:mod:`fem2tmm.reduce.exported`) for the network ``rm``.
-
-    ``q_recover`` (n_dof,) W: the detailed loads the run recovers with (boundary loads, detailed solar, orbit
-    average); each power/flux ``[[boundary]]`` becomes a named unit pattern (its value scales it), the rest is the
-    constant part.  ``ir`` (radiation-aware with ``ir_on`` = "faces" / "detailed"): where the emitted IR is
-    absorbed.  The radiation-aware network recovers in the emission mode (the constrained nonlinear problem its
-    outer iterations converge to), the thesis' in the linear mode (``T = X q + Yᵀ T_SN``).  ``orbit``: ``(q (k,
-    n_dof) W, times (k,) s, period s)`` of orbital loads traced on the FE faces (``q_recover`` holding their orbit
-    average), carried with the time functions of :meth:`OrbitLoads.add` from ``[transient] start`` (or 0).
-    """
-    import scipy.sparse as _sp
-
-    from .reduce.exported import ExportedRecovery
-
-    names, pats, vals = [], [], []
-    q0 = np.array(q_recover, float)
-    for b in case.boundaries:
-        if b.kind not in ("power", "flux"):
-            continue
-        pat = boundary_load(model, case, dataclasses.replace(b, value=1.0))
-        names.append(b.name)
-        pats.append(pat)
-        vals.append(b.value)
-        q0 = q0 - b.value * pat
-    load_q = _sp.csr_matrix(np.array(pats)) if pats else _sp.csr_matrix((0, model.n_dof))
-    ms = model.mesh.midside
-    kw = {}
-    if rm.radiative is not None:
-        kw = {"mode": "emission", "e": np.asarray(rm.radiative.e, float)}
-        if ir is not None:
-            kw.update(ir_A=ir.A.tocsr(), ir_owner=np.asarray(ir.owner, np.int64), ir_eps_area=np.asarray(ir.eps_area),
-                      ir_face=np.zeros(0, np.int64) if ir.face is None else np.asarray(ir.face, np.int64),
-                      face_W=model.faces.W.tocsr())
-    return ExportedRecovery(K=model.K.tocsr(), A=rm.supernodes.A.tocsr(), names=np.asarray(rm.names).astype(str),
-                            q0=q0, load_names=np.array(names, dtype=str), load_q=load_q,
-                            load_values=np.array(vals, float), node_dof=np.asarray(model.node_dof, np.int64),
-                            node_ids=np.asarray(model.mesh.node_ids, np.int64),
-                            midside=np.zeros((0, 3), np.int64) if ms is None else np.asarray(ms, np.int64),
-                            T_sink=float(model.T_sink), **kw, **_orbit_recovery(case, orbit))
-
-
-def _orbit_recovery(case: Case, orbit: tuple | None) -> dict:
-    """The orbit_* fields of :class:`~fem2tmm.reduce.exported.ExportedRecovery` (none without orbital loads)."""
-    if orbit is None:
-        return {}
-    import scipy.sparse as _sp
-
-    from .radiation.orbital import average_weights, hat_basis
-
-    q, times, period = orbit
-    start = case.transient.start if case.transient is not None else 0.0
-    nodes, H = hat_basis(times, period)
-    return {"orbit_q": _sp.csr_matrix(np.asarray(q, float)), "orbit_nodes": start + nodes, "orbit_H": H,
-            "orbit_weights": average_weights(times, period), "orbit_period": float(period),
-            "orbit_start": float(start)}
 
 
 def network_group(case: Case) -> str:
@@ -863,63 +793,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
     return run
 
 
-# -------------------------------------------------------------------------------- radiation-aware reduction
-OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this, or once
-# the changes still to come (contracting steps, a geometric estimate: step r/(1 - r), r the ratio of the last two)
-# are below it: each iteration re-reduces every cluster (the truss: ~20 s each at 10 super nodes)
-#: a shared linearisation (load-case sets) converges linearly: this many times ``outer_iterations`` at most
-SHARED_OUTER_FACTOR = 4
-OUTER_WARN = 0.05  # K: a warning when the last outer iteration still moved the field by more than this
-# Largest cluster Biot number below which the radiation-aware reduction warns that it is not needed: the EUI
-# baffle (cluster Bi <= 0.0044) gains nothing resolvable from it; the composite box, which it wins, has Bi 2-60
-LOW_BIOT = 0.1
-
-
-#: ``[reduction] radiation_aware = "auto"`` chooses the radiation-aware reduction when the largest cluster Biot number
-#: h_rad A/(k t) at the thesis' recovered field reaches this: a cluster as wide as the panel's fin length
-#: √(k t / h_rad), beyond which the thesis' uniform-load shape functions no longer hold (its error grows like Bi,
-#: docs/design-notes.md "Which reduction by default").  Measured on the committed studies (2026-12-04, the README
-#: table): the composite box (Bi 2-60: thesis 20 K RMS, radiation-aware 0.2 K) and the satellite (Bi > 1) above it;
-#: fin, cylinders, baffle (Bi ≤ 0.2: thesis within 0.1 K) below, where the radiation-aware reduction would cost its
-#: outer iterations (2-3x the run) for hundredths of a kelvin.
-AUTO_BIOT = 1.0
-
-
-def choose_reduction(model: FEModel, case: Case, rm: ReducedModel, T: np.ndarray) -> tuple[Case, dict]:
-    """Resolve ``[reduction] radiation_aware`` and ``[radiation] ir_on`` when they are ``"auto"``.
-
-    ``rm`` the thesis' reduced model, ``T`` (n_dof,) K its recovered field.  ``radiation_aware = "auto"`` becomes
-    true when ``ir_on`` asks for the FE faces ("faces", "detailed"), false with ``network = "positive"`` (not
-    defined for it) or without emission, and otherwise true when the largest cluster Biot number
-    (:func:`biot_numbers`, h = 4σ εA T³ of every active side at ``T``, as :func:`biot_weights`) is at least
-    :data:`AUTO_BIOT`.  ``ir_on = "auto"`` becomes "faces" with the radiation-aware reduction and face-to-face
-    radiation, else "super_faces".  Returns the case with both set and ``{"radiation_aware", "ir_on", "chosen_by",
-    "biot_cluster_max"}`` for the summary (the Biot number whenever something radiates, None without shells).
-    """
-    red, rad = case.reduction, case.radiation
-    g = model.space_coupling()
-    bi = None
-    if np.any(g > 0):  # (reported whatever decides: it says how far the thesis' assumption is from holding)
-        bi = biot_numbers(model, rm, 4.0 * SIGMA * g * np.maximum(np.asarray(T, float), 0.0) ** 3)["cluster_max"]
-    if red.radiation_aware != "auto":
-        aware = bool(red.radiation_aware)
-        why = f"[reduction] radiation_aware = {str(aware).lower()}"
-    elif red.network == "positive":
-        aware, why = False, "auto: network = \"positive\" is the thesis' reduction's"
-    elif rad.ir_on in ("faces", "detailed"):
-        aware, why = True, f"auto: [radiation] ir_on = \"{rad.ir_on}\" needs it"
-    elif not np.any(g > 0):
-        aware, why = False, "auto: nothing radiates"
-    else:
-        aware = bi is not None and bi >= AUTO_BIOT
-        why = (f"auto: largest cluster Biot number {bi:.3g} {'>=' if aware else '<'} {AUTO_BIOT:g}" if bi is not None
-               else "auto: no radiating shell clusters")
-    ir_on = rad.ir_on if rad.ir_on != "auto" else ("faces" if aware and rad.enabled else "super_faces")
-    resolved = dataclasses.replace(case, reduction=dataclasses.replace(red, radiation_aware=aware),
-                                   radiation=dataclasses.replace(rad, ir_on=ir_on))
-    return resolved, {"radiation_aware": aware, "ir_on": ir_on, "chosen_by": why,
-                      "biot_cluster_max": None if bi is None else float(bi)}
-
+# -------------------------------------------------------------------------------- IR absorbed on the FE sides
 
 @dataclass(frozen=True)
 class IRAbsorption:
@@ -1083,157 +957,6 @@ def biot_weights(model: FEModel, T: np.ndarray) -> tuple[np.ndarray, dict]:
             # densities to 9 digits: the round-off of a uniform field must not move cluster boundaries (ties)
             weights[rows] = a * np.round(np.maximum(b / mean, BIOT_FLOOR) ** BIOT_EXPONENT, 9)
     return weights, report
-
-
-def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
-                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray,
-                            ir: IRAbsorption | None = None, linearised_at: np.ndarray | None = None
-                            ) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
-    """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
-
-    Parameters
-    ----------
-    model, clustering, case : as for :func:`~fem2tmm.reduce.network.build_reduced`
-    rm : the thesis' reduced model with its radiation (``GR``, ``g_space``), whose couplings are kept
-    q_detailed : (n_dof,) W loads known on the detailed mesh (heaters, detailed solar): distributed by Y'
-    q_lumped : (n,) W loads already lumped per super node (super-face solar)
-    T_ref : (n_dof,) K the pre-solve's recovered field ; with face-to-face radiation the emission is first
-        linearised about the detailed field radiating to space only (solved to 0.1 K) instead, then about each outer iteration's
-        field: at most ``[reduction] outer_iterations`` reductions and network solves, fewer once the field moves, or is estimated to move from then on, less than :data:`OUTER_TOLERANCE`
-    ir : where the absorbed IR lands (``ir_on = "detailed"``), or None (thesis: uniform per super node).  Given,
-        the absorbed power of every FE face at the reference state, q_abs, goes through the exact power
-        distribution like a known load: ``Y' q_abs − S q_abs`` (S: sum per super node) is added to the network's
-        loads (it moves power within and between super nodes, the total is kept) and q_abs to the recovery
-    linearised_at : (n_dof,) K or None.  Given (a load-case set's shared network, :func:`network_group`), the
-        emission is linearised about this field once: K' = K + diag(4σe·linearised_at³) is reduced once, so K̃
-        (the deck's GL), the super-node capacitance and GR are those of every other case of the set, and only
-        the loads (Y'q and the correction, at this case's own fixed point) differ.  The outer iterations then
-        keep h fixed and converge linearly (measured on examples/composite at 100 super nodes with the network
-        of the 30 W case: 2 to 26 iterations to 1 mK for heater 0 / 60 W, sink −100 °C, deck 0 °C), to the same
-        fixed point as re-linearising: the identity behind the correction holds for any h.  At most
-        :data:`SHARED_OUTER_FACTOR` × ``[reduction] outer_iterations`` iterations
-
-    Returns
-    -------
-    ``(rm', solution, T, history)``: the network (``K`` = K̃, ``Q`` = Y'q + q_lumped + Q_corr at the last
-    reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
-    (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
-    """
-    from .reduce.conduction import blas_threads
-
-    history: list[dict] = []
-    f = model.faces
-    shared = linearised_at is not None
-    def space_only_field():  # the detailed field radiating to space only, with the run's known loads (K)
-        return solve_steady(dataclasses.replace(detailed_problem(model), Q=np.asarray(q_detailed, float)),
-                            tol=0.1, max_iter=case.solver.max_iterations).T
-
-    if not shared and case.radiation.enabled and rm.GR is not None:
-        # with face-to-face radiation, start from the detailed field radiating to space only, with the run's known loads (a sparse Newton on
-        # the FE mesh): it has the fin shapes the thesis' pre-solve lacks.  From the thesis' field, 89 K off at 10
-        # super nodes on examples/composite, the first linearisation could be so far off that the network had no
-        # physical solution (heater 60 W: correction loads of thousands of W, the Newton driving a node to 0 K);
-        # from this one 10 super nodes converge in 7 outer iterations at 30 and 60 W (10 before, and none at 60 W).
-        # (Without exchange that field would be the detailed solution itself: the thesis' field stays the start.)
-        T_ref = space_only_field()
-        presolved = True
-    else:
-        presolved = shared
-    restarted = False
-    n_outer = max(int(case.reduction.outer_iterations), 1) * (SHARED_OUTER_FACTOR if shared else 1)
-    if shared:  # one linearisation for the whole case set: reduce once, keep h fixed
-        base = build_reduced(model, clustering, case, T_ref=np.asarray(linearised_at, float))
-        base = dataclasses.replace(base, radiative=dataclasses.replace(base.radiative, T_sink=model.T_sink))
-        T_ref = np.asarray(linearised_at, float).copy()
-    for it in range(n_outer + (0 if presolved else 1)):  # (one restart may take an iteration)
-        if len(history) >= n_outer:
-            break
-        # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically (shared: h fixed,
-        # the steps shrink linearly)
-        ra_rm = base if shared else build_reduced(model, clustering, case, T_ref=T_ref)
-        # the super nodes' full emitting εA (the untraced g_space of build_reduced): the network's GR lacks the
-        # self-exchange of a concave super node, whose lumped absorption cancels it (module docstring)
-        e_sn = ra_rm.g_space
-        ra_rm = dataclasses.replace(ra_rm, GR=rm.GR, g_space=rm.g_space)
-        ra = ra_rm.radiative
-        T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, ra_rm.supernodes.A @ T_ref)
-        corr = ra.correction(T_ref, T_sn_ref, e_sn)
-        q_rec = q_detailed
-        if ir is not None:
-            p_face = ir.face_power(T_sn_ref, model.T_sink, f.W @ T_ref**4)
-            q_abs = np.asarray(f.W.T @ p_face).ravel()
-            # replace the network's own lumped absorption at the reference by the tallied q_abs through Y': from the
-            # other super nodes σ GR (T_SN⁴ − T_s⁴), and its own (concave super nodes: e_SN − g_space − GR 1, which
-            # the correction's e_SN emission returns lumped).  Exact at the fixed point up to the tally's ray noise
-            # (GR then only carries the linear response); subtracting the tally's own sum per super node instead
-            # leaves the difference of two independent tracings (and, with FE-face emitters, the super faces'
-            # lumping: measured in examples/composite/README.md)
-            d4 = T_sn_ref**4 - model.T_sink**4
-            GR1 = np.asarray(rm.GR.sum(axis=1)).ravel()
-            own = np.maximum(e_sn - rm.g_space - GR1, 0.0)
-            absorbed = SIGMA * (np.asarray(rm.GR @ d4).ravel() + own * d4)
-            corr = corr + ra.reduction.distribute(q_abs) - absorbed
-            q_rec = q_detailed + q_abs
-        ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
-        lin_T, lin_q = T_ref, q_rec - q_detailed  # the network's correction is this field's (transient recovery)
-        try:
-            with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
-                sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance,
-                                   max_iter=case.solver.max_iterations)
-        except Fem2TmmError:
-            if presolved:
-                raise
-            # linearised about the thesis' field, too far off (a strong heater on a thin strip: 2 000 K where the
-            # thesis' field had hundreds), the network has no physical solution: start again from the detailed
-            # field radiating to space only (without face-to-face exchange, the detailed solution itself)
-            T_ref = space_only_field()
-            presolved = restarted = True
-            continue
-        T = ra.recover(sol.T, q_rec, T_ref)
-        d = T - T_ref
-        history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
-                        "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
-                        "correction_W": float(np.abs(corr).sum())})
-        if restarted:
-            history[-1]["restarted"] = ("the network linearised about the thesis' field had no physical solution: "
-                                        "restarted from the detailed field radiating to space")
-            restarted = False
-        T_ref = T
-        step = history[-1]["max_dT_K"]
-        if step < OUTER_TOLERANCE:
-            break
-        if len(history) >= 2:  # contracting: the changes still to come, estimated as a geometric series
-            r = step / max(history[-2]["max_dT_K"], 1e-300)
-            if r < (0.9 if shared else 0.5) and step * r / (1.0 - r) < OUTER_TOLERANCE:
-                history[-1]["stop"] = "estimated remaining change below the tolerance"
-                break
-    # Biot numbers at the last linearisation (the pre-solve's field can be far off with few super nodes: on
-    # examples/composite at 10 super nodes it counted 132 elements over 1 where the converged field has none)
-    import warnings
-
-    biot = biot_numbers(model, ra_rm, ra.h)
-    history[-1]["biot"] = biot
-    if biot["cluster_max"] is not None and biot["cluster_max"] < LOW_BIOT:
-        warnings.warn(f"every cluster has a Biot number h_rad A/(k t) below {LOW_BIOT} (max "
-                      f"{biot['cluster_max']:.3g}): the thesis' uniform-load assumption already holds, and "
-                      "the radiation-aware reduction adds outer iterations for little gain here (and with "
-                      "ir_on = \"super_faces\", absorbed IR lumped per super face, it can be less accurate: "
-                      "docs/design-notes.md); consider [reduction] radiation_aware = false", stacklevel=2)
-    warn_coarse_mesh(biot["elements_over_1"], biot["element_max"])
-    last = history[-1]["max_dT_K"]
-    if last > OUTER_WARN:
-        warnings.warn(f"the radiation-aware reduction did not converge in [reduction] outer_iterations = "
-                      f"{len(history)}: its last step still moved the recovered field by {last:.3g} K (steps "
-                      f"{', '.join(format(h['max_dT_K'], '.3g') for h in history)} K); the temperatures are off "
-                      "by about that much: raise outer_iterations (the steps shrink quadratically once they are "
-                      "small; fewer super nodes need more)", stacklevel=2)
-    ra.history = history
-    ra.shared = shared
-    ra.T_lin, ra.q_tally = lin_T, lin_q
-    # what the network was given (W): the known loads before their distribution; the network's Q sums to less, the
-    # difference being the heat its correction load and the distribution with K' radiate (summary radiated_W)
-    ra.known_load_W = float(np.sum(q_detailed) + np.sum(q_lumped))
-    return ra_rm, sol, T, history
 
 
 @dataclass

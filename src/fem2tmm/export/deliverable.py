@@ -23,7 +23,7 @@ from .transient import deck_transient
 
 def network_arrays(result: Result) -> dict[str, np.ndarray]:
     """The arrays of ``reduced.npz`` (DESIGN §4.3 and §4.7): the network, its solution and its recovery."""
-    rm, rs = result.reduced, result.reduced_solution
+    rm, rs = result.reduced.network, result.reduced.solution
     n = rm.n
     GR = np.zeros((n + 1, n + 1))
     if rm.GR is not None:
@@ -32,20 +32,20 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
     C = rm.C if rm.C is not None else np.full(n, np.nan)
     out = dict(names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR, Q=rm.Q, T=rs.T - KELVIN,
                kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN))
-    if result.recovery is not None:
-        out.update(result.recovery.arrays())
+    if result.reduced.recovery is not None:
+        out.update(result.reduced.recovery.arrays())
     return out
 
 
 def network_deck(result: Result) -> Deck:
     """The ESATAN / SINDA deck of the reduced network."""
-    rm, rs = result.reduced, result.reduced_solution
+    rm, rs = result.reduced.network, result.reduced.solution
     n = rm.n
     numbers, space = node_numbers(rm.part, len(result.model.parts))
     ex = result.case.export
     numbers, space = numbers + ex.node_offset, space + ex.node_offset
     load_terms = ()
-    rec = result.recovery
+    rec = result.reduced.recovery
     if rec is not None and len(rec.load_names):  # each named power / flux: its distribution Y'q per unit value
         pats = rec.load_q.toarray()
         load_terms = tuple((constant_name(nm), float(v), rm.reduction.distribute(p))

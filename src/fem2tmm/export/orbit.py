@@ -19,7 +19,7 @@ def orbit_summary(result: Result) -> dict | None:
     """The ``orbit`` entry of ``summary.json``: the orbit, where the fluxes were traced, and per kind the
     orbit-averaged and largest absorbed power (W, whole model), the rays traced and the largest relative energy
     imbalance of a position (Σ incident - Σ absorbed - lost)."""
-    fl = result.orbit_fluxes
+    fl = None if result.orbit is None else result.orbit.fluxes
     if fl is None:
         return None
     o = result.case.orbit
@@ -39,8 +39,8 @@ def orbit_summary(result: Result) -> dict | None:
     return {"altitude_km": float((o.orbit.semi_major_axis * (1 - o.orbit.eccentricity) - o.orbit.planet.radius) / 1e3),
             "period_s": float(pos.period), "beta_deg": float(o.orbit.beta), "positions": int(len(pos)),
             "eclipse": o.orbit.eclipse, "eclipse_fraction": dark, "attitude": o.attitude.kind,
-            "fluxes_on": result.orbit_on or "detailed", "steady": o.steady,
-            "detailed_mesh": result.orbit_detailed is not None, "super_faces": result.orbit_super_faces is not None,
+            "fluxes_on": result.orbit.fluxes_on or "detailed", "steady": o.steady,
+            "detailed_mesh": result.orbit.detailed is not None, "super_faces": result.orbit.super_faces is not None,
             "kinds": kinds, "segments": int(fl.segments)}
 
 
@@ -50,25 +50,25 @@ def write_orbit_npz(folder: Path, result: Result) -> None:
     ``detailed_incident_<kind>_W`` (k, n_faces) per FE face, ``super_faces_absorbed_<kind>_W`` /
     ``super_faces_incident_<kind>_W`` (k, 2 n_faces) per side; with per-position solves ``temperature_C`` (k,
     n_nodes) (recovered or detailed) and ``reference_temperature_C``; ``node_id`` (n_nodes,)."""
-    fl = result.orbit_fluxes
+    fl = None if result.orbit is None else result.orbit.fluxes
     if fl is None:
         return
     pos = fl.positions
     data = {"true_anomaly_deg": pos.true_anomaly, "time_s": pos.time, "lit": pos.lit, "eclipse": pos.eclipse,
             "event": pos.event.astype(str), "sun_mesh": fl.sun, "nadir_mesh": fl.nadir,
             "position_mesh_m": fl.position, "period_s": np.float64(pos.period)}
-    for name, f in (("detailed", result.orbit_detailed), ("super_faces", result.orbit_super_faces)):
+    for name, f in (("detailed", result.orbit.detailed), ("super_faces", result.orbit.super_faces)):
         if f is None:
             continue
         for kind in f.kinds:  # per FE face (detailed) or per side (super faces), W
             data[f"{name}_absorbed_{kind}_W"] = f.absorbed[kind]
             data[f"{name}_incident_{kind}_W"] = f.incident[kind]
     model = result.model
-    if result.orbit_T_positions is not None:
-        data["temperature_C"] = np.array([model.node_temperatures(T) for T in result.orbit_T_positions]) - KELVIN
-    if result.orbit_T_positions_detailed is not None:
+    if result.orbit.T_positions is not None:
+        data["temperature_C"] = np.array([model.node_temperatures(T) for T in result.orbit.T_positions]) - KELVIN
+    if result.orbit.T_positions_detailed is not None:
         data["reference_temperature_C"] = (np.array([model.node_temperatures(T)
-                                                     for T in result.orbit_T_positions_detailed]) - KELVIN)
+                                                     for T in result.orbit.T_positions_detailed]) - KELVIN)
     data["node_id"] = result.mesh.node_ids
     np.savez(folder / "orbit.npz", **data)
 
@@ -76,7 +76,7 @@ def write_orbit_npz(folder: Path, result: Result) -> None:
 def orbit_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
     """The report's plots ``orbit_fluxes.png`` (absorbed power per kind against the true anomaly) and, with
     per-position solves, ``orbit_temperatures.png``; returns (image, caption) pairs."""
-    fl = result.orbit_fluxes
+    fl = None if result.orbit is None else result.orbit.fluxes
     if fl is None:
         return []
     pos = fl.positions
@@ -90,7 +90,7 @@ def orbit_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
     images = []
     nu = np.asarray(pos.true_anomaly, float)  # in time order from perigee
     fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=110)
-    for f, style, label in ((result.orbit_detailed, "-", "FE faces"), (result.orbit_super_faces, "--", "super faces")):
+    for f, style, label in ((result.orbit.detailed, "-", "FE faces"), (result.orbit.super_faces, "--", "super faces")):
         if f is None:
             continue
         for kind, colour in zip(f.kinds, ("#e69f00", "#0072b2", "#d55e00")):
@@ -99,16 +99,16 @@ def orbit_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
     save_plot(fig, ax, folder / "orbit_fluxes.png", "true anomaly [deg]", "absorbed power [W]",
               "Orbital heat loads, whole model")
     images.append(("orbit_fluxes.png", "Absorbed solar, albedo and planet-IR power along the orbit (grey: eclipse)"))
-    if result.orbit_T_positions is not None:
+    if result.orbit.T_positions is not None:
         fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=110)
         parts = model.parts
         for p, info in enumerate(parts):
             dofs = np.unique(model.element_dofs[model.element_part == p])
             dofs = dofs[dofs >= 0]
-            T = result.orbit_T_positions[:, dofs].mean(axis=1) - KELVIN
+            T = result.orbit.T_positions[:, dofs].mean(axis=1) - KELVIN
             line, = ax.plot(nu, T, "-", label=f"{info.name}")
-            if result.orbit_T_positions_detailed is not None:
-                ax.plot(nu, result.orbit_T_positions_detailed[:, dofs].mean(axis=1) - KELVIN, ":",
+            if result.orbit.T_positions_detailed is not None:
+                ax.plot(nu, result.orbit.T_positions_detailed[:, dofs].mean(axis=1) - KELVIN, ":",
                         color=line.get_color())
         _eclipse_band(ax, pos)
         save_plot(fig, ax, folder / "orbit_temperatures.png", "true anomaly [deg]", "mean temperature [°C]",

@@ -213,14 +213,14 @@ def write_case_folder(result: Result, folder: Path, t0: float | None = None) -> 
     model, mesh = result.model, result.mesh
     T = result.T_nodes
     point_data = {"temperature": T - KELVIN}
-    if result.T_recovered is not None and result.detailed is not None:
+    if result.reduced is not None and result.detailed.solution is not None:
         Td = result.T_detailed_nodes
         point_data["reference_temperature"] = Td - KELVIN
         point_data["error"] = T - Td
     cell_data = {"part": _element_full(model, mesh.n_elements, model.element_part)}
-    if result.clustering is not None:
-        cell_data["cluster"] = result.clustering.labels
-        cell_data["region"] = result.clustering.regions
+    if result.reduced is not None:
+        cell_data["cluster"] = result.reduced.clustering.labels
+        cell_data["region"] = result.reduced.clustering.regions
     if result.absorbed_solar_elements is not None:
         cell_data["absorbed_solar"] = result.absorbed_solar_elements
     write_vtu(folder / "temperatures.vtu", mesh, point_data, cell_data, elements=model.elements)

@@ -170,17 +170,19 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     def face_values(T_dof: np.ndarray) -> np.ndarray:
         return np.asarray(f.W @ T_dof).ravel()
 
-    if result.clustering is not None:
-        note = render_faces(folder / "clusters.png", pts, f.nodes, result.clustering.labels[f.element].astype(float),
+    if result.reduced is not None:
+        labels = result.reduced.clustering.labels[f.element].astype(float)
+        note = render_faces(folder / "clusters.png", pts, f.nodes, labels,
                             "Clusters (super nodes)", "cluster", categorical=True)
         images.append(("clusters.png", "Clusters: each colour is one super node" + note))
-    T_dof = result.T_recovered if result.T_recovered is not None else result.detailed.T
-    kind = "recovered from the reduced model" if result.T_recovered is not None else "detailed model"
+    T_dof = result.reduced.T_recovered if result.reduced is not None else result.detailed.solution.T
+    kind = "recovered from the reduced model" if result.reduced is not None else "detailed model"
     note = render_faces(folder / "temperature.png", pts, f.nodes, face_values(T_dof) - KELVIN,
                         f"Temperature ({kind})", "T [°C]", views=BOTH_SIDES, mark_max=True)
     images.append(("temperature.png", f"Temperature, {kind}, seen from two opposite sides" + note))
-    if result.T_recovered is not None and result.detailed is not None:
-        note = render_faces(folder / "error.png", pts, f.nodes, face_values(result.T_recovered - result.detailed.T),
+    if result.reduced is not None and result.detailed.solution is not None:
+        err = face_values(result.reduced.T_recovered - result.detailed.solution.T)
+        note = render_faces(folder / "error.png", pts, f.nodes, err,
                             "Recovered minus detailed", "ΔT [K]", cmap="coolwarm", symmetric=True, views=BOTH_SIDES)
         images.append(("error.png", "Error of the recovered temperatures against the detailed reference" + note))
     solar = result.absorbed_solar_faces
@@ -189,8 +191,8 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
                             cmap="viridis")
         images.append(("solar.png", "Absorbed solar flux per face" + note))
     images += orbit_plots(folder, result)
-    if result.radiation is not None:
-        _histogram(folder / "lse.png", result.radiation.lse, "Line-sum error of the super-face REFs",
+    if result.reduced is not None and result.reduced.radiation is not None:
+        _histogram(folder / "lse.png", result.reduced.radiation.lse, "Line-sum error of the super-face REFs",
                    "|LSE| (before closure)")
         images.append(("lse.png", "Exchange-factor line-sum errors (super faces)"))
     if result.transient is not None:

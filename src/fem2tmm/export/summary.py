@@ -16,7 +16,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
     """The ``summary.json`` dict of a run (plain JSON types) from its :class:`~fem2tmm.result.Result` and the
     stage timings (s)."""
     case, mesh, model = result.case, result.mesh, result.model
-    detailed = result.detailed
+    detailed = result.detailed.solution
     T = result.T_detailed_nodes
     fixed_heat = {}  # heat flowing INTO each fixed-temperature boundary (SteadySolution.heat_fixed: out of it)
     if detailed is not None:
@@ -56,51 +56,52 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         from .transient import transient_summary
 
         s["transient"] = transient_summary(result)
-    rm, rs = result.reduced, result.reduced_solution
-    if rm is not None:
+    red = result.reduced
+    if red is not None:
+        rm, rs = red.network, red.solution
         n_links_space = int(np.count_nonzero(rm.g_space > 0))
         by_correction = _by_correction(rm)
         s["reduced"] = {
             "super_nodes": int(np.count_nonzero(rm.kind == "cluster")),
             "boundary_nodes": int(np.count_nonzero(rm.kind == "boundary")),
             "kept_nodes": int(np.count_nonzero(rm.kind == "kept")),
-            "super_faces": int(result.super_faces_count if result.super_faces_count is not None
+            "super_faces": int(result.reduced.super_faces_count if result.reduced.super_faces_count is not None
                                 else np.count_nonzero(rm.area > 0)),
             "conductive_links": conductive_links(rm.K),
             "radiative_links": n_links_space + (0 if rm.GR is None else conductive_links(rm.GR)),
             "negative_links": rm.report.get("negative_links", 0),
             "method": rm.report.get("method"),
             # which reduction ran ([reduction] radiation_aware / [radiation] ir_on, "auto" resolved, and why)
-            "choice": result.reduction_choice,
+            "choice": result.reduced.choice,
             "filter": rm.report.get("filter"),
-            "clustering": result.clustering.report if result.clustering is not None else None,
+            "clustering": result.reduced.clustering.report if result.reduced.clustering is not None else None,
             "iterations": rs.iterations,
             "heat_into_fixed_W": {str(rm.names[i]): -float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
             "to_space_W": float(rs.to_space.sum()),
             "radiation_aware": None if rm.radiative is None else {
-                "outer_iterations": result.radiation_aware,
-                "last_step_K": (result.radiation_aware or [{}])[-1].get("max_dT_K"),
+                "outer_iterations": result.reduced.outer_iterations,
+                "last_step_K": (result.reduced.outer_iterations or [{}])[-1].get("max_dT_K"),
                 "H_W_per_K": float(rm.radiative.H[~rm.fixed].sum()),
                 # the heat radiated outside the couplings to space (by the correction load and the distribution
                 # with K' = K + diag(h): the known loads minus the network's Q), and the total heat radiated
                 "radiated_by_correction_W": by_correction,
                 "radiated_W": None if by_correction is None else float(rs.to_space.sum()) + by_correction,
-                "biot": (result.radiation_aware or [{}])[-1].get("biot"),
+                "biot": (result.reduced.outer_iterations or [{}])[-1].get("biot"),
                 # load-case sets: the cases whose decks share GL, GR and C (emission linearised once, about the
                 # converged field of case `linearised_at`); None: this case's own network
-                "shared_network": result.shared_network,
+                "shared_network": result.reduced.shared_network,
                 "note": "K = K'_SN - diag(H_SN) of K' = K + diag(4 sigma eps A T_ref^3); Q includes the correction "
                         "load Q_corr at the last reference state (fem2tmm.reduce.radiative)"},
-            "refinement": None if result.refinement is None else {
-                "target_rms_K": result.case.reduction.target_rms, "stop": result.refinement.stop,
-                "rounds": result.refinement.history, "estimator": result.case.reduction.refine_estimator,
+            "refinement": None if result.reduced.refinement is None else {
+                "target_rms_K": result.case.reduction.target_rms, "stop": result.reduced.refinement.stop,
+                "rounds": result.reduced.refinement.history, "estimator": result.case.reduction.refine_estimator,
                 "note": "estimated RMS of the recovered field: the residual under the true loads (FE faces emitting at "
                         "their own temperatures) solved on the detailed mesh, linearised (fem2tmm.reduce.refine); the "
                         "final round's partition is the one solved and compared"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
-        if result.delivered is not None:
-            s["reduced"]["delivered"] = {k: result.delivered.get(k) for k in ("npz_vs_in_process_K",
+        if result.reduced.delivered is not None:
+            s["reduced"]["delivered"] = {k: result.reduced.delivered.get(k) for k in ("npz_vs_in_process_K",
                                                                                 "esatan_vs_in_process_K",
                                                                                 "esatan_compared", "error")}
         if detailed is not None:
@@ -111,21 +112,21 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 return {"rms_K": float(np.sqrt(np.mean(err**2))), "max_K": float(np.abs(err).max()),
                         "nodes": int(ok.sum())}
 
-            dv = result.delivered
+            dv = result.reduced.delivered
             delivered = dv is not None and dv.get("T") is not None
             # what the user receives: the network written, read back (reduced.npz), solved, recovered with the
             # recovery read from reduced.npz (fem2tmm.export.deliverable); the in-process model's figure beside it
-            s["accuracy"] = accuracy(dv["T"] if delivered else result.T_recovered)
+            s["accuracy"] = accuracy(dv["T"] if delivered else result.reduced.T_recovered)
             s["accuracy"]["of"] = "the exported network" if delivered else "the in-process model"
-            s["accuracy"]["in_process"] = accuracy(result.T_recovered)
-            if result.thesis_T_recovered is not None:
-                s["accuracy"]["thesis_method"] = accuracy(result.thesis_T_recovered)
+            s["accuracy"]["in_process"] = accuracy(result.reduced.T_recovered)
+            if result.reduced.thesis_T_recovered is not None:
+                s["accuracy"]["thesis_method"] = accuracy(result.reduced.thesis_T_recovered)
             s["accuracy"].update(_honesty(result))
-    if result.positive is not None:
-        s["positive_network"] = dict(result.positive)
-        if detailed is not None and result.T_recovered_exact is not None:
+    if red is not None and red.positive is not None:
+        s["positive_network"] = dict(result.reduced.positive)
+        if detailed is not None and result.reduced.T_recovered_exact is not None:
             ok = model.node_dof >= 0
-            e = (model.node_temperatures(result.T_recovered_exact) - T)[ok]
+            e = (model.node_temperatures(result.reduced.T_recovered_exact) - T)[ok]
             exact = {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.abs(e).max())}
             pos = {"rms": s["accuracy"]["rms_K"], "max": s["accuracy"]["max_K"]}
             s["positive_network"]["recovered_error_K"] = {
@@ -162,21 +163,22 @@ def _temperatures(result: Result) -> dict:
     model = result.model
     sets = part_node_sets(model)
     names = [p.name for p in model.parts]
-    reduced = result.T_recovered is not None
+    reduced = result.reduced is not None
     out = {"source": "recovered from the reduced model" if reduced else "detailed model",
            "parts": _stats(result.T_nodes, sets, names), "reference": None, "super_nodes": None}
-    if reduced and result.detailed is not None:
+    if reduced and result.detailed.solution is not None:
         out["reference"] = {"source": "detailed model", "parts": _stats(result.T_detailed_nodes, sets, names)}
-    if result.reduced is not None and result.reduced_solution is not None:
-        out["super_nodes"] = {str(k): float(t - KELVIN) for k, t in zip(result.reduced.names,
-                                                                          result.reduced_solution.T)}
+    if reduced:
+        out["super_nodes"] = {str(k): float(t - KELVIN) for k, t in zip(result.reduced.network.names,
+                                                                          result.reduced.solution.T)}
     return out
 
 
 def _absorbed_solar(result: Result) -> float | None:
     """Absorbed solar power (W) the result model received: the super faces' when traced there, else the detailed
     mesh's; None without a Sun."""
-    r = result.solar_super_faces if result.solar_super_faces is not None else result.solar_detailed
+    r = None if result.reduced is None else result.reduced.solar
+    r = r if r is not None else result.detailed.solar
     return None if r is None else float(r.absorbed)
 
 
@@ -232,7 +234,7 @@ def _radiation_summary(result: Result) -> dict:
                 "capped_energy_fraction": float(res.capped_energy_fraction),
                 "blocked_fraction": float(res.blocked_fraction), "engine": res.engine, "sampling": res.sampling}
 
-    r, d = result.radiation, result.radiation_detailed
+    r, d = None if result.reduced is None else result.reduced.radiation, result.detailed.radiation
     if r is None and d is None:
         return {"model": "space only: every active side radiates to the sink (face-to-face REFs not traced)",
                 "rays": 0, "lse_rms": None, "kappa": None}
@@ -249,15 +251,15 @@ def _radiation_summary(result: Result) -> dict:
 def _honesty(result: Result) -> dict:
     """What the accuracy figures mean: the reference's own noise, the share of the heat radiation carries, and
     the error sources the metric cannot see."""
-    det = result.detailed
+    det = result.detailed.solution
     out_fixed = float(np.clip(-det.heat_fixed, 0, None).sum())  # heat leaving through fixed-temperature nodes
     space = float(det.to_space.sum())
-    noise = result.reference_noise
+    noise = result.detailed.noise
     excludes = []
-    if result.solar_on == "detailed":
+    if result.reduced is not None and result.reduced.solar_on == "detailed":
         excludes.append("solar ray noise and shadow resolution: with solar_on = \"detailed\" the reduced model and "
                         "the reference use the same detailed solar loads")
-    if noise is None and (result.radiation_detailed is not None or result.solar_detailed is not None):
+    if noise is None and (result.detailed.radiation is not None or result.detailed.solar is not None):
         excludes.append("the reference's own ray noise (not estimated: [reference] noise = false)")
     return {
         "reference_noise_rms_K": None if noise is None else noise["rms_K"],
@@ -275,10 +277,10 @@ def _solar_summary(result: Result) -> dict | None:
                 "escaped_W": float(r.escaped), "blocked_W": float(r.blocked), "capped_W": float(r.capped),
                 "rays": int(r.rays)}
 
-    d, sf = result.solar_detailed, result.solar_super_faces
+    d, sf = result.detailed.solar, None if result.reduced is None else result.reduced.solar
     if d is None and sf is None:
         return None
-    out = {"solar_on": result.solar_on or "detailed"}
+    out = {"solar_on": (result.reduced is not None and result.reduced.solar_on) or "detailed"}
     if d is not None:
         out["detailed_mesh"] = one(d)
     if sf is not None:

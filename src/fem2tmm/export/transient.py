@@ -43,7 +43,7 @@ def write_transient_npz(path: Path, result: Result) -> None:
             "node_id": result.mesh.node_ids[nodes].astype(np.int64)}
     if run.reduced is not None:
         data["sn_temperature"] = run.reduced.T - KELVIN
-        data["sn_names"] = result.reduced.names.astype(str)
+        data["sn_names"] = result.reduced.network.names.astype(str)
     if run.detailed is not None and run.T_recovered is not None:
         data["reference_temperature"] = run.detailed.T[:, dofs] - KELVIN
     for name, sol in (("reduced", run.reduced), ("detailed", run.detailed)):
@@ -90,7 +90,7 @@ def write_transient_temp(path: Path, result: Result) -> dict[int, float]:
 def extreme_super_nodes(result: Result) -> tuple[int, int]:
     """Rows of the hottest and coldest cluster super nodes (largest maximum / smallest minimum over time)."""
     T = result.transient.reduced.T
-    rows = np.flatnonzero(result.reduced.kind == "cluster")
+    rows = np.flatnonzero(result.reduced.network.kind == "cluster")
     return int(rows[np.argmax(T[:, rows].max(axis=0))]), int(rows[np.argmin(T[:, rows].min(axis=0))])
 
 
@@ -120,11 +120,12 @@ def transient_summary(result: Result) -> dict:
         acc["node_of_max"] = int(result.mesh.node_ids[node])
         acc["max_per_time_K"] = acc["max_per_time_K"].tolist()
         s["accuracy"] = acc
-    if run.reduced is not None and (result.reduced.kind == "cluster").any():
+    if run.reduced is not None and (result.reduced.network.kind == "cluster").any():
         hot, cold = extreme_super_nodes(result)
-        T = run.reduced.T[:, result.reduced.kind == "cluster"] - KELVIN
+        T = run.reduced.T[:, result.reduced.network.kind == "cluster"] - KELVIN
         s["super_nodes_C"] = {"min": float(T.min()), "max": float(T.max()),
-                              "hottest": str(result.reduced.names[hot]), "coldest": str(result.reduced.names[cold])}
+                              "hottest": str(result.reduced.network.names[hot]),
+                              "coldest": str(result.reduced.network.names[cold])}
     return s
 
 
@@ -136,7 +137,7 @@ def transient_plots(folder: Path, result: Result) -> list[tuple[str, str]]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    run, rm = result.transient, result.reduced
+    run, rm = result.transient, None if result.reduced is None else result.reduced.network
     t = run.times
     unit, scale = ("h", 3600.0) if t[-1] - t[0] > 3 * 3600 else (("min", 60.0) if t[-1] - t[0] > 180 else ("s", 1.0))
     x = t / scale

@@ -41,7 +41,7 @@ depends on T_ref only to second order; at ``T_ref = T*`` (the detailed solution)
 Nothing is counted twice: the linear emission sits in K'_SN only through H_SN, which K̃ removes again, and
 R_SN is the only radiation term of the network.
 
-The outer iteration (``radiation_aware_network`` in the pipeline glue) starts from a cheap pre-solve (the
+The outer iteration (:func:`fem2tmm.reductors.radiation_aware.radiation_aware_network`) starts from a cheap pre-solve (the
 thesis' reduced model, solved and recovered) and repeats at most ``[reduction] outer_iterations`` times:
 linearise about T_ref and reduce K' -> Q_corr at T_ref -> solve the network -> recover -> T_ref.  Its fixed
 point is the detailed solution up to the thesis' lumping of the absorbed radiation per super node (exactly the

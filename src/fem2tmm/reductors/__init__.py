@@ -1,0 +1,97 @@
+"""Reduced methods, one module each: a :class:`~fem2tmm.reductors.base.Reductor` that reduces, exports and
+recovers (pyMOR's reductor pattern, ``reduce()`` / ``reconstruct()``).
+
+===================  =================================================================================
+``thesis``           :mod:`.thesis`: exact local condensation, linear recovery (Jacques 2016 ch. 3)
+``positive``         :mod:`.positive`: the thesis' with a positive sparse network (``network = "positive"``)
+``radiation_aware``  :mod:`.radiation_aware`: emission carried by the shape functions, outer iterations
+===================  =================================================================================
+
+The pipeline runs :func:`first_reductor` (the thesis' or its positive network), resolves ``"auto"`` with
+:func:`choose_reduction` on that result, and, when another method is chosen, runs it from there
+(:func:`reductor_for`).  A new method: a module with a :class:`~fem2tmm.reductors.base.Reductor` subclass, its
+name in :data:`REDUCTORS`, and the rule that chooses it in :func:`reductor_for`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..case import Case
+from ..constants import SIGMA
+from ..fem.model import FEModel
+from ..reduce.network import ReducedModel
+from ..stages import biot_numbers
+from ..result import Reduced
+from .base import ReductionInputs, Reductor, exported_arrays
+from .positive import PositiveReductor
+from .radiation_aware import RadiationAwareReductor
+from .thesis import ThesisReductor
+
+__all__ = ["AUTO_BIOT", "REDUCTORS", "Reduced", "ReductionInputs", "Reductor", "choose_reduction",
+           "exported_arrays", "first_reductor", "reductor_for"]
+
+#: every reduction method by name (``Reduced.method``, ``summary.json reduced.method``)
+REDUCTORS: dict[str, type[Reductor]] = {r.name: r for r in (ThesisReductor, PositiveReductor,
+                                                            RadiationAwareReductor)}
+
+
+def first_reductor(case: Case) -> Reductor:
+    """The method every run starts with: the thesis' reduction, with its positive network when ``[reduction]
+    network = "positive"``."""
+    return REDUCTORS["positive" if case.reduction.network == "positive" else "thesis"]()
+
+
+def reductor_for(case: Case) -> Reductor:
+    """The method a case runs, its ``"auto"`` settings resolved (:func:`choose_reduction`)."""
+    return REDUCTORS["radiation_aware"]() if case.reduction.radiation_aware is True else first_reductor(case)
+
+
+
+#: ``[reduction] radiation_aware = "auto"`` chooses the radiation-aware reduction when the largest cluster Biot number
+#: h_rad A/(k t) at the thesis' recovered field reaches this: a cluster as wide as the panel's fin length
+#: √(k t / h_rad), beyond which the thesis' uniform-load shape functions no longer hold (its error grows like Bi,
+#: docs/design-notes.md "Which reduction by default").  Measured on the committed studies (2026-12-04, the README
+#: table): the composite box (Bi 2-60: thesis 20 K RMS, radiation-aware 0.2 K) and the satellite (Bi > 1) above it;
+#: fin, cylinders, baffle (Bi ≤ 0.2: thesis within 0.1 K) below, where the radiation-aware reduction would cost its
+#: outer iterations (2-3x the run) for hundredths of a kelvin.
+AUTO_BIOT = 1.0
+
+
+def choose_reduction(model: FEModel, case: Case, rm: ReducedModel, T: np.ndarray) -> tuple[Case, dict]:
+    """Resolve ``[reduction] radiation_aware`` and ``[radiation] ir_on`` when they are ``"auto"``.
+
+    ``rm`` the thesis' reduced model, ``T`` (n_dof,) K its recovered field.  ``radiation_aware = "auto"`` becomes
+    true when ``ir_on`` asks for the FE faces ("faces", "detailed"), false with ``network = "positive"`` (not
+    defined for it) or without emission, and otherwise true when the largest cluster Biot number
+    (:func:`biot_numbers`, h = 4σ εA T³ of every active side at ``T``, as :func:`biot_weights`) is at least
+    :data:`AUTO_BIOT`.  ``ir_on = "auto"`` becomes "faces" with the radiation-aware reduction and face-to-face
+    radiation, else "super_faces".  Returns the case with both set and ``{"radiation_aware", "ir_on", "chosen_by",
+    "biot_cluster_max"}`` for the summary (the Biot number whenever something radiates, None without shells).
+    """
+    red, rad = case.reduction, case.radiation
+    g = model.space_coupling()
+    bi = None
+    if np.any(g > 0):  # (reported whatever decides: it says how far the thesis' assumption is from holding)
+        bi = biot_numbers(model, rm, 4.0 * SIGMA * g * np.maximum(np.asarray(T, float), 0.0) ** 3)["cluster_max"]
+    if red.radiation_aware != "auto":
+        aware = bool(red.radiation_aware)
+        why = f"[reduction] radiation_aware = {str(aware).lower()}"
+    elif red.network == "positive":
+        aware, why = False, "auto: network = \"positive\" is the thesis' reduction's"
+    elif rad.ir_on in ("faces", "detailed"):
+        aware, why = True, f"auto: [radiation] ir_on = \"{rad.ir_on}\" needs it"
+    elif not np.any(g > 0):
+        aware, why = False, "auto: nothing radiates"
+    else:
+        aware = bi is not None and bi >= AUTO_BIOT
+        why = (f"auto: largest cluster Biot number {bi:.3g} {'>=' if aware else '<'} {AUTO_BIOT:g}" if bi is not None
+               else "auto: no radiating shell clusters")
+    ir_on = rad.ir_on if rad.ir_on != "auto" else ("faces" if aware and rad.enabled else "super_faces")
+    resolved = dataclasses.replace(case, reduction=dataclasses.replace(red, radiation_aware=aware),
+                                   radiation=dataclasses.replace(rad, ir_on=ir_on))
+    return resolved, {"radiation_aware": aware, "ir_on": ir_on, "chosen_by": why,
+                      "biot_cluster_max": None if bi is None else float(bi)}
+

@@ -1,0 +1,250 @@
+"""The radiation-aware reduction (:mod:`fem2tmm.reduce.radiative`): shape functions that carry the emission.
+
+Where a cluster is wider than its panel's fin length √(k t / h_rad) (cluster Biot number ≥ 1: thin radiating
+composites), the thesis' uniform-load shape functions no longer hold.  This method condenses K + diag(4σe T³)
+about a reference field instead, adds the correction load that makes the network exact at that field, and iterates
+(outer iterations) to the fixed point where the reference is the recovered field itself.  Its recovery is the
+emission-mode constrained solve of :class:`~fem2tmm.reduce.exported.ExportedRecovery`, which needs no reference
+state: temperatures of any load state recover with it.  With ``[radiation] ir_on = "faces"`` (the default with this
+method) every active FE side emits at its own recovered temperature through its own REFs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+
+from ..case import Case
+from ..cluster import Clustering
+from ..constants import SIGMA
+from ..errors import Fem2TmmError
+from ..fem.model import FEModel
+from ..reduce.exported import ExportedRecovery
+from ..reduce.network import ReducedModel, build_reduced
+from ..solve.steady import SteadySolution, solve_steady
+from ..stages import IRAbsorption, biot_numbers, detailed_problem, reduced_problem, warn_coarse_mesh
+from .base import Reduced, ReductionInputs, Reductor, exported_arrays
+
+OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this, or once
+# the changes still to come (contracting steps, a geometric estimate: step r/(1 - r), r the ratio of the last two)
+# are below it: each iteration re-reduces every cluster (the truss: ~20 s each at 10 super nodes)
+#: a shared linearisation (load-case sets) converges linearly: this many times ``outer_iterations`` at most
+SHARED_OUTER_FACTOR = 4
+OUTER_WARN = 0.05  # K: a warning when the last outer iteration still moved the field by more than this
+# Largest cluster Biot number below which the radiation-aware reduction warns that it is not needed: the EUI
+# baffle (cluster Bi <= 0.0044) gains nothing resolvable from it; the composite box, which it wins, has Bi 2-60
+LOW_BIOT = 0.1
+
+
+class RadiationAwareReductor(Reductor):
+    """The radiation-aware reduction, started from the thesis' reduction of the same inputs (its network's
+    couplings GR and g_space are kept; its recovered field is the first reference).  ``method_report`` holds one dict per
+    outer iteration (:func:`radiation_aware_network`), ``ir`` the traced IR absorption (``ir_on`` "faces" or
+    "detailed")."""
+
+    name = "radiation_aware"
+    #: the run's own field is its exported recovery's (the fixed point, to 1e-10 K): what a user recovers from the
+    #: network's temperatures with ``fem2tmm recover``
+    field_from_export = True
+
+    def reduce(self, inputs: ReductionInputs, prog, start: Reduced | None = None) -> Reduced:
+        if start is None:
+            raise ValueError("the radiation-aware reduction starts from the thesis' reduction of the same inputs")
+        case, model = inputs.case, inputs.model
+        ir = None
+        if inputs.trace_ir is not None and case.radiation.ir_on in ("detailed", "faces"):
+            with prog.stage("ir_detailed", "tracing the FE sides' IR exchange factors (ir_on = faces)"
+                            if case.radiation.ir_on == "faces" else
+                            "tracing where the super faces' IR is absorbed (FE sides)"):
+                ir = inputs.trace_ir(case)
+        notes = []
+        with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
+            args = (model, inputs.clustering, case, start.network, inputs.q_recover, inputs.q_lumped,
+                    start.T_recovered)
+            try:
+                rm, sol, T, history = radiation_aware_network(*args, ir, linearised_at=inputs.linearised_at)
+            except Fem2TmmError as exc:
+                if not (inputs.ir_on_asked == "auto" and case.radiation.ir_on == "faces"):
+                    raise
+                # ir_on chosen by "auto": the per-side IR correction, linearised far from the solution, can leave
+                # the network without a physical solution (a 0.1 mm panel under 745 W on one super node,
+                # tests/test_robustness.py); the super faces' IR (ir_on = "super_faces") is the robust form
+                warnings.warn(f"the radiation-aware network with ir_on = \"faces\" has no physical steady solution "
+                              f"here ({exc}); it runs with ir_on = \"super_faces\" (absorbed IR uniform per super "
+                              "node)", stacklevel=2)
+                case = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation, ir_on="super_faces"))
+                notes.append("ir_on = \"faces\" had no network solution: \"super_faces\"")
+                ir = None
+                rm, sol, T, history = radiation_aware_network(*args[:2], case, *args[3:], None,
+                                                              linearised_at=inputs.linearised_at)
+        return Reduced(method=self.name, network=rm, solution=sol, T_recovered=T, q_recover=inputs.q_recover,
+                         case=case, method_report=history, ir=ir, notes=notes)
+
+    def export(self, inputs: ReductionInputs, reduction: Reduced) -> ExportedRecovery:
+        """The emission-mode recovery (module docstring), with the traced IR absorption when there is one."""
+        model, ir = inputs.model, reduction.ir
+        kw = {"mode": "emission", "e": np.asarray(reduction.network.radiative.e, float)}
+        if ir is not None:
+            kw.update(ir_A=ir.A.tocsr(), ir_owner=np.asarray(ir.owner, np.int64), ir_eps_area=np.asarray(ir.eps_area),
+                      ir_face=np.zeros(0, np.int64) if ir.face is None else np.asarray(ir.face, np.int64),
+                      face_W=model.faces.W.tocsr())
+        return ExportedRecovery(**exported_arrays(inputs, reduction.network), **kw)
+
+    def reconstruct(self, reduction: Reduced, T_sn: np.ndarray, loads: dict | None = None,
+                    T0: np.ndarray | None = None) -> np.ndarray:
+        """The exported recovery's constrained nonlinear solve (it holds for any load state)."""
+        return reduction.recovery.recover(T_sn, loads=loads, T0=T0)
+
+
+def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
+                            q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray,
+                            ir: IRAbsorption | None = None, linearised_at: np.ndarray | None = None
+                            ) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
+    """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
+
+    Parameters
+    ----------
+    model, clustering, case : as for :func:`~fem2tmm.reduce.network.build_reduced`
+    rm : the thesis' reduced model with its radiation (``GR``, ``g_space``), whose couplings are kept
+    q_detailed : (n_dof,) W loads known on the detailed mesh (heaters, detailed solar): distributed by Y'
+    q_lumped : (n,) W loads already lumped per super node (super-face solar)
+    T_ref : (n_dof,) K the pre-solve's recovered field ; with face-to-face radiation the emission is first
+        linearised about the detailed field radiating to space only (solved to 0.1 K) instead, then about each outer iteration's
+        field: at most ``[reduction] outer_iterations`` reductions and network solves, fewer once the field moves, or is estimated to move from then on, less than :data:`OUTER_TOLERANCE`
+    ir : where the absorbed IR lands (``ir_on = "detailed"``), or None (thesis: uniform per super node).  Given,
+        the absorbed power of every FE face at the reference state, q_abs, goes through the exact power
+        distribution like a known load: ``Y' q_abs − S q_abs`` (S: sum per super node) is added to the network's
+        loads (it moves power within and between super nodes, the total is kept) and q_abs to the recovery
+    linearised_at : (n_dof,) K or None.  Given (a load-case set's shared network, :func:`network_group`), the
+        emission is linearised about this field once: K' = K + diag(4σe·linearised_at³) is reduced once, so K̃
+        (the deck's GL), the super-node capacitance and GR are those of every other case of the set, and only
+        the loads (Y'q and the correction, at this case's own fixed point) differ.  The outer iterations then
+        keep h fixed and converge linearly (measured on examples/composite at 100 super nodes with the network
+        of the 30 W case: 2 to 26 iterations to 1 mK for heater 0 / 60 W, sink −100 °C, deck 0 °C), to the same
+        fixed point as re-linearising: the identity behind the correction holds for any h.  At most
+        :data:`SHARED_OUTER_FACTOR` × ``[reduction] outer_iterations`` iterations
+
+    Returns
+    -------
+    ``(rm', solution, T, history)``: the network (``K`` = K̃, ``Q`` = Y'q + q_lumped + Q_corr at the last
+    reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
+    (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
+    """
+    from ..reduce.conduction import blas_threads
+
+    history: list[dict] = []
+    f = model.faces
+    shared = linearised_at is not None
+    def space_only_field():  # the detailed field radiating to space only, with the run's known loads (K)
+        return solve_steady(dataclasses.replace(detailed_problem(model), Q=np.asarray(q_detailed, float)),
+                            tol=0.1, max_iter=case.solver.max_iterations).T
+
+    if not shared and case.radiation.enabled and rm.GR is not None:
+        # with face-to-face radiation, start from the detailed field radiating to space only, with the run's known loads (a sparse Newton on
+        # the FE mesh): it has the fin shapes the thesis' pre-solve lacks.  From the thesis' field, 89 K off at 10
+        # super nodes on examples/composite, the first linearisation could be so far off that the network had no
+        # physical solution (heater 60 W: correction loads of thousands of W, the Newton driving a node to 0 K);
+        # from this one 10 super nodes converge in 7 outer iterations at 30 and 60 W (10 before, and none at 60 W).
+        # (Without exchange that field would be the detailed solution itself: the thesis' field stays the start.)
+        T_ref = space_only_field()
+        presolved = True
+    else:
+        presolved = shared
+    restarted = False
+    n_outer = max(int(case.reduction.outer_iterations), 1) * (SHARED_OUTER_FACTOR if shared else 1)
+    if shared:  # one linearisation for the whole case set: reduce once, keep h fixed
+        base = build_reduced(model, clustering, case, T_ref=np.asarray(linearised_at, float))
+        base = dataclasses.replace(base, radiative=dataclasses.replace(base.radiative, T_sink=model.T_sink))
+        T_ref = np.asarray(linearised_at, float).copy()
+    for it in range(n_outer + (0 if presolved else 1)):  # (one restart may take an iteration)
+        if len(history) >= n_outer:
+            break
+        # (re-)linearise about the latest field: Newton-like, the steps shrink quadratically (shared: h fixed,
+        # the steps shrink linearly)
+        ra_rm = base if shared else build_reduced(model, clustering, case, T_ref=T_ref)
+        # the super nodes' full emitting εA (the untraced g_space of build_reduced): the network's GR lacks the
+        # self-exchange of a concave super node, whose lumped absorption cancels it (module docstring)
+        e_sn = ra_rm.g_space
+        ra_rm = dataclasses.replace(ra_rm, GR=rm.GR, g_space=rm.g_space)
+        ra = ra_rm.radiative
+        T_sn_ref = np.where(ra_rm.fixed, ra_rm.T_fixed, ra_rm.supernodes.A @ T_ref)
+        corr = ra.correction(T_ref, T_sn_ref, e_sn)
+        q_rec = q_detailed
+        if ir is not None:
+            p_face = ir.face_power(T_sn_ref, model.T_sink, f.W @ T_ref**4)
+            q_abs = np.asarray(f.W.T @ p_face).ravel()
+            # replace the network's own lumped absorption at the reference by the tallied q_abs through Y': from the
+            # other super nodes σ GR (T_SN⁴ − T_s⁴), and its own (concave super nodes: e_SN − g_space − GR 1, which
+            # the correction's e_SN emission returns lumped).  Exact at the fixed point up to the tally's ray noise
+            # (GR then only carries the linear response); subtracting the tally's own sum per super node instead
+            # leaves the difference of two independent tracings (and, with FE-face emitters, the super faces'
+            # lumping: measured in examples/composite/README.md)
+            d4 = T_sn_ref**4 - model.T_sink**4
+            GR1 = np.asarray(rm.GR.sum(axis=1)).ravel()
+            own = np.maximum(e_sn - rm.g_space - GR1, 0.0)
+            absorbed = SIGMA * (np.asarray(rm.GR @ d4).ravel() + own * d4)
+            corr = corr + ra.reduction.distribute(q_abs) - absorbed
+            q_rec = q_detailed + q_abs
+        ra_rm = dataclasses.replace(ra_rm, Q=ra.reduction.distribute(q_detailed) + q_lumped + corr)
+        lin_T, lin_q = T_ref, q_rec - q_detailed  # the network's correction is this field's (transient recovery)
+        try:
+            with blas_threads(1):  # a dense Newton on ~100 nodes: threads only contend on a shared machine
+                sol = solve_steady(reduced_problem(ra_rm), tol=case.solver.tolerance,
+                                   max_iter=case.solver.max_iterations)
+        except Fem2TmmError:
+            if presolved:
+                raise
+            # linearised about the thesis' field, too far off (a strong heater on a thin strip: 2 000 K where the
+            # thesis' field had hundreds), the network has no physical solution: start again from the detailed
+            # field radiating to space only (without face-to-face exchange, the detailed solution itself)
+            T_ref = space_only_field()
+            presolved = restarted = True
+            continue
+        T = ra.recover(sol.T, q_rec, T_ref)
+        d = T - T_ref
+        history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
+                        "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
+                        "correction_W": float(np.abs(corr).sum())})
+        if restarted:
+            history[-1]["restarted"] = ("the network linearised about the thesis' field had no physical solution: "
+                                        "restarted from the detailed field radiating to space")
+            restarted = False
+        T_ref = T
+        step = history[-1]["max_dT_K"]
+        if step < OUTER_TOLERANCE:
+            break
+        if len(history) >= 2:  # contracting: the changes still to come, estimated as a geometric series
+            r = step / max(history[-2]["max_dT_K"], 1e-300)
+            if r < (0.9 if shared else 0.5) and step * r / (1.0 - r) < OUTER_TOLERANCE:
+                history[-1]["stop"] = "estimated remaining change below the tolerance"
+                break
+    # Biot numbers at the last linearisation (the pre-solve's field can be far off with few super nodes: on
+    # examples/composite at 10 super nodes it counted 132 elements over 1 where the converged field has none)
+
+
+    biot = biot_numbers(model, ra_rm, ra.h)
+    history[-1]["biot"] = biot
+    if biot["cluster_max"] is not None and biot["cluster_max"] < LOW_BIOT:
+        warnings.warn(f"every cluster has a Biot number h_rad A/(k t) below {LOW_BIOT} (max "
+                      f"{biot['cluster_max']:.3g}): the thesis' uniform-load assumption already holds, and "
+                      "the radiation-aware reduction adds outer iterations for little gain here (and with "
+                      "ir_on = \"super_faces\", absorbed IR lumped per super face, it can be less accurate: "
+                      "docs/design-notes.md); consider [reduction] radiation_aware = false", stacklevel=2)
+    warn_coarse_mesh(biot["elements_over_1"], biot["element_max"])
+    last = history[-1]["max_dT_K"]
+    if last > OUTER_WARN:
+        warnings.warn(f"the radiation-aware reduction did not converge in [reduction] outer_iterations = "
+                      f"{len(history)}: its last step still moved the recovered field by {last:.3g} K (steps "
+                      f"{', '.join(format(h['max_dT_K'], '.3g') for h in history)} K); the temperatures are off "
+                      "by about that much: raise outer_iterations (the steps shrink quadratically once they are "
+                      "small; fewer super nodes need more)", stacklevel=2)
+    ra.history = history
+    ra.shared = shared
+    ra.T_lin, ra.q_tally = lin_T, lin_q
+    # what the network was given (W): the known loads before their distribution; the network's Q sums to less, the
+    # difference being the heat its correction load and the distribution with K' radiate (summary radiated_W)
+    ra.known_load_W = float(np.sum(q_detailed) + np.sum(q_lumped))
+    return ra_rm, sol, T, history
+
