@@ -374,7 +374,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     q_solar = None  # detailed solar nodal loads (n_dof,) W
     dpart = Detailed()  # the detailed model's part of the result (its fields set by the stages that run)
     opart = Orbit() if orbit is not None else None
-    clustering = reduced = None
+    clustering = reduced = reductor = None
     extra = {}  # what the run adds to the reduction method's output (result.reduced)
 
     # clustering (following a coarse solar map when asked)
@@ -612,6 +612,8 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
 
     result.detailed, result.orbit = dpart, opart
     net = None if reduced is None else reduced.network
+    # the exported recovery recovers the run's transient and per-position fields when it is the method's own
+    exported = reduced.recovery if reduced is not None and reductor.field_from_export else None
 
     # transient: the reduced model in time (recovered at every output time) and the detailed reference
     if case.transient is not None:
@@ -630,7 +632,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             result.transient = run_transient(case, model, net, None if rs is None else rs.T,
                                              None if reduced is None else reduced.q_recover,
                                              problem if with_ref else None, None if det is None else det.T,
-                                             orbit=orbit_loads, exported=None if reduced is None else reduced.recovery)
+                                             orbit=orbit_loads, exported=exported)
 
     if reduced is not None:  # what the user receives: the network written, read back, solved, recovered
         from .handover import check_deliverable

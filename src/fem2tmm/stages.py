@@ -435,8 +435,9 @@ def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.nd
     loads and the positions' loads; the radiation-aware network: its loads at the orbit average and each
     position's departure from that average, through its own Y'), recovered with ``q_recover`` + ``q_dof[j]`` (the
     exact distribution; (k, n_dof) W) or ``q_recover`` alone (super-face loads, uniform over each super node); the
-    radiation-aware network with ``exported`` (its :class:`~fem2tmm.reduce.exported.ExportedRecovery`, each position's
-    orbital loads; as its transient and ``fem2tmm recover``), started from the recovery about its linearisation.
+    radiation-aware network with ``exported`` (its :class:`~fem2tmm.reduce.exported.ExportedRecovery`, given when it
+    is the method's own recovery; each position's orbital loads, as its transient and ``fem2tmm recover``), started
+    from the recovery about its linearisation.
     Starts from ``T0``; returns (k, n_dof) K."""
     ra = rm.radiative
     recover = ra.recover_linearised if ra is not None and ra.T_lin is not None else rm.reduction.recover
@@ -447,7 +448,7 @@ def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.nd
                            max_iter=case.solver.max_iterations)
         T = sol.T
         T_rec = recover(T, q_recover if q_dof is None else q_recover + q_dof[j])
-        if ra is not None and exported is not None:
+        if exported is not None:
             try:
                 T_rec = exported.recover(T, T0=T_rec, positions=np.array([j]) if q_dof is not None else None)
             except Fem2TmmError as exc:  # no quasi-static field above 0 K: keep the linearised one, say so
@@ -719,8 +720,10 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
     ``q_recover`` (n_dof,) W the detailed loads at the start that the recovery uses (applied + detailed solar).
     ``orbit``: the orbital loads (:class:`OrbitLoads`); the steady loads hold their orbit average, the transient
     follows them in time (periodic with the orbital period from ``[transient] start``).  ``exported``: the
-    network's :class:`~fem2tmm.reduce.exported.ExportedRecovery`; a radiation-aware network's output times are
-    recovered with it (:func:`exported_series`), as a user's run of the deck through ``fem2tmm recover`` is.
+    network's :class:`~fem2tmm.reduce.exported.ExportedRecovery` when the reduction method's field is that
+    recovery's (:attr:`fem2tmm.reductors.base.Reductor.field_from_export`: the radiation-aware one): every output
+    time is recovered with it (:func:`exported_series`), as a user's run of the deck through ``fem2tmm recover`` is;
+    None: the network's linear recovery (about its linearisation, for a radiation-aware network).
     """
     from .fem.model import consistent_capacity
 
@@ -772,7 +775,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
         # the radiation-aware network: recovered about its own linearisation (its correction load is that state's)
         recover = ra.recover_linearised if ra is not None and ra.T_lin is not None else rm.reduction.recover
         run.T_recovered = recover_series(recover, run.reduced.T, q, run.times)
-        if ra is not None and exported is not None:
+        if exported is not None:
             # what the user's own run of the deck recovers to: the exported recovery (reduced.npz, fem2tmm recover)
             # at every output time, with that time's named loads, sink and orbital loads (from the linearised one)
             run.T_recovered = exported_series(exported, case, run.reduced.T, run.times, sink, settings,
