@@ -54,6 +54,7 @@ REGISTRY: dict[str, str] = {
     "refine": "benchmarks.refine:bench_refine",
     "envelope": "benchmarks.envelope:bench_envelope",
     "envelope_orbit": "benchmarks.envelope:bench_envelope_orbit",
+    "envelope_parametric": "benchmarks.envelope:bench_envelope_parametric",
     "robustness": "benchmarks.robustness:bench_robustness",
     "rom": "benchmarks.rom:bench_rom_all",
     "satellite": "benchmarks.satellite:bench_satellite",
