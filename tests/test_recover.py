@@ -256,3 +256,47 @@ def test_a_radiation_aware_transient_fed_back_reproduces_the_runs_recovery(tmp_p
     # and it still follows the detailed transient (measured 0.387 K RMS, the thesis' 4.8 K; test_radiation_aware)
     det = np.array([res.model.node_temperatures(T) for T in tr.detailed.T]).T - KELVIN
     assert np.sqrt(np.mean((mine[ok] - det[ok]) ** 2)) < 0.6
+
+
+def test_per_position_temperatures_fed_back_with_their_positions_reproduce_the_run(tmp_path, capsys):
+    # [orbit] steady = "positions" with the radiation-aware network: each position is solved on the network handed
+    # over and recovered with the exported recovery and that position's orbital loads.  The recovery imposes the
+    # super-node means (A T = T_SN), so A T_j are position j's super-node temperatures; fed back through the CLI
+    # with a 'position' row (counted from 1) they give the run's per-position field back to the recovery's Newton
+    # tolerance (1e-10 K; 1e-8 asserted).  Without the row, the orbit-average loads: measurably off.
+    from fem2tmm.case import Case
+
+    box = meshes.box(0.2, 0.2, 0.2, 5, 5, 5)
+    case = Case.from_dict({
+        "materials": {"cf": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
+        "optics": {"paint": {"emissivity": 0.8, "absorptivity": 0.6}},
+        "parts": [{"name": "box", "groups": ["box"], "material": "cf", "thickness": 1e-3, "front": "paint",
+                   "back": "paint", "super_nodes": 4}],
+        "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
+        "reduction": {"radiation_aware": True},
+        "orbit": {"altitude": 700e3, "inclination": 98.0, "beta": 20.0, "positions": 6, "rays_per_face": 20,
+                  "fluxes_on": "detailed", "steady": "positions",
+                  "attitude": {"kind": "nadir", "primary": "-z", "secondary": "+x"}},
+        "reference": {"detailed": False}})
+    res = run(case, out=tmp_path / "out", mesh=box)
+    assert res.reduced.method == "radiation_aware"
+    rec = load(tmp_path / "out" / "reduced.npz")
+    T_pos = res.orbit.T_positions  # (k, n_dof) K
+    cols = [np.asarray(rec.A @ T).ravel() - KELVIN for T in T_pos]
+    k = len(cols)
+    f = write_csv(tmp_path / "T.csv", rec.names, cols, header=[f"p{j + 1}" for j in range(k)],
+                  extra=[["position"] + [str(j + 1) for j in range(k)]])
+    assert main(["recover", str(tmp_path / "out"), "--temperatures", str(f), "--out", str(tmp_path / "back")]) == 0
+    back = recover(tmp_path / "out", f)["temperature"]
+    mine = np.array([rec.node_temperatures(T) for T in T_pos]).T - KELVIN
+    ok = np.isfinite(mine)
+    assert np.abs(back[ok] - mine[ok]).max() < 1e-8
+    f2 = write_csv(tmp_path / "T2.csv", rec.names, cols, header=[f"p{j + 1}" for j in range(k)])
+    assert np.abs(recover(tmp_path / "out", f2)["temperature"][ok] - mine[ok]).max() > 1e-2
+    # positions are counted from 1 and must exist; not with a time row
+    capsys.readouterr()
+    for row, message in ((["position"] + ["0"] * k, "counted from 1"), (["position"] + [str(k + 1)] * k,
+                                                                      f"orbit position {k + 1} of a network with {k}")):
+        bad = write_csv(tmp_path / "bad.csv", rec.names, cols, header=[f"p{j + 1}" for j in range(k)], extra=[row])
+        assert main(["recover", str(tmp_path / "out"), "--temperatures", str(bad), "--out", str(tmp_path / "x")]) == 2
+        assert message in capsys.readouterr().err and not (tmp_path / "x").exists()

@@ -45,8 +45,8 @@ def _parser() -> argparse.ArgumentParser:
     rc.add_argument("out_dir", help="output folder of a fem2tmm run (its reduced.npz and temperatures.vtu)")
     rc.add_argument("--temperatures", required=True,
                     help="CSV with a header row: super-node name, then one column per time or case (degC); optional "
-                         "rows: a named load (W or W/m2), 'sink' (degC) and 'time' (s: that time's orbital loads) "
-                         "per column")
+                         "rows: a named load (W or W/m2), 'sink' (degC), and 'time' (s: that time's orbital loads) "
+                         "or 'position' (orbit position from 1: its loads) per column")
     rc.add_argument("--out", default=None, help="output folder (default: <OUT_DIR>-recovered next to it)")
     _network_parser(sub)
     return p

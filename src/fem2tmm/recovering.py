@@ -9,7 +9,9 @@ The temperature file is a CSV with a header row: first column the super-node nam
 of the network must have a row.  Optional rows: a named load (``[[boundary]]`` name of a power or flux boundary, in
 W or W/m²) and ``sink`` (°C) give that value per column; the design value otherwise; ``time`` (s, on the run's
 time axis) gives each column's orbital loads to a network with orbital loads traced on the FE faces (the orbit
-average otherwise, as in the steady design case).  Outputs (written atomically,
+average otherwise, as in the steady design case), or ``position`` (the orbit position counted from 1: position 1
+is the first row of ``orbit.npz``'s per-position arrays; ``[orbit] steady = "positions"``) that position's loads
+exactly.  Outputs (written atomically,
 never over anything fem2tmm did not write): ``temperatures.vtu`` (one column) or ``temperatures.pvd`` with one VTU
 per column in ``temperatures/``, ``temperatures.bdf`` (one Nastran TEMP load set per column, SID 1, 2, ...) and
 ``temperatures.inp`` (one Abaqus/CalculiX ``*STEP`` with ``*TEMPERATURE`` per column).
@@ -28,11 +30,12 @@ from .errors import Fem2TmmError
 
 
 def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.ndarray
-                           ) -> tuple[np.ndarray, dict, np.ndarray | None, list[str], np.ndarray | None]:
+                           ) -> tuple[np.ndarray, dict, np.ndarray | None, list[str], np.ndarray | None,
+                                      np.ndarray | None]:
     """Parse a temperature CSV (module docstring).
 
-    Returns ``(T_sn (n_sn, k) K, loads {name: (k,)}, sinks (k,) K or None, column labels, times (k,) s or None)``;
-    raises
+    Returns ``(T_sn (n_sn, k) K, loads {name: (k,)}, sinks (k,) K or None, column labels, times (k,) s or None,
+    positions (k,) int (counted from 0) or None)``; raises
     :class:`Fem2TmmError` naming the row and column of a missing or unknown node or a non-numeric value.
     """
     path = Path(path)
@@ -50,7 +53,7 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
     loads_index = {str(n).upper(): str(n) for n in load_names}
     T = np.full((len(names), k), np.nan)
     loads: dict[str, np.ndarray] = {}
-    sinks = times = None
+    sinks = times = positions = None
     seen: dict[int, int] = {}
     for lineno, row in enumerate(rows[1:], start=2):
         key = row[0].strip()
@@ -79,9 +82,15 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
             sinks = vals + KELVIN
         elif up == "TIME":
             times = vals
+        elif up == "POSITION":
+            if np.any(vals != np.round(vals)) or np.any(vals < 1):
+                raise Fem2TmmError(f"{path}: row {lineno} ('position'): orbit positions are counted from 1 (the rows "
+                                   f"of orbit.npz): {', '.join(format(v, 'g') for v in vals[:5])}")
+            positions = vals.astype(np.int64) - 1
         else:
             raise Fem2TmmError(f"{path}: row {lineno}: {key!r} is no super node of this network (nor a named load: "
-                               f"{', '.join(map(str, load_names)) or 'none'}, nor 'sink' or 'time'); its super nodes are "
+                               f"{', '.join(map(str, load_names)) or 'none'}, nor 'sink', 'time' or 'position'); its "
+                               "super nodes are "
                                f"{', '.join(map(str, names[:8]))}{' ...' if len(names) > 8 else ''}")
     missing = [str(names[i]) for i in range(len(names)) if i not in seen]
     if missing:
@@ -90,7 +99,10 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
                            "network needs its temperature")
     if np.any(T <= 0.0) or (sinks is not None and np.any(sinks <= 0.0)):
         raise Fem2TmmError(f"{path}: temperatures must be above absolute zero (the file is in °C)")
-    return T, loads, sinks, labels, times
+    if times is not None and positions is not None:
+        raise Fem2TmmError(f"{path}: give a 'time' row or a 'position' row, not both (a position's loads are exact, "
+                           "a time's interpolated between positions)")
+    return T, loads, sinks, labels, times, positions
 
 
 def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) -> dict:
@@ -102,7 +114,7 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) ->
         A ``fem2tmm run`` output folder (its ``reduced.npz`` and ``temperatures.vtu``).
     temperatures : str, Path or mapping
         A temperature CSV (module docstring), or ``{super-node name: °C or (k,) °C}`` plus optional named loads,
-        ``"sink"`` (°C) and ``"time"`` (s).
+        ``"sink"`` (°C), ``"time"`` (s) or ``"position"`` (counted from 1).
     out : str or Path, optional
         Folder to write ``temperatures.vtu`` / ``.pvd``, ``temperatures.bdf`` and ``temperatures.inp`` into
         (atomically; fem2tmm's output-folder policy).  None writes nothing.
@@ -124,11 +136,19 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) ->
 
         out = check_output_place(out)  # before any computation
     rec = load(npz)
+    where = str(temperatures) if isinstance(temperatures, (str, Path)) else "the temperatures"
     if isinstance(temperatures, (str, Path)):
-        T_sn, loads, sinks, labels, times = read_temperature_table(temperatures, rec.names, rec.load_names)
+        T_sn, loads, sinks, labels, times, positions = read_temperature_table(temperatures, rec.names, rec.load_names)
     else:
-        T_sn, loads, sinks, labels, times = _from_mapping(temperatures, rec.names, rec.load_names)
-    T_dof = rec.recover(T_sn, loads=loads, T_sink=sinks, times=times).reshape(rec.n_dof, -1)
+        T_sn, loads, sinks, labels, times, positions = _from_mapping(temperatures, rec.names, rec.load_names)
+    if positions is not None:
+        k = 0 if rec.orbit_q is None else rec.orbit_q.shape[0]
+        if not k:
+            raise Fem2TmmError(f"{where}: a 'position' row, but {npz} carries no orbital loads (they travel with the "
+                               "recovery when [orbit] fluxes_on = \"detailed\")")
+        if positions.max() >= k:
+            raise Fem2TmmError(f"{where}: orbit position {int(positions.max()) + 1} of a network with {k} positions")
+    T_dof = rec.recover(T_sn, loads=loads, T_sink=sinks, times=times, positions=positions).reshape(rec.n_dof, -1)
     T_nodes = rec.node_temperatures(T_dof) - KELVIN
     result = {"node_id": rec.node_ids, "temperature": T_nodes, "labels": labels, "out": None}
     if out is not None:
