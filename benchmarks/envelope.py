@@ -91,98 +91,86 @@ def _edited(design, case_result):
     return rec.recover(T_sn, loads={n: values[n] for n in rec.load_names}, T_sink=sink, T0=design.reduced.T_recovered)
 
 
-#: ``fem2tmm bench envelope_parametric``: one-at-a-time training states about the nominal case (named parameter ->
-#: values; the sink in °C) and test states between and across them (never trained on)
-PARAMETRIC_TRAIN = {"heater": [0.0, 15.0, 45.0, 60.0], "deck": [0.0], "sink": [-100.0]}
-PARAMETRIC_TEST = [{"name": "test_heater_7.5W", "boundary": {"heater": {"value": 7.5}}},
-                   {"name": "test_heater_52.5W", "boundary": {"heater": {"value": 52.5}}},
-                   {"name": "test_cold", "boundary": {"heater": {"value": 0.0}, "deck": {"value": 0.0}}},
-                   {"name": "test_hot", "boundary": {"heater": {"value": 60.0}},
-                    "environment": {"sink_temperature": -100.0}},
-                   {"name": "test_mid", "boundary": {"heater": {"value": 20.0}, "deck": {"value": 10.0}},
-                    "environment": {"sink_temperature": -200.0}},
-                   {"name": "test_sink_-200C", "environment": {"sink_temperature": -200.0}}]
+#: ``fem2tmm bench envelope_parametric``: the states ``[reduction] parametric`` computes (one at a time about the
+#: nominal case; the case file's units) and test states between and across them, never computed
+PARAMETRIC = {"heater": [0.0, 15.0, 45.0, 60.0], "deck": [0.0], "sink": [-200.0, -100.0]}
+PARAMETRIC_TEST = [("heater 7.5 W", 7.5, 20.0, -270.0), ("heater 52.5 W", 52.5, 20.0, -270.0),
+                   ("cold: 0 W, deck 0 °C", 0.0, 0.0, -270.0), ("hot: 60 W, sink -100 °C", 60.0, 20.0, -100.0),
+                   ("20 W, deck 10 °C, sink -200 °C", 20.0, 10.0, -200.0), ("sink -150 °C", 30.0, 20.0, -150.0)]
 
 
-def _parameters(case) -> dict:
-    """The named parameters of a composite case: heater (W), deck (K), sink (K⁴: the correction follows σ T_s⁴)."""
-    v = {b.name: b.value for b in case.boundaries}
-    return {"heater": v["heater"], "deck": v["deck"], "sink": case.environment.sink_temperature**4}
+def _deck_state_error(out: Path, state, reference) -> tuple[float, float]:
+    """RMS / max error (K) of the deck in ``out`` with HEATER, DECK and the sink edited to ``state`` (name, W, °C,
+    °C), read back by fem2tmm.lpm, solved and recovered with the recovery of ``out/reduced.npz``, against the detailed
+    field of ``reference`` (a run of that state): what a user who edits the deck receives."""
+    import re
 
+    from fem2tmm.lpm import read_esatan
+    from fem2tmm.lpm.solve import solve_network
+    from fem2tmm.reduce.exported import load
 
-def _interpolated(xs: np.ndarray, ys: np.ndarray, x: float) -> np.ndarray:
-    """Lagrange interpolation of the rows ``ys`` (m, n) given at ``xs`` (m,) at ``x``: quadratic on the three nearest
-    points (linear with two, constant with one), extrapolated beyond the ends."""
-    order = np.argsort(xs)
-    xs, ys = xs[order], ys[order]
-    k = min(3, len(xs))
-    j = min(max(int(np.searchsorted(xs, x)) - (k - 1), 0), len(xs) - k)
-    X, Y = xs[j:j + k], ys[j:j + k]
-    w = [np.prod([(x - X[m]) / (X[i] - X[m]) for m in range(k) if m != i]) for i in range(k)]
-    return sum(wi * yi for wi, yi in zip(w, Y))
+    _, heater, deck, sink = state
+    text = (out / "model.esatan").read_text()
+    for name, v in (("HEATER", heater), ("DECK", deck)) + ((("SINK", sink),) if "SINK = " in text else ()):
+        text, n = re.subn(rf"(?m)^(\s*{name} = )[^;]+;", rf"\g<1>{v!r};", text)
+        assert n == 1, name
+    if "SINK = " not in text:  # a deck without the parametric sink: the space node's temperature
+        text, n = re.subn(r"(?m)^(\s*B\d+ = 'SPACE', T = )[^;]+;", rf"\g<1>{sink!r};", text)
+        assert n == 1
+    path = out / "edited.esatan"
+    path.write_text(text)
+    net = read_esatan(path)
+    T = solve_network(net, T0=None).T
+    rec = load(out / "reduced.npz")
+    labels = [str(n).upper() for n in net.labels]
+    T_sn = np.array([T[labels.index(str(n).upper())] for n in rec.names])
+    field = rec.recover(T_sn, loads={"heater": heater}, T_sink=sink + 273.15, T0=reference.reduced.T_recovered)
+    return _err(reference.model, field, reference.detailed.solution.T)
 
 
 def bench_envelope_parametric(n_sn=(100, 300)) -> list[dict]:
-    """``fem2tmm bench envelope_parametric``: a candidate for the deck a user edits beyond the case set (issue 29,
-    item 2: "a user changes a heater in ESATAN and gets what fem2tmm would give").
+    """``fem2tmm bench envelope_parametric``: the deck a user edits beyond the case set (issue 29, item 2: "a user
+    changes a heater in ESATAN and gets what fem2tmm would give").
 
-    The radiation-aware network's correction load Q_corr depends on the state.  Frozen at the design state (the
-    nominal deck with its named constants edited) it is off by up to 3-4 K on examples/composite.  Candidate: Q_corr
-    as an additive function of the named parameters, ``Q_corr(p) = Q_corr(p₀) + Σ_k ΔQ_k(p_k)``, each ΔQ_k
-    interpolated (quadratic on the three nearest, :func:`_interpolated`) through one-at-a-time training states of
-    the case set (:data:`PARAMETRIC_TRAIN`; the sink in σT_s⁴).  In a deck that is a few shared weights per
-    parameter (hat functions of the constant, as the time tables' INTRP1) times per-node arrays.  Measured on test
-    states never trained on (:data:`PARAMETRIC_TEST`: between training values, several parameters at once), each
-    solved on the design network (GL, GR, C) and recovered with the exported recovery, against that state's
-    detailed reference: ``parametric`` beside ``frozen`` (the edited design deck) and ``case_set`` (the state's own
-    correction, what fem2tmm gives when the state is in the case file).  Scratch evaluation in the benchmark, not
-    yet in the decks.
+    examples/composite's nominal case run twice: as it is (the deck's correction load frozen at the design state)
+    and with ``[reduction] parametric`` (:data:`PARAMETRIC`: the correction at those states, one named constant at a
+    time, written into the deck as INTRP1 tables of HEATER, DECK and SINK).  Each deck is edited to test states
+    fem2tmm never computed (:data:`PARAMETRIC_TEST`), read back through fem2tmm.lpm, solved and recovered with the
+    recovery of reduced.npz, against that state's detailed reference (its own run, with the reference noise and the
+    error of the state's own network for scale).  One JSON line per (super nodes, state).
     """
-    from fem2tmm.solve.steady import solve_steady
-    from fem2tmm.stages import reduced_problem
+    import tempfile
 
-    train = [{"name": "nominal"}]
-    for k, values in PARAMETRIC_TRAIN.items():
-        for v in values:
-            train.append({"name": f"train_{k}_{v:g}", **({"environment": {"sink_temperature": v}} if k == "sink"
-                                                         else {"boundary": {k: {"value": v}}})})
     rows = []
     for n in n_sn:
-        multi, seconds = timed_run(_case(n, True, cases=train + PARAMETRIC_TEST))
-        res = multi.results
-        design = res["nominal"]
-        rm, rec = design.reduced.network, design.reduced.recovery
-        distribute = rm.radiative.reduction.distribute
-        corr = {name: r.reduced.network.Q - distribute(r.reduced.q_recover) for name, r in res.items()}
-        for t in PARAMETRIC_TEST:
-            r = res[t["name"]]
-            p = _parameters(r.case)
-            c = corr["nominal"].copy()
-            for k in PARAMETRIC_TRAIN:
-                names = ["nominal"] + [x["name"] for x in train if x["name"].startswith(f"train_{k}_")]
-                xs = np.array([_parameters(res[m].case)[k] for m in names])
-                c += _interpolated(xs, np.array([corr[m] - corr["nominal"] for m in names]), p[k])
-            values = {b.name: b.value for b in r.case.boundaries}
-            T_fixed = np.array(rm.T_fixed, float)
-            for i in np.flatnonzero(rm.fixed):
-                T_fixed[i] = values.get(str(rm.names[i]), T_fixed[i])
-            sink = r.case.environment.sink_temperature
-            row = {"bench": "envelope_parametric", "super_nodes": n, "case": t["name"],
-                   "parameters": {"heater_W": p["heater"], "deck_C": p["deck"] - 273.15,
-                                  "sink_C": round(p["sink"] ** 0.25 - 273.15, 6)},
-                   "case_set_rms_K": r.summary["accuracy"]["rms_K"],
-                   "reference_noise_rms_K": r.summary["accuracy"].get("reference_noise_rms_K")}
-            for method, cm in (("frozen", corr["nominal"]), ("parametric", c)):
-                net = dataclasses.replace(rm, Q=distribute(r.reduced.q_recover) + cm, T_fixed=T_fixed, T_sink=sink)
-                try:
-                    T_sn = solve_steady(reduced_problem(net), T0=design.reduced.solution.T).T
-                    T = rec.recover(T_sn, loads={m: values[m] for m in rec.load_names}, T_sink=sink,
-                                    T0=design.reduced.T_recovered)
-                    row[f"{method}_rms_K"], row[f"{method}_max_K"] = _err(r.model, T, r.detailed.solution.T)
-                except Exception as exc:  # noqa: BLE001 (a candidate may leave the network without a solution)
-                    row[f"{method}_rms_K"] = f"no solution: {exc}"
-            row["seconds_all_cases"] = round(seconds, 1)
-            rows.append(row)
+        with tempfile.TemporaryDirectory() as tmp:
+            tmp = Path(tmp)
+            walls = {}
+            for tag, par in (("frozen", None), ("parametric", PARAMETRIC)):
+                raw = tomllib.loads((FOLDER / "case.toml").read_text())
+                raw["parts"][0]["super_nodes"] = n
+                if par is not None:
+                    raw.setdefault("reduction", {})["parametric"] = par
+                from fem2tmm.case import Case
+                from fem2tmm.pipeline import run
+
+                t0 = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    run(Case.from_dict(raw, base_dir=FOLDER), out=tmp / tag)
+                walls[tag] = round(time.perf_counter() - t0, 1)
+            cases = [{"name": f"s{i}", "boundary": {"heater": {"value": h}, "deck": {"value": d}},
+                      "environment": {"sink_temperature": s}} for i, (_, h, d, s) in enumerate(PARAMETRIC_TEST)]
+            multi, seconds = timed_run(_case(n, True, cases=cases))
+            for i, state in enumerate(PARAMETRIC_TEST):
+                ref = multi.results[f"s{i}"]
+                row = {"bench": "envelope_parametric", "super_nodes": n, "state": state[0],
+                       "own_network_rms_K": ref.summary["accuracy"]["rms_K"],
+                       "reference_noise_rms_K": ref.summary["accuracy"].get("reference_noise_rms_K")}
+                for tag in ("frozen", "parametric"):
+                    row[f"{tag}_deck_rms_K"], row[f"{tag}_deck_max_K"] = _deck_state_error(tmp / tag, state, ref)
+                row.update(design_run_s=walls, reference_runs_s=round(seconds, 1))
+                rows.append(row)
     return rows
 
 

@@ -164,6 +164,10 @@ class ReductionSettings:
     refine_rounds: int = 5  # budget: most refinement rounds (each: split, re-cluster, re-reduce, re-trace)
     refine_rays_per_face: int = 20  # rays per FE face side of the estimator's side-to-side IR tally
     refine_estimator: str = "global"  # global (one detailed linear solve) | local (clusters' interiors, interfaces held)
+    # radiation-aware network: its correction load also at these values of named parameters, one at a time, so that
+    # the deck follows them (fem2tmm.reductors.radiation_aware.parametric_corrections): ((name, values), ...) with a
+    # named [[boundary]] (values in SI: W, W/m², K) or "sink" (K)
+    parametric: tuple[tuple[str, tuple[float, ...]], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -517,6 +521,9 @@ class _Parser:
             raise self.err("[[joints]]", "expected an array of tables ([[joints]] entries)")
         joints = tuple(self.joint(i, j) for i, j in enumerate(j_raw))
         radiation, reduction = self.radiation(top.get("radiation", {})), self.reduction(top.get("reduction", {}))
+        reduction = replace(reduction, parametric=self.parametric(
+            top.get("reduction", {}).get("parametric") if isinstance(top.get("reduction"), Mapping) else None,
+            boundaries, reduction))
         if radiation.ir_on in ("detailed", "faces") and (reduction.radiation_aware is False or not radiation.enabled):
             raise self.err("[radiation].ir_on", f'"{radiation.ir_on}" places absorbed IR on the FE faces through the '
                            "radiation-aware reduction: set [reduction] radiation_aware = true or \"auto\" (and keep "
@@ -818,7 +825,7 @@ class _Parser:
         w = "[reduction]"
         d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network", "radiation_aware",
                               "outer_iterations", "target_rms", "max_super_nodes", "refine_rounds",
-                              "refine_rays_per_face", "refine_estimator"})
+                              "refine_rays_per_face", "refine_estimator", "parametric"})
         if d.get("radiation_aware") is True and d.get("network", "exact") == "positive":
             raise self.err(w, "radiation_aware = true needs network = \"exact\" (the radiation-aware network is "
                               "K'_SN - diag(H_SN) with a correction load; the positive fit is not defined for it)")
@@ -840,6 +847,53 @@ class _Parser:
             refine_estimator=self.string(d, "refine_estimator", w, default=D("refine_estimator"),
                                          choices=("global", "local")),
         )
+
+    def parametric(self, d, boundaries, reduction) -> tuple:
+        """``[reduction] parametric = {name = [values], ...}``: named power / flux / temperature boundaries (case units:
+        W, W/m², °C) or ``sink`` (°C) and the values the radiation-aware correction is also computed at; SI out."""
+        w = "[reduction].parametric"
+        if d is None:
+            return ()
+        if not isinstance(d, Mapping) or not d:
+            raise self.err(w, "expected a table {name = [values], ...} of named [[boundary]] entries or sink")
+        if not reduction.enabled or reduction.radiation_aware is False:
+            raise self.err(w, "the correction load it tabulates is the radiation-aware network's (the thesis' network "
+                              "is state-independent: a named constant changed in the deck already gives what fem2tmm "
+                              "gives): remove it, or keep [reduction] radiation_aware = \"auto\" or true")
+        named = {b.name: b for b in boundaries}
+        out = []
+        for name, values in d.items():
+            where = f"{w}.{name}"
+            if name == "sink":
+                if any(n.strip().upper() == "SINK" for n in named):
+                    raise self.err(where, "a [[boundary]] is named 'sink', which parametric keeps for the sink "
+                                          "temperature: rename that boundary")
+                offset, lo = KELVIN, ABSOLUTE_ZERO_C
+            elif name in named:
+                b = named[name]
+                if b.kind not in ("power", "flux", "temperature"):
+                    raise self.err(where, f"[[boundary]] {name!r} is a {b.kind} boundary: only power, flux and "
+                                          "temperature boundaries are deck constants")
+                if b.table is not None:
+                    raise self.err(where, f"[[boundary]] {name!r} follows a table in time; a parametric value "
+                                          "would have no meaning there")
+                offset, lo = (KELVIN, ABSOLUTE_ZERO_C) if b.kind == "temperature" else (0.0, None)
+            else:
+                raise self.err(where, f"no [[boundary]] named {name!r} (named boundaries: "
+                                      f"{', '.join(sorted(n for n in named if n)) or 'none'}; or sink)")
+            if not isinstance(values, list) or not values:
+                raise self.err(where, "expected a non-empty list of values")
+            vals = []
+            for v in values:
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                    raise self.err(where, f"{v!r} is not a number")
+                if lo is not None and v <= lo:
+                    raise self.err(where, f"{v!r} °C is at or below absolute zero")
+                vals.append(float(v) + offset)
+            if len(set(vals)) != len(vals):
+                raise self.err(where, "repeated values")
+            out.append((name, tuple(vals)))
+        return tuple(out)
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"

@@ -32,6 +32,7 @@ from .radiation.quadric import QuadricScene
 from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for
+from .reductors.radiation_aware import parametric_corrections, parametric_states
 from .result import CasesResult, Detailed, Orbit, Result
 from .solve.steady import check_solvable
 from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model,
@@ -520,6 +521,29 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 return _run(case_asked, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=scenes.shelf,
                             linearised=linearised)
             reduced.refinement = refine
+        if case_asked.reduction.parametric and reduced.method == "radiation_aware":
+            # the correction load at the parametric states, with this network's linearisation (same K̃, GR, C)
+            states = parametric_states(case_asked)
+            with prog.stage("parametric", f"the network's correction at {len(states)} parametric states"):
+                at = {"T": reduced.network.radiative.T_lin, "aware": True, "case": "design", "cases": []}
+                runs = []
+                for name, value, c in states:
+                    r = _run(c, Progress(quiet=True), mesh, False, store, shelf=scenes.shelf,
+                             linearised={network_group(c): at})
+                    if r.reduced.method != reduced.method or r.reduced.choice["ir_on"] != reduced.choice["ir_on"]:
+                        raise Fem2TmmError(
+                            f"{case.source}: [reduction] parametric {name} = {value:g} (SI): that state ran "
+                            f"{r.reduced.method} with ir_on = {r.reduced.choice['ir_on']!r}, not the design's "
+                            f"{reduced.method} with {reduced.choice['ir_on']!r}, so its correction does not belong to "
+                            "this network; narrow the values or set [radiation] ir_on explicitly")
+                    runs.append((name, value, r.reduced))
+                reduced.parametric = parametric_corrections(reduced, case_asked, runs)
+        elif case_asked.reduction.parametric:
+            import warnings
+
+            warnings.warn(f"{case.source}: [reduction] parametric is not used: the run's network is the thesis' "
+                          f"({reduced.choice['chosen_by']}), which is state-independent: a named constant edited in "
+                          "the deck already gives what fem2tmm gives", stacklevel=2)
         if q_sn_orbit is not None and orbit.steady == "positions":
             with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
                 if reduced.method == "radiation_aware":  # the network handed over: the average and each departure

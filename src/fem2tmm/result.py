@@ -79,6 +79,8 @@ class Reduced:
     solar : solar rays traced on the super faces; ``solar_on`` how the network took its solar loads
     refinement : :class:`fem2tmm.stages.Refinement` of ``[reduction] target_rms`` (history, every round's labels)
     delivered : :func:`fem2tmm.handover.check_deliverable`: the network written, read back, solved and recovered
+    parametric : ``[reduction] parametric``: the correction load at each parametric state as a departure from the
+        design's (:func:`fem2tmm.reductors.radiation_aware.parametric_corrections`), written into the deck
     """
 
     method: str
@@ -102,6 +104,7 @@ class Reduced:
     solar_on: str | None = None
     refinement: object | None = None
     delivered: dict | None = None
+    parametric: dict | None = None
 
     @property
     def positive(self) -> dict | None:

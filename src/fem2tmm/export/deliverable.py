@@ -52,6 +52,18 @@ def network_deck(result: Result) -> Deck:
                            for nm, v, p in zip(rec.load_names, rec.load_values, pats))
     temps = {b.name for b in result.case.boundaries if b.kind == "temperature"}
     temperature_terms = {int(i): constant_name(rm.names[i]) for i in np.flatnonzero(rm.fixed) if rm.names[i] in temps}
+    parametric_terms = ()
+    par = result.reduced.parametric
+    if par is not None:  # the correction load following the named constants (°C in the deck for temperatures)
+        from ..reduce.radiative import parametric_weights
+
+        terms = []
+        for name, values, dQ in zip(par["names"], par["values"], par["dQ"]):
+            x, W = parametric_weights(values, sink=name == "sink")
+            celsius = name == "sink" or name in temps
+            terms.append(("SINK" if name == "sink" else constant_name(name), x - (KELVIN if celsius else 0.0), W,
+                          np.asarray(dQ, float)))
+        parametric_terms = tuple(terms)
     GL = -rm.K.copy()
     np.fill_diagonal(GL, 0.0)
     area = rm.area if rm.area is not None else np.zeros(n)
@@ -62,7 +74,7 @@ def network_deck(result: Result) -> Deck:
                 GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
                 transient=None if result.transient is None else deck_transient(result.transient),
                 model_name=ex.model_name or Path(result.case.source).stem, load_terms=load_terms,
-                temperature_terms=temperature_terms)
+                temperature_terms=temperature_terms, parametric_terms=parametric_terms)
 
 
 def write_network(folder: Path, result: Result, sinda: bool = True) -> None:

@@ -85,6 +85,10 @@ class Deck:
     load_terms: tuple = ()
     #: named fixed temperatures: {node index: constant NAME} (°C)
     temperature_terms: dict = field(default_factory=dict)
+    #: the correction load following named constants ([reduction] parametric): (constant NAME, x (s,) in deck units,
+    #: weights W (m, s) of each state as a function of NAME, dQ (m, n) W each state's correction minus the design's);
+    #: node i's QI adds Σ_j dQ[j, i] × INTRP1(NAME, table of W[j]).  The constant SINK is the sink temperature (°C)
+    parametric_terms: tuple = ()
 
 
 def node_numbers(part: np.ndarray, n_parts: int) -> tuple[np.ndarray, int]:
@@ -151,7 +155,8 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
         T = deck.temperature_terms.get(i, _fmt(deck.T[i] - KELVIN))
         lines.append(f"    {kind}{deck.numbers[i]} = '{deck.labels[i]}', T = {T}, "
                      f"C = {_fmt(deck.C[i])}, A = {_fmt(deck.A[i])}, ALP = {_fmt(deck.alp[i])}, EPS = {_fmt(deck.eps[i])};")
-    lines.append(f"    B{deck.space} = 'SPACE', T = {_fmt(deck.T_space - KELVIN)};")
+    sink_named = any(c == "SINK" for c, *_ in deck.parametric_terms)
+    lines.append(f"    B{deck.space} = 'SPACE', T = {'SINK' if sink_named else _fmt(deck.T_space - KELVIN)};")
     iu, ju = np.triu_indices(n, 1)
     gl = deck.GL[iu, ju]
     nz = gl != 0
@@ -173,6 +178,8 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append("$CONSTANTS")
     named = [(c, v, "W (or W/m2): a named load, distributed over the nodes below") for c, v, _ in deck.load_terms]
     named += [(c, float(deck.T[i] - KELVIN), "degC: a named fixed temperature") for i, c in deck.temperature_terms.items()]
+    if sink_named:
+        named.append(("SINK", float(deck.T_space - KELVIN), "degC: the sink (space) temperature"))
     if named:
         lines.append("  $REAL")
         for c, v, what in named:
@@ -187,13 +194,23 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
         if tr.step is not None:
             lines.append(f"    DTIMEI = {_fmt(tr.step)};")
         lines.append(f"    OUTINT = {_fmt(tr.output if tr.output is not None else tr.end - tr.start)};")
+    if tr is not None or deck.parametric_terms:
         lines.append("$ARRAYS")
         lines.append("  $REAL")
+    if tr is not None:
         lines.append("# doublet arrays (time s, value), read by linear interpolation in time (INTRP1), constant "
                      "outside" + ("; periodic with period TIMEND - TIMEO" if tr.periodic else ""))
         for aname, t, v, what in tr.tables():
             pairs = ", ".join(f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(t, v))
             lines.append(f"    {aname}({2 * len(t)}) = {pairs};  # {what}")
+    if deck.parametric_terms:
+        lines.append("# the network's correction load at other values of the named constants: doublet arrays (value of "
+                     "the constant, weight of one computed state), read by INTRP1 of that constant (constant outside "
+                     "the computed values); the weights are quadratic between the values and 0 or 1 at each of them")
+        for k, (c, x, W, _) in enumerate(deck.parametric_terms):
+            for j in range(1, len(W)):
+                pairs = ", ".join(f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(x, W[j]))
+                lines.append(f"    P{k + 1}W{j}({2 * len(x)}) = {pairs};  # {c}: state {j}")
     lines.append("$INITIAL")
     lines.append("# the boundary temperatures are those of $NODES (and $VARIABLES1 where they follow a table)")
     lines.append("$VARIABLES1")
@@ -205,9 +222,12 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     for i in range(n):
         terms = [] if tr is None else tr.load_terms(i)
         par = [(c, float(frac[i])) for c, _, frac in deck.load_terms if frac[i] != 0]
-        if deck.Q[i] != 0 or rest[i] != 0 or terms or par:
+        corr = [(f"P{k + 1}W{j}", c, float(dQ[j, i])) for k, (c, _, _, dQ) in enumerate(deck.parametric_terms)
+                for j in range(1, len(dQ)) if dQ[j, i] != 0]
+        if deck.Q[i] != 0 or rest[i] != 0 or terms or par or corr:
             rhs = "".join(f" {'-' if f < 0 else '+'} {_fmt(abs(f))} * {c}" for c, f in par)
             rhs += "".join(f" {'-' if c < 0 else '+'} {_fmt(abs(c))} * INTRP1(TIMEM, {a})" for a, c in terms)
+            rhs += "".join(f" {'-' if d < 0 else '+'} {_fmt(abs(d))} * INTRP1({c}, {a})" for a, c, d in corr)
             lines.append(f"    QI{deck.numbers[i]} = {_fmt(rest[i])}{rhs};")
     if tr is not None:
         for k, (i, _, _) in enumerate(tr.temperatures):

@@ -14,8 +14,9 @@ Understood (everything else in these blocks is refused with ``file:line``):
   fem2tmm's σ) are honoured.
 - ``$VARIABLES1``: assignments ``QI12 = expr;`` / ``QI(12) = expr;`` and ``T12 = expr;`` (as fem2tmm's writer
   emits); ``INTRP1(TIMEM, A)`` of a ``$ARRAYS`` doublet array ``A(2k) = t1, v1, …;`` is taken at the start time
-  ``TIMEO`` (a steady network of a transient deck: its initial state).  Other statements of the operation blocks
-  are not interpreted: they are counted in ``Network.notes``.
+  ``TIMEO`` (a steady network of a transient deck: its initial state); ``INTRP1(NAME, A)`` of a constant NAME is A
+  (value, result) interpolated at NAME's value, constant outside (fem2tmm's parametric correction).  Other
+  statements of the operation blocks are not interpreted: they are counted in ``Network.notes``.
 
 Comments run from ``#`` to the end of the line; a statement ends at ``;`` and may span lines.
 """
@@ -38,6 +39,7 @@ _ASSIGN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$", re.S)
 _QI = re.compile(r"^(QI|T)\s*(?:\(\s*(\d+)\s*\)|(\d+))\s*=\s*(.+)$", re.S | re.I)
 _ARRAY = re.compile(r"^([A-Za-z_]\w*)\s*\(\s*(\d+)\s*\)\s*=\s*(.+)$", re.S)
 _INTRP1 = re.compile(r"INTRP1\s*\(\s*TIMEM\s*,\s*([A-Za-z_]\w*)\s*\)", re.I)
+_INTRP1_OF = re.compile(r"INTRP1\s*\(\s*([A-Za-z_]\w*)\s*,\s*([A-Za-z_]\w*)\s*\)", re.I)  # of any name
 # the plain conductor, one node to one node with a number (what fem2tmm writes, ~10⁶ of them at 1 000 super nodes):
 # read without the general expression path
 _PLAIN_COND = re.compile(r"^G([LR])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)$",
@@ -174,9 +176,11 @@ def _read(path, time, window):
                 arrays[m.group(1).upper()] = np.array(vals[: int(m.group(2))], float)
     time0 = consts.get("TIMEO", 0.0) if time is None else float(time)
     times = None
-    if window is not None:  # the window's ends and every table time inside it
+    if window is not None:  # the window's ends and every time of a time table (INTRP1 of TIMEM) inside it
         lo, hi = window
-        times = np.array(sorted({lo, hi} | {float(t) for a in arrays.values() for t in a[0::2] if lo <= t <= hi}))
+        of_time = {m.group(1).upper() for *_, s in stmts for m in _INTRP1.finditer(s)}
+        times = np.array(sorted({lo, hi} | {float(t) for name, a in arrays.items() if name in of_time
+                                            for t in a[0::2] if lo <= t <= hi}))
 
     def at(t):
         def sub(m):  # INTRP1(TIMEM, A): the doublet array A (time, value) interpolated at time t
@@ -188,9 +192,19 @@ def _read(path, time, window):
 
     at_start = at(time0)
 
+    def of_constant(m):  # INTRP1(NAME, A) of a constant NAME: the doublet array A interpolated at NAME's value
+        if m.group(1).upper() == "TIMEM":
+            return m.group(0)
+        a = arrays.get(m.group(2).upper())
+        if a is None or len(a) < 2:
+            raise ExpressionError(f"INTRP1 of the unknown doublet array {m.group(2)!r}")
+        if m.group(1).upper() not in consts:
+            raise ExpressionError(f"INTRP1 of {m.group(1)!r}, which is neither TIMEM nor a constant of $CONSTANTS")
+        return repr(float(np.interp(consts[m.group(1).upper()], a[0::2], a[1::2])))
+
     def value(line, expr, what, sub=at_start):
         try:
-            return evaluate(_INTRP1.sub(sub, expr), consts)
+            return evaluate(_INTRP1.sub(sub, _INTRP1_OF.sub(of_constant, expr)), consts)
         except ExpressionError as exc:
             fail(line, f"{what}: {exc}")
 

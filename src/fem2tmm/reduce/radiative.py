@@ -171,4 +171,36 @@ class RadiationAware:
         return self.reduction.recover(T_sn, q + (extra[:, None] if q.ndim == 2 else extra))
 
 
-__all__ = ["RadiationAware", "emission_entries", "emission_weights", "split_radiative"]
+def parametric_weights(values_si: np.ndarray, sink: bool, samples: int = 32) -> tuple[np.ndarray, np.ndarray]:
+    """Interpolation weights of the parametric states as functions of the parameter, sampled for a deck table.
+
+    ``values_si`` (m,) the states' values (SI: W, W/m², K), ``sink``: the parameter is the sink temperature, whose
+    correction follows σ T_s⁴ (the interpolation variable is then T⁴).  Between two values, Lagrange on the three
+    nearest values (quadratic; linear with two values); constant beyond the ends (as ESATAN's INTRP1 tables).
+    Returns ``(x (s,) SI, W (m, s))``: ``samples`` points per interval, every value itself among them (where the
+    weights are exactly 0 and 1), so that a deck's piecewise-linear table of x → W reproduces the design state
+    exactly and the quadratic between values to (interval/samples)² of its curvature.
+    """
+    v = np.asarray(values_si, float)
+    order = np.argsort(v)
+    xs = v[order]
+    if len(xs) == 1:
+        return xs.copy(), np.ones((1, 1))
+    grid = np.unique(np.concatenate([np.linspace(a, b, samples + 1) for a, b in zip(xs[:-1], xs[1:])]))
+    grid[np.searchsorted(grid, xs)] = xs  # the values exactly
+    u = (lambda x: np.asarray(x, float) ** 4) if sink else (lambda x: np.asarray(x, float))
+    U, ug = u(xs), u(grid)
+    k = min(3, len(xs))
+    W = np.zeros((len(xs), len(grid)))
+    for g, x in enumerate(ug):
+        j = min(max(int(np.searchsorted(U, x)) - (k - 1), 0), len(U) - k)
+        for i in range(j, j + k):
+            W[i, g] = np.prod([(x - U[m]) / (U[i] - U[m]) for m in range(j, j + k) if m != i])
+    at = np.searchsorted(grid, xs)
+    W[:, at] = np.eye(len(xs))  # exactly 0 and 1 at the values
+    inverse = np.empty_like(order)
+    inverse[order] = np.arange(len(order))
+    return grid, W[inverse]
+
+
+__all__ = ["RadiationAware", "emission_entries", "emission_weights", "parametric_weights", "split_radiative"]

@@ -248,3 +248,58 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     ra.known_load_W = float(np.sum(q_detailed) + np.sum(q_lumped))
     return ra_rm, sol, T, history
 
+
+
+# ------------------------------------------------------------------------------------------ parametric correction
+def parametric_states(case: Case) -> list[tuple[str, float, Case]]:
+    """The one-at-a-time states of ``[reduction] parametric``: ``(name, value (SI), case)`` with that named boundary's
+    value (or the sink temperature) changed and nothing else: no transient, no detailed reference, no parametric
+    states of its own; per-position orbit solves become the orbit average (the network's steady state)."""
+    base = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, parametric=()), transient=None,
+                               reference=dataclasses.replace(case.reference, detailed=False))
+    if base.orbit is not None and base.orbit.steady != "average":
+        base = dataclasses.replace(base, orbit=dataclasses.replace(base.orbit, steady="average"))
+    out = []
+    for name, values in case.reduction.parametric:
+        for v in values:
+            if name == "sink":
+                c = dataclasses.replace(base, environment=dataclasses.replace(base.environment, sink_temperature=v))
+            else:
+                c = dataclasses.replace(base, boundaries=tuple(dataclasses.replace(b, value=v) if b.name == name
+                                                               else b for b in base.boundaries))
+            out.append((name, float(v), c))
+    return out
+
+
+def parametric_corrections(design: Reduced, case: Case, states: list[tuple[str, float, Reduced]]) -> dict:
+    """The radiation-aware network's correction load at the parametric states, as departures from the design's.
+
+    ``design`` the run's reduction, ``case`` its case; ``states`` ``(name, value, reduction)`` of each state
+    (:func:`parametric_states`), each reduced with the design's linearisation (the same K̃, GR, C).  The correction
+    is what the network's loads hold beyond the known loads, ``Q − Y'q − q_lumped`` (q_lumped, the same in every
+    state, cancels in the departures).  Returns ``{"names": (k,) str, "values": [(m_k,) SI, the design's value
+    first], "dQ": [(m_k, n) W, zeros first], "design": (k,) SI, "gl_change": max |ΔK̃| / max |K̃| over the states}``
+    for :func:`fem2tmm.export.deliverable.network_deck` (the deck's correction follows each named constant, quadratic
+    between the values: :func:`fem2tmm.reduce.radiative.parametric_weights`).
+    """
+    net = design.network
+    distribute = net.radiative.reduction.distribute
+
+    def corr(red: Reduced) -> np.ndarray:
+        return np.asarray(red.network.Q, float) - red.network.radiative.reduction.distribute(red.q_recover)
+
+    c0 = np.asarray(net.Q, float) - distribute(design.q_recover)
+    values = {b.name: b.value for b in case.boundaries}
+    names, vals, dqs, design_values = [], [], [], []
+    scale = max(float(np.abs(net.K).max()), 1e-300)
+    change = 0.0
+    for name, _ in case.reduction.parametric:
+        v0 = case.environment.sink_temperature if name == "sink" else values[name]
+        rows = [(v, corr(r) - c0) for n, v, r in states if n == name]
+        change = max([change] + [float(np.abs(r.network.K - net.K).max()) / scale for n, _, r in states if n == name])
+        names.append(name)
+        design_values.append(float(v0))
+        vals.append(np.array([v0] + [v for v, _ in rows], float))
+        dqs.append(np.vstack([np.zeros(net.n)] + [d for _, d in rows]))
+    return {"names": tuple(names), "values": vals, "dQ": dqs, "design": np.array(design_values, float),
+            "gl_change": change}
