@@ -134,3 +134,29 @@ def test_parametric_with_the_thesis_network_says_it_is_not_needed():
     with pytest.warns(UserWarning, match="parametric is not used"):
         res = run(composite_box_case(60, 170.0, {"parametric": {"power_1": [0.0]}}, detailed=False), mesh=box)
     assert res.reduced.method == "thesis" and res.reduced.parametric is None
+
+
+def test_each_case_of_a_set_tabulates_its_correction_on_the_shared_network():
+    # [[cases]] share one radiation-aware network (GL, GR, C linearised once, about the first case); each case's
+    # parametric states must be reduced about that same field, or their corrections would belong to another GL
+    # (the run refuses a difference above 1e-9; measured ~1e-16)
+    from fem2tmm.case import Case
+
+    raw = {"materials": {"m": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
+           "optics": {"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
+           "parts": [{"name": "panels", "groups": ["xmin", "xmax", "ymin", "ymax", "zmax"], "material": "m",
+                      "thickness": 1e-3, "front": "paint", "back": "paint", "super_nodes": 12},
+                     {"name": "deck", "groups": ["zmin"], "material": "m", "thickness": 1e-3, "front": "paint",
+                      "back": "paint", "super_nodes": 1}],
+           "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "deck"},
+                        {"kind": "power", "groups": ["zmax"], "value": 5.0, "name": "heater"}],
+           "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
+           "reduction": {"radiation_aware": True, "parametric": {"heater": [0.0, 10.0]}},
+           "reference": {"detailed": False},
+           "cases": [{"name": "nominal"}, {"name": "hot", "boundary": {"heater": {"value": 8.0}}}]}
+    multi = run(Case.from_dict(raw), mesh=meshes.box(0.3, 0.3, 0.3, 6, 6, 6))
+    nets = [r.reduced.network.K for r in multi.results.values()]
+    assert np.array_equal(nets[0], nets[1])  # one network for the set
+    for r in multi.results.values():
+        assert r.reduced.parametric["gl_change"] < 1e-12
+        assert r.reduced.delivered["esatan_vs_in_process_K"] < 1e-9

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import Case
-from .errors import Fem2TmmError
+from .errors import Fem2TmmError, InternalError
 from .cache import digest
 from .compute import map_units
 from .export.output import check_output_place, write_cases_outputs, write_outputs
@@ -525,7 +525,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             # the correction load at the parametric states, with this network's linearisation (same K̃, GR, C)
             states = parametric_states(case_asked)
             with prog.stage("parametric", f"the network's correction at {len(states)} parametric states"):
-                at = {"T": reduced.network.radiative.T_lin, "aware": True, "case": "design", "cases": []}
+                at = {"T": reduced.network.radiative.T_built, "aware": True, "case": "design", "cases": []}
                 runs = []
                 for name, value, c in states:
                     r = _run(c, Progress(quiet=True), mesh, False, store, shelf=scenes.shelf,
@@ -538,6 +538,9 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                             "this network; narrow the values or set [radiation] ir_on explicitly")
                     runs.append((name, value, r.reduced))
                 reduced.parametric = parametric_corrections(reduced, case_asked, runs)
+                if reduced.parametric["gl_change"] > 1e-9:  # the states must share this network's GL
+                    raise InternalError(f"the parametric states' networks differ from the design's by "
+                                        f"{reduced.parametric['gl_change']:.3g} (relative GL)")
         elif case_asked.reduction.parametric:
             import warnings
 

@@ -128,6 +128,9 @@ class RadiationAware:
     T_lin : (n_dof,) K the field the network's correction load was computed at (its last outer iteration)
     q_tally : (n_dof,) W absorbed IR tallied per FE face at T_lin (``ir_on`` "faces"/"detailed"), else zeros: the
         recovery adds it to the applied loads
+    T_built : (n_dof,) K the field the reduced operator was linearised about (``h = 4σ e T_built³``): T_lin after
+        re-linearising outer iterations, the set's field for a shared network; another state reduced about it gets
+        the same K̃ (``[reduction] parametric``)
     """
 
     reduction: ConductiveReduction
@@ -140,6 +143,7 @@ class RadiationAware:
     shared: bool = False  # linearised once for a load-case set (h fixed), not re-linearised at this case's state
     T_lin: np.ndarray | None = None
     q_tally: np.ndarray | None = None
+    T_built: np.ndarray | None = None
 
     def correction(self, T_ref: np.ndarray, T_sn_ref: np.ndarray, e_sn: np.ndarray) -> np.ndarray:
         """Q_corr (n_SN,) W at the reference state.

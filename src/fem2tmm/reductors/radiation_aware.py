@@ -243,6 +243,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     ra.history = history
     ra.shared = shared
     ra.T_lin, ra.q_tally = lin_T, lin_q
+    ra.T_built = np.asarray(linearised_at, float) if shared else lin_T
     # what the network was given (W): the known loads before their distribution; the network's Q sums to less, the
     # difference being the heat its correction load and the distribution with K' radiate (summary radiated_W)
     ra.known_load_W = float(np.sum(q_detailed) + np.sum(q_lumped))
