@@ -22,6 +22,7 @@ from .case import Case
 from .errors import Fem2TmmError, InternalError
 from .cache import digest
 from .compute import map_units
+from .constants import KELVIN
 from .export.output import check_output_place, write_cases_outputs, write_outputs
 from .export.summary import build_cases_summary, build_summary
 from .fem.model import build_model
@@ -527,15 +528,21 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             with prog.stage("parametric", f"the network's correction at {len(states)} parametric states"):
                 at = {"T": reduced.network.radiative.T_built, "aware": True, "case": "design", "cases": []}
                 runs = []
+                celsius = {b.name for b in case_asked.boundaries if b.kind == "temperature"} | {"sink"}
                 for name, value, c in states:
-                    r = _run(c, Progress(quiet=True), mesh, False, store, shelf=scenes.shelf,
-                             linearised={network_group(c): at})
+                    where = (f"{case.source}: [reduction] parametric {name} = "
+                             f"{value - KELVIN if name in celsius else value:g}")
+                    try:
+                        r = _run(c, Progress(quiet=True), mesh, False, store, shelf=scenes.shelf,
+                                 linearised={network_group(c): at})
+                    except Fem2TmmError as exc:
+                        raise Fem2TmmError(f"{where}: that state has no solution on this network ({exc}); "
+                                           "narrow the values") from None
                     if r.reduced.method != reduced.method or r.reduced.choice["ir_on"] != reduced.choice["ir_on"]:
                         raise Fem2TmmError(
-                            f"{case.source}: [reduction] parametric {name} = {value:g} (SI): that state ran "
-                            f"{r.reduced.method} with ir_on = {r.reduced.choice['ir_on']!r}, not the design's "
-                            f"{reduced.method} with {reduced.choice['ir_on']!r}, so its correction does not belong to "
-                            "this network; narrow the values or set [radiation] ir_on explicitly")
+                            f"{where}: that state ran {r.reduced.method} with ir_on = {r.reduced.choice['ir_on']!r}, "
+                            f"not the design's {reduced.method} with {reduced.choice['ir_on']!r}, so its correction "
+                            "does not belong to this network; narrow the values or set [radiation] ir_on explicitly")
                     runs.append((name, value, r.reduced))
                 reduced.parametric = parametric_corrections(reduced, case_asked, runs)
                 if reduced.parametric["gl_change"] > 1e-9:  # the states must share this network's GL
