@@ -76,6 +76,11 @@ def test_the_deck_follows_its_named_constants_between_and_across_the_computed_st
     # the design deck is still the network measured: read back, it equals the in-process network (the 1e-9 K)
     assert red.delivered["esatan_vs_in_process_K"] < 1e-9
     assert design.summary["reduced"]["parametric"]["values"]["temperature_0"] == pytest.approx([20.0, 0.0])
+    from fem2tmm.export.summary import summary_table
+
+    assert "power_1 at 5, 0, 2.5, 10, 20; temperature_0 at 20, 0 degC; sink at -270, -200, -100 degC" in \
+        summary_table(design.summary)
+    assert "parametric deck" in (tmp_path / "out" / "report.html").read_text()
     run(_state(5.0, 20.0, -270.0, {"radiation_aware": True}, False), mesh=box, out=tmp_path / "frozen")
     # states never computed: between the heater values, beyond the deck's, between the sinks, several at once.
     # Measured (2026-12-04), RMS K, parametric deck / frozen deck: 0.068 / 0.57, 0.037 / 1.44, 0.069 / 1.62,

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
-from .summary import NEGATIVE_GL_NOTE, choice_text, refinement_rows
+from .summary import NEGATIVE_GL_NOTE, choice_text, parametric_rows, refinement_rows
 from .orbit import orbit_plots
 
 #: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
@@ -212,6 +212,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
             rows.append(("negative GL", f"{red['negative_links']} of {red['conductive_links']}: {NEGATIVE_GL_NOTE}"))
         if red.get("choice"):
             rows.append(("reduction", choice_text(red["choice"])))
+        rows += parametric_rows(red)
         rows += refinement_rows(red)
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:

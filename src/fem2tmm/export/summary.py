@@ -353,6 +353,16 @@ def choice_text(choice: dict) -> str:
     return f"{method}; {why}"
 
 
+def parametric_rows(red: dict | None) -> list[tuple[str, str]]:
+    """The terminal / report row of ``[reduction] parametric`` (summary.json ``reduced.parametric``)."""
+    par = (red or {}).get("parametric")
+    if not par:
+        return []
+    what = "; ".join(f"{n} at {', '.join(format(v, 'g') for v in vals)} {'degC' if par['units'][n] == 'degC' else ''}"
+                     .rstrip() for n, vals in par["values"].items())
+    return [("parametric deck", f"the correction load follows {what} (model.esatan INTRP1 tables)")]
+
+
 def summary_table(s: dict) -> str:
     """The plain-text table the command line prints after a run, from the ``summary.json`` dict."""
     rows = [("mesh", f"{s['mesh']['nodes']} nodes, {s['mesh']['elements']} elements")]
@@ -364,6 +374,7 @@ def summary_table(s: dict) -> str:
             rows.append(("", NEGATIVE_GL_NOTE))
         if red.get("choice"):
             rows.append(("reduction", choice_text(red["choice"])))
+        rows += parametric_rows(red)
     pn = s.get("positive_network")
     if pn:
         err = pn.get("recovered_error_K")
