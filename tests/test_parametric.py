@@ -78,7 +78,8 @@ def test_the_deck_follows_its_named_constants_between_and_across_the_computed_st
     assert design.summary["reduced"]["parametric"]["values"]["temperature_0"] == pytest.approx([20.0, 0.0])
     from fem2tmm.export.summary import summary_table
 
-    assert "power_1 at 5, 0, 2.5, 10, 20; temperature_0 at 20, 0 degC; sink at -270, -200, -100 degC" in \
+    assert ("power_1 5 (design) and 0, 2.5, 10, 20; temperature_0 20 degC (design) and 0 degC; sink -270 degC "
+            "(design) and -200, -100 degC") in \
         summary_table(design.summary)
     assert "parametric deck" in (tmp_path / "out" / "report.html").read_text()
     run(_state(5.0, 20.0, -270.0, {"radiation_aware": True}, False), mesh=box, out=tmp_path / "frozen")

@@ -358,8 +358,9 @@ def parametric_rows(red: dict | None) -> list[tuple[str, str]]:
     par = (red or {}).get("parametric")
     if not par:
         return []
-    what = "; ".join(f"{n} at {', '.join(format(v, 'g') for v in vals)} {'degC' if par['units'][n] == 'degC' else ''}"
-                     .rstrip() for n, vals in par["values"].items())
+    unit = {n: " degC" if u == "degC" else "" for n, u in par["units"].items()}
+    what = "; ".join(f"{n} {vals[0]:g}{unit[n]} (design) and {', '.join(format(v, 'g') for v in vals[1:])}{unit[n]}"
+                     for n, vals in par["values"].items())
     return [("parametric deck", f"the correction load follows {what} (model.esatan INTRP1 tables)")]
 
 
