@@ -61,6 +61,21 @@ def composite_box_case(n_sn: int, k: float = 5.0, reduction: dict | None = None,
                      reduction=reduction or {}, reference={"detailed": detailed})
 
 
+def box_set_raw(n_sn: int, heater: float, cases: list, reduction: dict, detailed: bool) -> dict:
+    """The raw case table of :func:`composite_box_case` with named boundaries (``deck`` 20 °C, ``heater`` W) and a
+    ``[[cases]]`` list: a load-case set on the composite-like box."""
+    return {"materials": {"m": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
+            "optics": {"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
+            "parts": [{"name": "panels", "groups": ["xmin", "xmax", "ymin", "ymax", "zmax"], "material": "m",
+                       "thickness": 1e-3, "front": "paint", "back": "paint", "super_nodes": n_sn},
+                      {"name": "deck", "groups": ["zmin"], "material": "m", "thickness": 1e-3, "front": "paint",
+                       "back": "paint", "super_nodes": 1}],
+            "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "deck"},
+                         {"kind": "power", "groups": ["zmax"], "value": heater, "name": "heater"}],
+            "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
+            "reduction": reduction, "reference": {"detailed": detailed}, "cases": cases}
+
+
 def fin_reference(k=170.0, t=1e-3, eps=1.0, r_in=0.05, r_out=0.15, T_in=293.15, T_sink=173.15):
     """Circular radiating fin, thesis eq. 4.18, solved with scipy's solve_bvp (independent of the FE code).
 

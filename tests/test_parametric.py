@@ -16,7 +16,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import composite_box_case
+from conftest import box_set_raw, composite_box_case
 
 from fem2tmm import meshes
 from fem2tmm.constants import KELVIN
@@ -148,18 +148,8 @@ def test_each_case_of_a_set_tabulates_its_correction_on_the_shared_network():
     # (the run refuses a difference above 1e-9; measured ~1e-16)
     from fem2tmm.case import Case
 
-    raw = {"materials": {"m": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
-           "optics": {"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
-           "parts": [{"name": "panels", "groups": ["xmin", "xmax", "ymin", "ymax", "zmax"], "material": "m",
-                      "thickness": 1e-3, "front": "paint", "back": "paint", "super_nodes": 12},
-                     {"name": "deck", "groups": ["zmin"], "material": "m", "thickness": 1e-3, "front": "paint",
-                      "back": "paint", "super_nodes": 1}],
-           "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "deck"},
-                        {"kind": "power", "groups": ["zmax"], "value": 5.0, "name": "heater"}],
-           "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
-           "reduction": {"radiation_aware": True, "parametric": {"heater": [0.0, 10.0]}},
-           "reference": {"detailed": False},
-           "cases": [{"name": "nominal"}, {"name": "hot", "boundary": {"heater": {"value": 8.0}}}]}
+    raw = box_set_raw(12, 5.0, [{"name": "nominal"}, {"name": "hot", "boundary": {"heater": {"value": 8.0}}}],
+                      {"radiation_aware": True, "parametric": {"heater": [0.0, 10.0]}}, detailed=False)
     multi = run(Case.from_dict(raw), mesh=meshes.box(0.3, 0.3, 0.3, 6, 6, 6))
     nets = [r.reduced.network.K for r in multi.results.values()]
     assert np.array_equal(nets[0], nets[1])  # one network for the set

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_bvp
 
-from conftest import composite_box_case, make_case
+from conftest import box_set_raw, composite_box_case, make_case
 from fem2tmm import meshes
 from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import run
@@ -366,17 +366,8 @@ def test_a_set_linearised_about_a_cold_case_converges_on_a_hot_one():
     # 1 mK outer tolerance; measured 5e-5 K in 15 iterations at relaxation 0.5)
     from fem2tmm.case import Case
 
-    raw = {"materials": {"m": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
-           "optics": {"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
-           "parts": [{"name": "panels", "groups": ["xmin", "xmax", "ymin", "ymax", "zmax"], "material": "m",
-                      "thickness": 1e-3, "front": "paint", "back": "paint", "super_nodes": 24},
-                     {"name": "deck", "groups": ["zmin"], "material": "m", "thickness": 1e-3, "front": "paint",
-                      "back": "paint", "super_nodes": 1}],
-           "boundary": [{"kind": "temperature", "groups": ["zmin"], "value": 20.0, "name": "deck"},
-                        {"kind": "power", "groups": ["zmax"], "value": 0.5, "name": "heater"}],
-           "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
-           "reduction": {"radiation_aware": True}, "reference": {"detailed": True},
-           "cases": [{"name": "cold"}, {"name": "hot", "boundary": {"heater": {"value": 20.0}}}]}
+    raw = box_set_raw(24, 0.5, [{"name": "cold"}, {"name": "hot", "boundary": {"heater": {"value": 20.0}}}],
+                      {"radiation_aware": True}, detailed=True)
     multi = run(Case.from_dict(raw), mesh=meshes.box(0.3, 0.3, 0.3, 12, 12, 12))
     hot = multi.results["hot"]
     assert hot.reduced.shared_network["linearised_at"] == "cold"

@@ -50,6 +50,25 @@ def write_csv(path, names, columns, header=None, extra=()):
     return path
 
 
+def orbit_box_case(k: float, n_sn: int, aware: bool, steady: str, transient: dict | None = None):
+    """A 0.2 m box of 1 mm panels (conductivity ``k`` W/(m K), ``n_sn`` super nodes) on a 700 km, β 20° orbit, nadir,
+    six positions, orbital loads traced on the FE faces, space-only radiation, no detailed reference."""
+    from fem2tmm.case import Case
+
+    return Case.from_dict({
+        "materials": {"m": {"conductivity": k, "density": 2000.0, "specific_heat": 900.0}},
+        "optics": {"paint": {"emissivity": 0.8, "absorptivity": 0.6}},
+        "parts": [{"name": "box", "groups": ["box"], "material": "m", "thickness": 1e-3, "front": "paint",
+                   "back": "paint", "super_nodes": n_sn}],
+        "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
+        "reduction": {"radiation_aware": aware},
+        "orbit": {"altitude": 700e3, "inclination": 98.0, "beta": 20.0, "positions": 6, "rays_per_face": 20,
+                  "fluxes_on": "detailed", "steady": steady,
+                  "attitude": {"kind": "nadir", "primary": "-z", "secondary": "+x"}},
+        **({} if transient is None else {"transient": transient}),
+        "reference": {"detailed": False}})
+
+
 def read_temp_cards(path):
     """{sid: {grid: T}} from large-field TEMP cards (an independent little parser)."""
     text = path.read_text().splitlines()
@@ -186,22 +205,10 @@ def test_an_orbit_transient_fed_back_with_its_times_reproduces_the_runs_recovery
     # linear (T = X q(t) + Yᵀ T_SN(t)), so a run's own transient super-node temperatures fed back with their times
     # reproduce its recovered transient to round-off (1e-9 K, the issue's tolerance).  A box on a nadir-pointing
     # orbit: each cluster spans faces lit differently, so X q(t) matters and the orbit average alone misses it.
-    from fem2tmm.case import Case
-
     box = meshes.box(0.2, 0.2, 0.2, 5, 5, 5)
-    case = Case.from_dict({
-        "materials": {"al": {"conductivity": 20.0, "density": 2700.0, "specific_heat": 900.0}},
-        "optics": {"paint": {"emissivity": 0.8, "absorptivity": 0.6}},
-        "parts": [{"name": "box", "groups": ["box"], "material": "al", "thickness": 1e-3, "front": "paint",
-                   "back": "paint", "super_nodes": 3}],
-        "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
-        "reduction": {"radiation_aware": False},
-        "orbit": {"altitude": 700e3, "inclination": 98.0, "beta": 20.0, "positions": 6, "rays_per_face": 20,
-                  "fluxes_on": "detailed", "steady": "average",
-                  "attitude": {"kind": "nadir", "primary": "-z", "secondary": "+x"}},
-        "transient": {"periodic": True, "tolerance": 1e-2, "step": 60.0, "output_every": 900.0,
-                      "periodic_tolerance": 1e-2},
-        "reference": {"detailed": False}})
+    case = orbit_box_case(20.0, 3, False, "average",
+                          transient={"periodic": True, "tolerance": 1e-2, "step": 60.0, "output_every": 900.0,
+                                     "periodic_tolerance": 1e-2})
     res = run(case, out=tmp_path / "out", mesh=box)
     tr = res.transient
     rec = load(tmp_path / "out" / "reduced.npz")
@@ -264,20 +271,8 @@ def test_per_position_temperatures_fed_back_with_their_positions_reproduce_the_r
     # super-node means (A T = T_SN), so A T_j are position j's super-node temperatures; fed back through the CLI
     # with a 'position' row (counted from 1) they give the run's per-position field back to the recovery's Newton
     # tolerance (1e-10 K; 1e-8 asserted).  Without the row, the orbit-average loads: measurably off.
-    from fem2tmm.case import Case
-
     box = meshes.box(0.2, 0.2, 0.2, 5, 5, 5)
-    case = Case.from_dict({
-        "materials": {"cf": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
-        "optics": {"paint": {"emissivity": 0.8, "absorptivity": 0.6}},
-        "parts": [{"name": "box", "groups": ["box"], "material": "cf", "thickness": 1e-3, "front": "paint",
-                   "back": "paint", "super_nodes": 4}],
-        "environment": {"sink_temperature": -270.0}, "radiation": {"enabled": False},
-        "reduction": {"radiation_aware": True},
-        "orbit": {"altitude": 700e3, "inclination": 98.0, "beta": 20.0, "positions": 6, "rays_per_face": 20,
-                  "fluxes_on": "detailed", "steady": "positions",
-                  "attitude": {"kind": "nadir", "primary": "-z", "secondary": "+x"}},
-        "reference": {"detailed": False}})
+    case = orbit_box_case(5.0, 4, True, "positions")
     res = run(case, out=tmp_path / "out", mesh=box)
     assert res.reduced.method == "radiation_aware"
     rec = load(tmp_path / "out" / "reduced.npz")
