@@ -82,6 +82,10 @@ def test_the_deck_follows_its_named_constants_between_and_across_the_computed_st
             "(design) and -200, -100 degC") in \
         summary_table(design.summary)
     assert "parametric deck" in (tmp_path / "out" / "report.html").read_text()
+    z = np.load(tmp_path / "out" / "reduced.npz")
+    assert list(z["parametric_names"]) == ["power_1", "temperature_0", "sink"]
+    assert np.array_equal(z["parametric_values_0"], [5.0, 0.0, 2.5, 10.0, 20.0])
+    assert np.array_equal(z["parametric_dQ_2"], red.parametric["dQ"][2]) and not z["parametric_dQ_2"][0].any()
     run(_state(5.0, 20.0, -270.0, {"radiation_aware": True}, False), mesh=box, out=tmp_path / "frozen")
     # states never computed: between the heater values, beyond the deck's, between the sinks, several at once.
     # Measured (2026-12-04), RMS K, parametric deck / frozen deck: 0.068 / 0.57, 0.037 / 1.44, 0.069 / 1.62,

@@ -34,6 +34,11 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
                kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN))
     if result.reduced.recovery is not None:
         out.update(result.reduced.recovery.arrays())
+    par = result.reduced.parametric
+    if par is not None:  # [reduction] parametric: Q at another value of a constant = Q + the interpolated dQ
+        out["parametric_names"] = np.array(par["names"], dtype=str)
+        for k, (values, dQ) in enumerate(zip(par["values"], par["dQ"])):
+            out[f"parametric_values_{k}"], out[f"parametric_dQ_{k}"] = np.asarray(values, float), np.asarray(dQ, float)
     return out
 
 
