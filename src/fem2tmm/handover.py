@@ -25,13 +25,10 @@ def check_deliverable(result: Result, recover: bool = True) -> dict:
     Returns ``{"T_sn": (n,) K from reduced.npz, "T_sn_esatan": (n,) K from the deck, "T": (n_dof,) K recovered
     (None without a recovery), "npz_vs_in_process_K", "esatan_vs_in_process_K": max |ΔT_SN| against the in-process
     network solution (a transient run: the deck's transient integrated as written, :func:`deck_transient`, against
-    the in-process reduced transient at every output time; ``"esatan_compared"`` says which)
-    network solution, "error" when the check could not run (its message)}``.  ``recover=False`` skips the recovery (a run without reference has no error to report).
+    the in-process reduced transient at every output time; ``"esatan_compared"`` says which), "error" when the check
+    could not run (its message)}``.  ``recover=False`` skips the recovery (a run without reference has no error to
+    report).
     """
-    from .lpm.readers import read_network
-    from .lpm.solve import solve_network
-    from .reduce.exported import load
-
     from .errors import Fem2TmmError
 
     try:
