@@ -82,6 +82,11 @@ def statements(text: str):
     buf, start = [], None
     for lineno, raw in enumerate(text.splitlines(), 1):
         pieces = _segments(raw)
+        if not buf and len(pieces) == 2 and not pieces[1].strip():  # one whole statement on its line (the usual)
+            stmt = pieces[0].strip()
+            if stmt:
+                yield block, sub, lineno, stmt
+            continue
         for piece in pieces[:-1]:
             buf.append(piece)
             stmt = " ".join(x.strip() for x in buf if x.strip())
