@@ -1,4 +1,4 @@
-"""Reduced methods, one module each: a :class:`~fem2tmm.reductors.base.Reductor` that reduces, exports and
+"""Reduction methods, one module each: a :class:`~fem2tmm.reductors.base.Reductor` that reduces, exports and
 recovers (pyMOR's reductor pattern, ``reduce()`` / ``reconstruct()``).
 
 ===================  =================================================================================

@@ -19,7 +19,7 @@ import numpy as np
 from ..case import Case
 from ..cluster import Clustering
 from ..constants import SIGMA
-from ..errors import Fem2TmmError
+from ..errors import Fem2TmmError, InternalError
 from ..fem.model import FEModel
 from ..reduce.exported import ExportedRecovery
 from ..reduce.network import ReducedModel, build_reduced
@@ -56,7 +56,7 @@ class RadiationAwareReductor(Reductor):
 
     def reduce(self, inputs: ReductionInputs, prog, start: Reduced | None = None) -> Reduced:
         if start is None:
-            raise ValueError("the radiation-aware reduction starts from the thesis' reduction of the same inputs")
+            raise InternalError("the radiation-aware reduction starts from the thesis' reduction of the same inputs")
         case, model = inputs.case, inputs.model
         ir = None
         if inputs.trace_ir is not None and case.radiation.ir_on in ("detailed", "faces"):
@@ -85,7 +85,7 @@ class RadiationAwareReductor(Reductor):
                 rm, sol, T, history = radiation_aware_network(*args[:2], case, *args[3:], None,
                                                               linearised_at=inputs.linearised_at)
         return Reduced(method=self.name, network=rm, solution=sol, T_recovered=T, q_recover=inputs.q_recover,
-                         case=case, method_report=history, ir=ir, notes=notes)
+                       case=case, method_report=history, ir=ir, notes=notes)
 
     def export(self, inputs: ReductionInputs, reduction: Reduced) -> ExportedRecovery:
         """The emission-mode recovery (module docstring), with the traced IR absorption when there is one."""
