@@ -33,7 +33,7 @@ from .radiation.quadric import QuadricScene
 from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for
-from .reductors.radiation_aware import parametric_corrections, parametric_states
+from .reductors.radiation_aware import parametric_corrections, parametric_states, set_parametric
 from .result import CasesResult, Detailed, Orbit, Result
 from .solve.steady import check_solvable
 from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model,
@@ -140,6 +140,12 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
         if explicit:
             store.commit()
         return result
+    if set_parametric(results):  # each deck of a shared network follows the constants between the set's cases
+        from .export.summary import parametric_summary
+
+        for r in results:
+            if r.reduced is not None and r.reduced.parametric is not None:
+                r.summary.setdefault("reduced", {})["parametric"] = parametric_summary(r)
     multi = CasesResult(case=case, results={n: r for (n, _, _), r in zip(cases, results)},
                         parameters={n: p for n, _, p in cases})
     multi.summary = build_cases_summary(multi, {"scheduler": case.compute.scheduler, "workers": workers},

@@ -101,16 +101,8 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                         "final round's partition is the one solved and compared"},
         }
         s["energy_balance_W"]["reduced"] = rs.balance
-        if red.parametric is not None:  # [reduction] parametric: the states the deck's correction follows
-            par = red.parametric
-            celsius = {b.name for b in result.case.boundaries if b.kind == "temperature"} | {"sink"}
-            s["reduced"]["parametric"] = {
-                "values": {n: [float(v - (KELVIN if n in celsius else 0.0)) for v in vals]
-                           for n, vals in zip(par["names"], par["values"])},
-                "units": {n: ("degC" if n in celsius else "case units (W or W/m2)") for n in par["names"]},
-                "largest_correction_change_W": {n: float(np.abs(d).sum(axis=1).max())
-                                                for n, d in zip(par["names"], par["dQ"])},
-                "gl_relative_change": par["gl_change"]}
+        if red.parametric is not None:  # the states the deck's correction follows
+            s["reduced"]["parametric"] = parametric_summary(result)
         if result.reduced.delivered is not None:
             s["reduced"]["delivered"] = {k: result.reduced.delivered.get(k) for k in ("npz_vs_in_process_K",
                                                                                 "esatan_vs_in_process_K",
@@ -165,6 +157,18 @@ def _stats(T_nodes_K: np.ndarray, sets: list[np.ndarray], names: list[str]) -> d
         out[name] = ({"min": float(t.min()), "mean": float(t.mean()), "max": float(t.max())} if t.size
                      else {"min": None, "mean": None, "max": None})
     return out
+
+
+def parametric_summary(result: Result) -> dict:
+    """``reduced.parametric`` of summary.json: the states the deck's correction load follows (case units)."""
+    par = result.reduced.parametric
+    celsius = {b.name for b in result.case.boundaries if b.kind == "temperature"} | {"sink"}
+    return {"values": {n: [float(v - (KELVIN if n in celsius else 0.0)) for v in vals]
+                       for n, vals in zip(par["names"], par["values"])},
+            "units": {n: ("degC" if n in celsius else "case units (W or W/m2)") for n in par["names"]},
+            "largest_correction_change_W": {n: float(np.abs(d).sum(axis=1).max())
+                                            for n, d in zip(par["names"], par["dQ"])},
+            "gl_relative_change": par["gl_change"], "from": par.get("from", "[reduction] parametric")}
 
 
 def _temperatures(result: Result) -> dict:

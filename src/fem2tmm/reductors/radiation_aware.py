@@ -24,7 +24,7 @@ from ..fem.model import FEModel
 from ..reduce.exported import ExportedRecovery
 from ..reduce.network import ReducedModel, build_reduced
 from ..solve.steady import SteadySolution, solve_steady
-from ..stages import IRAbsorption, biot_numbers, detailed_problem, reduced_problem, warn_coarse_mesh
+from ..stages import IRAbsorption, biot_numbers, detailed_problem, network_group, reduced_problem, warn_coarse_mesh
 from .base import Reduced, ReductionInputs, Reductor, exported_arrays
 
 OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this, or once
@@ -316,3 +316,64 @@ def parametric_corrections(design: Reduced, case: Case, states: list[tuple[str, 
         dqs.append(np.vstack([np.zeros(net.n)] + [d for _, d in rows]))
     return {"names": tuple(names), "values": vals, "dQ": dqs, "design": np.array(design_values, float),
             "gl_change": change}
+
+
+def set_parametric(results: list) -> int:
+    """The parametric tables of a load-case set, from its own cases: no run beyond the set's.
+
+    ``results`` the set's :class:`~fem2tmm.result.Result` objects.  Cases that share one radiation-aware network
+    (``reduced.shared_network``; the same GL, GR and C) and differ from a case in the value of one named boundary
+    (power, flux, temperature; no table) or in the sink temperature alone (the same environment, orbit and other
+    boundaries) are that case's one-at-a-time states: its ``reduced.parametric`` (unless ``[reduction]
+    parametric`` set one) gets their corrections (:func:`parametric_corrections`), so that its deck follows the named
+    constants between the set's values.  Returns the number of cases that got tables.
+    """
+    groups: dict = {}
+    for r in results:
+        red = r.reduced
+        if red is not None and red.method == "radiation_aware" and red.shared_network is not None:
+            groups.setdefault((network_group(r.case), red.shared_network["linearised_at"]), []).append(r)
+    done = 0
+    for members in groups.values():
+        for r in members:
+            if r.reduced.parametric is not None or len(members) < 2:
+                continue
+            states, names = [], []
+            for name in _named_constants(r.case):
+                for o in members:
+                    if o is not r and _differs_only_in(r.case, o.case, name):
+                        states.append((name, _value(o.case, name), o.reduced))
+                if any(n == name for n, _, _ in states):
+                    names.append(name)
+            if not states:
+                continue
+            case = dataclasses.replace(r.case, reduction=dataclasses.replace(
+                r.case.reduction, parametric=tuple((n, tuple(v for m, v, _ in states if m == n)) for n in names)))
+            r.reduced.parametric = {**parametric_corrections(r.reduced, case, states), "from": "the case set"}
+            done += 1
+    return done
+
+
+def _named_constants(case: Case) -> list[str]:
+    return [b.name for b in case.boundaries if b.name and b.table is None
+            and b.kind in ("power", "flux", "temperature")] + ["sink"]
+
+
+def _value(case: Case, name: str) -> float:
+    if name == "sink":
+        return float(case.environment.sink_temperature)
+    return float(next(b.value for b in case.boundaries if b.name == name))
+
+
+def _differs_only_in(a: Case, b: Case, name: str) -> bool:
+    """Whether case ``b`` is case ``a`` with another value of the constant ``name`` and nothing else changed that
+    sets the steady state (boundaries, environment, orbit)."""
+    if _value(a, name) == _value(b, name) or a.orbit != b.orbit:
+        return False
+    if name == "sink":
+        env = dataclasses.replace(b.environment, sink_temperature=a.environment.sink_temperature)
+        return env == a.environment and a.environment.sink_table is None and a.boundaries == b.boundaries
+    bounds = tuple(dataclasses.replace(x, value=y.value) if x.name == name else x
+                   for x, y in zip(b.boundaries, a.boundaries))
+    return a.environment == b.environment and len(a.boundaries) == len(b.boundaries) and bounds == a.boundaries
+
