@@ -38,7 +38,7 @@ def test_a_run_is_made_of_one_typed_part_per_stage():
     # that travels with it, fed the same super-node temperatures, gives it back to its Newton tolerance, 1e-10 K)
     assert np.abs(red.recovery.recover(red.solution.T, T0=red.T_recovered) - red.T_recovered).max() < 1e-8
     assert res.summary["reduced"]["super_nodes"] == int(np.count_nonzero(red.network.kind == "cluster"))
-    assert res.summary["reduced"]["method"] == red.method
+    assert res.summary["reduced"]["reductor"] == red.method
 
 
 def test_the_detailed_model_alone_writes_its_outputs(tmp_path):

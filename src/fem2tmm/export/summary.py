@@ -72,7 +72,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             "negative_links": rm.report.get("negative_links", 0),
             "method": rm.report.get("method"),
             # which reduction ran ([reduction] radiation_aware / [radiation] ir_on, "auto" resolved, and why)
-            "method": result.reduced.method,
+            "reductor": result.reduced.method,
             "choice": result.reduced.choice,
             "filter": rm.report.get("filter"),
             "clustering": result.reduced.clustering.report if result.reduced.clustering is not None else None,

@@ -33,7 +33,7 @@ from .thesis import ThesisReductor
 __all__ = ["AUTO_BIOT", "REDUCTORS", "Reduced", "ReductionInputs", "Reductor", "choose_reduction",
            "exported_arrays", "first_reductor", "reductor_for"]
 
-#: every reduction method by name (``Reduced.method``, ``summary.json reduced.method``)
+#: every reduction method by name (``Reduced.method``, ``summary.json reduced.reductor``)
 REDUCTORS: dict[str, type[Reductor]] = {r.name: r for r in (ThesisReductor, PositiveReductor,
                                                             RadiationAwareReductor)}
 
