@@ -550,7 +550,8 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                             f"not the design's {reduced.method} with {reduced.choice['ir_on']!r}, so its correction "
                             "does not belong to this network; narrow the values or set [radiation] ir_on explicitly")
                     runs.append((name, value, r.reduced))
-                reduced.parametric = parametric_corrections(reduced, case_asked, runs)
+                reduced.parametric = parametric_corrections(
+                    reduced, case_asked, [n for n, _ in case_asked.reduction.parametric], runs)
                 if reduced.parametric["gl_change"] > 1e-9:  # the states must share this network's GL
                     raise InternalError(f"the parametric states' networks differ from the design's by "
                                         f"{reduced.parametric['gl_change']:.3g} (relative GL)")

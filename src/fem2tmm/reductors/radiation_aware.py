@@ -284,38 +284,33 @@ def parametric_states(case: Case) -> list[tuple[str, float, Case]]:
     return out
 
 
-def parametric_corrections(design: Reduced, case: Case, states: list[tuple[str, float, Reduced]]) -> dict:
+def parametric_corrections(design: Reduced, case: Case, names: list[str],
+                           states: list[tuple[str, float, Reduced]]) -> dict:
     """The radiation-aware network's correction load at the parametric states, as departures from the design's.
 
-    ``design`` the run's reduction, ``case`` its case; ``states`` ``(name, value, reduction)`` of each state
-    (:func:`parametric_states`), each reduced with the design's linearisation (the same K̃, GR, C).  The correction
-    is what the network's loads hold beyond the known loads, ``Q − Y'q − q_lumped`` (q_lumped, the same in every
-    state, cancels in the departures).  Returns ``{"names": (k,) str, "values": [(m_k,) SI, the design's value
-    first], "dQ": [(m_k, n) W, zeros first], "design": (k,) SI, "gl_change": max |ΔK̃| / max |K̃| over the states}``
-    for :func:`fem2tmm.export.deliverable.network_deck` (the deck's correction follows each named constant, quadratic
+    ``design`` the run's reduction, ``case`` its case, ``names`` the constants (named boundaries or "sink") in the
+    order of the deck's tables; ``states`` ``(name, value (SI), reduction)`` of each state (:func:`parametric_states`,
+    or the cases of a set), each reduced with the design's linearisation (the same K̃, GR, C).  The correction is
+    what the network's loads hold beyond the known loads, ``Q − Y'q − q_lumped`` (q_lumped, the same in every state,
+    cancels in the departures).  Returns ``{"names": (k,) str, "values": [(m_k,) SI, the design's value first],
+    "dQ": [(m_k, n) W, zeros first], "gl_change": max |ΔK̃| / max |K̃| over the states}`` for
+    :func:`fem2tmm.export.deliverable.network_deck` (the deck's correction follows each named constant, quadratic
     between the values: :func:`fem2tmm.reduce.radiative.parametric_weights`).
     """
     net = design.network
-    distribute = net.radiative.reduction.distribute
 
     def corr(red: Reduced) -> np.ndarray:
         return np.asarray(red.network.Q, float) - red.network.radiative.reduction.distribute(red.q_recover)
 
-    c0 = np.asarray(net.Q, float) - distribute(design.q_recover)
-    values = {b.name: b.value for b in case.boundaries}
-    names, vals, dqs, design_values = [], [], [], []
+    c0 = corr(design)
     scale = max(float(np.abs(net.K).max()), 1e-300)
-    change = 0.0
-    for name, _ in case.reduction.parametric:
-        v0 = case.environment.sink_temperature if name == "sink" else values[name]
-        rows = [(v, corr(r) - c0) for n, v, r in states if n == name]
-        change = max([change] + [float(np.abs(r.network.K - net.K).max()) / scale for n, _, r in states if n == name])
-        names.append(name)
-        design_values.append(float(v0))
-        vals.append(np.array([v0] + [v for v, _ in rows], float))
-        dqs.append(np.vstack([np.zeros(net.n)] + [d for _, d in rows]))
-    return {"names": tuple(names), "values": vals, "dQ": dqs, "design": np.array(design_values, float),
-            "gl_change": change}
+    vals, dqs = [], []
+    for name in names:
+        rows = [(v, r) for n, v, r in states if n == name]
+        vals.append(np.array([_value(case, name)] + [v for v, _ in rows], float))
+        dqs.append(np.vstack([np.zeros(net.n)] + [corr(r) - c0 for _, r in rows]))
+    change = max((float(np.abs(r.network.K - net.K).max()) / scale for _, _, r in states), default=0.0)
+    return {"names": tuple(names), "values": vals, "dQ": dqs, "gl_change": change}
 
 
 def set_parametric(results: list) -> int:
@@ -334,23 +329,15 @@ def set_parametric(results: list) -> int:
         if red is not None and red.method == "radiation_aware" and red.shared_network is not None:
             groups.setdefault((network_group(r.case), red.shared_network["linearised_at"]), []).append(r)
     done = 0
-    for members in groups.values():
-        for r in members:
-            if r.reduced.parametric is not None or len(members) < 2:
-                continue
-            states, names = [], []
-            for name in _named_constants(r.case):
-                for o in members:
-                    if o is not r and _differs_only_in(r.case, o.case, name):
-                        states.append((name, _value(o.case, name), o.reduced))
-                if any(n == name for n, _, _ in states):
-                    names.append(name)
-            if not states:
-                continue
-            case = dataclasses.replace(r.case, reduction=dataclasses.replace(
-                r.case.reduction, parametric=tuple((n, tuple(v for m, v, _ in states if m == n)) for n in names)))
-            r.reduced.parametric = {**parametric_corrections(r.reduced, case, states), "from": "the case set"}
-            done += 1
+    for members in (m for m in groups.values() if len(m) > 1):
+        for r in (r for r in members if r.reduced.parametric is None):
+            states = [(name, _value(o.case, name), o.reduced) for name in _named_constants(r.case)
+                      for o in members if o is not r and _differs_only_in(r.case, o.case, name)]
+            if states:
+                names = list(dict.fromkeys(n for n, _, _ in states))
+                r.reduced.parametric = {**parametric_corrections(r.reduced, r.case, names, states),
+                                        "from": "the case set"}
+                done += 1
     return done
 
 
