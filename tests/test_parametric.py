@@ -45,12 +45,18 @@ def _deck_error(out, tmp_path, fresh, heater, deck_C, sink_C, tag):
         text, n = re.subn(r"(?m)^(\s*B\d+ = 'SPACE', T = )[^;]+;", rf"\g<1>{sink_C!r};", text)
         assert n == 1
     path.write_text(_edited(text, POWER_1=heater, TEMPERATURE_0=deck_C))
-    net = read_esatan(path)
+    return _solved_deck_error(path, out / "reduced.npz", fresh, {"power_1": heater}, sink_C + KELVIN)
+
+
+def _solved_deck_error(deck, npz, fresh, loads: dict, T_sink: float | None = None) -> float:
+    """RMS error (K) of the deck ``deck`` read back by fem2tmm.lpm, solved, and recovered with the recovery of ``npz``
+    (``loads`` the named loads, ``T_sink`` K), against ``fresh``'s detailed field."""
+    net = read_esatan(deck)
     T = solve_network(net, T0=None).T
-    rec = load(out / "reduced.npz")
+    rec = load(npz)
     names = [str(n).upper() for n in net.labels]
     T_sn = np.array([T[names.index(str(n).upper())] for n in rec.names])
-    field = rec.recover(T_sn, loads={"power_1": heater}, T_sink=sink_C + KELVIN, T0=fresh.reduced.T_recovered)
+    field = rec.recover(T_sn, loads=loads, T_sink=T_sink, T0=fresh.reduced.T_recovered)
     e = (fresh.model.node_temperatures(field) - fresh.T_detailed_nodes)[fresh.model.node_dof >= 0]
     return float(np.sqrt(np.mean(e**2)))
 
@@ -195,12 +201,5 @@ def test_a_case_sets_decks_follow_the_constants_between_its_cases(tmp_path):
             write_network(tmp_path / "frozen", nominal, sinda=False)
         folder = tmp_path / "out" / "nominal" if tables else tmp_path / "frozen"
         (tmp_path / "e.esatan").write_text(_edited((folder / "model.esatan").read_text(), HEATER=1.0))
-        net = read_esatan(tmp_path / "e.esatan")
-        T = solve_network(net, T0=None).T
-        rec = load(folder / "reduced.npz")
-        labels = [str(n).upper() for n in net.labels]
-        T_sn = np.array([T[labels.index(str(n).upper())] for n in rec.names])
-        field = rec.recover(T_sn, loads={"heater": 1.0}, T0=fresh.reduced.T_recovered)
-        e = (fresh.model.node_temperatures(field) - fresh.T_detailed_nodes)[fresh.model.node_dof >= 0]
-        errors.append(float(np.sqrt(np.mean(e**2))))
+        errors.append(_solved_deck_error(tmp_path / "e.esatan", folder / "reduced.npz", fresh, {"heater": 1.0}))
     assert errors[0] < 0.3 and errors[0] < 0.5 * errors[1], errors
