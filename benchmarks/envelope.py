@@ -72,7 +72,7 @@ def _err(model, T, T_ref) -> tuple[float, float]:
 def _edited(design, case_result):
     """The design case's network with the other case's named constants, solved and recovered."""
     from fem2tmm.solve.steady import solve_steady
-    from fem2tmm.stages import reduced_problem
+    from fem2tmm.solve.problems import reduced_problem
 
     rm = design.reduced.network
     rec = design.reduced.recovery

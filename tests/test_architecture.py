@@ -32,7 +32,7 @@ RANK = {
     "reduce": 6,
     "radiation": 7,
     "solve": 8,
-    "result": 9,
+    "result": 9, "keys": 9,  # the stage cache's keys: digests of what each stage reads (case, model, network)
     "export": 10,
     "stages": 11, "inspection": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
     "reductors": 11,  # the reduction methods (reduce, export, reconstruct), built on the stages

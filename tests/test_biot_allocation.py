@@ -16,7 +16,8 @@ from fem2tmm.errors import Fem2TmmError
 from fem2tmm.fem.model import build_model
 from fem2tmm.mesh.core import PropertyData
 from fem2tmm.pipeline import run
-from fem2tmm.stages import BIOT_EXPONENT, biot_weights, cluster_model, presolve_space
+from fem2tmm.reduce.biot import BIOT_EXPONENT, biot_weights
+from fem2tmm.stages import cluster_model, presolve_space
 from fem2tmm.solve.steady import SIGMA
 
 T_THICK = 1e-3

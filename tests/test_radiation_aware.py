@@ -12,7 +12,8 @@ from fem2tmm import meshes
 from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import run
 from fem2tmm.reduce.network import build_reduced
-from fem2tmm.stages import cluster_model, detailed_problem
+from fem2tmm.solve.problems import detailed_problem
+from fem2tmm.stages import cluster_model
 from fem2tmm.solve.steady import SIGMA, SteadyProblem, solve_steady
 
 K_LOW, T_THICK = 5.0, 1e-3  # W/(m K), m: composite-like panel

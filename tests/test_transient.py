@@ -14,7 +14,8 @@ from fem2tmm.fem.model import build_model, consistent_capacity
 from fem2tmm.reduce.network import build_reduced
 from fem2tmm.solve.steady import solve_steady
 from fem2tmm.solve.transient import TransientProblem, TransientSettings, recover_series, solve_transient
-from fem2tmm.stages import cluster_model, reduced_problem
+from fem2tmm.solve.problems import reduced_problem
+from fem2tmm.stages import cluster_model
 from fem2tmm.timefunc import Series, Table
 from test_detailed import square_tube_beam
 

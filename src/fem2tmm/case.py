@@ -178,7 +178,7 @@ class ClusteringSettings:
     balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
     method: ClusteringMethod = "growing"  # growing | metis (pymetis on each region)
     # area | biot: shell elements weighted by their Biot number h_rad A/(k t) from an emission-to-space pre-solve
-    # (fem2tmm.stages.biot_weights): more, smaller super nodes where heat spreads short distances
+    # (fem2tmm.reduce.biot.biot_weights): more, smaller super nodes where heat spreads short distances
     allocation: ClusteringAllocation = "area"
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun

@@ -36,14 +36,17 @@ from .reductors import ReductionInputs, choose_reduction, first_reductor, reduct
 from .reductors.radiation_aware import parametric_corrections, parametric_states, set_parametric
 from .result import CasesResult, Detailed, Orbit, Result
 from .solve.steady import check_solvable
+from .keys import geometry_key, network_group, reduce_key, scene_key, trace_key
+from .reduce.biot import biot_weights, warn_coarse_mesh
+from .solve.problems import describe_nodes, detailed_problem, solve_case, solve_unit, solver_settings
 from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model,
-                     describe_nodes, detailed_orbit, detailed_problem, detailed_radiation, detailed_solar, fit_quadrics,
-                     geometry_key, ir_absorption, mean_faced, orbit_average, orbit_positions_detailed,
-                     orbit_positions_reduced, network_group, quadric_regions, radiation_surface, reduce_key,
-                     reduced_radiation, reference_noise, run_transient, scene_key, solar_prepass,
-                     super_face_orbit, super_face_solar, trace_key, tracer_settings)
-from .stages import Refinement, refinement_step, solve_case, solve_unit, solver_settings
-from .stages import biot_weights, check_super_node_counts, presolve_space, warn_coarse_mesh
+                     detailed_orbit, detailed_radiation, detailed_solar, fit_quadrics,
+                     ir_absorption, mean_faced, orbit_average, orbit_positions_detailed,
+                     orbit_positions_reduced, quadric_regions, radiation_surface,
+                     reduced_radiation, reference_noise, run_transient, solar_prepass,
+                     super_face_orbit, super_face_solar, tracer_settings)
+from .stages import Refinement, refinement_step
+from .stages import check_super_node_counts, presolve_space
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 
@@ -182,7 +185,7 @@ class _CaseStore:
 
 
 def _shared_linearisations(cases: list, jobs: list, store, labels, shelf) -> dict | None:
-    """One network per group of load cases (:func:`~fem2tmm.stages.network_group`) for the radiation-aware
+    """One network per group of load cases (:func:`~fem2tmm.keys.network_group`) for the radiation-aware
     reduction: ``{group: {"T": (n_dof,) K or None, "aware": bool, "case": name, "cases": [names]}}`` for the groups
     of two cases or more, the emission of every case of a group linearised about the converged field of the
     group's first case (in file order, so the same on every scheduler), computed by a reduced run of that case

@@ -68,7 +68,7 @@ class Reduced:
     method_report : the method's own report: the positive fit's (:attr:`positive`) or the outer iterations
         (:attr:`outer_iterations`)
     T_recovered_exact : (n_dof,) K with ``network = "positive"``: the exact condensation's recovered field
-    ir : where the emitted IR lands on the FE sides (:class:`fem2tmm.stages.IRAbsorption`), or None
+    ir : where the emitted IR lands on the FE sides (:class:`fem2tmm.radiation.ir_absorption.IRAbsorption`), or None
     notes : what the method changed in the choice it was given
     clustering : the clustering the super nodes come from
     choice : ``{"radiation_aware", "ir_on", "chosen_by", "biot_cluster_max"}``: the method the run used and why

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -22,62 +21,20 @@ from .constants import SIGMA
 from .cluster import Clustering, PartInput, cluster_parts, from_labels
 from .cluster.contact import join_dependent
 from .errors import Fem2TmmError, InternalError
-from .mesh.elements import SHELL_TYPES, TYPE_CODE
 from .fem.model import FEModel, boundary_load
 from .radiation import ExchangeResult, Surface, trace_exchange
 from .radiation.tracer import trace_absorption
 from .radiation.quadric import QuadricScene, fit_regions
 from .radiation.solar import SolarResult, trace_solar
 from .reduce.network import ReducedModel, determined_elements, face_owner, kept_dofs, super_faces
-from .solve.steady import FacedRadiation, SteadyProblem, SteadySolution, solve_steady
+from .radiation.ir_absorption import IRAbsorption
+from .solve.problems import detailed_problem, reduced_problem
+from .solve.steady import FacedRadiation, SteadyProblem, solve_steady
 from .solve.transient import (TransientProblem, TransientRun, TransientSettings, recover_series,
                               solve_transient)
 from .timefunc import Series, Table
 
 PREPASS_RAYS_PER_FACE = 5  # (measurements: docs/design-notes.md, stages.py)
-
-
-# --------------------------------------------------------------------------------------------- problems
-def detailed_problem(model: FEModel) -> SteadyProblem:
-    """The detailed steady problem (radiation: every active side sees only space)."""
-    return SteadyProblem(K=model.K, Q=model.Q, fixed=model.fixed_mask, T_fixed=model.fixed_values,
-                         g_space=model.space_coupling(), T_sink=model.T_sink)
-
-
-def reduced_problem(rm: ReducedModel) -> SteadyProblem:
-    """The steady problem of the reduced network ``rm``."""
-    return SteadyProblem(K=rm.K, Q=rm.Q, fixed=rm.fixed, T_fixed=rm.T_fixed, g_space=rm.g_space,
-                         T_sink=rm.T_sink, GR=rm.GR, names=tuple(rm.names))
-
-
-def solver_settings(case: Case) -> dict:
-    """The keyword arguments of :func:`solve_unit` that ``[solver]`` sets."""
-    return {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
-
-
-def solve_case(problem: SteadyProblem, case: Case) -> SteadySolution:
-    """The steady solution of ``problem`` with ``[solver]``'s settings: one work unit on the run's executor
-    (:func:`fem2tmm.compute.map_units`: in process, or on the Dask cluster of ``[compute]``)."""
-    from .compute import map_units
-
-    [solution] = map_units(solve_unit, [problem], shared=solver_settings(case), what="steady solves")
-    return solution
-
-
-def solve_unit(problem: SteadyProblem, tol: float, max_iter: int) -> SteadySolution:
-    """A steady solve as a work unit (:func:`solve_case`, the reference-noise halves)."""
-    return solve_steady(problem, tol=tol, max_iter=max_iter)
-
-
-def describe_nodes(model: FEModel) -> Callable[[np.ndarray], str]:
-    """``describe(dofs) -> str``: the parts holding some DOFs, for the solvability check's messages."""
-
-    def describe(dofs: np.ndarray) -> str:
-        mask = np.isin(model.element_dofs, dofs).any(axis=1)
-        names = sorted({model.parts[p].name for p in np.unique(model.element_part[mask])})
-        return "parts " + ", ".join(repr(n) for n in names)
-
-    return describe
 
 
 # ------------------------------------------------------------------------------------------- clustering
@@ -539,67 +496,12 @@ def fit_quadrics(points, faces, region_of_face, names):
     return quadrics, qof, report
 
 
-# ------------------------------------------------------------------------------------------- cache keys
-# Each key is a digest of exactly what the stage reads (fem2tmm.cache): its arrays as the stage receives them and
-# its settings, so a case-file key that changes none of them keeps the cached result, and any change that does
-# (including keys added to the case file or fields added to the model later) changes the key.
-#: FEModel fields that :func:`~fem2tmm.reduce.network.refresh_reduced` applies per case (not in the reduce key)
-_CASE_VALUES = {"Q", "loads", "T_sink", "fixed", "faces", "mesh"}
-#: face fields that are optics: per case (``refresh_reduced``: g_space, area)
-_FACE_OPTICS = {"emissivity", "absorptivity", "specular", "transmissivity", "transmission_specular", "active"}
-
-
-def geometry_key(model: FEModel) -> str:
-    """Digest of the radiating geometry: points, faces, the face -> element map and nodal weights."""
-    f = model.faces
-    return digest("geometry", model.mesh.points, f.nodes, f.element, f.W, model.mesh.n_elements)
-
-
 def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None,
                 weights: np.ndarray | None = None) -> str:
     """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes, flux and
     weights, the clustering settings and the user's ``labels``."""
     args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None, weights=weights)
     return digest("cluster", *args, kw, labels)
-
-
-def network_group(case: Case) -> str:
-    """Key of the reduced network a load case can share with the other cases of its set: everything but what a
-    case may change and still hand over the same GL, GR and C (boundary values, sink, Sun and orbit loads,
-    transient, reference, name).  Cases that change the mesh, materials, optics, parts, joints, which nodes are
-    held or loaded (the boundaries' kinds, groups and nodes), or the radiation, reduction and clustering
-    settings get their own network."""
-    bounds = tuple((b.kind, b.groups, b.nodes, b.name) for b in case.boundaries)
-    return digest("network", repr(case.mesh), sorted((k, repr(v)) for k, v in case.materials.items()),
-                  sorted((k, repr(v)) for k, v in case.optics.items()), repr(case.parts), repr(case.joints), bounds,
-                  repr(case.radiation), repr(case.reduction), repr(case.clustering))
-
-
-def reduce_key(model: FEModel, case: Case, clustering_key: str, T_ref: np.ndarray | None = None) -> str:
-    """Key of :func:`~fem2tmm.reduce.network.build_reduced` up to what
-    :func:`~fem2tmm.reduce.network.refresh_reduced` applies per case (loads, boundary temperatures, sink,
-    optics): the clustering and every other field of the FE model, the fixed groups' nodes, the kept nodes
-    and the ``[reduction]`` settings; for a radiation-aware reduction (``T_ref``) also T_ref, the faces' εA and
-    the sink, which its operator holds."""
-    fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.name not in _CASE_VALUES}
-    faces = {f.name: getattr(model.faces, f.name) for f in dataclasses.fields(model.faces)
-             if f.name not in _FACE_OPTICS}
-    fixed = [(g.name, g.dof, g.nodes) for g in model.fixed]
-    aware = None if T_ref is None else (T_ref, model.faces.eps_area, model.T_sink)
-    return digest("reduce", clustering_key, fields, faces, fixed, model.mesh.node_ids, kept_dofs(model, case),
-                  case.reduction, aware)
-
-
-def scene_key(fit: tuple | None) -> str:
-    """Digest of the ray scene's shape: flat triangles (``fit`` None) or the fitted quadrics ``(quadrics,
-    quadric_of_face, report)`` of :func:`fit_quadrics`."""
-    return "flat" if fit is None else digest("quadrics", list(fit[0]), fit[1])
-
-
-def trace_key(stage: str, geometry: str, optics, scene: str, *settings) -> str:
-    """Key of a ray-tracing stage: the geometry (:func:`geometry_key`), the band's per-side optics (a
-    :class:`~fem2tmm.radiation.surfaces.SideOptics`), the scene (:func:`scene_key`) and the stage's settings."""
-    return digest(stage, geometry, optics, scene, *settings)
 
 
 # -------------------------------------------------------------------------------------------- transient
@@ -798,30 +700,6 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
 
 # -------------------------------------------------------------------------------- IR absorbed on the FE sides
 
-@dataclass(frozen=True)
-class IRAbsorption:
-    """Where the emitted IR is absorbed on the detailed mesh (``[radiation] ir_on = "detailed"`` or ``"faces"``).
-
-    ``A`` (g, 2f) csr: fraction of emitter i's emitted energy absorbed by FE side k; ``owner`` (g,) the super node
-    of each emitter; ``eps_area`` (g,) m² its emitting εA.  ``"detailed"``: the emitters are the super faces,
-    each at its super node's temperature (raw ray tally); ``"faces"``: the emitters are the active FE face sides,
-    ``face`` (g,) the FE face of each, at the recovered field's face temperature ((W T⁴)^¼, as the detailed
-    model's REFs), and A their REFs after reciprocity and closure (the detailed reference's estimator, own rays).
-    """
-
-    A: sp.csr_matrix
-    owner: np.ndarray
-    eps_area: np.ndarray
-    face: np.ndarray | None = None
-
-    def face_power(self, T_sn: np.ndarray, T_sink: float, T4_face: np.ndarray | None = None) -> np.ndarray:
-        """(f,) W absorbed by each FE face (both sides) when each emitter emits σ εA (T⁴ − T_sink⁴): T the super
-        node's ``T_sn`` (n,) K, or with per-face emitters the face's ``T4_face`` (f,) K⁴ (required then)."""
-        T4 = T_sn[self.owner] ** 4 if self.face is None else T4_face[self.face]
-        emitted = SIGMA * self.eps_area * (T4 - T_sink**4)
-        return np.asarray(self.A.T @ emitted).ravel().reshape(-1, 2).sum(axis=1)
-
-
 def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
                   sf: tuple[np.ndarray, np.ndarray] | None = None) -> IRAbsorption:
     """Trace the super faces once more (own random stream; ``[radiation] ir_rays_per_face`` rays per FE face of each
@@ -856,110 +734,12 @@ def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface
     return IRAbsorption(A=A, owner=np.asarray(owner, np.int64), eps_area=eps)
 
 
-def element_biot(model: FEModel, h_dof: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Biot number ``Bi = h_rad A / (k t)`` of every element from a linearised emission lumped to the DOFs.
-
-    ``h_dof`` (n_dof,) W/K: the linearised emission 4σεA·T³ of each DOF (:class:`RadiationAware` ``h``).  An
-    element's ``k t`` is read off its conduction matrix (a bilinear quad's diagonal is 2/3 k t, a linear
-    triangle's about the same: ``k t ≈ 1.5 · trace(K_e) / n_nodes``); its ``h_rad A`` is its nodes' h shared by
-    their nodal volume shares.  Returns ``(h_rad A (m,) W/K, k t (m,) W/K, shell (m,) bool)``; ``Bi = h_rad A /
-    (k t)`` where ``shell`` (a conducting shell element).
-    """
-    coo = model.coo
-    m = len(model.elements)
-    diag = coo.rows == coo.cols
-    trace = np.bincount(coo.elem[diag], coo.vals[diag], minlength=m)
-    n_nodes = np.count_nonzero(model.element_dofs >= 0, axis=1)
-    kt = 1.5 * trace / np.maximum(n_nodes, 1)
-    # h per element: each DOF's h shared among its elements by their nodal volume shares
-    shares = model.volume_shares
-    ed = model.element_dofs
-    ok = ed >= 0
-    tot = np.bincount(ed[ok], shares[ok], minlength=model.n_dof)
-    frac = np.where(ok, shares / np.where(ok, tot[np.maximum(ed, 0)], 1.0), 0.0)
-    h_el = (frac * np.where(ok, h_dof[np.maximum(ed, 0)], 0.0)).sum(axis=1)
-    shell = np.isin(model.element_types, [TYPE_CODE[t] for t in SHELL_TYPES]) & (kt > 0)
-    return h_el, kt, shell
-
-
-def biot_numbers(model: FEModel, rm: ReducedModel, h_dof: np.ndarray) -> dict:
-    """Biot numbers ``Bi = h_rad A / (k t)`` of the shell elements and of the clusters, from the linearised emission.
-
-    ``h_dof`` (n_dof,) W/K: the linearised emission 4σεA·T³ lumped to the DOFs (:class:`RadiationAware` ``h``);
-    the elements' Bi are :func:`element_biot`'s.  A cluster's Bi is Σ h_rad A over its elements / its mean k t:
-    ``(size / fin length)²``, the number the uniform-load assumption of the thesis' reduction needs small.
-    Elements with Bi > 1 mean the mesh itself does not resolve the fin length √(k t / h_rad).  Returns
-    ``{"element_max", "elements_over_1", "cluster_max", "cluster_median"}`` (shell elements only; None without
-    any).
-    """
-    h_el, kt, shell = element_biot(model, h_dof)
-    live = shell & (rm.element_cluster >= 0)
-    if not live.any():
-        return {"element_max": None, "elements_over_1": 0, "cluster_max": None, "cluster_median": None}
-    bi_el = h_el[live] / kt[live]
-    cl = rm.element_cluster[live]
-    k = int(cl.max()) + 1
-    cnt = np.bincount(cl, minlength=k)
-    bi_cl = np.bincount(cl, h_el[live], minlength=k) / np.maximum(np.bincount(cl, kt[live], minlength=k) / np.maximum(cnt, 1), 1e-300)
-    bi_cl = bi_cl[cnt > 0]
-    return {"element_max": float(bi_el.max()), "elements_over_1": int((bi_el > 1).sum()),
-            "cluster_max": float(bi_cl.max()), "cluster_median": float(np.median(bi_cl))}
-
-
-def warn_coarse_mesh(n_over: int, bi_max: float | None) -> None:
-    """Warn (once per call) when ``n_over`` shell elements have a Biot number above 1 (largest ``bi_max``)."""
-    if n_over:
-        import warnings
-
-        warnings.warn(f"{n_over} shell elements have a Biot number h_rad A/(k t) > 1 (max {bi_max:.3g}): the mesh "
-                      "does not resolve the fin length sqrt(k t / h_rad) of its thin radiating panels; refine it "
-                      "there", stacklevel=3)
-
-
-#: ``[clustering] allocation = "biot"``: an element's clustering weight is its area times (Bi / B̄)^BIOT_EXPONENT
-#: (B̄ the part's area-weighted mean Bi), floored at BIOT_FLOOR × B̄.  The exponent minimises the RMS error of
-#: uniform-load super nodes: a super node of area a where the fin length is L errs by ~ a / L² = Bi_cluster
-#: (small Bi), so RMS² ∝ ∫ (a / L²)² dA with ∫ dA / a = n_SN fixed gives a ∝ L^(4/3), i.e. super nodes per unit
-#: area ∝ (h_rad / k t)^(2/3).  The floor keeps non-emitting elements (Bi = 0) clusterable.
-BIOT_EXPONENT = 2.0 / 3.0
-BIOT_FLOOR = 0.01
-
-
 def presolve_space(model: FEModel, case: Case) -> np.ndarray:
     """(n_dof,) K: the detailed steady field with every active side radiating to space only (no face-to-face
     exchange, no ray tracing) and the case's power loads — the cheap pre-solve of ``[clustering] allocation =
     "biot"``: sparse Newton on the FE mesh (one sparse LU per iteration), stopped at 0.1 K, since only T³ is used.
     It underestimates the temperatures of faces that see each other (their exchange is left out)."""
     return solve_steady(detailed_problem(model), tol=0.1, max_iter=case.solver.max_iterations).T
-
-
-def biot_weights(model: FEModel, T: np.ndarray) -> tuple[np.ndarray, dict]:
-    """Clustering weight per element for ``[clustering] allocation = "biot"`` and the Biot numbers behind it.
-
-    ``T`` (n_dof,) K: a pre-solve's field (:func:`presolve_space`).  The elements' Bi come from
-    :func:`element_biot` with ``h = 4σ εA T³`` (both active sides, to space); the weight of a shell element is its
-    area × ``max(Bi / B̄, BIOT_FLOOR)^BIOT_EXPONENT`` with B̄ its part's area-weighted mean Bi (see
-    :data:`BIOT_EXPONENT`); other elements (solids, bars, parts that do not radiate) keep their area/volume, i.e.
-    weight None for the part.  Returns ``(weights (m,) m² or NaN outside weighted parts, report)`` with the
-    report ``{part: {"mean", "max", "elements_over_1"}}`` of each shell part's element Bi.
-    """
-    h = 4.0 * SIGMA * model.space_coupling() * np.asarray(T, float) ** 3
-    h_el, kt, shell = element_biot(model, h)
-    bi = np.where(shell, h_el / np.where(shell, kt, 1.0), 0.0)
-    area = model.mesh.element_areas(model.elements)
-    weights = np.full(len(bi), np.nan)
-    report = {}
-    for p, info in enumerate(model.parts):
-        rows = np.flatnonzero((model.element_part == p) & shell)
-        if not len(rows):
-            continue
-        a, b = area[rows], bi[rows]
-        mean = float(np.dot(a, b) / a.sum())
-        report[info.name] = {"mean": mean, "max": float(b.max()), "elements_over_1": int((b > 1).sum())}
-        if mean > 0:
-            # densities to 9 digits: the round-off of a uniform field must not move cluster boundaries (ties)
-            weights[rows] = a * np.round(np.maximum(b / mean, BIOT_FLOOR) ** BIOT_EXPONENT, 9)
-    return weights, report
 
 
 @dataclass

@@ -612,7 +612,7 @@ def cluster_parts(points: np.ndarray, parts: Sequence[PartInput], n_elements: in
         each region, contiguous, through the optional package pymetis; see :mod:`.metis`)
     weights : one (m,) array of positive element weights per part (or None: area/volume), in the part's element
         order; they replace area/volume in the allocation among regions and in the balance of the clusters (e.g.
-        :func:`fem2tmm.stages.biot_weights`)
+        :func:`fem2tmm.reduce.biot.biot_weights`)
     one_node : (n,) bool or None; unknowns (the parts' ``dofs``, or mesh nodes) that are one-node super nodes
         (fixed temperature, kept): a bar whose nodes are all such nodes or shell/solid nodes is embedded
 

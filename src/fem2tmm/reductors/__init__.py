@@ -23,7 +23,7 @@ from ..case import Case
 from ..constants import SIGMA
 from ..fem.model import FEModel
 from ..reduce.network import ReducedModel
-from ..stages import biot_numbers
+from ..reduce.biot import biot_numbers
 from ..result import Reduced
 from .base import ReductionInputs, Reductor, exported_arrays
 from .positive import PositiveReductor

@@ -42,7 +42,7 @@ class ReductionInputs:
         the recovery and an exact power distribution take
     q_lumped : (n,) W loads traced per super node (super-face solar, orbit average), already in ``network.Q``
     orbit : ``(q (k, n_dof) W, times (k,) s, period s)`` of orbital loads traced on the FE faces, or None
-    linearised_at : (n_dof,) K a case set's shared linearisation (:func:`fem2tmm.stages.network_group`) or None
+    linearised_at : (n_dof,) K a case set's shared linearisation (:func:`fem2tmm.keys.network_group`) or None
     trace_ir : ``trace_ir(case) -> IRAbsorption``: traces where the emitted IR is absorbed on the FE sides
         (:func:`fem2tmm.stages.ir_absorption`), or None when nothing is traced
     ir_on_asked : the case file's ``[radiation] ir_on`` before "auto" was resolved

@@ -16,7 +16,7 @@ from ..case import Case
 from ..fem.model import FEModel
 from ..reduce.network import ReducedModel
 from ..solve.steady import SteadySolution, solve_steady
-from ..stages import reduced_problem
+from ..solve.problems import reduced_problem
 from .base import Reduced, ReductionInputs
 from .thesis import ThesisReductor, solve_exact
 

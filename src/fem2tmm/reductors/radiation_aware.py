@@ -24,7 +24,10 @@ from ..fem.model import FEModel
 from ..reduce.exported import ExportedRecovery
 from ..reduce.network import ReducedModel, build_reduced
 from ..solve.steady import SteadySolution, solve_steady
-from ..stages import IRAbsorption, biot_numbers, detailed_problem, network_group, reduced_problem, warn_coarse_mesh
+from ..keys import network_group
+from ..radiation.ir_absorption import IRAbsorption
+from ..reduce.biot import biot_numbers, warn_coarse_mesh
+from ..solve.problems import detailed_problem, reduced_problem
 from .base import Reduced, ReductionInputs, Reductor, exported_arrays
 
 OUTER_TOLERANCE = 1e-3  # K: outer iterations stop early once the recovered field moves less than this, or once

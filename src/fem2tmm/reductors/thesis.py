@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import Fem2TmmError
-from ..stages import reduced_problem, solve_case
+from ..solve.problems import reduced_problem, solve_case
 from .base import Reduced, ReductionInputs, Reductor
 
 
