@@ -388,7 +388,7 @@ def emission_mismatch(res, rays_per_face: int = 100) -> np.ndarray:
     import scipy.sparse.linalg as spl
 
     from fem2tmm.solve.problems import detailed_problem
-    from fem2tmm.stages import detailed_radiation, radiation_surface
+    from fem2tmm.stages.radiation import detailed_radiation, radiation_surface
 
     sigma = 5.670374419e-8
     model, case, Ta = res.model, res.case, res.detailed.solution.T

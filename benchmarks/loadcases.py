@@ -30,7 +30,7 @@ from fem2tmm.pipeline import run
 from fem2tmm.radiation.solar import _SolarBatches, sunlit_emitters
 from fem2tmm.radiation.surfaces import TriangleScene
 from fem2tmm.radiation.tracer import BATCH, _detach_scenes
-from fem2tmm.stages import radiation_surface
+from fem2tmm.stages.radiation import radiation_surface
 
 from .run import REPO
 

@@ -30,7 +30,7 @@ from fem2tmm.lpm import grouping as G
 from fem2tmm.lpm.network import Network
 from fem2tmm.lpm.solve import solve_network
 from fem2tmm.pipeline import load_mesh
-from fem2tmm.stages import detailed_radiation
+from fem2tmm.stages.radiation import detailed_radiation
 
 from .cases import REPO
 from .run import reset_peak, vm

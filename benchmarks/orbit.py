@@ -26,7 +26,8 @@ from fem2tmm.io import read_mesh
 from fem2tmm.radiation.orbital import trace_orbit
 from fem2tmm.radiation.surfaces import TriangleScene
 from fem2tmm.reduce.network import build_reduced, super_faces
-from fem2tmm.stages import cluster_model, radiation_surface
+from fem2tmm.stages.cluster import cluster_model
+from fem2tmm.stages.radiation import radiation_surface
 
 from .cases import REPO
 

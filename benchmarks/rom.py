@@ -217,7 +217,7 @@ def deim_points(U: np.ndarray) -> np.ndarray:
 def _capture_runs(case, mesh=None):
     """Run ``case`` (on ``mesh``, or its own) through the pipeline; (result, (detailed TransientProblem, settings,
     solution) or None)."""
-    import fem2tmm.stages as stages
+    import fem2tmm.stages.transient as stages
     from fem2tmm.pipeline import run
 
     seen = {}

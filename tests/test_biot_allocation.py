@@ -17,7 +17,7 @@ from fem2tmm.fem.model import build_model
 from fem2tmm.mesh.core import PropertyData
 from fem2tmm.pipeline import run
 from fem2tmm.reduce.biot import BIOT_EXPONENT, biot_weights
-from fem2tmm.stages import cluster_model, presolve_space
+from fem2tmm.stages.cluster import cluster_model, presolve_space
 from fem2tmm.solve.steady import SIGMA
 
 T_THICK = 1e-3
@@ -118,7 +118,7 @@ def test_ir_on_faces_emits_from_the_fe_faces_and_agrees_with_super_faces_at_unif
     # face is the same physics, so the absorbed power per FE face agrees within the ray noise, and the run closes
     # its reduced energy balance.
     from fem2tmm.reduce.network import build_reduced
-    from fem2tmm.stages import ir_absorption, radiation_surface
+    from fem2tmm.stages.radiation import ir_absorption, radiation_surface
 
     a = meshes.plate(0.2, 0.2, 8, 8)
     b = meshes.transform(meshes.plate(0.2, 0.2, 8, 8), rotation=meshes.rotation("x", 180.0), translation=(0, 0.2, 0.05))

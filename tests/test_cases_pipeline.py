@@ -148,7 +148,7 @@ def test_a_scene_refuses_a_surface_of_another_geometry(mesh):
     from fem2tmm.errors import Fem2TmmError
     from fem2tmm.fem.model import build_model
     from fem2tmm.radiation.surfaces import TriangleScene
-    from fem2tmm.stages import radiation_surface
+    from fem2tmm.stages.radiation import radiation_surface
 
     a = radiation_surface(build_model(mesh, case_of(BASE)))
     hot = radiation_surface(build_model(mesh, case_of(deep_merge(BASE, {"optics": HOT_COLD[1]["optics"]}))))

@@ -25,7 +25,7 @@ def _scene():
     from fem2tmm.demo import demo_case
     from fem2tmm.fem.model import build_model
     from fem2tmm.mesh.shapes import baffle
-    from fem2tmm.stages import radiation_surface
+    from fem2tmm.stages.radiation import radiation_surface
 
     case = demo_case()
     model = build_model(baffle(), case)

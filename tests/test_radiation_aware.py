@@ -13,7 +13,7 @@ from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import run
 from fem2tmm.reduce.network import build_reduced
 from fem2tmm.solve.problems import detailed_problem
-from fem2tmm.stages import cluster_model
+from fem2tmm.stages.cluster import cluster_model
 from fem2tmm.solve.steady import SIGMA, SteadyProblem, solve_steady
 
 K_LOW, T_THICK = 5.0, 1e-3  # W/(m K), m: composite-like panel
@@ -149,8 +149,8 @@ def test_fin_with_large_biot_number_radiation_aware_converges_and_beats_the_thes
 def test_reference_and_reduced_model_draw_independent_random_numbers():
     # Two facing plates, one element per super node and one active side per face: the super faces are exactly the
     # reference's REF nodes, so with shared random numbers the two tracings would be identical.  They must not be:
-    # the reference has its own streams (stages.SEED_ROLES), and its errors are uncorrelated with the reduced ones.
-    from fem2tmm.stages import detailed_radiation, reduced_radiation, tracer_settings
+    # the reference has its own streams (stages.radiation.SEED_ROLES), and its errors are uncorrelated with the reduced ones.
+    from fem2tmm.stages.radiation import detailed_radiation, reduced_radiation, tracer_settings
 
     a = meshes.plate(1.0, 1.0, 4, 4)
     b = meshes.transform(meshes.plate(1.0, 1.0, 4, 4), rotation=meshes.rotation("x", 180.0), translation=(0, 1.0, 0.5))

@@ -2,7 +2,7 @@
 
 If the detailed reference traced its rays with the reduced model's random numbers, the two ray-noise errors
 would be correlated and the reduced-vs-detailed metric would not see them.  Every tracing role of a run has its
-own seed (``stages.SEED_ROLES``, all derived from ``[radiation] seed``).  These tests check it through
+own seed (``stages.radiation.SEED_ROLES``, all derived from ``[radiation] seed``).  These tests check it through
 ``fem2tmm.run`` itself, in two ways that fail if a stage takes another role's stream:
 
 * every ray tracing of a run gets its own generator: no two calls share a (seed, spawn key) pair, and the
@@ -22,7 +22,8 @@ import numpy as np
 import pytest
 
 from conftest import make_case
-from fem2tmm import meshes, stages
+from fem2tmm import meshes
+from fem2tmm.stages import radiation as radiation_stages, refine as refine_stages, solar as solar_stages
 from fem2tmm.pipeline import run
 
 #: stage functions that trace rays, and whose model they serve
@@ -56,8 +57,10 @@ def spy(monkeypatch):
 
         monkeypatch.setattr(module, name, traced)
 
-    for name in ("trace_exchange", "trace_solar", "trace_absorption"):
-        wrap(stages, name)
+    for module in (radiation_stages, solar_stages, refine_stages):
+        for name in ("trace_exchange", "trace_solar", "trace_absorption"):
+            if hasattr(module, name):
+                wrap(module, name)
     wrap(orbital, "trace_orbit")
     return calls
 
@@ -112,7 +115,7 @@ def _runs_with_role_seed(monkeypatch, case, mesh, role):
     """A baseline run and a run where only ``role``'s seed moved (to an entropy no role of the run uses)."""
     base = run(case, mesh=mesh, cache=False)
     with monkeypatch.context() as m:
-        m.setitem(stages.SEED_ROLES, role, 99)
+        m.setitem(radiation_stages.SEED_ROLES, role, 99)
         moved = run(case, mesh=mesh, cache=False)
     return base, moved
 

@@ -21,7 +21,8 @@ from fem2tmm.reduce.refine import (cluster_errors, emission_residual, global_est
                                    owner_dofs, split_clusters)
 from fem2tmm.solve.steady import solve_steady
 from fem2tmm.solve.problems import detailed_problem
-from fem2tmm.stages import _element_links, cluster_model
+from fem2tmm.stages.cluster import cluster_model
+from fem2tmm.stages.refine import _element_links
 
 K_LOW, T_THICK = 5.0, 1e-3  # W/(m K), m: composite-like panel
 MAT = {"m": {"conductivity": K_LOW, "density": 1600.0, "specific_heat": 900.0}}

@@ -15,7 +15,7 @@ from fem2tmm.reduce.network import build_reduced
 from fem2tmm.solve.steady import solve_steady
 from fem2tmm.solve.transient import TransientProblem, TransientSettings, recover_series, solve_transient
 from fem2tmm.solve.problems import reduced_problem
-from fem2tmm.stages import cluster_model
+from fem2tmm.stages.cluster import cluster_model
 from fem2tmm.timefunc import Series, Table
 from test_detailed import square_tube_beam
 

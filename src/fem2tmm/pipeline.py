@@ -39,14 +39,15 @@ from .solve.steady import check_solvable
 from .keys import geometry_key, network_group, reduce_key, scene_key, trace_key
 from .reduce.biot import biot_weights, warn_coarse_mesh
 from .solve.problems import describe_nodes, detailed_problem, solve_case, solve_unit, solver_settings
-from .stages import (OrbitLoads, absorbed_solar_maps, check_transient, cluster_key, cluster_model,
-                     detailed_orbit, detailed_radiation, detailed_solar, fit_quadrics,
-                     ir_absorption, mean_faced, orbit_average, orbit_positions_detailed,
-                     orbit_positions_reduced, quadric_regions, radiation_surface,
-                     reduced_radiation, reference_noise, run_transient, solar_prepass,
-                     super_face_orbit, super_face_solar, tracer_settings)
-from .stages import Refinement, refinement_step
-from .stages import check_super_node_counts, presolve_space
+from .stages.cluster import check_super_node_counts, cluster_key, cluster_model, presolve_space
+from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_positions_detailed,
+                           orbit_positions_reduced, super_face_orbit)
+from .stages.quadrics import fit_quadrics, quadric_regions
+from .stages.radiation import (detailed_radiation, ir_absorption, mean_faced, radiation_surface, reduced_radiation,
+                               reference_noise, tracer_settings)
+from .stages.refine import Refinement, refinement_step
+from .stages.solar import absorbed_solar_maps, detailed_solar, solar_prepass, super_face_solar
+from .stages.transient import check_transient, run_transient
 
 __all__ = ["CasesResult", "Result", "detailed_problem", "load_mesh", "run"]
 

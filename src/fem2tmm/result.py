@@ -77,7 +77,7 @@ class Reduced:
     shared_network : load-case sets: ``{"linearised_at": case, "cases": [...]}`` sharing GL, GR and C
     radiation : REFs between super faces; ``super_faces_count`` the number of super faces traced
     solar : solar rays traced on the super faces; ``solar_on`` how the network took its solar loads
-    refinement : :class:`fem2tmm.stages.Refinement` of ``[reduction] target_rms`` (history, every round's labels)
+    refinement : :class:`fem2tmm.stages.refine.Refinement` of ``[reduction] target_rms`` (history, every round's labels)
     delivered : :func:`fem2tmm.handover.check_deliverable`: the network written, read back, solved and recovered
     parametric : ``[reduction] parametric``: the correction load at each parametric state as a departure from the
         design's (:func:`fem2tmm.reductors.radiation_aware.parametric_corrections`), written into the deck

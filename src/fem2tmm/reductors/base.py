@@ -44,7 +44,7 @@ class ReductionInputs:
     orbit : ``(q (k, n_dof) W, times (k,) s, period s)`` of orbital loads traced on the FE faces, or None
     linearised_at : (n_dof,) K a case set's shared linearisation (:func:`fem2tmm.keys.network_group`) or None
     trace_ir : ``trace_ir(case) -> IRAbsorption``: traces where the emitted IR is absorbed on the FE sides
-        (:func:`fem2tmm.stages.ir_absorption`), or None when nothing is traced
+        (:func:`fem2tmm.stages.radiation.ir_absorption`), or None when nothing is traced
     ir_on_asked : the case file's ``[radiation] ir_on`` before "auto" was resolved
     """
 
@@ -107,7 +107,7 @@ def exported_arrays(inputs: ReductionInputs, rm: ReducedModel) -> dict:
     ``inputs.q_recover`` (n_dof,) W: the detailed loads the run recovers with (boundary loads, detailed solar,
     orbit average); each power/flux ``[[boundary]]`` becomes a named unit pattern (its value scales it), the rest is
     the constant part.  Orbital loads traced on the FE faces (``inputs.orbit``) are carried with the time functions
-    of :meth:`fem2tmm.stages.OrbitLoads.add` from ``[transient] start`` (or 0).
+    of :meth:`fem2tmm.stages.orbit.OrbitLoads.add` from ``[transient] start`` (or 0).
     """
     model, case = inputs.model, inputs.case
     names, pats, vals = [], [], []

@@ -1,0 +1,134 @@
+"""The clustering stage: the case's parts, joints and super-node counts to :func:`~fem2tmm.cluster.cluster_parts`'s
+inputs, its cache key, and the pre-solve of ``[clustering] allocation = "biot"``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..cache import digest
+from ..case import Case
+from ..cluster import Clustering, PartInput, cluster_parts, from_labels
+from ..cluster.contact import join_dependent
+from ..errors import Fem2TmmError
+from ..fem.model import FEModel
+from ..reduce.network import determined_elements, kept_dofs
+from ..solve.problems import detailed_problem
+from ..solve.steady import solve_steady
+
+
+# ------------------------------------------------------------------------------------------- clustering
+def cluster_model(model: FEModel, case: Case, progress=None, flux: np.ndarray | None = None,
+                  labels: np.ndarray | None = None, weights: np.ndarray | None = None,
+                  weights_report: dict | None = None) -> Clustering:
+    """Cluster every part of ``model`` with its requested number of super nodes.
+
+    ``labels`` (n_elements,) int: a user partition instead (:func:`fem2tmm.cluster.from_labels`; the parts'
+    ``super_nodes`` are then ignored).
+    Elements fully determined by fixed-temperature nodes (e.g. a face held at a temperature) are not
+    clustered: every requested super node goes to elements with unknowns.  They get the label -1.
+    ``flux`` (n_elements,) absorbed flux (W/m², e.g. :func:`solar_prepass`) the clusters should follow, or None.
+    ``weights`` (m,) clustering weight of each model element (m²; NaN: the part keeps area/volume weights), e.g.
+    :func:`biot_weights`; its ``weights_report`` goes into the clustering report as ``allocation``.
+    """
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None, weights=weights)
+    if labels is not None:
+        return from_labels(*args, labels, feature_angle=kw["feature_angle"], where="run(labels=...)")
+    index = kw.pop("part_index")
+    clustering = cluster_parts(*args, **kw, progress=progress)
+    clustering = _independent(model, clustering, kw["one_node"], index)
+    clustering.report["allocation"] = {"method": case.clustering.allocation, **(weights_report or {})}
+    return clustering
+
+
+def _independent(model: FEModel, clustering: Clustering, one_node: np.ndarray, index: np.ndarray) -> Clustering:
+    """Model part indices for the clusters, and clusters whose super-node rows would repeat others' merged into
+    their best-connected neighbour (:func:`fem2tmm.cluster.contact.join_dependent`; the report's
+    ``merged_dependent``), so that the reduction never meets linearly dependent super nodes."""
+    cluster_part = index[clustering.cluster_part]
+    rows = np.flatnonzero(clustering.labels[model.elements] >= 0)
+    shares = model.capacity_shares if model.capacity_shares is not None else model.volume_shares
+    lab, kept, merges = join_dependent(clustering.labels[model.elements[rows]], cluster_part,
+                                       model.element_dofs[rows], shares[rows], one_node)
+    report = clustering.report
+    if not merges:
+        return dataclasses.replace(clustering, cluster_part=cluster_part)
+    labels = clustering.labels.copy()
+    labels[model.elements[rows]] = lab
+    report["merged_dependent"] = [{"cluster": int(a), "into": int(b), "part": model.parts[int(cluster_part[a])].name,
+                                   "into_part": model.parts[int(cluster_part[b])].name} for a, b in merges]
+    return dataclasses.replace(clustering, labels=labels, cluster_part=cluster_part[kept],
+                               cluster_region=clustering.cluster_region[kept], report=report)
+
+
+def _cluster_inputs(model: FEModel, case: Case, flux: np.ndarray | None, check_counts: bool = True,
+                    weights: np.ndarray | None = None) -> tuple[tuple, dict]:
+    """The arguments of :func:`~fem2tmm.cluster.cluster_parts` for ``model`` (what the clustering depends on);
+    ``check_counts``: refuse impossible super-node counts first (:func:`_check_count`)."""
+    kept = kept_dofs(model, case)
+    determined = determined_elements(model, kept)
+    one_node = np.zeros(model.n_dof, bool)  # DOFs that are super nodes of their own (fixed groups, kept nodes)
+    one_node[[g.dof for g in model.fixed]] = True
+    one_node[kept] = True
+    parts, part_weights, index = [], [], []
+    for p, info in enumerate(model.parts):
+        rows = np.flatnonzero((model.element_part == p) & ~determined)
+        if not len(rows):
+            continue  # the whole part is held at fixed temperatures
+        if check_counts:
+            _check_count(case, info, model.element_dofs[rows], one_node)
+        w = None if weights is None else weights[rows]
+        part_weights.append(w if w is not None and np.isfinite(w).all() else None)
+        index.append(p)
+        parts.append(PartInput(name=info.name, kind=info.kind, elements=model.elements[rows],
+                               cells=model.element_cells[rows], types=model.element_types[rows],
+                               n_clusters=info.super_nodes, attribute=model.element_attribute[rows],
+                               ids=model.mesh.element_ids[model.elements[rows]],
+                               flux=None if (flux is None or info.kind == "line")
+                               else np.nan_to_num(flux[model.elements[rows]]),
+                               dofs=model.element_dofs[rows]))
+    cs = case.clustering
+    kw = {"feature_angle": cs.feature_angle, "seed": cs.seed, "smoothing_layers": cs.smoothing_layers,
+          "balance": cs.balance, "method": cs.method, "one_node": one_node,
+          "part_index": np.asarray(index, np.int64)}
+    if any(w is not None for w in part_weights):
+        kw["weights"] = part_weights
+    return (model.mesh.points, parts, model.mesh.n_elements), kw
+
+
+def check_super_node_counts(model: FEModel, case: Case) -> None:
+    """Refuse super-node counts that cannot give independent super nodes (:func:`_check_count`), e.g. before a
+    pre-solve that precedes the clustering."""
+    _cluster_inputs(model, case, None, check_counts=True)
+
+
+def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarray) -> None:
+    """Refuse, before clustering, a super-node count that cannot give independent super nodes: the part's
+    clusters and the one-node super nodes among its DOFs all average over the part's DOFs, so more of them than
+    DOFs are linearly dependent."""
+    dofs = np.unique(element_dofs[element_dofs >= 0])
+    free = int(np.count_nonzero(~one_node[dofs]))
+    if info.super_nodes > free:
+        raise Fem2TmmError(
+            f"{case.source}: [[parts]] {info.name!r} asks for {info.super_nodes} super nodes, but its elements have "
+            f"only {free} nodes with an unknown temperature ({len(dofs)} nodes, {len(dofs) - free} of them fixed or "
+            f"kept): more super nodes than that repeat each other's mean temperature (linearly dependent).  Use at "
+            f"most {free}; a useful reduction has far fewer (each super node should hold several elements)")
+
+
+def cluster_key(model: FEModel, case: Case, flux: np.ndarray | None = None, labels: np.ndarray | None = None,
+                weights: np.ndarray | None = None) -> str:
+    """Key of :func:`cluster_model`: the points, every part's elements, cells, types, attributes, flux and
+    weights, the clustering settings and the user's ``labels``."""
+    args, kw = _cluster_inputs(model, case, flux, check_counts=labels is None, weights=weights)
+    return digest("cluster", *args, kw, labels)
+
+
+def presolve_space(model: FEModel, case: Case) -> np.ndarray:
+    """(n_dof,) K: the detailed steady field with every active side radiating to space only (no face-to-face
+    exchange, no ray tracing) and the case's power loads — the cheap pre-solve of ``[clustering] allocation =
+    "biot"``: sparse Newton on the FE mesh (one sparse LU per iteration), stopped at 0.1 K, since only T³ is used.
+    It underestimates the temperatures of faces that see each other (their exchange is left out)."""
+    return solve_steady(detailed_problem(model), tol=0.1, max_iter=case.solver.max_iterations).T

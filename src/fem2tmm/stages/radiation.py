@@ -1,0 +1,157 @@
+"""The radiation stages: the FE model's radiating surface, the tracer settings and random streams of ``[radiation]``,
+the detailed and super-face REFs, the reference noise, and the IR absorbed on the FE sides.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..case import Case, RadiationSettings
+from ..fem.model import FEModel
+from ..radiation import ExchangeResult, Surface, trace_exchange
+from ..radiation.ir_absorption import IRAbsorption
+from ..radiation.tracer import trace_absorption
+from ..reduce.network import ReducedModel, super_faces
+from ..solve.steady import FacedRadiation
+
+
+# -------------------------------------------------------------------------------------------- radiation
+def radiation_surface(model: FEModel) -> Surface:
+    """The model's radiating faces as a ray-tracing :class:`~fem2tmm.radiation.Surface` (sides 2i front, 2i+1 back)."""
+    f = model.faces
+    return Surface(points=model.mesh.points, faces=f.nodes, emissivity=f.emissivity, absorptivity=f.absorptivity,
+                   specular=f.specular, transmissivity=f.transmissivity,
+                   transmission_specular=f.transmission_specular, active=f.active)
+
+
+#: Random streams of a run, all derived from ``[radiation] seed``: the reduced model's tracings use the seed
+#: itself; every other role gets its own ``numpy.random.SeedSequence`` entropy ``(seed, role)``, so the reference
+#: never draws the reduced model's random numbers (issue 21: otherwise their ray noise is correlated and the
+#: error metric does not see it).
+SEED_ROLES = {"reduced": None, "reference": 1, "reference_b": 2, "prepass": 3, "absorption": 4,
+              "refine": 5}
+
+
+def role_seed(seed: int, role: str):
+    """The seed (an int, or SeedSequence entropy ``[seed, k]``) of one random-number role of a run."""
+    k = SEED_ROLES[role]
+    return int(seed) if k is None else [int(seed), k]
+
+
+def tracer_settings(case: Case, rays_per_face: int | None = None, ray_density: float | None = None,
+                    exchange: bool = True, role: str = "reduced", fraction: float = 1.0) -> dict:
+    """Keyword arguments of :func:`~fem2tmm.radiation.trace_exchange` (``exchange``) or of
+    :func:`~fem2tmm.radiation.solar.trace_solar` (not ``exchange``: no budget, no target) from the case's
+    ``[radiation]`` section.
+
+    The exchange budget is ``rays_per_face`` per group or ``ray_density`` rays/m² when one is given, else the
+    ``[radiation]`` budget (``ray_density`` if set, else ``rays_per_face``).  ``role`` picks the random stream
+    (:data:`SEED_ROLES`); ``fraction`` scales the exchange budget (two half-budget references)."""
+    rs = case.radiation
+    kw = {"sampling": rs.sampling, "seed": role_seed(rs.seed, role), "max_bounces": rs.max_bounces}
+    if not exchange:
+        return kw
+    if rays_per_face is None and ray_density is None:
+        if rs.ray_density:
+            ray_density = float(rs.ray_density)
+        else:
+            rays_per_face = int(rs.rays_per_face or RadiationSettings.rays_per_face)
+    if fraction != 1.0:
+        rays_per_face = None if rays_per_face is None else max(1, int(np.ceil(rays_per_face * fraction)))
+        ray_density = None if ray_density is None else ray_density * fraction
+    return {**kw, "rays_per_group": rays_per_face, "ray_density": ray_density, "target_lse": rs.target_lse}
+
+
+def detailed_radiation(model: FEModel, case: Case, surface: Surface | None = None, rays_per_face: int | None = None,
+                       ray_density: float | None = None, scene=None, role: str = "reference", fraction: float = 1.0
+                       ) -> tuple[FacedRadiation, np.ndarray, ExchangeResult]:
+    """Face-to-face REFs of the detailed model: every active side is a REF node.
+
+    ``role``, ``fraction``: random stream and budget fraction (:func:`tracer_settings`).
+
+    Returns ``(faced, g_space, result)``: :class:`FacedRadiation` (side -> DOF weights, side couplings m²),
+    ``g_space`` (n_dof,) m² to the sink, and the :class:`~fem2tmm.radiation.ExchangeResult`.
+    """
+    surface = radiation_surface(model) if surface is None else surface
+    f = model.faces
+    active = np.flatnonzero(f.active)
+    groups = np.full(2 * f.n, -1, np.int64)
+    groups[active] = np.arange(len(active))
+    res = trace_exchange(surface, groups, scene=scene,
+                         **tracer_settings(case, rays_per_face, ray_density, role=role, fraction=fraction))
+    Ws = f.W[active // 2]  # each side takes its face's nodal weights
+    g = len(active)
+    GR = sp.csr_matrix(res.GR)
+    faced = FacedRadiation(W=Ws.tocsr(), G=GR[:, :g].tocsr())
+    g_space = np.asarray(Ws.T @ np.asarray(GR[:, g].todense()).ravel()).ravel()
+    return faced, g_space, res
+
+
+def mean_faced(parts: list[FacedRadiation]) -> FacedRadiation:
+    """The mean of independent face-to-face radiation estimates of one model (same ``W``)."""
+    return FacedRadiation(W=parts[0].W, G=(sum(p.G for p in parts) / len(parts)).tocsr())
+
+
+def reference_noise(model: FEModel, Ta: np.ndarray, Tb: np.ndarray) -> dict:
+    """Noise of a reference that is the mean of two independent half references with solutions ``Ta``, ``Tb``
+    (n_dof,) K: the difference of two independent estimates has twice the variance of one, the mean half of
+    one, so the mean's error is estimated by ``(Ta − Tb)/2`` node by node (over the mesh nodes of the model).
+    Returns ``{"rms_K", "max_K"}``."""
+    d = 0.5 * (model.node_temperatures(Ta) - model.node_temperatures(Tb))[model.node_dof >= 0]
+    return {"rms_K": float(np.sqrt(np.mean(d**2))), "max_K": float(np.abs(d).max(initial=0.0))}
+
+
+def reduced_radiation(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                      sf: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, ExchangeResult, int]:
+    """REFs between super faces summed into GR between super nodes.
+
+    Returns ``(GR, g_space, result, n_super_faces)``: GR (n, n) m² (zero diagonal), g_space (n,) m².
+    ``sf``: the :func:`~fem2tmm.reduce.network.super_faces` of ``rm`` if already computed.
+    """
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    n_sf = len(owner)
+    res = trace_exchange(surface, groups, scene=scene, **tracer_settings(case))
+    S = sp.csr_matrix((np.ones(n_sf), (np.arange(n_sf), owner)), shape=(n_sf, rm.n))
+    GRsf = sp.csr_matrix(res.GR)
+    GR = np.asarray((S.T @ GRsf[:, :n_sf] @ S).todense())
+    np.fill_diagonal(GR, 0.0)
+    GR = 0.5 * (GR + GR.T)
+    g_space = np.asarray(S.T @ np.asarray(GRsf[:, n_sf].todense()).ravel()).ravel()
+    return GR, g_space, res, n_sf
+
+
+def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface | None = None, scene=None,
+                  sf: tuple[np.ndarray, np.ndarray] | None = None) -> IRAbsorption:
+    """Trace the super faces once more (own random stream; ``[radiation] ir_rays_per_face`` rays per FE face of each
+    super face, so every FE side receives enough rays for its own absorbed power) and tally each ray on the FE side
+    that absorbs it (:func:`~fem2tmm.radiation.tracer.trace_absorption`).  ``ir_on = "faces"``: every active FE
+    face side is an emitter of its own (the same number of rays: ``ir_rays_per_face`` per side), so the emission
+    follows the recovered field inside a super face; its REFs are traced by
+    :func:`~fem2tmm.radiation.trace_exchange` with reciprocity and closure, as the detailed reference's (own
+    random stream), which halves the variance of a raw tally; A has up to (rays per side) entries per side."""
+    surface = radiation_surface(model) if surface is None else surface
+    groups, owner = super_faces(model, rm) if sf is None else sf
+    if case.radiation.ir_on == "faces":
+        # every active side a REF node of its own, traced like the detailed reference's REFs (own random stream):
+        # reciprocity and closure halve the variance of the raw tally (measured on examples/composite: own noise
+        # 0.45 K with the raw per-side tally, 100 rays per side)
+        side = np.flatnonzero(groups >= 0)
+        emitters = np.full(len(groups), -1, np.int64)
+        emitters[side] = np.arange(len(side))
+        res = trace_exchange(surface, emitters, scene=scene,
+                             **tracer_settings(case, rays_per_face=case.radiation.ir_rays_per_face,
+                                               role="absorption"))
+        g = len(side)
+        eps = res.eps_area
+        F = (sp.diags(np.where(eps > 0, 1.0 / np.maximum(eps, 1e-300), 0.0)) @ sp.csr_matrix(res.GR)[:, :g]).tocsr()
+        F.sort_indices()
+        A = sp.csr_matrix((F.data, side[F.indices], F.indptr), shape=(g, len(groups)))  # group j -> its side
+        return IRAbsorption(A=A, owner=np.asarray(owner, np.int64)[groups[side]], eps_area=eps, face=side // 2)
+    faces_per_group = np.bincount(groups[groups >= 0], minlength=len(owner))
+    A, _, eps = trace_absorption(surface, groups, scene=scene,
+                                 rays_per_group=np.maximum(faces_per_group * case.radiation.ir_rays_per_face, 1),
+                                 **tracer_settings(case, exchange=False, role="absorption"))
+    return IRAbsorption(A=A, owner=np.asarray(owner, np.int64), eps_area=eps)
