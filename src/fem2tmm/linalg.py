@@ -1,4 +1,4 @@
-"""Sparse direct solves shared by the stages.
+"""Sparse direct solves shared by the stages, and the BLAS thread limit (:func:`blas_threads`).
 
 Thermal conduction matrices (plus radiative linearisations) are symmetric, or diagonally dominant
 M-matrices, so LU without pivoting on a minimum-degree ordering of A + Aᵀ is stable and, on 2-D/3-D
@@ -6,6 +6,8 @@ meshes, faster and leaner than SuperLU's default column ordering (measurements: 
 """
 
 from __future__ import annotations
+
+import contextlib
 
 import numpy as np
 import scipy.sparse as sp
@@ -61,3 +63,14 @@ def dependent_rows(S: sp.csr_matrix) -> list[np.ndarray]:
             vec = np.abs(v[:, null]).max(axis=1)
             groups.append(rows[vec > 1e-8 * vec.max()])
     return groups
+
+
+def blas_threads(n: int | None):
+    """Context manager limiting BLAS to ``n`` threads (no-op for None or without threadpoolctl)."""
+    if n is None:
+        return contextlib.nullcontext()
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # threadpoolctl comes with scikit-learn; without it, leave BLAS alone
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=n, user_api="blas")

@@ -31,7 +31,6 @@ symmetric with zero row sums; the raw asymmetry and row-sum residual are kept in
 
 from __future__ import annotations
 
-import contextlib
 import time
 from dataclasses import dataclass, field
 
@@ -41,6 +40,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import Fem2TmmError, format_ids
 from ..fem.assembly import ElementCOO
+from ..linalg import blas_threads
 from ..progress import report
 from .frontal import ClusterTree, Frontal, elimination_nodes
 from .recovery import Factor, GlobalOperator, LocalCluster, LocalOperator
@@ -83,17 +83,6 @@ def release_freed_memory() -> None:
             _TRIM.append(None)
     if _TRIM[0] is not None:
         _TRIM[0](0)
-
-
-def blas_threads(n: int | None):
-    """Context manager limiting BLAS to ``n`` threads (no-op for None or without threadpoolctl)."""
-    if n is None:
-        return contextlib.nullcontext()
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # threadpoolctl comes with scikit-learn; without it, leave BLAS alone
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=n, user_api="blas")
 
 
 @dataclass(frozen=True)

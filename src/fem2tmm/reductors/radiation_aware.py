@@ -140,7 +140,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     reference), its solution, the recovered field (n_dof,) K and one dict per outer iteration
     (``max_dT_K``, ``rms_dT_K``: change of the recovered field; ``correction_W``: Σ|Q_corr|).
     """
-    from ..reduce.conduction import blas_threads
+    from ..linalg import blas_threads
 
     history: list[dict] = []
     f = model.faces

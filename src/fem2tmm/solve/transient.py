@@ -48,9 +48,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..errors import Fem2TmmError
-from ..linalg import factorize
+from ..linalg import blas_threads, factorize
 from ..progress import report
-from ..reduce.conduction import blas_threads
 from ..constants import SIGMA
 from .steady import MAX_DROP, FacedRadiation, SteadyProblem, _Operators, solve_steady
 from ..timefunc import Series, Table
