@@ -68,7 +68,9 @@ def _keys(node: ast.expr, consts: dict[str, ast.expr]) -> set[str] | None:
 
 def accepted_keys() -> dict[str, set[str]]:
     """Section name ("" = top level) -> keys the parser accepts there."""
-    tree = ast.parse(Path(fem2tmm.case.__file__).read_text(encoding="utf-8"))
+    # the case package, every module of it read as one (its tables are split by module)
+    tree = ast.Module(body=[node for f in sorted(Path(fem2tmm.case.__file__).parent.glob("*.py"))
+                            for node in ast.parse(f.read_text(encoding="utf-8")).body], type_ignores=[])
     consts = _constants(tree)
     out: dict[str, set[str]] = {}
     for fn in ast.walk(tree):

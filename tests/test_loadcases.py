@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from fem2tmm import Fem2TmmError
-from fem2tmm.case import Case
-from fem2tmm.loadcases import deep_merge, expand, load_cases
+from fem2tmm.case import Case, load_cases
+from fem2tmm.loadcases import deep_merge, expand
 
 BASE = """
 [mesh]

@@ -39,7 +39,6 @@ import math
 import re
 import zlib
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
@@ -271,22 +270,3 @@ def expand(raw: Mapping[str, Any], source: str = "<case>") -> list[CaseSpec]:
         seen[low] = c.name
     return cases
 
-
-def load_cases(case) -> list[tuple[str, Any, dict]]:
-    """The validated cases of a :class:`~fem2tmm.case.Case` read from a file with ``[[cases]]``/``[sweep]``:
-    ``[(name, Case, parameters), ...]``, each parsed with its own name in its messages
-    (``case.toml [case 'hot']: [optics.paint].absorptivity: ...``).  A single-case file gives
-    ``[("", case, {})]`` (the case itself, unchanged).  Each case's ``raw`` is its merged dictionary."""
-    from dataclasses import replace
-
-    from .case import Case
-
-    raw = dict(case.raw)
-    if not has_cases(raw):
-        return [("", case, {})]
-    out = []
-    for spec in expand(raw, case.source):
-        c = Case.from_dict(spec.data, base_dir=Path(case.base_dir), source=f"{case.source} [case {spec.name!r}]")
-        # messages name the case; the case keeps the file as its source and the base file's [compute]
-        out.append((spec.name, replace(c, source=case.source, name=spec.name, compute=case.compute), spec.parameters))
-    return out

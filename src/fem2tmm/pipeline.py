@@ -107,7 +107,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     """
     from .cache import CACHE_DIR, StageCache
     from .compute import executing
-    from .loadcases import load_cases
+    from .case import load_cases
 
     out = None if out is None else check_output_place(out)  # before any computation
     cases = load_cases(case)  # every case validated before any computation
