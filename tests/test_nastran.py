@@ -18,7 +18,8 @@ import pytest
 
 from fem2tmm.errors import Fem2TmmError
 from scenarios import write_plate_deck
-from fem2tmm.io.nastran import _parse_int, _parse_real, read_nastran
+from fem2tmm.io.nastran import read_nastran
+from fem2tmm.io.nastran.deck import _parse_int, _parse_real
 
 DATA = Path(__file__).parent / "data"
 FULL = DATA / "nastran_full.bdf"

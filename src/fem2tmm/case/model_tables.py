@@ -31,7 +31,7 @@ class _ModelTables:
         loads = d.get("nastran_loads", False)
         if not isinstance(loads, bool):
             loads = self.strings(d, "nastran_loads", w)
-            from ..io.nastran import _LOAD_CARDS
+            from ..io.nastran.deck import _LOAD_CARDS
 
             bad = [c for c in loads if c.upper() not in _LOAD_CARDS]
             if bad:

@@ -32,9 +32,9 @@ from collections import Counter
 
 import numpy as np
 
-from ..errors import Fem2TmmError, format_ids
-from ..mesh import DeckLoads
-from .units import TEMPERATURE_UNITS
+from ...errors import Fem2TmmError, format_ids
+from ...mesh import DeckLoads
+from ..units import TEMPERATURE_UNITS
 
 _FACE_TYPES = {b"AREA3": 3, b"AREA4": 4, b"AREA6": 3, b"AREA8": 4}
 
@@ -65,7 +65,7 @@ def _id_list(fields, where: str) -> list[int]:
 
 
 def _real(f: bytes, where: str, what: str, default=None) -> float:
-    from .nastran import _scalar_real
+    from .deck import _scalar_real
 
     v = _scalar_real(f) if f.strip() else default
     if v is None:
