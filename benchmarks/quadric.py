@@ -21,7 +21,8 @@ import time
 import numpy as np
 
 from fem2tmm.mesh import shapes
-from fem2tmm.radiation.quadric import QuadricScene, face_frames
+from fem2tmm.radiation.quadric import face_frames
+from fem2tmm.radiation.quadric_scene import QuadricScene
 from fem2tmm.radiation.solar import trace_solar
 from fem2tmm.radiation.surfaces import Surface, TriangleScene
 from fem2tmm.radiation.tracer import trace_exchange

@@ -16,8 +16,8 @@ from fem2tmm.mesh import shapes
 from fem2tmm.errors import Fem2TmmError
 from fem2tmm.radiation import HAS_EMBREE, Surface, exchange_factors, trace_exchange
 from scenarios import cylinder_super_faces, cylinder_surface, read_cylinders
-from fem2tmm.radiation.quadric import (RULE7, Quadric, QuadricScene, face_frames, fit_quadric, fit_regions,
-                                       subdivided_rule)
+from fem2tmm.radiation.quadric import RULE7, Quadric, face_frames, fit_quadric, fit_regions, subdivided_rule
+from fem2tmm.radiation.quadric_scene import QuadricScene
 from fem2tmm.radiation.smoothing import convergence_rate
 from fem2tmm.radiation.solar import trace_solar
 from fem2tmm.radiation.surfaces import TriangleScene

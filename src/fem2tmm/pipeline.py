@@ -29,7 +29,7 @@ from .fem.model import build_model
 from .mesh import Mesh
 from .progress import Progress, report, reporting
 from .radiation.compiled import compile_estimate
-from .radiation.quadric import QuadricScene
+from .radiation.quadric_scene import QuadricScene
 from .radiation.surfaces import TriangleScene
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for

@@ -11,7 +11,8 @@ per-ray kernels).  The benchmarks live in the checkout's ``benchmarks/`` (``fem2
 from __future__ import annotations
 
 from .engine import HAS_EMBREE
-from .quadric import Quadric, QuadricScene, fit_quadric, fit_regions
+from .quadric import Quadric, fit_quadric, fit_regions
+from .quadric_scene import QuadricScene
 from .surfaces import Surface, TriangleScene
 from .tracer import ExchangeResult, exchange_factors, trace_exchange, trace_paths
 

@@ -835,7 +835,7 @@ def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity
         rays_per_face = None
     scene = None
     if quadric is not None and quadric is not False:
-        from .quadric import QuadricScene
+        from .quadric_scene import QuadricScene
 
         n_sf = int(sf.max()) + 1 if m else 0
         sel = np.full(n_sf, bool(quadric)) if np.ndim(quadric) == 0 else np.asarray(quadric)

@@ -9,7 +9,8 @@ from ..case import Case
 from ..cluster import Clustering
 from ..fem.model import FEModel
 from ..radiation import Surface
-from ..radiation.quadric import QuadricScene, fit_regions
+from ..radiation.quadric import fit_regions
+from ..radiation.quadric_scene import QuadricScene
 
 
 # --------------------------------------------------------------------------------------------- quadrics
