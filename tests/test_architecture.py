@@ -1,9 +1,13 @@
 """The package's layout rules, checked on the source text (``ast``), not by importing anything.
 
 * Imports go one way along the stage order (mesh, io, case, fem, cluster, reduce, radiation, solve, then the
-  run's result, the exporters that write it, and the orchestration: stages and the reduction methods
-  (reductors), pipeline, demo/cli): no module imports a later stage, and nothing imports the
+  run's result, the exporters that write it, the reduction methods (reductors), and the orchestration: the
+  stage adapters (stages), pipeline, demo/cli): no module imports a later stage, and nothing imports the
   package root or the benchmarks (only the ``fem2tmm bench`` entry of the CLI runs the checkout's benchmarks/).
+* A reduction method (``reductors``) and every stage package stand on the domain modules below them and never import
+  the adapters (``stages``), the pipeline or the CLI ("a method never imports the orchestrator"); the solver knows
+  matrices, not reductions (``solve`` takes from ``reduce`` only the reduced network's arrays, ``reduce.network``).
+* No import circle anywhere in the package, function-level imports included; no source file over ``MAX_LINES``.
 * The installed package holds only the product: no benchmark or study module, no path that leaves the package.
 """
 
@@ -34,14 +38,18 @@ RANK = {
     "solve": 8,
     "result": 9, "keys": 9,  # the stage cache's keys: digests of what each stage reads (case, model, network)
     "export": 10,
-    "stages": 11, "inspection": 11, "lpm": 11,  # lpm: reduction of existing thermal networks (decks in, decks out)
-    "reductors": 11,  # the reduction methods (reduce, export, reconstruct), built on the stages
-    "pipeline": 12,
-    "handover": 12, "recovering": 12,  # the network handed over read back and checked; outside temperatures back
-    "demo": 13, "cli": 14,
+    "lpm": 11,  # reduction of existing thermal networks (decks in, decks out); its positive-network algorithm
+    "reductors": 12,  # the reduction methods (reduce, export, reconstruct): on the domain modules, never the adapters
+    "stages": 13, "inspection": 13,  # the adapters from a Case to each stage's plain arrays
+    "pipeline": 14,
+    "handover": 14, "recovering": 14,  # the network handed over read back and checked; outside temperatures back
+    "demo": 15, "cli": 16,
 }
-#: the stage packages: never the orchestration, the CLI or a benchmark
-STAGES = ("mesh", "io", "fem", "cluster", "reduce", "radiation", "solve", "export")
+#: the stage packages and the reduction methods: never the orchestration, the CLI or a benchmark ("a method never
+#: imports the orchestrator")
+STAGES = ("mesh", "io", "fem", "cluster", "reduce", "radiation", "solve", "export", "reductors")
+#: no source file is longer than this (issue 45: a newcomer reads a module, not a chapter)
+MAX_LINES = 900
 
 
 def _top(pkg: Path, path: Path) -> str:
@@ -106,6 +114,70 @@ def test_stage_packages_never_import_orchestration(stage):
            for line, mod in _imports(SRC, p)
            if mod.split(".")[0] == "benchmarks" or any(mod.startswith(f"fem2tmm.{x}") for x in later)]
     assert not bad, "\n".join(bad)
+
+
+def _module_of(src: Path, dotted: str) -> str | None:
+    """The module (dotted, a package as itself) that ``dotted`` names below ``src``, or its package when it names an
+    object (``fem2tmm.radiation.Surface`` -> ``fem2tmm.radiation``); None outside the package."""
+    parts = dotted.split(".")
+    if parts[0] != "fem2tmm":
+        return None
+    while parts:
+        base = src.joinpath(*parts)
+        if base.with_suffix(".py").is_file() or (base / "__init__.py").is_file():
+            return ".".join(parts)
+        parts = parts[:-1]
+    return None
+
+
+def _import_graph(src: Path) -> dict[str, set[str]]:
+    """module -> the package's modules it imports (module-level and function-level imports alike)."""
+    graph = {}
+    for path in sorted((src / "fem2tmm").rglob("*.py")):
+        rel = path.relative_to(src).with_suffix("")
+        me = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+        deps = {_module_of(src, mod) for _, mod in _imports(src, path)} - {None, me}
+        graph[me] = deps
+    return graph
+
+
+def _circles(src: Path) -> list[list[str]]:
+    """Every import circle (a strongly connected set of modules, as one cycle through it) below ``src``."""
+    import networkx as nx
+
+    g = nx.DiGraph([(a, b) for a, deps in _import_graph(src).items() for b in deps])
+    return [nx.find_cycle(g.subgraph(c)) for c in nx.strongly_connected_components(g) if len(c) > 1]
+
+
+def test_no_import_circle():
+    # issue 45: case <-> loadcases and io.nastran <-> io.nastran_loads were circles through function-level imports
+    circles = _circles(SRC)
+    assert not circles, "\n".join(" -> ".join(a for a, _ in c) + f" -> {c[0][0]}" for c in circles)
+
+
+def test_no_source_file_is_over_the_limit():
+    long = {str(p.relative_to(SRC)): n for p in PKG.rglob("*.py")
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+    assert not long, f"split these files by concern (at most {MAX_LINES} lines): {long}"
+
+
+def test_the_solver_knows_matrices_not_reductions():
+    bad = [f"{p.relative_to(SRC)}:{line} imports {mod}" for p in sorted((PKG / "solve").rglob("*.py"))
+           for line, mod in _imports(SRC, p)
+           if mod.startswith("fem2tmm.reduce") and not mod.startswith("fem2tmm.reduce.network")]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_checker_reports_a_circle(tmp_path):
+    # the rule can fail: a function-level import that closes a circle is reported (and only the circle)
+    (tmp_path / "fem2tmm" / "io").mkdir(parents=True)
+    (tmp_path / "fem2tmm" / "__init__.py").write_text("")
+    (tmp_path / "fem2tmm" / "io" / "__init__.py").write_text("")
+    (tmp_path / "fem2tmm" / "io" / "a.py").write_text("from .b import f\n")
+    (tmp_path / "fem2tmm" / "io" / "b.py").write_text("def f():\n    from .a import g\n")
+    (tmp_path / "fem2tmm" / "io" / "c.py").write_text("from . import a\n")
+    [circle] = _circles(tmp_path)
+    assert {a for a, _ in circle} == {"fem2tmm.io.a", "fem2tmm.io.b"}, circle
 
 
 def test_the_checker_reports_a_backward_import(tmp_path):
