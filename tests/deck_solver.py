@@ -260,8 +260,20 @@ class Model:
     variables1: list                         # (target kind, key, Expr) in order
     definitions: dict                        # NAME -> expression text
     arrays: dict                             # NAME -> np.ndarray
-    solver: str = ""                         # the routine $EXECUTION calls
+    calls: list = field(default_factory=list)  # the solution routines $EXECUTION calls, in order
     notes: list = field(default_factory=list)
+
+    @property
+    def solver(self) -> str:
+        """The transient routine called (the last SL... routine), else the last steady one ("" if none)."""
+        tr = [c for c in self.calls if c.startswith("SL")]
+        return tr[-1] if tr else (self.calls[-1] if self.calls else "")
+
+    @property
+    def steady_start(self) -> bool:
+        """A steady solution precedes the transient routine (the transient starts from it)."""
+        k = self.calls.index(self.solver) if self.solver in self.calls else 0
+        return any(c.startswith("SOLV") for c in self.calls[:k])
 
     def index(self) -> dict:
         return {int(k): i for i, k in enumerate(self.numbers)}
@@ -290,7 +302,7 @@ def read_esatan(path: str | Path) -> Model:
     path = Path(path)
     text = path.read_text(encoding="utf-8", errors="replace")
     name = str(path)
-    nodes, cond, var1, defs, arrays_txt, solver = [], [], [], {}, {}, ""
+    nodes, cond, var1, defs, arrays_txt, calls = [], [], [], {}, {}, []
     for block, line, s in esatan_statements(text, name):
         where = f"{name}:{line}"
         if block in ("CONSTANTS", "LOCALS"):
@@ -341,7 +353,7 @@ def read_esatan(path: str | Path) -> Model:
         elif block == "EXECUTION":
             m = re.match(r"^CALL\s+([A-Za-z]\w*)", s, re.I)
             if m and m.group(1).upper().startswith(("SOLV", "SL")):
-                solver = m.group(1).upper()
+                calls.append(m.group(1).upper())
         elif block in ("MODEL", "ENDMODEL", "OUTPUTS", "SUBROUTINES", "INITIAL", "VARIABLES2", "EVENTS"):
             continue
         else:
@@ -355,7 +367,7 @@ def read_esatan(path: str | Path) -> Model:
         arrays[k] = np.array(vals)
     return Model(source=name, numbers=np.array([nd[1] for nd in nodes], np.int64), labels=[nd[2] for nd in nodes],
                  boundary=np.array([nd[0] == "B" for nd in nodes]), node_exprs=[nd[3] for nd in nodes], cond=cond,
-                 variables1=var1, definitions=defs, arrays=arrays, solver=solver)
+                 variables1=var1, definitions=defs, arrays=arrays, calls=calls)
 
 
 # ------------------------------------------------------------------------------------------------ evaluation
@@ -560,7 +572,7 @@ def integrate(net: Network, times: np.ndarray, scheme: str, step: float, T0: np.
 
 
 def solve_esatan_transient(path: str | Path, edits: dict | None = None, times=None, scheme: str | None = None,
-                           step: float | None = None, initial: str = "steady", startup: int = 0):
+                           step: float | None = None, initial: str | None = None, startup: int = 0):
     """The transient an ESATAN deck defines: ``(times (k,) s, {node number: T degC (k,)})``.
 
     ``times`` default: TIMEO to TIMEND every OUTINT; ``scheme`` default: the one the deck's $EXECUTION calls
@@ -580,6 +592,8 @@ def solve_esatan_transient(path: str | Path, edits: dict | None = None, times=No
         times = np.append(np.arange(t0, t1 - 1e-9 * (t1 - t0), dt), t1)
     times = np.asarray(times, float)
     h = step if step is not None else c["DTIMEI"]
+    if initial is None:
+        initial = "steady" if model.steady_start else "deck"
     T0 = _steady(net, times[0], net.T_start) if initial == "steady" else net.T_start
     T = integrate(net, times, scheme, h, T0, startup)
     return times, {int(k): T[:, i] - net.tabs for i, k in enumerate(model.numbers)}

@@ -54,7 +54,13 @@ def test_sinda_blocks_parse(fin_run):
     blocks = re.split(r"^HEADER ", text, flags=re.M)
     nodes = [b for b in blocks if b.startswith("NODE DATA")][0].splitlines()[1:]
     conds = [b for b in blocks if b.startswith("CONDUCTOR DATA")][0].splitlines()[1:]
-    node = {int(ln.split(",")[0]): float(ln.split(",")[1]) for ln in nodes if ln.strip() and "$" in ln}
+    # a named fixed temperature is a register (issue 41: SINDA gets the ESATAN deck's named constants)
+    regs = [b for b in blocks if b.startswith("REGISTER DATA")]
+    reg = {ln.split("=")[0].strip(): float(ln.split("=")[1].split("$")[0]) for b in regs for ln in b.splitlines()[1:]
+           if "=" in ln}
+    node = {int(ln.split(",")[0]): reg[ln.split(",")[1].strip()] if ln.split(",")[1].strip() in reg
+            else float(ln.split(",")[1])
+            for ln in nodes if ln.strip() and "$" in ln}
     rm, rs = fin_run.reduced.network, fin_run.reduced.solution
     assert len(node) == rm.n + 1  # + space
     assert sum(1 for k in node if k < 0) == int(rm.fixed.sum()) + 1  # boundary nodes and space are negative

@@ -339,9 +339,11 @@ def test_pipeline_transient_tables_and_outputs(tmp_path):
     bdf = (out / "temperatures_transient.bdf").read_text()
     assert "$   SID 11 = 3000 s" in bdf and bdf.count("TEMPD*") == len(times)
     esatan, sinda = (out / "model.esatan").read_text(), (out / "model.sinda").read_text()
-    assert "QTAB1(6) = 0.0, 100.0, 1500.0, 400.0, 3000.0, 100.0;" in esatan and "SLCRNC;" in esatan
+    # the flux table as multiples of its named constant (issue 41: the load counted once, FLUX_1 = 0 turns it off)
+    assert "QTAB1(6) = 0.0, 1.0, 1500.0, 4.0, 3000.0, 1.0;" in esatan and "SLCRNC;" in esatan
+    assert "FLUX_1 = 100.0;" in esatan and "* FLUX_1 * INTRP1(TIMEM, QTAB1);" in esatan
     assert "TTAB1(4) = 0.0, 20.0, 3000.0, 40.0;" in esatan and "DTIMEI = 60.0;" in esatan
-    assert "CALL TRANSIENT" in sinda and "D1DEG1(TIMEM, A1)" in sinda
+    assert "CALL FWDBCK" in sinda and "D1DEG1(TIMEM, A1)" in sinda  # FWDBCK: SINDA/FLUINT's Crank-Nicolson
     assert (out / "transient_temperatures.png").is_file() and (out / "transient_error.png").is_file()
 
 

@@ -69,6 +69,16 @@ def network_deck(result: Result) -> Deck:
             terms.append(("SINK" if name == "sink" else constant_name(name), x - (KELVIN if celsius else 0.0), W,
                           np.asarray(dQ, float)))
         parametric_terms = tuple(terms)
+    transient = None
+    if result.transient is not None:
+        transient = deck_transient(result.transient)
+    if transient is not None:  # the named constant of each load table, the initial state
+        import dataclasses
+
+        tabled = [constant_name(b.name) for b in result.case.boundaries if b.table is not None and b.kind != "temperature"]
+        init = result.case.transient.initial_temperature
+        transient = dataclasses.replace(transient, load_names=tuple(tabled[:len(transient.loads)]),
+                                        initial=None if isinstance(init, str) else float(init))
     GL = -rm.K.copy()
     np.fill_diagonal(GL, 0.0)
     area = rm.area if rm.area is not None else np.zeros(n)
@@ -77,7 +87,7 @@ def network_deck(result: Result) -> Deck:
     return Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
                 alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
                 GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
-                transient=None if result.transient is None else deck_transient(result.transient),
+                transient=transient,
                 model_name=ex.model_name or Path(result.case.source).stem, load_terms=load_terms,
                 temperature_terms=temperature_terms, parametric_terms=parametric_terms)
 

@@ -41,6 +41,13 @@ class DeckTransient:
     step: float | None = None
     output: float | None = None
     periodic: bool = False
+    #: ``[transient] method`` (the deck calls its routine, :func:`transient_routine`)
+    method: str = "crank-nicolson"
+    #: initial temperature K of the free nodes, or None: the steady state at ``start``
+    initial: float | None = None
+    #: the named constant of each load table (``""``: none, e.g. an orbital load): that load's table is written as
+    #: multiples of the constant
+    load_names: tuple = ()
 
     def tables(self) -> list[tuple[str, np.ndarray, np.ndarray, str]]:
         """(array name, times, values, what) of every table, values in deck units (°C for temperatures)."""
@@ -53,6 +60,11 @@ class DeckTransient:
     def load_terms(self, i: int) -> list[tuple[str, float]]:
         """(array name, coefficient) of the time-dependent loads of node ``i``."""
         return [(f"QTAB{k + 1}", float(p[i])) for k, (p, _, _) in enumerate(self.loads) if p[i] != 0]
+
+    def __post_init__(self):
+        if len(self.load_names) < len(self.loads):
+            object.__setattr__(self, "load_names", tuple(self.load_names) + ("",) * (len(self.loads) -
+                                                                                    len(self.load_names)))
 
 
 @dataclass(frozen=True)
@@ -136,25 +148,157 @@ def constant_name(name: str) -> str:
     return ("U_" + c)[:NAME_LENGTH] if c in _RESERVED else c
 
 
-def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced model") -> dict:
-    """Write ``deck`` as an ESATAN input deck; returns counts {nodes, GL, GR, negative_GL}.
+#: the longest line of a written deck (ESATAN's input line; SINDA/FLUINT's too): longer statements continue
+LINE_WIDTH = 132
+#: the transient routine of each ``[transient] method`` (ESATAN-TMS transient solution routines: SLCRNC
+#: Crank-Nicolson; SLGEAR Gear's backward-differentiation formulae, the family of BDF2, with its own order and
+#: step control); None: ESATAN has no routine of that scheme (no fully implicit first-order routine), the deck
+#: calls SLCRNC and says so
+ESATAN_ROUTINES = {"crank-nicolson": "SLCRNC", "backward-euler": None, "bdf2": "SLGEAR"}
 
-    Blocks in the order of ESATAN-TMS generated decks: ``$MODEL``, ``$NODES``, ``$CONDUCTORS``, ``$CONSTANTS``
-    (``$REAL``: the named loads and fixed temperatures; ``$CONTROL``: STEFAN, RELXCA, NLOOP and, for a
-    transient, TIMEO, TIMEND, DTIMEI, OUTINT), ``$ARRAYS`` (time tables), ``$INITIAL``, ``$VARIABLES1`` (loads
-    QI, time-dependent boundary temperatures), ``$VARIABLES2``, ``$EXECUTION`` (``CALL SOLVFM`` or, with a
-    transient, ``CALL SLCRNC``), ``$OUTPUTS`` (``PRNDTB`` of labels, temperatures, loads and capacitances) and
-    ``$ENDMODEL``.  Every statement ends with ``;``.
+
+def continued(head: str, items, tail: str = ";", sep: str = ", ", indent: int = 4, width: int = LINE_WIDTH,
+              cont: int = 8) -> list[str]:
+    """One statement ``head + sep.join(items) + tail`` as lines of at most ``width`` characters.
+
+    Lines break only between items, each broken line ending with the separator's non-blank part (``,`` of an
+    array, ``+`` / ``-`` of a sum), so that the statement reads as continued in any of the thermal tools'
+    conventions (a ``;``-terminated ESATAN statement may span lines).  ``indent`` blanks before the first line,
+    ``cont`` before the continuation lines.  An item longer than a line stays whole on its own line.
+
+    Parameters
+    ----------
+    head : str
+        Start of the statement, e.g. ``"QI1001 = "`` or ``"QTAB1(10) = "``.
+    items : sequence of str
+        The pieces joined by ``sep``.
+    tail : str
+        End of the statement (``";"``).
+
+    Returns
+    -------
+    list of str
+        The lines, without newline characters.
+    """
+    items = [str(x) for x in items]
+    pad, padc = " " * indent, " " * cont
+    if not items:
+        return [pad + head.rstrip() + tail]
+    one = pad + head + sep.join(items) + tail
+    if len(one) <= width:
+        return [one]
+    brk = sep.rstrip()  # what ends a broken line
+    lines, cur = [], pad + head + items[0]
+    for it in items[1:]:
+        piece = sep + it
+        if len(cur) + len(piece) + len(tail) <= width:
+            cur += piece
+        else:
+            lines.append(cur + brk)
+            cur = padc + (sep.lstrip() + it if not brk else it)
+    lines.append(cur + tail)
+    return lines
+
+
+def linear_sum(constant: float | None, terms) -> tuple[str, list[str]]:
+    """(first item, further items) of ``constant + Σ coefficient × factor`` for :func:`continued` with
+    ``sep=" "``: every item but the last ends with the sign of the next term, so a broken line ends with
+    ``+`` or ``-``.  ``terms``: (coefficient, factor text) pairs; zero coefficients are left out."""
+    parts = [(float(c), f) for c, f in terms if c != 0]
+    items = []
+    if constant is not None or not parts:
+        items.append(_fmt(0.0 if constant is None else constant))
+    for c, f in parts:
+        txt = f"{_fmt(abs(c))} * {f}"
+        if items:
+            items[-1] += " -" if c < 0 else " +"
+            items.append(txt)
+        else:
+            items.append(("-" if c < 0 else "") + txt)
+    return items
+
+
+def comment_lines(text: str, width: int = LINE_WIDTH, prefix: str = "# ") -> list[str]:
+    """A comment as lines of at most ``width`` characters, each starting with ``prefix``."""
+    import textwrap
+
+    return [prefix + s for s in textwrap.wrap(text, width - len(prefix), break_long_words=False,
+                                              break_on_hyphens=False)] or [prefix.rstrip()]
+
+
+def _tabled_loads(deck: Deck) -> dict:
+    """{table index k: (constant NAME, reference value R W)} of the named loads that follow a time table: the
+    deck writes the table as multiples of NAME (values / R) and NAME = R, so that the load is counted once and
+    editing NAME scales the whole profile (NAME = 0: no load).  R is the load's design value, or the table's
+    largest magnitude where that is 0."""
+    tr = deck.transient
+    if tr is None:
+        return {}
+    design = {c: v for c, v, _ in deck.load_terms}
+    out = {}
+    for k, c in enumerate(tr.load_names):
+        if c and c in design:
+            v = np.asarray(tr.loads[k][2], float)
+            R = float(design[c]) if design[c] != 0 else float(np.max(np.abs(v), initial=0.0))
+            out[k] = (c, R if R != 0 else 1.0)
+    return out
+
+
+def transient_routine(method: str, tool: str = "ESATAN") -> tuple[str, str | None]:
+    """(routine the deck calls, warning text or None) for ``[transient] method`` in ``tool`` ("ESATAN" or
+    "SINDA")."""
+    table = ESATAN_ROUTINES if tool == "ESATAN" else SINDA_ROUTINES
+    fallback = "SLCRNC" if tool == "ESATAN" else "FWDBCK"
+    routine = table.get(method)
+    if routine is None:
+        return fallback, (f"[transient] method = {method!r} has no matching {tool} transient routine: the {tool} "
+                          f"deck calls {fallback} (Crank-Nicolson), whose results differ from the run's by the "
+                          "schemes' truncation errors; use method = 'crank-nicolson' for a deck that runs as "
+                          "computed")
+    return routine, None
+
+
+#: SINDA/FLUINT transient routines: FWDBCK (implicit forward-backward differencing, Crank-Nicolson); SINDA/FLUINT
+#: has no backward-Euler or BDF2 routine
+SINDA_ROUTINES = {"crank-nicolson": "FWDBCK", "backward-euler": None, "bdf2": None}
+
+
+def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced model") -> dict:
+    """Write ``deck`` as an ESATAN input deck; returns counts {nodes, GL, GR, negative_GL, longest_line}.
+
+    Blocks in the order of ESATAN-TMS generated decks (the ESATAN-TMS 2020 case template): ``$MODEL``,
+    ``$LOCALS``, ``$NODES``, ``$CONDUCTORS``, ``$CONSTANTS`` (``$REAL``: the named loads and fixed temperatures;
+    ``$CONTROL``: STEFAN, RELXCA, NLOOP and, for a transient, TIMEO, TIMEND, DTIMEI, OUTINT), ``$ARRAYS`` (time
+    tables), ``$EVENTS``, ``$SUBROUTINES``, ``$INITIAL``, ``$EXECUTION`` (``CALL SOLVFM`` or, with a transient,
+    the routine of ``[transient] method`` (:data:`ESATAN_ROUTINES`), after ``CALL SOLVFM`` when the transient
+    starts from the steady state), ``$VARIABLES1`` (loads QI, time-dependent boundary temperatures, evaluated at
+    every step), ``$VARIABLES2``, ``$OUTPUTS`` (``PRNDTB`` of labels, temperatures, loads and capacitances) and
+    ``$ENDMODEL``.  Every statement ends with ``;``; no line is longer than :data:`LINE_WIDTH` characters (long
+    statements continue over lines, :func:`continued`).  A named load that follows a time table is written once:
+    ``QI = fraction × NAME × INTRP1(TIMEM, table of multiples of NAME)``.
     """
     n = len(deck.numbers)
     name = identifier(deck.model_name)
-    lines = [f"$MODEL {name}", f"# {title}", "# written by fem2tmm; units: T degC, C J/K, A m2, GL W/K, GR m2, QI W",
-             "$NODES"]
+    tr = deck.transient
+    tabled = _tabled_loads(deck)
+    tabled_names = {c for c, _ in tabled.values()}
+    lines = [f"$MODEL {name}"]
+    lines += comment_lines(title)
+    lines += comment_lines("written by fem2tmm; units: T degC, C J/K, A m2, GL W/K, GR m2, QI W")
+    lines.append("$LOCALS")
+    lines.append("$NODES")
+    init = None if tr is None else tr.initial
     for i in range(n):
         kind = "B" if deck.boundary[i] else "D"
-        T = deck.temperature_terms.get(i, _fmt(deck.T[i] - KELVIN))
-        lines.append(f"    {kind}{deck.numbers[i]} = '{deck.labels[i]}', T = {T}, "
-                     f"C = {_fmt(deck.C[i])}, A = {_fmt(deck.A[i])}, ALP = {_fmt(deck.alp[i])}, EPS = {_fmt(deck.eps[i])};")
+        if i in deck.temperature_terms:
+            T = deck.temperature_terms[i]
+        elif init is not None and not deck.boundary[i]:
+            T = _fmt(init - KELVIN)  # a transient from a given initial temperature starts from it
+        else:
+            T = _fmt(deck.T[i] - KELVIN)
+        lines += continued(f"{kind}{deck.numbers[i]} = ", [f"'{deck.labels[i]}'", f"T = {T}", f"C = {_fmt(deck.C[i])}",
+                                                          f"A = {_fmt(deck.A[i])}", f"ALP = {_fmt(deck.alp[i])}",
+                                                          f"EPS = {_fmt(deck.eps[i])}"])
     sink_named = any(c == "SINK" for c, *_ in deck.parametric_terms)
     lines.append(f"    B{deck.space} = 'SPACE', T = {'SINK' if sink_named else _fmt(deck.T_space - KELVIN)};")
     iu, ju = np.triu_indices(n, 1)
@@ -162,8 +306,8 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     nz = gl != 0
     negative = int(np.count_nonzero(gl[nz] < 0))
     lines.append("$CONDUCTORS")
-    lines.append(f"# {int(nz.sum())} conductive links; {negative} are negative (exact reduction: they belong to the "
-                 "reduced conduction matrix as a whole and must be kept)")
+    lines += comment_lines(f"{int(nz.sum())} conductive links; {negative} are negative (exact reduction: they "
+                           "belong to the reduced conduction matrix as a whole and must be kept)")
     for a, b, g in zip(iu[nz], ju[nz], gl[nz]):
         tag = "  # negative" if g < 0 else ""
         lines.append(f"    GL({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};{tag}")
@@ -174,9 +318,14 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     nzs = np.flatnonzero(deck.GR_space != 0)
     for a in nzs:
         lines.append(f"    GR({deck.numbers[a]}, {deck.space}) = {_fmt(deck.GR_space[a])};")
-    tr = deck.transient
     lines.append("$CONSTANTS")
-    named = [(c, v, "W (or W/m2): a named load, distributed over the nodes below") for c, v, _ in deck.load_terms]
+    named = []
+    for c, v, _ in deck.load_terms:
+        if c in tabled_names:
+            R = next(r for cc, r in tabled.values() if cc == c)
+            named.append((c, R, "W (or W/m2): a named load; its time table below holds multiples of it"))
+        else:
+            named.append((c, v, "W (or W/m2): a named load, distributed over the nodes below"))
     named += [(c, float(deck.T[i] - KELVIN), "degC: a named fixed temperature") for i, c in deck.temperature_terms.items()]
     if sink_named:
         named.append(("SINK", float(deck.T_space - KELVIN), "degC: the sink (space) temperature"))
@@ -194,51 +343,81 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
         if tr.step is not None:
             lines.append(f"    DTIMEI = {_fmt(tr.step)};")
         lines.append(f"    OUTINT = {_fmt(tr.output if tr.output is not None else tr.end - tr.start)};")
+    lines.append("$ARRAYS")
     if tr is not None or deck.parametric_terms:
-        lines.append("$ARRAYS")
         lines.append("  $REAL")
     if tr is not None:
-        lines.append("# doublet arrays (time s, value), read by linear interpolation in time (INTRP1), constant "
-                     "outside" + ("; periodic with period TIMEND - TIMEO" if tr.periodic else ""))
-        for aname, t, v, what in tr.tables():
-            pairs = ", ".join(f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(t, v))
-            lines.append(f"    {aname}({2 * len(t)}) = {pairs};  # {what}")
+        lines += comment_lines("doublet arrays (time s, value), read by linear interpolation in time (INTRP1), "
+                               "constant outside" + ("; periodic with period TIMEND - TIMEO" if tr.periodic else ""))
+        for k, (aname, t, v, what) in enumerate(tr.tables()):
+            if aname.startswith("QTAB") and k in tabled:
+                c, R = tabled[k]
+                v, what = np.asarray(v, float) / R, f"multiples of {c} in time"
+            lines += comment_lines(f"{aname}: {what}")
+            lines += continued(f"{aname}({2 * len(t)}) = ", [f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(t, v)])
     if deck.parametric_terms:
-        lines.append("# the network's correction load at other values of the named constants: doublet arrays (value of "
-                     "the constant, weight of one computed state), read by INTRP1 of that constant (constant outside "
-                     "the computed values); the weights are quadratic between the values and 0 or 1 at each of them")
+        lines += comment_lines("the network's correction load at other values of the named constants: doublet arrays "
+                               "(value of the constant, weight of one computed state), read by INTRP1 of that "
+                               "constant (constant outside the computed values); the weights are quadratic between "
+                               "the values and 0 or 1 at each of them")
         for k, (c, x, W, _) in enumerate(deck.parametric_terms):
             for j in range(1, len(W)):
-                pairs = ", ".join(f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(x, W[j]))
-                lines.append(f"    P{k + 1}W{j}({2 * len(x)}) = {pairs};  # {c}: state {j}")
+                lines += comment_lines(f"P{k + 1}W{j}: {c}, state {j}")
+                lines += continued(f"P{k + 1}W{j}({2 * len(x)}) = ", [f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(x, W[j])])
+    lines.append("$EVENTS")
+    lines.append("$SUBROUTINES")
     lines.append("$INITIAL")
-    lines.append("# the boundary temperatures are those of $NODES (and $VARIABLES1 where they follow a table)")
+    lines += comment_lines("the boundary temperatures are those of $NODES (and $VARIABLES1 where they follow a table)")
+    lines.append("$EXECUTION")
+    warning = None
+    if tr is None:
+        lines.append("    CALL SOLVFM;")
+    else:
+        routine, warning = transient_routine(tr.method, "ESATAN")
+        if warning:
+            lines += comment_lines(warning)
+        if init is None:
+            lines += comment_lines("the transient starts from the steady state at TIMEO")
+            lines.append("    CALL SOLVFM;")
+        lines.append(f"    CALL {routine};")
     lines.append("$VARIABLES1")
     # QI = the loads without tables (the steady QI for a steady deck) - the named loads' design share + the named
-    # constants' share + the tables: exactly the run's Q(t)
+    # constants' share + the tables: exactly the run's Q(t); a named load with a table is its table alone
     rest = np.array(deck.Q if tr is None or tr.base is None else tr.base, float)
     for c, v, frac in deck.load_terms:
-        rest = rest - v * np.asarray(frac, float)
+        if c not in tabled_names:
+            rest = rest - v * np.asarray(frac, float)
+    # round-off of the subtractions (1e-16 W where a load was taken out and put back) is not a load
+    scale = max(float(np.max(np.abs(deck.Q), initial=0.0)),
+                max((abs(v) * float(np.max(np.abs(frac), initial=0.0)) for _, v, frac in deck.load_terms), default=0.0))
+    rest[np.abs(rest) <= 1e-13 * scale] = 0.0
     for i in range(n):
-        terms = [] if tr is None else tr.load_terms(i)
-        par = [(c, float(frac[i])) for c, _, frac in deck.load_terms if frac[i] != 0]
-        corr = [(f"P{k + 1}W{j}", c, float(dQ[j, i])) for k, (c, _, _, dQ) in enumerate(deck.parametric_terms)
+        par = [(float(frac[i]), c) for c, _, frac in deck.load_terms if frac[i] != 0 and c not in tabled_names]
+        terms = []
+        if tr is not None:
+            for k, (p, _, _) in enumerate(tr.loads):
+                if p[i] != 0:
+                    a = f"QTAB{k + 1}"
+                    terms.append((float(p[i]), f"{tabled[k][0]} * INTRP1(TIMEM, {a})" if k in tabled
+                                  else f"INTRP1(TIMEM, {a})"))
+        corr = [(float(dQ[j, i]), f"INTRP1({c}, P{k + 1}W{j})") for k, (c, _, _, dQ) in enumerate(deck.parametric_terms)
                 for j in range(1, len(dQ)) if dQ[j, i] != 0]
         if deck.Q[i] != 0 or rest[i] != 0 or terms or par or corr:
-            rhs = "".join(f" {'-' if f < 0 else '+'} {_fmt(abs(f))} * {c}" for c, f in par)
-            rhs += "".join(f" {'-' if c < 0 else '+'} {_fmt(abs(c))} * INTRP1(TIMEM, {a})" for a, c in terms)
-            rhs += "".join(f" {'-' if d < 0 else '+'} {_fmt(abs(d))} * INTRP1({c}, {a})" for a, c, d in corr)
-            lines.append(f"    QI{deck.numbers[i]} = {_fmt(rest[i])}{rhs};")
+            lines += continued(f"QI{deck.numbers[i]} = ", linear_sum(rest[i] if rest[i] != 0 else None,
+                                                                     par + terms + corr), sep=" ")
     if tr is not None:
         for k, (i, _, _) in enumerate(tr.temperatures):
             lines.append(f"    T{deck.numbers[i]} = INTRP1(TIMEM, TTAB{k + 1});")
         if tr.sink is not None:
             lines.append(f"    T{deck.space} = INTRP1(TIMEM, TSINK);")
     lines.append("$VARIABLES2")
-    lines.append("$EXECUTION")
-    lines.append("    CALL SLCRNC;" if tr is not None else "    CALL SOLVFM;")
     lines.append("$OUTPUTS")
     lines.append("    CALL PRNDTB(' ', 'L, T, QI, C', CURRENT);")
     lines.append(f"$ENDMODEL {name}")
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return {"nodes": n, "GL": int(nz.sum()), "GR": int(nzr.sum() + len(nzs)), "negative_GL": negative}
+    if warning:
+        import warnings
+
+        warnings.warn(warning, stacklevel=2)
+    return {"nodes": n, "GL": int(nz.sum()), "GR": int(nzr.sum() + len(nzs)), "negative_GL": negative,
+            "longest_line": max(len(x) for x in lines)}

@@ -1,9 +1,16 @@
-"""SINDA/FLUINT node and conductor blocks of a reduced network.
+"""SINDA/FLUINT input of a reduced network, with the same named constants and time tables as the ESATAN deck.
 
 Units (stated in the file): temperatures °C (ABSZRO = -273.15), capacitance J/K, linear conductors W/K,
 radiation conductors m² (GR = ε A ℱ) with SIGMA = 5.670374419e-8 W/(m² K⁴) in CONTROL DATA.
 Boundary (fixed-temperature) nodes have negative node ids; radiation conductors have negative conductor
 ids, as SINDA/FLUINT requires.  Node numbers are those of :func:`fem2tmm.export.esatan.node_numbers`.
+
+The named loads and fixed temperatures of the ESATAN deck are registers (``HEADER REGISTER DATA``): the sources
+of ``HEADER SOURCE DATA`` and the boundary temperatures of ``HEADER NODE DATA`` are expressions of them, so that
+changing ``HEATER`` changes that load as fem2tmm distributes it.  Loads that follow a time table or the network's
+parametric correction are set in ``HEADER VARIABLES 1`` (``D1DEG1`` linear interpolation of a doublet array), a
+named load with a table once, as multiples of its register.  Logic lines are Fortran: at most 72 columns,
+continued with ``&`` in column 6; data lines at most 132 characters, array data continued over lines.
 """
 
 from __future__ import annotations
@@ -13,22 +20,87 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN, SIGMA
-from .esatan import Deck
+from .esatan import Deck, _tabled_loads, linear_sum, transient_routine
+
+#: Fortran fixed-form statement field (logic blocks: columns 7 to 72)
+FORTRAN_WIDTH = 72
+#: data lines
+DATA_WIDTH = 132
+
+
+def _fortran(statement: str, items=None) -> list[str]:
+    """A Fortran assignment ``statement`` + ``" ".join(items)`` in fixed form: columns 7-72, continuation lines with
+    ``&`` in column 6, broken between items (each broken line ends with an operator)."""
+    lines, cur = [], "      " + statement
+    for it in items or []:
+        piece = (" " if not cur.endswith(" ") else "") + it
+        if len(cur) + len(piece) <= FORTRAN_WIDTH:
+            cur += piece
+        else:
+            lines.append(cur)
+            cur = "     &  " + it
+    lines.append(cur)
+    return lines
+
+
+def _data(first: str, items, width: int = DATA_WIDTH, comment: str = "") -> list[str]:
+    """Data-block values ``first, item, item, ...`` over lines of at most ``width`` characters (a line that does
+    not end the entry ends with ``,``)."""
+    lines, cur = [], "      " + first
+    for it in items:
+        piece = ", " + it
+        if len(cur) + len(piece) + 1 <= width:
+            cur += piece
+        else:
+            lines.append(cur + ",")
+            cur = "      " + it
+    tail = f"    $ {comment}" if comment and len(cur) + len(comment) + 6 <= width else ""
+    lines.append(cur + tail)
+    return lines
 
 
 def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict:
-    """Write ``deck`` as SINDA/FLUINT input blocks; returns counts {nodes, linear, radiation}."""
+    """Write ``deck`` as SINDA/FLUINT input; returns counts {nodes, linear, radiation, longest_line}."""
     sub = "".join(c for c in submodel.upper() if c.isalnum())[:16] or "FEM2TMM"
+    tr = deck.transient
+    tabled = _tabled_loads(deck)
+    tabled_names = {c for c, _ in tabled.values()}
     out = [f"C fem2tmm reduced model, submodel {sub}",
            "C units: T degC, C J/K, linear conductors W/K, radiation conductors m2 (SIGMA below)",
-           "HEADER OPTIONS DATA", "TITLE fem2tmm reduced model", "HEADER CONTROL DATA, GLOBAL",
-           f"      SIGMA  = {SIGMA!r}", f"      ABSZRO = {-KELVIN!r}", "      UID    = SI",
-           f"HEADER NODE DATA, {sub}"]
+           "HEADER OPTIONS DATA", "TITLE fem2tmm reduced model"]
+    sink_named = any(c == "SINK" for c, *_ in deck.parametric_terms)
+    registers = []
+    for c, v, _ in deck.load_terms:
+        R = next((r for cc, r in tabled.values() if cc == c), None)
+        registers.append((c, v if R is None else R, "W (or W/m2): a named load" +
+                          ("; its time table holds multiples of it" if R is not None else "")))
+    registers += [(c, float(deck.T[i] - KELVIN), "degC: a named fixed temperature")
+                  for i, c in deck.temperature_terms.items()]
+    if sink_named:
+        registers.append(("SINK", float(deck.T_space - KELVIN), "degC: the sink (space) temperature"))
+    if registers:
+        out.append("HEADER REGISTER DATA")
+        out += [f"      {c} = {float(v)!r}    $ {what}" for c, v, what in registers]
+    out += ["HEADER CONTROL DATA, GLOBAL", f"      SIGMA  = {SIGMA!r}", f"      ABSZRO = {-KELVIN!r}",
+            "      UID    = SI"]
+    if tr is not None:
+        out.append(f"      TIMEO  = {float(tr.start)!r}")
+        out.append(f"      TIMEND = {float(tr.end)!r}")
+        if tr.step is not None:
+            out.append(f"      DTIMEI = {float(tr.step)!r}")
+        out.append(f"      OUTPUT = {float(tr.output if tr.output is not None else tr.end - tr.start)!r}")
+    out.append(f"HEADER NODE DATA, {sub}")
     n = len(deck.numbers)
+    init = None if tr is None else tr.initial
     for i in range(n):
         nid = -deck.numbers[i] if deck.boundary[i] else deck.numbers[i]
-        out.append(f"      {nid}, {float(deck.T[i] - KELVIN)!r}, {float(deck.C[i])!r}    $ {deck.labels[i]}")
-    out.append(f"      -{deck.space}, {float(deck.T_space - KELVIN)!r}, 0.0    $ SPACE")
+        if i in deck.temperature_terms:
+            T = deck.temperature_terms[i]
+        else:
+            T = repr(float((init if init is not None and not deck.boundary[i] else deck.T[i]) - KELVIN))
+        out.append(f"      {nid}, {T}, {float(deck.C[i])!r}    $ {deck.labels[i]}")
+    space_T = "SINK" if sink_named else repr(float(deck.T_space - KELVIN))
+    out.append(f"      -{deck.space}, {space_T}, 0.0    $ SPACE")
     out.append(f"HEADER CONDUCTOR DATA, {sub}")
     cid = 0
     iu, ju = np.triu_indices(n, 1)
@@ -44,49 +116,85 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
         cid += 1
         rad += 1
         out.append(f"      -{cid}, {deck.numbers[a]}, {deck.space}, {float(deck.GR_space[a])!r}")
-    tr = deck.transient
-    if np.any(deck.Q):
+    # the loads: the constant part and the named loads in SOURCE DATA (expressions of the registers); a node whose
+    # load follows a table or the parametric correction gets its whole load in VARIABLES 1 instead
+    rest = np.array(deck.Q if tr is None or tr.base is None else tr.base, float)
+    for c, v, frac in deck.load_terms:
+        if c not in tabled_names:
+            rest = rest - v * np.asarray(frac, float)
+    scale = max(float(np.max(np.abs(deck.Q), initial=0.0)),
+                max((abs(v) * float(np.max(np.abs(frac), initial=0.0)) for _, v, frac in deck.load_terms), default=0.0))
+    rest[np.abs(rest) <= 1e-13 * scale] = 0.0
+    tables = tr.tables() if tr is not None else []
+    arrays = []  # (SINDA array id, name, x, y, what)
+    for k, (name, t, v, what) in enumerate(tables):
+        if name.startswith("QTAB") and int(name[4:]) - 1 in tabled:
+            c, R = tabled[int(name[4:]) - 1]
+            v, what = np.asarray(v, float) / R, f"multiples of {c} in time"
+        arrays.append((len(arrays) + 1, name, t, v, f"{what} (time s, value)"))
+    ids = {a[1]: a[0] for a in arrays}
+    for k, (c, x, W, _) in enumerate(deck.parametric_terms):
+        for j in range(1, len(W)):
+            nm = f"P{k + 1}W{j}"
+            arrays.append((len(arrays) + 1, nm, x, W[j], f"{c}: weight of state {j} ({c}, weight)"))
+            ids[nm] = arrays[-1][0]
+    sources, logic = [], []
+    for i in range(n):
+        par = [(float(frac[i]), c) for c, _, frac in deck.load_terms if frac[i] != 0 and c not in tabled_names]
+        timed = []
+        if tr is not None:
+            for k, (p, _, _) in enumerate(tr.loads):
+                if p[i] != 0:
+                    a = f"A{ids[f'QTAB{k + 1}']}"
+                    timed.append((float(p[i]), f"{tabled[k][0]}*D1DEG1(TIMEM, {a})" if k in tabled
+                                  else f"D1DEG1(TIMEM, {a})"))
+        corr = [(float(dQ[j, i]), f"D1DEG1({c}, A{ids[f'P{k + 1}W{j}']})")
+                for k, (c, _, _, dQ) in enumerate(deck.parametric_terms) for j in range(1, len(dQ)) if dQ[j, i] != 0]
+        if timed or corr:
+            logic += _fortran(f"Q{deck.numbers[i]} = ", linear_sum(rest[i] if rest[i] != 0 else None,
+                                                                  par + timed + corr))
+        elif rest[i] != 0 or par:
+            sources.append((deck.numbers[i], " ".join(linear_sum(rest[i] if rest[i] != 0 else None, par))))
+    if sources:
         out.append(f"HEADER SOURCE DATA, {sub}")
-        for i in np.flatnonzero(deck.Q):
-            out.append(f"      {deck.numbers[i]}, {float(deck.Q[i])!r}")
+        out += [f"      {num}, {expr}" for num, expr in sources]
+    if arrays:
+        out.append(f"HEADER ARRAY DATA, {sub}")
+        for aid, name, x, y, what in arrays:
+            out.append(f"C {name}: {what}"[:DATA_WIDTH])
+            out += _data(f"{aid} = {float(x[0])!r}", [repr(float(y[0]))] +
+                         [f"{float(a)!r}, {float(b)!r}" for a, b in zip(x[1:], y[1:])])
+            out.append("      END")
     if tr is not None:
-        _transient_blocks(out, deck, sub)
-    else:  # the steady run: build the model, solve it, print the temperatures
-        out += ["HEADER OPERATIONS DATA", "      BUILD ALL", "      CALL STEADY", f"      CALL TPRINT('{sub}')"]
+        for k, (i, _, _) in enumerate(tr.temperatures):
+            logic += _fortran(f"T{deck.numbers[i]} = D1DEG1(TIMEM, A{ids[f'TTAB{k + 1}']})")
+        if tr.sink is not None:
+            logic += _fortran(f"T{deck.space} = D1DEG1(TIMEM, A{ids['TSINK']})")
+    if logic:
+        out.append(f"HEADER VARIABLES 1, {sub}")
+        out += logic
+    out += ["HEADER OPERATIONS DATA", "      BUILD ALL"]
+    if tr is None:  # the steady run: build the model, solve it, print the temperatures
+        out += ["      CALL STEADY"]
+    else:
+        routine, warning = transient_routine(tr.method, "SINDA")
+        if warning:
+            out += [f"C {line}" for line in _wrap(warning, DATA_WIDTH - 2)]
+        if init is None:
+            out.append("C the transient starts from the steady state at TIMEO")
+            out.append("      CALL STEADY")
+        out.append(f"      CALL {routine}")
+        if warning:
+            import warnings
+
+            warnings.warn(warning, stacklevel=2)
+    out.append(f"      CALL TPRINT('{sub}')")
     out.append("END OF DATA")
     Path(path).write_text("\n".join(out) + "\n", encoding="ascii", errors="replace")
-    return {"nodes": n + 1, "linear": lin, "radiation": rad}
+    return {"nodes": n + 1, "linear": lin, "radiation": rad, "longest_line": max(len(x) for x in out)}
 
 
-def _transient_blocks(out: list[str], deck: Deck, sub: str) -> None:
-    """Doublet arrays of the time tables, the time-dependent sources and boundary temperatures (linear
-    interpolation D1DEG1 in VARIABLES 1), the transient control constants and ``CALL TRANSIENT``."""
-    tr = deck.transient
-    tables = tr.tables()
-    ids = {name: k + 1 for k, (name, _, _, _) in enumerate(tables)}
-    out.append(f"HEADER ARRAY DATA, {sub}")
-    for name, t, v, what in tables:
-        pairs = ", ".join(f"{float(a)!r}, {float(b)!r}" for a, b in zip(t, v))
-        out.append(f"      {ids[name]} = {pairs}    $ {name}: {what} (time s, value)")
-        out.append("      END")
-    out.append(f"HEADER VARIABLES 1, {sub}")
-    for i in range(len(deck.numbers)):
-        terms = tr.load_terms(i)
-        if terms:
-            rhs = "".join(f" {'-' if c < 0 else '+'} {abs(c)!r} * D1DEG1(TIMEM, A{ids[a]})" for a, c in terms)
-            base = float(deck.Q[i] if tr.base is None else tr.base[i])  # the loads without their tables
-            out.append(f"      Q{deck.numbers[i]} = {base!r}{rhs}")
-    for k, (i, _, _) in enumerate(tr.temperatures):
-        out.append(f"      T{deck.numbers[i]} = D1DEG1(TIMEM, A{ids[f'TTAB{k + 1}']})")
-    if tr.sink is not None:
-        out.append(f"      T{deck.space} = D1DEG1(TIMEM, A{ids['TSINK']})")
-    out.append("HEADER CONTROL DATA, GLOBAL")
-    out.append(f"      TIMEO  = {float(tr.start)!r}")
-    out.append(f"      TIMEND = {float(tr.end)!r}")
-    if tr.step is not None:
-        out.append(f"      DTIMEI = {float(tr.step)!r}")
-    out.append(f"      OUTPUT = {float(tr.output if tr.output is not None else tr.end - tr.start)!r}")
-    out.append("HEADER OPERATIONS DATA")
-    out.append("      BUILD ALL")
-    out.append("      CALL TRANSIENT")
-    out.append(f"      CALL TPRINT('{sub}')")
+def _wrap(text: str, width: int) -> list[str]:
+    import textwrap
+
+    return textwrap.wrap(text, width, break_long_words=False, break_on_hyphens=False)

@@ -188,7 +188,7 @@ def deck_transient(run) -> DeckTransient | None:
     return DeckTransient(loads=loads, base=np.asarray(p.Q.base, float), temperatures=temps, sink=sink,
                          start=st.start, end=st.end,
                          step=step if step is not None else (st.end - st.start) / 100.0, output=st.output_every,
-                         periodic=st.periodic)
+                         periodic=st.periodic, method=st.method)
 
 
 def write_transient(folder: Path, result: Result) -> None:
