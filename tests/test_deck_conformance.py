@@ -294,7 +294,7 @@ def test_a_heater_stepping_10_40_0_W_runs_in_the_deck_as_computed(method, routin
     # tolerance 1e-8 K: Newton stops at 1e-9 K per step, 30 steps; the in-process Crank-Nicolson starts with two
     # backward-Euler steps, which change nothing from the steady start under the constant first 200 s
     if method == "backward-euler":
-        assert error() > 0.01  # the scheme the deck names is not the run's: measured 0.05 K on this plate
+        assert error() > 0.5  # the scheme the deck names is not the run's: 2.54 K on this plate (2026-12-04)
         assert error(scheme="backward-euler") < 1e-8
     else:
         assert error() < 1e-8
@@ -306,3 +306,24 @@ def test_a_heater_stepping_10_40_0_W_runs_in_the_deck_as_computed(method, routin
         assert abs(Q[0.0]) < 1e-12
         assert Q[20.0] == pytest.approx(2 * Q[10.0], rel=1e-12, abs=1e-12)
         assert Q[10.0] == pytest.approx(tr.reduced_problem.Q(t).sum(), rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["steady", "cases_hot", "transient", "orbit", "aware_transient"])
+def test_the_sinda_deck_holds_the_esatan_deck_s_loads_and_constants(decks, kind):
+    # issue 41 item 5: SINDA gets the named constants (registers) and the time tables (VARIABLES 1, D1DEG1) of the
+    # ESATAN deck; read back by fem2tmm's readers both give the same loads at TIMEO and the same steady state
+    # (1e-9 K: the same numbers, printed to 16 digits); logic lines in Fortran's columns 7-72
+    from fem2tmm.lpm import read_sinda
+
+    e, s = read_esatan(decks[kind] / "model.esatan"), read_sinda(decks[kind] / "model.sinda")
+    qe, qs = dict(zip(e.numbers, e.QI)), dict(zip(s.numbers, s.QI))
+    assert set(qe) == set(qs) and max(abs(qe[k] - qs[k]) for k in qe) < 1e-12
+    te, ts = dict(zip(e.numbers, solve_network(e).T)), dict(zip(s.numbers, solve_network(s).T))
+    assert max(abs(te[k] - ts[k]) for k in te) < 1e-9
+    text = (decks[kind] / "model.sinda").read_text()
+    if "HEADER VARIABLES 1" in text:
+        logic = text.split("HEADER VARIABLES 1")[1].split("HEADER ")[0].splitlines()[1:]
+        assert logic and max(len(line) for line in logic) <= 72
+    names = re.findall(r"^\s+([A-Z][A-Z0-9_]*) = .*\$ (?:W|degC)", text, re.M)
+    assert names == re.findall(r"^\s+([A-Z][A-Z0-9_]*) = [^;]*;\s+# (?:W|degC)", decks[kind].joinpath(
+        "model.esatan").read_text(), re.M)

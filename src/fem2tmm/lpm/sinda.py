@@ -12,6 +12,12 @@ Understood (anything else inside these blocks is refused with ``file:line``):
 - ``HEADER CONDUCTOR DATA, SUB``: ``id, a, b, G`` (negative id: radiation conductor, G = εAF in m²) and
   ``GEN id, count, id_step, a, a_step, b, b_step, G``; node references may carry their submodel (``SUB.12``).
 - ``HEADER SOURCE DATA, SUB``: ``node, Q`` pairs (W).
+- ``HEADER ARRAY DATA, SUB``: doublet arrays ``id = x1, y1, x2, y2, ...`` (continued over lines) ended by ``END``.
+- ``HEADER VARIABLES 1, SUB``: Fortran assignments ``Q12 = expr`` (the node's load, replacing its SOURCE DATA) and
+  ``T12 = expr`` (a boundary temperature), continued with a character in column 6; ``D1DEG1(TIMEM, An)`` is array
+  n interpolated linearly at ``TIMEO`` (the start of a transient), ``D1DEG1(NAME, An)`` at a register's value
+  (constant outside the array, as fem2tmm's writer means it).  Other logic statements are counted in
+  ``Network.notes``.
 
 Comments: lines starting with ``C`` followed by a blank (or alone) in column 1, ``REM`` lines, and everything after
 ``$``.  Node numbers must be unique across submodels (they are merged into one network).
@@ -30,7 +36,33 @@ from .expressions import ExpressionError, evaluate, resolve, split_top
 from .network import Network, couplings_from_lists
 
 _HEADER = re.compile(r"^\s*HEADER\s+([A-Z ]+?)\s+DATA\s*(?:,\s*([A-Za-z0-9_]+))?", re.I)
+# any other HEADER line (logic blocks: HEADER VARIABLES 1, SUB; HEADER OUTPUT CALLS, SUB)
+_OTHER_HEADER = re.compile(r"^\s*HEADER\s+([A-Z]+)", re.I)
+
+
+def _header(body: str):
+    """(block word, submodel or None) of a HEADER line, else None."""
+    h = _HEADER.match(body)
+    if h:
+        return h.group(1).upper().split()[0], h.group(2)
+    h = _OTHER_HEADER.match(body)
+    return (h.group(1).upper(), None) if h else None
 _ASSIGN = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$")
+_ARRAY_START = re.compile(r"^\s*(\d+)\s*=\s*(.*)$")
+_LOGIC = re.compile(r"^(Q|T)\s*(\d+)\s*=\s*(.+)$", re.I)
+_D1DEG1 = re.compile(r"D1DEG1\s*\(\s*([A-Za-z_]\w*)\s*,\s*A(\d+)\s*\)", re.I)
+
+
+def _logic_statements(lines):
+    """(line, statement) of Fortran fixed-form logic lines: a line with a character other than blank or 0 in column 6
+    (and blanks before it) continues the previous statement."""
+    out = []
+    for lineno, body in lines:
+        if len(body) > 5 and not body[:5].strip() and body[5] not in " 0" and out:
+            out[-1] = (out[-1][0], out[-1][1] + " " + body[6:].strip())
+        else:
+            out.append((lineno, body.strip()))
+    return out
 
 
 def _lines(text: str):
@@ -66,9 +98,9 @@ def read_sinda(path: str | Path) -> Network:
     block = None
     control, registers_src = {}, []
     for lineno, body, _ in lines:
-        h = _HEADER.match(body)
+        h = _header(body)
         if h:
-            block = h.group(1).upper().split()[0]
+            block = h[0]
             continue
         if body.strip().upper().startswith("END OF DATA"):
             block = None
@@ -81,6 +113,41 @@ def read_sinda(path: str | Path) -> Network:
                 fail(lineno, f"cannot read the register {body.strip()[:60]!r} (expected NAME = value)")
             registers_src.append((lineno, m.group(1).upper(), m.group(2)))
     regs = resolve(registers_src, fail)
+    # arrays and VARIABLES 1 (raw lines: the Fortran columns matter)
+    arrays, logic_lines, cur = {}, [], None
+    block = None
+    for lineno, raw in enumerate(text.splitlines(), 1):
+        if not raw.strip() or (raw[:1] in "Cc" and (len(raw) == 1 or raw[1] in " \t")):
+            continue
+        body = raw.split("$", 1)[0].rstrip()
+        h = _header(body)
+        if h:
+            block, cur = h[0], None
+            continue
+        if not body.strip():
+            continue
+        if block == "ARRAY":
+            if body.strip().upper() == "END":
+                cur = None
+                continue
+            m = _ARRAY_START.match(body)
+            if m:
+                cur = int(m.group(1))
+                arrays[cur] = (lineno, [])
+                rest = m.group(2)
+            elif cur is not None:
+                rest = body
+            else:
+                fail(lineno, f"cannot read the array data {body.strip()[:60]!r} (expected id = x1, y1, ...)")
+            arrays[cur][1].extend(t for t in (x.strip() for x in rest.split(",")) if t)
+        elif block == "VARIABLES":
+            logic_lines.append((lineno, body))
+    array_values = {}
+    for k, (lineno, items) in arrays.items():
+        try:
+            array_values[k] = np.array([evaluate(t, regs) for t in items], float)
+        except ExpressionError as exc:
+            fail(lineno, f"array {k}: {exc}")
     notes = []
     uid = control.get("UID", (0, "SI"))
     if uid[1].upper() != "SI":
@@ -96,7 +163,30 @@ def read_sinda(path: str | Path) -> Network:
     if "ABSZRO" not in control:
         notes.append("no ABSZRO in CONTROL DATA: temperatures read as degC")
     gr_scale = val(*control["SIGMA"], "SIGMA") / SIGMA if "SIGMA" in control else 1.0
-    other = sorted(set(control) - {"UID", "ABSZRO", "SIGMA"})
+    other = sorted(set(control) - {"UID", "ABSZRO", "SIGMA", "TIMEO"})
+    time0 = val(*control["TIMEO"], "TIMEO") if "TIMEO" in control else 0.0
+
+    def d1deg1(lineno):
+        def sub(m):
+            a = array_values.get(int(m.group(2)))
+            if a is None or len(a) < 2:
+                fail(lineno, f"D1DEG1 of the undefined array A{m.group(2)}")
+            x = time0 if m.group(1).upper() == "TIMEM" else regs.get(m.group(1).upper())
+            if x is None:
+                fail(lineno, f"D1DEG1 of {m.group(1)!r}, which is neither TIMEM nor a register")
+            return repr(float(np.interp(x, a[0::2], a[1::2])))
+        return sub
+
+    assigned, skipped = [], 0
+    for lineno, stmt in _logic_statements(logic_lines):
+        m = _LOGIC.match(stmt)
+        if not m:
+            skipped += 1
+            continue
+        assigned.append((lineno, m.group(1).upper(), int(m.group(2)),
+                         val(lineno, _D1DEG1.sub(d1deg1(lineno), m.group(3)), f"{m.group(1).upper()}{m.group(2)}")))
+    if skipped:
+        notes.append(f"{skipped} VARIABLES 1 statements not interpreted")
     if other:
         notes.append(f"control constants not used: {', '.join(other)}")
 
@@ -117,11 +207,11 @@ def read_sinda(path: str | Path) -> Network:
             fail(lineno, f"cannot read the node reference {tok!r}")
 
     for lineno, body, comment in lines:
-        h = _HEADER.match(body)
+        h = _header(body)
         if h:
-            block = h.group(1).upper().split()[0]
-            if h.group(2) and block in ("NODE", "CONDUCTOR", "SOURCE"):
-                submodels.add(h.group(2).upper())
+            block = h[0]
+            if h[1] and block in ("NODE", "CONDUCTOR", "SOURCE"):
+                submodels.add(h[1].upper())
             continue
         if body.strip().upper().startswith("END OF DATA"):
             block = None
@@ -194,7 +284,15 @@ def read_sinda(path: str | Path) -> Network:
     Q = np.zeros(n)
     for lineno, num, q in sources:
         Q[rows(lineno, [num])[0]] += q
+    T_set = {}
+    for lineno, what, num, v in assigned:  # VARIABLES 1 sets the load (or temperature) of the node
+        i = int(rows(lineno, [num])[0])
+        if what == "Q":
+            Q[i] = v
+        else:
+            T_set[i] = v
     info = [nodes[int(v)] for v in numbers]
+    info = [(a, b, T_set.get(i, c), d, e) for i, (a, b, c, d, e) in enumerate(info)]
     if gr_scale != 1.0:
         notes.append(f"radiation conductors rescaled from SIGMA = {gr_scale * SIGMA!r} to {SIGMA!r}")
     return Network(numbers=numbers, labels=np.array([i[4] for i in info], dtype=object).astype(str),
