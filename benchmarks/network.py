@@ -157,4 +157,59 @@ def bench_network_positive() -> list[dict]:
              "recovered_max_K": {"positive": round(err["positive"]["max"], 5), "exact": round(err["exact"]["max"], 5)},
              "ratio_rms": round(err["ratio_rms"], 3), "criteria_met": pn["criteria"]["met"],
              "goal": "recovered error of the positive network <= 2x the exact reduction's (issue 20)"}]
-__all__ = ["bench_network", "bench_network_positive", "network_from_model"]
+#: thresholds of the link-filter measurement (0: the exact network)
+FILTERS = (0.0, 1e-4, 1e-3, 3e-3, 1e-2)
+
+
+def bench_link_filter(super_nodes=(100, 300)) -> list[dict]:
+    """``examples/composite/case.toml`` at each count of ``super_nodes`` (radiation-aware, its default): the deck's
+    GL (and negative GL) after the TMRT link filter (:func:`fem2tmm.reduce.filters.filter_links`) at each of
+    :data:`FILTERS`, and what the user receives from that deck: the ESATAN deck written, read back and solved
+    (:mod:`fem2tmm.lpm`), its super-node temperatures against the unfiltered network's, and the field recovered
+    from them with ``reduced.npz``'s recovery against the detailed reference (issue 41 item 5)."""
+    import dataclasses
+    import tempfile
+    from pathlib import Path
+
+    from fem2tmm.constants import KELVIN
+    from fem2tmm.export.deliverable import network_deck
+    from fem2tmm.export.esatan import write_esatan
+    from fem2tmm.lpm import read_esatan
+    from fem2tmm.pipeline import run
+    from fem2tmm.reduce.exported import load
+    from fem2tmm.reduce.filters import filter_links
+
+    rows = []
+    for n_sn in super_nodes:
+        case = Case.from_toml(REPO / "examples" / "composite" / "case.toml")
+        parts = tuple(dataclasses.replace(p, super_nodes=n_sn) if p.name == "panels" else p for p in case.parts)
+        case = dataclasses.replace(case, parts=parts)
+        with tempfile.TemporaryDirectory(prefix="fem2tmm-filter-") as tmp:
+            res = run(case, out=Path(tmp) / "out", quiet=True)
+            rec = load(Path(tmp) / "out" / "reduced.npz")
+            deck = network_deck(res)
+            names = [str(x) for x in res.reduced.network.names]
+            Td = res.detailed.solution.T
+            K = -deck.GL.copy()
+            np.fill_diagonal(K, -deck.GL.sum(axis=1))
+            for f in FILTERS:
+                Kf, rep = filter_links(K, f) if f > 0 else (K, {})
+                GL = -Kf
+                np.fill_diagonal(GL, 0.0)
+                path = Path(tmp) / f"filter_{f:g}.esatan"
+                counts = write_esatan(path, dataclasses.replace(deck, GL=GL))
+                net = read_esatan(path)
+                sol = solve_network(net)
+                by = dict(zip([str(x) for x in net.labels], sol.T))
+                T_sn = np.array([by[nm] for nm in names])
+                e = rec.recover(T_sn, T0=res.reduced.T_recovered) - Td
+                rows.append({"bench": "link_filter", "case": "examples/composite/case.toml", "super_nodes": n_sn,
+                             "filter": f, "GL": counts["GL"], "negative_GL": counts["negative_GL"],
+                             "sn_change_max_K": round(float(np.abs(T_sn - res.reduced.solution.T).max()), 4),
+                             "field_rms_K": round(float(np.sqrt(np.mean(e**2))), 4),
+                             "field_max_K": round(float(np.abs(e).max()), 4),
+                             "max_relative_removed": rep.get("max_relative_removed", 0.0)})
+    return rows
+
+
+__all__ = ["bench_link_filter", "bench_network", "bench_network_positive", "network_from_model"]

@@ -49,6 +49,7 @@ REGISTRY: dict[str, str] = {
     "cases_warm": "benchmarks.loadcases:bench_cases_warm",
     "cases_smallsat": "benchmarks.loadcases:bench_cases_smallsat",
     "network_positive": "benchmarks.network:bench_network_positive",
+    "link_filter": "benchmarks.network:bench_link_filter",
     "transient": "benchmarks.transient:bench_transient",
     "orbit": "benchmarks.orbit:bench_orbit",
     "refine": "benchmarks.refine:bench_refine",
