@@ -381,7 +381,7 @@ class Network:
         self.stefan = self.c.get("STEFAN", STEFAN_DEFAULT)
         self.tabs = self.c.get("TABS", TABS_DEFAULT)
         self.idx = model.index()
-        n = self.n = len(model.numbers)
+        self.n = len(model.numbers)
         ev = self._static
         get = lambda key: np.array([ev(a[key]) if key in a else 0.0 for a in model.node_exprs])  # noqa: E731
         self.T_start = get("T") + self.tabs
@@ -537,11 +537,9 @@ def integrate(net: Network, times: np.ndarray, scheme: str, step: float, T0: np.
         h = (te - t) / m
         for _ in range(m):
             t1 = t + h
-            if scheme == "backward-euler" or (scheme == "crank-nicolson" and n_steps < startup) or \
-                    (scheme == "bdf2" and prev is None and False):
-                theta = 1.0
-            else:
-                theta = 0.5
+            # backward Euler, and the startup steps of Crank-Nicolson, are theta = 1; BDF2 starts with one
+            # trapezoidal step (theta = 1/2), as its history needs a previous step
+            theta = 1.0 if scheme == "backward-euler" or (scheme == "crank-nicolson" and n_steps < startup) else 0.5
             if scheme == "bdf2" and prev is not None:
                 hp, dTp = prev
                 w = h / hp

@@ -244,6 +244,54 @@ def _tabled_loads(deck: Deck) -> dict:
     return out
 
 
+def named_constants(deck: Deck) -> list[tuple[str, float, str]]:
+    """(NAME, value in deck units, what) of the deck's named constants: each named load (W, or W/m² for a flux;
+    a load with a time table: the reference its table is a multiple of), each named fixed temperature (°C) and
+    SINK (°C) when the parametric correction follows the sink."""
+    tabled = dict(_tabled_loads(deck).values())
+    out = [(c, tabled.get(c, v), "W (or W/m2): a named load" + ("; its time table holds multiples of it"
+                                                                  if c in tabled else ""))
+           for c, v, _ in deck.load_terms]
+    out += [(c, float(deck.T[i] - KELVIN), "degC: a named fixed temperature") for i, c in deck.temperature_terms.items()]
+    if any(c == "SINK" for c, *_ in deck.parametric_terms):
+        out.append(("SINK", float(deck.T_space - KELVIN), "degC: the sink (space) temperature"))
+    return out
+
+
+def node_loads(deck: Deck, in_time, of_constant) -> list[tuple[int, float | None, list, bool]]:
+    """The load of every loaded node as ``rest + Σ coefficient × factor`` for both decks.
+
+    ``in_time(k)``: the text of load table k interpolated at the time (``INTRP1(TIMEM, QTAB1)``);
+    ``of_constant(NAME, k, j)``: the text of weight table j of parametric term k interpolated at NAME.  Returns
+    (node index, rest W or None when zero, [(coefficient, factor text)], depends on time or a table) per node with a
+    load: rest = the loads without tables (the steady QI for a steady deck) − the named loads' design share; the
+    factors: each named constant (its fraction), each load table (a named load with a table: ``NAME * table``, its
+    table alone, never the constant too), each parametric correction.  At the design values the sum is the run's
+    Q(t) to round-off (rest below 1e-13 of the largest load is that round-off, written as 0)."""
+    tr = deck.transient
+    tabled = _tabled_loads(deck)
+    tabled_names = {c for c, _ in tabled.values()}
+    rest = np.array(deck.Q if tr is None or tr.base is None else tr.base, float)
+    for c, v, frac in deck.load_terms:
+        if c not in tabled_names:
+            rest = rest - v * np.asarray(frac, float)
+    scale = max(float(np.max(np.abs(deck.Q), initial=0.0)),
+                max((abs(v) * float(np.max(np.abs(frac), initial=0.0)) for _, v, frac in deck.load_terms), default=0.0))
+    rest[np.abs(rest) <= 1e-13 * scale] = 0.0
+    out = []
+    for i in range(len(deck.numbers)):
+        terms = [(float(frac[i]), c) for c, _, frac in deck.load_terms if frac[i] != 0 and c not in tabled_names]
+        dynamic = []
+        if tr is not None:
+            dynamic += [(float(p[i]), f"{tabled[k][0]} * {in_time(k)}" if k in tabled else in_time(k))
+                        for k, (p, _, _) in enumerate(tr.loads) if p[i] != 0]
+        dynamic += [(float(dQ[j, i]), of_constant(c, k, j)) for k, (c, _, _, dQ) in enumerate(deck.parametric_terms)
+                    for j in range(1, len(dQ)) if dQ[j, i] != 0]
+        if deck.Q[i] != 0 or rest[i] != 0 or terms or dynamic:
+            out.append((i, float(rest[i]) if rest[i] != 0 else None, terms + dynamic, bool(dynamic)))
+    return out
+
+
 def transient_routine(method: str, tool: str = "ESATAN") -> tuple[str, str | None]:
     """(routine the deck calls, warning text or None) for ``[transient] method`` in ``tool`` ("ESATAN" or
     "SINDA")."""
@@ -281,7 +329,6 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     name = identifier(deck.model_name)
     tr = deck.transient
     tabled = _tabled_loads(deck)
-    tabled_names = {c for c, _ in tabled.values()}
     lines = [f"$MODEL {name}"]
     lines += comment_lines(title)
     lines += comment_lines("written by fem2tmm; units: T degC, C J/K, A m2, GL W/K, GR m2, QI W")
@@ -319,16 +366,7 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     for a in nzs:
         lines.append(f"    GR({deck.numbers[a]}, {deck.space}) = {_fmt(deck.GR_space[a])};")
     lines.append("$CONSTANTS")
-    named = []
-    for c, v, _ in deck.load_terms:
-        if c in tabled_names:
-            R = next(r for cc, r in tabled.values() if cc == c)
-            named.append((c, R, "W (or W/m2): a named load; its time table below holds multiples of it"))
-        else:
-            named.append((c, v, "W (or W/m2): a named load, distributed over the nodes below"))
-    named += [(c, float(deck.T[i] - KELVIN), "degC: a named fixed temperature") for i, c in deck.temperature_terms.items()]
-    if sink_named:
-        named.append(("SINK", float(deck.T_space - KELVIN), "degC: the sink (space) temperature"))
+    named = named_constants(deck)
     if named:
         lines.append("  $REAL")
         for c, v, what in named:
@@ -381,30 +419,9 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
             lines.append("    CALL SOLVFM;")
         lines.append(f"    CALL {routine};")
     lines.append("$VARIABLES1")
-    # QI = the loads without tables (the steady QI for a steady deck) - the named loads' design share + the named
-    # constants' share + the tables: exactly the run's Q(t); a named load with a table is its table alone
-    rest = np.array(deck.Q if tr is None or tr.base is None else tr.base, float)
-    for c, v, frac in deck.load_terms:
-        if c not in tabled_names:
-            rest = rest - v * np.asarray(frac, float)
-    # round-off of the subtractions (1e-16 W where a load was taken out and put back) is not a load
-    scale = max(float(np.max(np.abs(deck.Q), initial=0.0)),
-                max((abs(v) * float(np.max(np.abs(frac), initial=0.0)) for _, v, frac in deck.load_terms), default=0.0))
-    rest[np.abs(rest) <= 1e-13 * scale] = 0.0
-    for i in range(n):
-        par = [(float(frac[i]), c) for c, _, frac in deck.load_terms if frac[i] != 0 and c not in tabled_names]
-        terms = []
-        if tr is not None:
-            for k, (p, _, _) in enumerate(tr.loads):
-                if p[i] != 0:
-                    a = f"QTAB{k + 1}"
-                    terms.append((float(p[i]), f"{tabled[k][0]} * INTRP1(TIMEM, {a})" if k in tabled
-                                  else f"INTRP1(TIMEM, {a})"))
-        corr = [(float(dQ[j, i]), f"INTRP1({c}, P{k + 1}W{j})") for k, (c, _, _, dQ) in enumerate(deck.parametric_terms)
-                for j in range(1, len(dQ)) if dQ[j, i] != 0]
-        if deck.Q[i] != 0 or rest[i] != 0 or terms or par or corr:
-            lines += continued(f"QI{deck.numbers[i]} = ", linear_sum(rest[i] if rest[i] != 0 else None,
-                                                                     par + terms + corr), sep=" ")
+    for i, rest, terms, _ in node_loads(deck, lambda k: f"INTRP1(TIMEM, QTAB{k + 1})",
+                                        lambda c, k, j: f"INTRP1({c}, P{k + 1}W{j})"):
+        lines += continued(f"QI{deck.numbers[i]} = ", linear_sum(rest, terms), sep=" ")
     if tr is not None:
         for k, (i, _, _) in enumerate(tr.temperatures):
             lines.append(f"    T{deck.numbers[i]} = INTRP1(TIMEM, TTAB{k + 1});")

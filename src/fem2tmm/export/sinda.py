@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN, SIGMA
-from .esatan import Deck, _tabled_loads, linear_sum, transient_routine
+from .esatan import Deck, _tabled_loads, linear_sum, named_constants, node_loads, transient_routine
 
 #: Fortran fixed-form statement field (logic blocks: columns 7 to 72)
 FORTRAN_WIDTH = 72
@@ -64,20 +64,11 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
     sub = "".join(c for c in submodel.upper() if c.isalnum())[:16] or "FEM2TMM"
     tr = deck.transient
     tabled = _tabled_loads(deck)
-    tabled_names = {c for c, _ in tabled.values()}
     out = [f"C fem2tmm reduced model, submodel {sub}",
            "C units: T degC, C J/K, linear conductors W/K, radiation conductors m2 (SIGMA below)",
            "HEADER OPTIONS DATA", "TITLE fem2tmm reduced model"]
     sink_named = any(c == "SINK" for c, *_ in deck.parametric_terms)
-    registers = []
-    for c, v, _ in deck.load_terms:
-        R = next((r for cc, r in tabled.values() if cc == c), None)
-        registers.append((c, v if R is None else R, "W (or W/m2): a named load" +
-                          ("; its time table holds multiples of it" if R is not None else "")))
-    registers += [(c, float(deck.T[i] - KELVIN), "degC: a named fixed temperature")
-                  for i, c in deck.temperature_terms.items()]
-    if sink_named:
-        registers.append(("SINK", float(deck.T_space - KELVIN), "degC: the sink (space) temperature"))
+    registers = named_constants(deck)
     if registers:
         out.append("HEADER REGISTER DATA")
         out += [f"      {c} = {float(v)!r}    $ {what}" for c, v, what in registers]
@@ -116,15 +107,6 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
         cid += 1
         rad += 1
         out.append(f"      -{cid}, {deck.numbers[a]}, {deck.space}, {float(deck.GR_space[a])!r}")
-    # the loads: the constant part and the named loads in SOURCE DATA (expressions of the registers); a node whose
-    # load follows a table or the parametric correction gets its whole load in VARIABLES 1 instead
-    rest = np.array(deck.Q if tr is None or tr.base is None else tr.base, float)
-    for c, v, frac in deck.load_terms:
-        if c not in tabled_names:
-            rest = rest - v * np.asarray(frac, float)
-    scale = max(float(np.max(np.abs(deck.Q), initial=0.0)),
-                max((abs(v) * float(np.max(np.abs(frac), initial=0.0)) for _, v, frac in deck.load_terms), default=0.0))
-    rest[np.abs(rest) <= 1e-13 * scale] = 0.0
     tables = tr.tables() if tr is not None else []
     arrays = []  # (SINDA array id, name, x, y, what)
     for k, (name, t, v, what) in enumerate(tables):
@@ -138,23 +120,15 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
             nm = f"P{k + 1}W{j}"
             arrays.append((len(arrays) + 1, nm, x, W[j], f"{c}: weight of state {j} ({c}, weight)"))
             ids[nm] = arrays[-1][0]
+    # the loads: the constant part and the named loads in SOURCE DATA (expressions of the registers); a node whose
+    # load follows a table or the parametric correction gets its whole load in VARIABLES 1 instead
     sources, logic = [], []
-    for i in range(n):
-        par = [(float(frac[i]), c) for c, _, frac in deck.load_terms if frac[i] != 0 and c not in tabled_names]
-        timed = []
-        if tr is not None:
-            for k, (p, _, _) in enumerate(tr.loads):
-                if p[i] != 0:
-                    a = f"A{ids[f'QTAB{k + 1}']}"
-                    timed.append((float(p[i]), f"{tabled[k][0]}*D1DEG1(TIMEM, {a})" if k in tabled
-                                  else f"D1DEG1(TIMEM, {a})"))
-        corr = [(float(dQ[j, i]), f"D1DEG1({c}, A{ids[f'P{k + 1}W{j}']})")
-                for k, (c, _, _, dQ) in enumerate(deck.parametric_terms) for j in range(1, len(dQ)) if dQ[j, i] != 0]
-        if timed or corr:
-            logic += _fortran(f"Q{deck.numbers[i]} = ", linear_sum(rest[i] if rest[i] != 0 else None,
-                                                                  par + timed + corr))
-        elif rest[i] != 0 or par:
-            sources.append((deck.numbers[i], " ".join(linear_sum(rest[i] if rest[i] != 0 else None, par))))
+    for i, rest, terms, dynamic in node_loads(deck, lambda k: f"D1DEG1(TIMEM, A{ids[f'QTAB{k + 1}']})",
+                                              lambda c, k, j: f"D1DEG1({c}, A{ids[f'P{k + 1}W{j}']})"):
+        if dynamic:
+            logic += _fortran(f"Q{deck.numbers[i]} = ", linear_sum(rest, terms))
+        else:
+            sources.append((deck.numbers[i], " ".join(linear_sum(rest, terms))))
     if sources:
         out.append(f"HEADER SOURCE DATA, {sub}")
         out += [f"      {num}, {expr}" for num, expr in sources]
