@@ -327,3 +327,73 @@ def test_the_sinda_deck_holds_the_esatan_deck_s_loads_and_constants(decks, kind)
     names = re.findall(r"^\s+([A-Z][A-Z0-9_]*) = .*\$ (?:W|degC)", text, re.M)
     assert names == re.findall(r"^\s+([A-Z][A-Z0-9_]*) = [^;]*;\s+# (?:W|degC)", decks[kind].joinpath(
         "model.esatan").read_text(), re.M)
+
+
+def test_long_statements_continue_over_lines_and_read_back(tmp_path):
+    # issue 41 item 5: a node loaded by 40 named constants and a 300-point time table (QI of ~1 400 characters on
+    # one line before) is written in lines of at most 132 characters and read back as written: fem2tmm's readers
+    # and deck_solver give the same loads (1e-12 W) at the start and, in time, the table's value
+    from deck_solver import Network, read_esatan as read_independent
+
+    from fem2tmm.export.esatan import Deck, DeckTransient, continued, linear_sum, write_esatan
+    from fem2tmm.export.sinda import write_sinda
+    from fem2tmm.lpm import read_sinda
+
+    n = 3
+    rng = np.random.default_rng(41)
+    fracs = [rng.uniform(0.0, 0.3, n) for _ in range(40)]
+    load_terms = tuple((f"LOAD_NUMBER_{k:02d}", float(k + 1), f) for k, f in enumerate(fracs))
+    t = np.linspace(0.0, 3000.0, 300)
+    Q = sum(v * f for _, v, f in load_terms)  # the loads without the table (DeckTransient.base)
+    tr = DeckTransient(loads=((np.array([0.5, 0.25, 0.0]), t, 1.0 + np.sin(t / 300.0)),), base=Q,
+                       start=0.0, end=3000.0, step=10.0, output=100.0)
+    GL = np.array([[0, 2.0, 0], [2.0, 0, 1.0], [0, 1.0, 0]])
+    deck = Deck(numbers=np.array([1001, 1002, 2001]), labels=np.array(["a", "b", "held"]),
+                boundary=np.array([False, False, True]), T=np.array([300.0, 290.0, 280.0]), C=np.ones(n),
+                A=np.ones(n), alp=np.zeros(n), eps=np.ones(n), GL=GL, GR=np.zeros((n, n)), GR_space=np.array([0.1, 0.1, 0]),
+                Q=Q + tr.loads[0][0], space=3000, T_space=3.0, transient=tr, load_terms=load_terms)
+    path = tmp_path / "long.esatan"
+    counts = write_esatan(path, deck)
+    text = path.read_text()
+    assert counts["longest_line"] <= 132 and max(map(len, text.splitlines())) <= 132
+    assert text.count("QTAB1(600) =") == 1 and len(text.splitlines()) > 60
+    check_esatan(text)
+    q_start = Q + tr.loads[0][0] * tr.loads[0][2][0]
+    np.testing.assert_allclose(read_esatan(path).QI[:n], q_start, rtol=0, atol=1e-12)
+    model = read_independent(path)
+    net = Network(model)
+    for tt in (0.0, 1234.5, 3000.0):
+        q = net.evaluate(tt, net.T_start)[0]
+        np.testing.assert_allclose(q[:n], Q + tr.loads[0][0] * np.interp(tt, t, tr.loads[0][2]), rtol=0, atol=1e-12)
+    sinda = tmp_path / "long.sinda"
+    write_sinda(sinda, deck)
+    assert max(map(len, sinda.read_text().splitlines())) <= 132
+    np.testing.assert_allclose(read_sinda(sinda).QI[:n], q_start, rtol=0, atol=1e-12)
+    # the helpers i41p and others can call: breaks only between items, each broken line ends with the separator
+    lines = continued("X(8) = ", ["1.0, 2.0"] * 40)
+    assert all(len(x) <= 132 for x in lines) and all(x.endswith(",") for x in lines[:-1]) and lines[-1].endswith(";")
+    lines = continued("QI1 = ", linear_sum(1.5, [(-0.25, "HEATER_WITH_A_LONG_NAME")] * 30), sep=" ")
+    assert all(x.endswith(("+", "-")) for x in lines[:-1]) and len(lines) > 3
+
+
+def test_a_long_sinda_sum_stays_within_fortran_s_continuation_limit():
+    # Fortran 77 allows 19 continuation lines: a longer load goes on in a new statement Q = Q + ...; the pieces add
+    # up to the whole sum (evaluated here by Python on the statements' right-hand sides)
+    from fem2tmm.export.esatan import linear_sum
+    from fem2tmm.export.sinda import FORTRAN_CONTINUATIONS, _fortran
+
+    terms = [((-1) ** k * (k + 0.5), f"R{k:02d}") for k in range(120)]
+    lines = _fortran("Q1001 = ", linear_sum(2.0, terms))
+    stmts = []
+    for line in lines:
+        if line.startswith("     &"):
+            stmts[-1][1] += 1
+            stmts[-1][0] += " " + line[6:].strip()
+        else:
+            stmts.append([line.strip(), 0])
+    assert max(c for _, c in stmts) <= FORTRAN_CONTINUATIONS and len(stmts) > 1 and max(map(len, lines)) <= 72
+    env = {f"R{k:02d}": 1.0 + k for k in range(120)}
+    for text, _ in stmts:
+        target, rhs = text.split("=", 1)
+        env[target.strip()] = eval(rhs, {}, env)  # noqa: S307 (the test's own expressions)
+    assert env["Q1001"] == pytest.approx(2.0 + sum(c * (1.0 + k) for k, (c, _) in enumerate(terms)), rel=1e-12)

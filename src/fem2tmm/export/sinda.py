@@ -28,17 +28,28 @@ FORTRAN_WIDTH = 72
 DATA_WIDTH = 132
 
 
+#: continuation lines of one Fortran 77 statement (the standard's limit); a longer sum goes on in a new statement
+FORTRAN_CONTINUATIONS = 19
+
+
 def _fortran(statement: str, items=None) -> list[str]:
     """A Fortran assignment ``statement`` + ``" ".join(items)`` in fixed form: columns 7-72, continuation lines with
-    ``&`` in column 6, broken between items (each broken line ends with an operator)."""
-    lines, cur = [], "      " + statement
+    ``&`` in column 6, broken between items (each broken line ends with an operator, as :func:`linear_sum` gives
+    them).  A sum longer than 1 + :data:`FORTRAN_CONTINUATIONS` lines continues in a new statement that adds to
+    the assigned variable (``Q12 = Q12 + ...``)."""
+    target = statement.split("=")[0].strip()
+    lines, cur, n_lines = [], "      " + statement, 1
     for it in items or []:
         piece = (" " if not cur.endswith(" ") else "") + it
         if len(cur) + len(piece) <= FORTRAN_WIDTH:
             cur += piece
-        else:
+        elif n_lines <= FORTRAN_CONTINUATIONS:
             lines.append(cur)
-            cur = "     &  " + it
+            cur, n_lines = "     &  " + it, n_lines + 1
+        else:  # a new statement: the trailing operator of this line starts it
+            op = cur[-1]
+            lines.append(cur[:-1].rstrip())
+            cur, n_lines = f"      {target} = {target} {op} {it}", 1
     lines.append(cur)
     return lines
 
@@ -121,14 +132,16 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
             arrays.append((len(arrays) + 1, nm, x, W[j], f"{c}: weight of state {j} ({c}, weight)"))
             ids[nm] = arrays[-1][0]
     # the loads: the constant part and the named loads in SOURCE DATA (expressions of the registers); a node whose
-    # load follows a table or the parametric correction gets its whole load in VARIABLES 1 instead
+    # load follows a table or the parametric correction, or whose expression does not fit a data line, gets its whole
+    # load in VARIABLES 1 instead
     sources, logic = [], []
     for i, rest, terms, dynamic in node_loads(deck, lambda k: f"D1DEG1(TIMEM, A{ids[f'QTAB{k + 1}']})",
                                               lambda c, k, j: f"D1DEG1({c}, A{ids[f'P{k + 1}W{j}']})"):
-        if dynamic:
+        expr = " ".join(linear_sum(rest, terms))
+        if dynamic or len(f"      {deck.numbers[i]}, {expr}") > DATA_WIDTH:  # (a data value stays on its line)
             logic += _fortran(f"Q{deck.numbers[i]} = ", linear_sum(rest, terms))
         else:
-            sources.append((deck.numbers[i], " ".join(linear_sum(rest, terms))))
+            sources.append((deck.numbers[i], expr))
     if sources:
         out.append(f"HEADER SOURCE DATA, {sub}")
         out += [f"      {num}, {expr}" for num, expr in sources]

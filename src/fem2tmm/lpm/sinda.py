@@ -177,14 +177,19 @@ def read_sinda(path: str | Path) -> Network:
             return repr(float(np.interp(x, a[0::2], a[1::2])))
         return sub
 
-    assigned, skipped = [], 0
+    assigned, skipped, current = [], 0, {}
     for lineno, stmt in _logic_statements(logic_lines):
         m = _LOGIC.match(stmt)
         if not m:
             skipped += 1
             continue
-        assigned.append((lineno, m.group(1).upper(), int(m.group(2)),
-                         val(lineno, _D1DEG1.sub(d1deg1(lineno), m.group(3)), f"{m.group(1).upper()}{m.group(2)}")))
+        name = f"{m.group(1).upper()}{m.group(2)}"
+        try:  # (a long sum goes on in Q12 = Q12 + ...: the statements before it give Q12)
+            v = evaluate(_D1DEG1.sub(d1deg1(lineno), m.group(3)), {**regs, **current})
+        except ExpressionError as exc:
+            fail(lineno, f"{name}: {exc}")
+        current[name] = v
+        assigned.append((lineno, m.group(1).upper(), int(m.group(2)), v))
     if skipped:
         notes.append(f"{skipped} VARIABLES 1 statements not interpreted")
     if other:
