@@ -1,4 +1,4 @@
-"""An independent reader and solver of the ESATAN (and SINDA/FLUINT) decks fem2tmm writes, for the tests.
+"""An independent reader and solver of the ESATAN and SINDA/FLUINT decks fem2tmm writes, for the tests.
 
 Own code: nothing here imports fem2tmm, so a deck that fem2tmm writes, edits as an engineer would, and this module
 solves is checked against a solver that shares no code with the run (issue 41).
@@ -35,6 +35,10 @@ Interface (what the tests call)::
     solve_esatan_steady(path, edits={"HEATER": 0.0}) -> {node number: T degC}
     solve_esatan_transient(path, edits, times) -> (times, {node number: T degC array})
     solve_sinda_steady(path, edits) -> {node number: T degC}
+    solve_sinda_transient(path, edits, times) -> (times, {node number: T degC array})
+
+The SINDA/FLUINT subset (:func:`read_sinda`) is read into the same model: registers are the named constants,
+SOURCE DATA and VARIABLES 1 ``Q12 = ...`` the loads, ``D1DEG1`` is INTRP1, FWDBCK is Crank-Nicolson.
 """
 
 from __future__ import annotations
@@ -265,8 +269,8 @@ class Model:
 
     @property
     def solver(self) -> str:
-        """The transient routine called (the last SL... routine), else the last steady one ("" if none)."""
-        tr = [c for c in self.calls if c.startswith("SL")]
+        """The transient routine called (the last one of :data:`SCHEMES`), else the last steady one ("" if none)."""
+        tr = [c for c in self.calls if c in SCHEMES]
         return tr[-1] if tr else (self.calls[-1] if self.calls else "")
 
     @property
@@ -440,6 +444,7 @@ class Network:
             v = float(eval(e.code, g, env))
             if kind == "QI":
                 Q[self._node(key)] = v + self.Q_other[self._node(key)]
+                c[f"Q{key}"] = c[f"QI{key}"] = v  # (a SINDA sum continued in Q12 = Q12 + ...)
             elif kind == "T":
                 i = self._node(key)
                 Tb[i] = v + self.tabs
@@ -519,6 +524,8 @@ def solve_esatan_steady(path: str | Path, edits: dict | None = None) -> dict:
     return {int(k): float(v - net.tabs) for k, v in zip(net.m.numbers, T)}
 
 
+#: the transient routines this solver integrates and the scheme of each (ESATAN SLCRNC and SLFWBK: Crank-Nicolson;
+#: SLGEAR: Gear's BDF, integrated here as fixed-step BDF2; SINDA/FLUINT FWDBCK: forward-backward, Crank-Nicolson)
 SCHEMES = {"SLCRNC": "crank-nicolson", "SLFWBK": "crank-nicolson", "SLGEAR": "bdf2", "FWDBCK": "crank-nicolson"}
 
 
@@ -576,7 +583,10 @@ def solve_esatan_transient(path: str | Path, edits: dict | None = None, times=No
     ``times`` default: TIMEO to TIMEND every OUTINT; ``scheme`` default: the one the deck's $EXECUTION calls
     (:data:`SCHEMES`); ``step`` default DTIMEI; ``initial``: ``"steady"`` (the steady state at TIMEO, as a deck
     that calls SOLVFM before the transient) or ``"deck"`` (the $NODES temperatures)."""
-    model = read_esatan(path)
+    return _transient(read_esatan(path), edits, times, scheme, step, initial, startup)
+
+
+def _transient(model: Model, edits, times, scheme=None, step=None, initial=None, startup=0):
     net = Network(model, edits)
     c = net.c
     if scheme is None:
@@ -597,4 +607,101 @@ def solve_esatan_transient(path: str | Path, edits: dict | None = None, times=No
     return times, {int(k): T[:, i] - net.tabs for i, k in enumerate(model.numbers)}
 
 
-__all__ = ["DeckError", "read_esatan", "Network", "solve_esatan_steady", "solve_esatan_transient", "integrate"]
+# ------------------------------------------------------------------------------------------------ SINDA/FLUINT
+def read_sinda(path: str | Path) -> Model:
+    """Read the SINDA/FLUINT subset fem2tmm writes into the same :class:`Model`.
+
+    ``HEADER REGISTER DATA`` (``NAME = expr``: the named constants), ``CONTROL DATA`` (SIGMA, ABSZRO, TIMEO, TIMEND,
+    DTIMEI, OUTPUT), ``NODE DATA`` (``id, T, C``; negative id: boundary; ``$ label``), ``CONDUCTOR DATA``
+    (``id, a, b, G``; negative id: radiation), ``SOURCE DATA`` (``node, expr``), ``ARRAY DATA`` (``id = x1, y1,
+    ...`` continued, ``END``), ``VARIABLES 1`` (Fortran ``Q12 = expr`` / ``T12 = expr``, ``&`` in column 6
+    continues; ``D1DEG1(x, An)`` is linear interpolation of array n at x) and ``OPERATIONS DATA`` (``CALL STEADY``,
+    ``CALL FWDBCK``).  Comments: ``C`` in column 1, everything after ``$``."""
+    path = Path(path)
+    name = str(path)
+    text = path.read_text(encoding="utf-8", errors="replace")
+    block, nodes, cond, var1, calls = None, [], [], [], []
+    defs = {"TABS": "273.15"}
+    arrays, cur = {}, None
+    logic = []
+    for no, raw in enumerate(text.splitlines(), 1):
+        if not raw.strip() or (raw[:1] in "Cc" and (len(raw) == 1 or raw[1] in " \t")):
+            continue
+        body, _, comment = raw.partition("$")
+        where = f"{name}:{no}"
+        if body.strip().upper().startswith("HEADER"):
+            block = body.split()[1].upper()
+            continue
+        if body.strip().upper().startswith("END OF DATA") or not body.strip():
+            continue
+        if block == "REGISTER":
+            k, v = body.split("=", 1)
+            defs[k.strip().upper()] = v.strip()
+        elif block == "CONTROL":
+            k, v = (x.strip() for x in body.split("=", 1))
+            key = {"SIGMA": "STEFAN", "OUTPUT": "OUTINT"}.get(k.upper(), k.upper())
+            if key == "ABSZRO":
+                defs["TABS"] = f"-({v})"
+            elif key != "UID":
+                defs[key] = v
+        elif block == "NODE":
+            f = _split_top(body.strip())
+            if len(f) != 3:
+                raise DeckError(f"{where}: node data 'id, T, C' expected, got {body.strip()!r}")
+            nid = int(f[0])
+            nodes.append(("B" if nid < 0 else "D", abs(nid), comment.strip(),
+                          {"T": expr(f[1], where), "C": expr(f[2], where)}))
+        elif block == "CONDUCTOR":
+            f = _split_top(body.strip())
+            cid = int(f[0])
+            cond.append(("GR" if cid < 0 else "GL", abs(int(f[1])), abs(int(f[2])), expr(f[3], where)))
+        elif block == "SOURCE":
+            f = _split_top(body.strip())
+            var1.append(("QI", abs(int(f[0])), expr(f[1], where)))
+        elif block == "ARRAY":
+            if body.strip().upper() == "END":
+                cur = None
+                continue
+            m = re.match(r"^\s*(\d+)\s*=\s*(.*)$", body)
+            if m:
+                cur = f"A{int(m.group(1))}"
+                arrays[cur] = []
+                rest = m.group(2)
+            else:
+                rest = body
+            arrays[cur] += [float(x) for x in rest.split(",") if x.strip()]
+        elif block == "VARIABLES":
+            if len(body) > 5 and not body[:5].strip() and body[5] not in " 0":
+                logic[-1] = (logic[-1][0], logic[-1][1] + " " + body[6:].strip())
+            else:
+                logic.append((where, body.strip()))
+        elif block == "OPERATIONS":
+            m = re.match(r"^\s*CALL\s+([A-Za-z]\w*)", body, re.I)
+            if m:
+                calls.append({"STEADY": "SOLVFM"}.get(m.group(1).upper(), m.group(1).upper()))
+    for where, stmt in logic:
+        m = re.match(r"^(Q|T)\s*(\d+)\s*=\s*(.+)$", stmt, re.I)
+        if not m:
+            raise DeckError(f"{where}: cannot read the VARIABLES 1 statement {stmt[:60]!r}")
+        rhs = re.sub(r"D1DEG1\s*\(", "INTRP1(", m.group(3), flags=re.I)
+        var1.append(("QI" if m.group(1).upper() == "Q" else "T", int(m.group(2)), expr(rhs, where)))
+    # sources first (SOURCE DATA), then the logic that may replace them: the order of var1 already is that
+    return Model(source=name, numbers=np.array([nd[1] for nd in nodes], np.int64), labels=[nd[2] for nd in nodes],
+                 boundary=np.array([nd[0] == "B" for nd in nodes]), node_exprs=[nd[3] for nd in nodes], cond=cond,
+                 variables1=var1, definitions=defs, arrays={k: np.array(v) for k, v in arrays.items()}, calls=calls)
+
+
+def solve_sinda_steady(path: str | Path, edits: dict | None = None) -> dict:
+    """Steady temperatures {node number: T degC} of a SINDA/FLUINT deck with its registers ``edits``."""
+    net = Network(read_sinda(path), edits)
+    T = _steady(net, net.c.get("TIMEO", 0.0), net.T_start)
+    return {int(k): float(v - net.tabs) for k, v in zip(net.m.numbers, T)}
+
+
+def solve_sinda_transient(path: str | Path, edits: dict | None = None, times=None, **kw):
+    """The transient a SINDA/FLUINT deck defines (FWDBCK: Crank-Nicolson), as :func:`solve_esatan_transient`."""
+    return _transient(read_sinda(path), edits, times, **kw)
+
+
+__all__ = ["DeckError", "read_esatan", "read_sinda", "Network", "solve_esatan_steady", "solve_esatan_transient",
+           "solve_sinda_steady", "solve_sinda_transient", "integrate"]

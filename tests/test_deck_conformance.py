@@ -298,6 +298,13 @@ def test_a_heater_stepping_10_40_0_W_runs_in_the_deck_as_computed(method, routin
         assert error(scheme="backward-euler") < 1e-8
     else:
         assert error() < 1e-8
+    # the SINDA deck (FWDBCK, Crank-Nicolson) integrated by deck_solver's SINDA reader: the same transient
+    if method == "crank-nicolson":
+        from deck_solver import solve_sinda_transient
+
+        times, Ts = solve_sinda_transient(tmp_path / "out" / "model.sinda")
+        Te = solve_esatan_transient(path)[1]
+        assert max(np.abs(Ts[k] - Te[k]).max() for k in Te) < 1e-9
     # the load counted once: HEATER = 0 leaves no applied power at any time, HEATER = 20 doubles the profile
     model = read_independent(path)
     for t in (0.0, 210.0, 300.0, 410.0, 500.0):
@@ -397,3 +404,18 @@ def test_a_long_sinda_sum_stays_within_fortran_s_continuation_limit():
         target, rhs = text.split("=", 1)
         env[target.strip()] = eval(rhs, {}, env)  # noqa: S307 (the test's own expressions)
     assert env["Q1001"] == pytest.approx(2.0 + sum(c * (1.0 + k) for k, (c, _) in enumerate(terms)), rel=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["steady", "cases_cold", "transient", "aware_transient"])
+def test_the_sinda_deck_edited_solves_as_the_esatan_deck_edited(decks, kind):
+    # the same edit in both decks (registers / constants), each read and solved by deck_solver's own SINDA and
+    # ESATAN readers: the same temperatures (1e-9 K: the same numbers, Newton to 1e-9 K); the edit matters
+    from deck_solver import solve_esatan_steady, solve_sinda_steady
+
+    folder = decks[kind]
+    base = solve_esatan_steady(folder / "model.esatan")
+    for edits in ({"HEATER": 0.0}, {"HEATER": 20.0, "EDGE": 0.0}):
+        e = solve_esatan_steady(folder / "model.esatan", edits)
+        s = solve_sinda_steady(folder / "model.sinda", edits)
+        assert max(abs(e[k] - s[k]) for k in e) < 1e-9
+    assert max(abs(e[k] - base[k]) for k in e) > 0.1  # (the cold case has HEATER = 0 already)
