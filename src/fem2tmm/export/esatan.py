@@ -292,6 +292,15 @@ def node_loads(deck: Deck, in_time, of_constant) -> list[tuple[int, float | None
     return out
 
 
+def transient_controls(tr: DeckTransient | None) -> list[tuple[str, float]]:
+    """(control constant, value s) of a transient: TIMEO, TIMEND, DTIMEI (when the step is known) and OUTINT (the
+    output interval; the whole run when none is given); [] for a steady deck."""
+    if tr is None:
+        return []
+    out = [("TIMEO", tr.start), ("TIMEND", tr.end)] + ([("DTIMEI", tr.step)] if tr.step is not None else [])
+    return out + [("OUTINT", tr.output if tr.output is not None else tr.end - tr.start)]
+
+
 def transient_routine(method: str, tool: str = "ESATAN") -> tuple[str, str | None]:
     """(routine the deck calls, warning text or None) for ``[transient] method`` in ``tool`` ("ESATAN" or
     "SINDA")."""
@@ -375,12 +384,7 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append(f"    STEFAN = {_fmt(SIGMA)};")
     lines.append(f"    RELXCA = {_fmt(RELXCA)};")
     lines.append(f"    NLOOP = {NLOOP};")
-    if tr is not None:
-        lines.append(f"    TIMEO = {_fmt(tr.start)};")
-        lines.append(f"    TIMEND = {_fmt(tr.end)};")
-        if tr.step is not None:
-            lines.append(f"    DTIMEI = {_fmt(tr.step)};")
-        lines.append(f"    OUTINT = {_fmt(tr.output if tr.output is not None else tr.end - tr.start)};")
+    lines += [f"    {c} = {_fmt(v)};" for c, v in transient_controls(tr)]
     lines.append("$ARRAYS")
     if tr is not None or deck.parametric_terms:
         lines.append("  $REAL")

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN, SIGMA
-from .esatan import Deck, _tabled_loads, linear_sum, named_constants, node_loads, transient_routine
+from .esatan import (Deck, _tabled_loads, linear_sum, named_constants, node_loads, transient_controls,
+                     transient_routine)
 
 #: Fortran fixed-form statement field (logic blocks: columns 7 to 72)
 FORTRAN_WIDTH = 72
@@ -85,12 +86,8 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
         out += [f"      {c} = {float(v)!r}    $ {what}" for c, v, what in registers]
     out += ["HEADER CONTROL DATA, GLOBAL", f"      SIGMA  = {SIGMA!r}", f"      ABSZRO = {-KELVIN!r}",
             "      UID    = SI"]
-    if tr is not None:
-        out.append(f"      TIMEO  = {float(tr.start)!r}")
-        out.append(f"      TIMEND = {float(tr.end)!r}")
-        if tr.step is not None:
-            out.append(f"      DTIMEI = {float(tr.step)!r}")
-        out.append(f"      OUTPUT = {float(tr.output if tr.output is not None else tr.end - tr.start)!r}")
+    # (SINDA/FLUINT's output interval is OUTPUT)
+    out += [f"      {'OUTPUT' if c == 'OUTINT' else c:<6} = {float(v)!r}" for c, v in transient_controls(tr)]
     out.append(f"HEADER NODE DATA, {sub}")
     n = len(deck.numbers)
     init = None if tr is None else tr.initial
