@@ -20,6 +20,7 @@ from .case import ClusteringSettings
 from .cluster.adjacency import dual_graph
 from .cluster.regions import merge_regions, regions as split_regions
 from .errors import Fem2TmmError
+from .fem.plausibility import extent_note
 from .mesh import Mesh
 
 _KIND = {1: "line", 2: "shell", 3: "solid"}
@@ -156,6 +157,22 @@ def _pieces(mesh: Mesh, spc_nodes: np.ndarray) -> list[dict]:
     return out
 
 
+#: what a group without elements was in the file (Gmsh physical dimension / Nastran set): for a [[boundary]]
+_NODE_KIND = {0: "node", 1: "line", 2: "surface", 3: "volume"}
+
+
+def _node_groups(mesh: Mesh) -> list[dict]:
+    """The groups without model elements (Gmsh physical points / lines, Nastran node sets): name, what they were
+    in the file and their node count; a ``[[boundary]]`` names them in ``groups``."""
+    out = []
+    for name in sorted(mesh.groups):
+        g = mesh.groups[name]
+        if len(g.elements) == 0 and g.nodes is not None and len(g.nodes):
+            out.append({"group": name, "kind": _NODE_KIND.get(getattr(g, "dim", None), "node"),
+                        "nodes": int(len(g.nodes))})
+    return out
+
+
 def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, parts=None, **options) -> dict:
     """Report on the mesh file ``path`` (see the module docstring); ``options`` go to the reader.
 
@@ -183,18 +200,16 @@ def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, part
     use = _node_use(mesh)
     groups = [_group_report(mesh, name, feature_angle, use) for name in sorted(mesh.groups)
               if len(mesh.groups[name].elements)]
+    node_groups = _node_groups(mesh)
     cards = {k: dict(v) for k, v in (mesh.cards or {}).items()}
     ext = np.ptp(mesh.points, axis=0) if mesh.n_nodes else np.zeros(3)
     extra = {} if parts is None else {"parts": _part_reports(mesh, parts, feature_angle, use)}
     return {"file": str(path), "unit": unit, "nodes": int(mesh.n_nodes), "elements": int(mesh.n_elements),
             "extent_m": [float(x) for x in ext], **extra,
-            "feature_angle_deg": feature_angle, "groups": groups, "pieces": _pieces(mesh, spc),
+            "feature_angle_deg": feature_angle, "groups": groups, "node_groups": node_groups,
+            "pieces": _pieces(mesh, spc),
             "joints": {j.card: int(len(j.ids)) for j in mesh.joints},
             "midside_nodes": 0 if mesh.midside is None else int(len(mesh.midside)), "cards": cards}
-
-
-#: a model larger than this (m) is probably a file in millimetres read as metres: the text says so
-LARGE_EXTENT_M = 50.0
 
 
 def inspection_text(rep: dict) -> str:
@@ -202,8 +217,7 @@ def inspection_text(rep: dict) -> str:
     ext = rep.get("extent_m") or [0.0, 0.0, 0.0]
     lines = [f"{rep['file']}: {rep['nodes']} nodes, {rep['elements']} elements (unit {rep['unit']})",
              "size {} m (bounding box, file lengths x the unit)".format(" x ".join(f"{x:.4g}" for x in ext))
-             + (f": larger than {LARGE_EXTENT_M:g} m, is the file in millimetres? then give --unit mm"
-                if max(ext) > LARGE_EXTENT_M else ""), "",
+             + (f": {note}" if (note := extent_note(max(ext), rep["unit"], "--unit")) else ""), "",
              f"groups (regions at the default feature angle {rep['feature_angle_deg']:g} deg = the fewest super "
              "nodes a part of that group takes without merging; 'min' the fewest it can take: fewer regions are "
              "merged smallest first across the strongest link, and pieces beyond the count join the clusters they "
@@ -228,6 +242,10 @@ def inspection_text(rep: dict) -> str:
             extra = f"{g['on_other_elements']} on shell/solid nodes"
         lines.append(f"  {g['group']:<18} {g['kind']:<6} {g['elements']:>8} {g['regions']:>7} "
                      f"{g['fewest_super_nodes']:>5}  {size:<22} {th:<30} {(extra + '; ') if extra else ''}{types}")
+    if rep.get("node_groups"):
+        lines += ["", "line and node groups (nodes only, no model elements: a [[boundary]] names them in 'groups'):",
+                  f"  {'group':<18} {'kind':<6} {'nodes':>8}"]
+        lines += [f"  {g['group']:<18} {g['kind']:<6} {g['nodes']:>8}" for g in rep["node_groups"]]
     merging = [g for g in rep["groups"] if g.get("merges_below_regions")]
     if merging:
         unit = {"shell": ("m2", "m of shared edge"), "solid": ("m3", "m2 of shared face"), "line": ("m", "shared end")}

@@ -26,6 +26,7 @@ from .constants import KELVIN
 from .export.output import check_output_place, write_cases_outputs, write_outputs
 from .export.summary import build_cases_summary, build_summary
 from .fem.model import build_model
+from .fem.plausibility import warn_implausible
 from .mesh import Mesh
 from .progress import Progress, report, reporting
 from .radiation.compiled import compile_estimate
@@ -359,6 +360,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     with prog.stage("assemble", "assembling the FE model"):
         model = build_model(mesh, case)
     check_transient(model, case)
+    warn_implausible(model, case)  # unit mistakes, once, before the long computation
     do_ref = case.reference.detailed if reference is None else reference
     problem = detailed_problem(model)
     check_solvable(problem, describe=describe_nodes(model))

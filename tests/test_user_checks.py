@@ -1,0 +1,165 @@
+"""A new user's first hour: unit mistakes warned before the long computation, ``inspect`` listing the groups a
+``[[boundary]]`` needs, a run's outputs reduced again by ``fem2tmm network reduce``, and the small CLI items
+(space-separated Nastran, ``value = "5 W"``, ``--quiet``, progress in logs, the negative-GL note)."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _plate_bdf(path: Path, n: int = 4, size: float = 100.0, sep: str = ",") -> Path:
+    """A flat square plate of ``size`` x ``size`` (file units, mm here) in n x n CQUAD4 (PID 1), free field with
+    ``sep`` between the fields."""
+    nid = lambda i, j: j * (n + 1) + i + 1  # noqa: E731
+    lines = ["BEGIN BULK"]
+    lines += [sep.join(["GRID", str(nid(i, j)), "", f"{i * size / n:.1f}", f"{j * size / n:.1f}", "0.0"])
+              for j in range(n + 1) for i in range(n + 1)]
+    lines += [sep.join(["CQUAD4", str(j * n + i + 1), "1", str(nid(i, j)), str(nid(i + 1, j)), str(nid(i + 1, j + 1)),
+                        str(nid(i, j + 1))]) for j in range(n) for i in range(n)]
+    path.write_text("\n".join(lines + ["ENDDATA"]) + "\n")
+    return path
+
+
+def _plate_case(tmp_path: Path, unit: str = "mm", thickness: float = 1.0e-3, boundary: str = "value = 5.0") -> Path:
+    _plate_bdf(tmp_path / "plate.bdf")
+    case = tmp_path / "case.toml"
+    case.write_text(f"""
+[mesh]
+file = "plate.bdf"
+unit = "{unit}"
+[materials.al]
+conductivity = 170.0
+density = 2700.0
+specific_heat = 900.0
+[optics.black]
+emissivity = 0.9
+absorptivity = 0.3
+[[parts]]
+name = "plate"
+groups = ["PID 1"]
+material = "al"
+thickness = {thickness!r}
+front = "black"
+back = "none"
+super_nodes = 4
+[[boundary]]
+kind = "power"
+groups = ["PID 1"]
+{boundary}
+[environment]
+sink_temperature = -100.0
+[reference]
+detailed = false
+""")
+    return case
+
+
+def _cli(*args: str):
+    """``fem2tmm ARGS`` in a process of its own (stderr as a log file: not a terminal)."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), str(ROOT)]))
+    return subprocess.run([sys.executable, "-m", "fem2tmm.cli", *args], capture_output=True, text=True, env=env,
+                          timeout=600)
+
+
+# ---------------------------------------------------------------------------------------------- item 4: sanity
+
+
+class _HeavyStage(Exception):
+    pass
+
+
+def _warnings_before_clustering(monkeypatch, case_path: Path) -> list[str]:
+    """The warnings ``run`` gives before its first heavy stage (the clustering, monkeypatched to stop the run)."""
+    from fem2tmm import pipeline
+    from fem2tmm.case import Case
+
+    seen = {}
+
+    def heavy(*a, **k):
+        seen["warnings"] = [str(x.message) for x in rec]
+        raise _HeavyStage
+
+    monkeypatch.setattr(pipeline, "cluster_model", heavy)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        with pytest.raises(_HeavyStage):
+            pipeline.run(Case.from_toml(case_path), cache=False)
+    return seen["warnings"]
+
+
+def test_millimetre_mesh_read_as_metres_warns_once_before_the_clustering(tmp_path, monkeypatch):
+    # a 100 mm plate read with unit = "m" is 100 m across: above 50 m (plausibility.LARGE_EXTENT_M)
+    got = _warnings_before_clustering(monkeypatch, _plate_case(tmp_path, unit="m"))
+    hits = [w for w in got if "across" in w]
+    assert len(hits) == 1, got
+    assert "case.toml" in hits[0] and "100 m across" in hits[0] and '[mesh] unit = "mm"' in hits[0]
+    assert len(got) == 1, got  # nothing else is implausible about this case
+
+
+def test_two_metre_shell_warns_once_before_the_clustering(tmp_path, monkeypatch):
+    # thickness = 2.0 "meaning mm" on a 0.1 m plate: 20 x the plate's size
+    got = _warnings_before_clustering(monkeypatch, _plate_case(tmp_path, thickness=2.0))
+    assert len(got) == 1, got
+    assert "[[parts]] 'plate'.thickness = 2 m" in got[0] and "20 x the part's size (0.1 m)" in got[0]
+
+
+def test_a_plausible_case_gets_no_warning_and_the_cli_warns_before_the_clustering(tmp_path, monkeypatch):
+    assert _warnings_before_clustering(monkeypatch, _plate_case(tmp_path)) == []
+    # the CLI (a process of its own, as a user runs it): the warning is printed once, after the assembly and
+    # before the clustering's progress line
+    case = _plate_case(tmp_path, unit="m")
+    p = _cli("run", str(case), "--out", str(tmp_path / "out"))
+    assert p.returncode == 0, p.stderr
+    err = p.stderr
+    assert err.count("m across") == 1, err
+    assert err.index("m across") < err.index("[fem2tmm] clustering"), err
+
+
+@pytest.mark.parametrize("key,text,expect", [
+    # aluminium's 170 W/(m K) written in mW/(m K): above diamond's ~2200 (CONDUCTIVITY_RANGE, CRC Handbook)
+    ("conductivity", "conductivity = 1.7e5", "[materials.al] conductivity = 170000 W/(m K) is outside"),
+    ("boundary", "value = 5.0e4", "value = 50000 W over 0.01 m2 is a heat flux of 5e+06 W/m2"),
+])
+def test_conductivity_and_flux_out_of_physical_range_warn(tmp_path, key, text, expect):
+    from fem2tmm.case import Case
+    from fem2tmm.fem.model import build_model
+    from fem2tmm.fem.plausibility import implausible
+    from fem2tmm.pipeline import load_mesh
+
+    path = _plate_case(tmp_path, boundary=text if key == "boundary" else "value = 5.0")
+    if key == "conductivity":  # 170 W/(m K) given in W/(mm K)
+        path.write_text(path.read_text().replace("conductivity = 170.0", text))
+    case = Case.from_toml(path)
+    notes = implausible(build_model(load_mesh(case), case), case)
+    assert len(notes) == 1 and expect in notes[0], notes
+
+
+def test_extent_note_is_shared_and_never_advises_the_unit_in_force():
+    from fem2tmm.fem.plausibility import extent_note
+
+    assert extent_note(0.3, "m", "--unit") is None
+    assert "then give --unit mm" in extent_note(300.0, "m", "--unit")
+    assert "mm" not in extent_note(300.0, "mm", "[mesh] unit").split("check")[1]  # unit = "mm" already
+    assert 'then give [mesh] unit = "m"' in extent_note(1.0e-3, "mm", "[mesh] unit")
+
+
+def test_inspect_lists_line_and_node_groups_with_their_counts(capsys):
+    from fem2tmm.cli import main
+
+    assert main(["inspect", str(ROOT / "meshes" / "fin.msh"), "--unit", "mm"]) == 0
+    out = capsys.readouterr().out
+    section = out.split("line and node groups")[1]
+    # meshes/make_fin.py: 120 nodes on each circular edge (N_CIRC = 120)
+    assert "inner_edge" in section and "outer_edge" in section
+    rows = {ln.split()[0]: ln.split() for ln in section.splitlines()[2:4]}
+    assert rows["inner_edge"][1:] == ["line", "120"] and rows["outer_edge"][1:] == ["line", "120"]
