@@ -360,7 +360,7 @@ def ten_deck(tmp_path_factory):
     return d
 
 
-def test_cli_network_reduce_writes_decks_summary_and_report(ten_deck, tmp_path):
+def test_cli_network_reduce_writes_decks_summary_and_report(ten_deck, tmp_path, capsys):
     import json
 
     from fem2tmm.cli import main
@@ -393,8 +393,15 @@ def test_cli_network_reduce_writes_decks_summary_and_report(ten_deck, tmp_path):
         assert all(abs(got[int(k)] - v) < 1e-6 for k, v in red_T.items()), name
     # a folder fem2tmm wrote (its .fem2tmm marker) is replaced; one holding a file of the user's is refused
     assert (out / ".fem2tmm").is_file()
-    with pytest.warns(UserWarning, match="no node has a position"):  # without --coordinates nothing is sized
-        assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 0
+    # without --coordinates nothing is sized, so nothing would be reduced: refused (exit 2), naming the nodes.csv
+    # beside the deck, before anything is written
+    before = (out / "summary.json").read_text()
+    assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "no node has a position" in err and f"--coordinates {ten_deck / 'nodes.csv'}" in err, err
+    assert (out / "summary.json").read_text() == before
+    assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--coordinates", str(ten_deck / "nodes.csv"),
+                 "--out", str(out), "--quiet"]) == 0
     (out / "mine.txt").write_text("user file")
     assert main(["network", "reduce", str(ten_deck / "ten.esatan"), "--out", str(out), "--quiet"]) == 2
     assert (out / "mine.txt").read_text() == "user file"

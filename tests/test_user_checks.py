@@ -163,3 +163,90 @@ def test_inspect_lists_line_and_node_groups_with_their_counts(capsys):
     assert "inner_edge" in section and "outer_edge" in section
     rows = {ln.split()[0]: ln.split() for ln in section.splitlines()[2:4]}
     assert rows["inner_edge"][1:] == ["line", "120"] and rows["outer_edge"][1:] == ["line", "120"]
+
+
+# ------------------------------------------------------------------------------ item 5: outputs are inputs
+
+
+@pytest.fixture(scope="module")
+def plate_run(tmp_path_factory):
+    """A 0.2 m aluminium plate, 10 x 10 quads in 16 super nodes, held at 20 °C along x = 0, 5 W spread over it,
+    radiating to a -100 °C sink: its output folder and result."""
+    from fem2tmm.case import Case
+    from fem2tmm.mesh import shapes
+    from fem2tmm.pipeline import run
+
+    mesh = shapes.plate(0.2, 0.2, 10, 10)
+    case = Case.from_dict({
+        "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
+        "optics": {"black": {"emissivity": 0.9, "absorptivity": 0.3}},
+        "parts": [{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1.0e-3, "front": "black",
+                   "back": "none", "super_nodes": 16}],
+        "boundary": [{"kind": "temperature", "groups": ["xmin"], "value": 20.0, "name": "root"},
+                     {"kind": "power", "groups": ["plate"], "value": 5.0}],
+        "environment": {"sink_temperature": -100.0},
+        "radiation": {"rays_per_face": 50},
+        "reference": {"detailed": False}}, source="plate")
+    out = tmp_path_factory.mktemp("plate") / "out"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = run(case, out=out, mesh=mesh, cache=False)
+    return out, result
+
+
+def test_a_run_exports_its_super_nodes_positions(plate_run):
+    from fem2tmm.lpm.readers import read_network
+
+    out, result = plate_run
+    z = np.load(out / "reduced.npz")
+    rm, model = result.reduced.network, result.model
+    X = z["positions"]
+    assert X.shape == (rm.n, 3)
+    # independent of the weights A: on equal squares of one material and thickness a cluster's capacitance-weighted
+    # centroid is the mean of its elements' centroids (each quad4 gives a quarter of its capacitance to each node)
+    centroids = model.mesh.points[model.element_cells[:, :4]].mean(axis=1)
+    for k in range(int(rm.element_cluster.max()) + 1):
+        expect = centroids[rm.element_cluster == k].mean(axis=0)
+        assert np.abs(X[k] - expect).max() < 1e-12, (k, X[k], expect)  # round-off of sums of 0.02 m coordinates
+    # the boundary node: the centroid of its nodes, the edge x = 0 (y from 0 to 0.2 m)
+    b = int(np.flatnonzero(rm.fixed)[0])
+    assert np.abs(X[b] - [0.0, 0.1, 0.0]).max() < 1e-12
+    # nodes.csv: the same positions under the decks' node numbers
+    rows = np.loadtxt(out / "nodes.csv", delimiter=",", skiprows=1)
+    deck = read_network(out / "model.esatan")
+    number = {int(n): i for i, n in enumerate(deck.numbers)}
+    assert (out / "nodes.csv").read_text().splitlines()[0] == "node,x,y,z" and len(rows) == rm.n
+    assert all(deck.labels[number[int(r[0])]] == rm.names[i] for i, r in enumerate(rows))
+    assert np.array_equal(rows[:, 1:], X)
+
+
+def test_network_reduce_reduces_a_runs_own_output(plate_run, tmp_path):
+    import json
+
+    from fem2tmm.cli import main
+
+    out, result = plate_run
+    n = result.reduced.network.n + 1  # + the space node
+    for i, args in enumerate((["reduced.npz"], ["model.esatan", "--coordinates", str(out / "nodes.csv")])):
+        dest = tmp_path / f"net{i}"
+        assert main(["network", "reduce", str(out / args[0]), *args[1:], "--out", str(dest), "--quiet"]) == 0
+        s = json.loads((dest / "summary.json").read_text())
+        assert s["nodes"]["detailed"] == n and s["nodes"]["reduced"] < n, s["nodes"]
+        assert s["criteria"]["met"] is True
+
+
+def test_network_refuses_a_reduction_without_positions(plate_run, tmp_path, capsys):
+    from fem2tmm.cli import main
+
+    out, _ = plate_run
+    # the deck alone: exit 2, pointing at the positions written beside it; nothing written
+    assert main(["network", "reduce", str(out / "model.esatan"), "--out", str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err
+    assert "no node has a position" in err and f"--coordinates {out / 'nodes.csv'}" in err
+    assert "Traceback" not in err and not (tmp_path / "a").exists()
+    # a reduced.npz without positions (as written before they were exported)
+    z = dict(np.load(out / "reduced.npz"))
+    z.pop("positions")
+    np.savez(tmp_path / "old.npz", **z)
+    assert main(["network", "reduce", str(tmp_path / "old.npz"), "--out", str(tmp_path / "b")]) == 2
+    assert "no node has a position" in capsys.readouterr().err

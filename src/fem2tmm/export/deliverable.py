@@ -15,14 +15,37 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
+from ..reduce.supernodes import super_node_positions
 from ..result import Result
 from .esatan import Deck, constant_name, node_numbers, write_esatan
 from .sinda import write_sinda
 from .transient import deck_transient
 
 
+def network_positions(result: Result) -> np.ndarray:
+    """(n, 3) m position of each node of the reduced network (:func:`~fem2tmm.reduce.supernodes.
+    super_node_positions`: a cluster's capacitance-weighted centroid), NaN where unknown."""
+    rm = result.reduced.network
+    sn = rm.supernodes
+    if sn is None or sn.n_sn != rm.n:
+        return np.full((rm.n, 3), np.nan)
+    model = result.model
+    shares = model.capacity_shares if model.capacity_shares is not None else model.volume_shares
+    return super_node_positions(sn, rm.element_cluster, model.element_cells, shares, model.node_dof,
+                                model.mesh.points)
+
+
+def write_positions(path: Path, numbers: np.ndarray, positions: np.ndarray) -> None:
+    """``nodes.csv``: ``node,x,y,z`` (m) of every node with a known position, node numbers as in the decks
+    (what ``fem2tmm network reduce --coordinates`` reads)."""
+    ok = np.isfinite(positions).all(axis=1)
+    rows = [f"{int(k)},{x!r},{y!r},{z!r}\n" for k, (x, y, z) in zip(numbers[ok], positions[ok].tolist())]
+    path.write_text("node,x,y,z\n" + "".join(rows), encoding="utf-8")
+
+
 def network_arrays(result: Result) -> dict[str, np.ndarray]:
-    """The arrays of ``reduced.npz`` (DESIGN §4.3 and §4.7): the network, its solution and its recovery."""
+    """The arrays of ``reduced.npz`` (DESIGN §4.3 and §4.7): the network, its solution and its recovery;
+    ``positions`` (n, 3) m the super nodes' positions (:func:`network_positions`)."""
     rm, rs = result.reduced.network, result.reduced.solution
     n = rm.n
     GR = np.zeros((n + 1, n + 1))
@@ -31,7 +54,8 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
     GR[:n, n] = GR[n, :n] = rm.g_space
     C = rm.C if rm.C is not None else np.full(n, np.nan)
     out = dict(names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR, Q=rm.Q, T=rs.T - KELVIN,
-               kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN))
+               kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN),
+               positions=network_positions(result))
     if result.reduced.recovery is not None:
         out.update(result.reduced.recovery.arrays())
     par = result.reduced.parametric
@@ -93,13 +117,16 @@ def network_deck(result: Result) -> Deck:
 
 
 def write_network(folder: Path, result: Result, sinda: bool = True) -> None:
-    """``reduced.npz``, ``model.esatan`` and (``sinda``) ``model.sinda`` into ``folder``."""
-    np.savez(folder / "reduced.npz", **network_arrays(result))
+    """``reduced.npz``, ``model.esatan``, ``nodes.csv`` (the decks' node positions) and (``sinda``) ``model.sinda``
+    into ``folder``."""
+    arrays = network_arrays(result)
+    np.savez(folder / "reduced.npz", **arrays)
     deck = network_deck(result)
+    write_positions(folder / "nodes.csv", deck.numbers, arrays["positions"])
     stem = Path(result.case.source).stem
     write_esatan(folder / "model.esatan", deck, title=stem)
     if sinda:
         write_sinda(folder / "model.sinda", deck, submodel=deck.model_name)
 
 
-__all__ = ["network_arrays", "network_deck", "write_network"]
+__all__ = ["network_arrays", "network_deck", "network_positions", "write_network", "write_positions"]

@@ -104,6 +104,8 @@ def reduce_network(deck: str | Path, settings: NetworkSettings | None = None, pf
     net = net.active()
     cases = load_cases(net, settings.load_cases)
     _validate(net, settings)
+    if settings.method != "tmrt":
+        _check_positions(net, deck, coordinates)
     timings = {"read": time.perf_counter() - t0}
     t1 = time.perf_counter()
     detailed = [solve_network(net, c) for c in cases]
@@ -116,7 +118,35 @@ def reduce_network(deck: str | Path, settings: NetworkSettings | None = None, pf
                     settings.dtmax if dtmax is None else dtmax)
     timings["reduce"] = time.perf_counter() - t1
     res.timings = timings
+    if settings.method != "tmrt" and res.reduced.n >= net.n:
+        unknown = ~G.known_positions(net.coordinates, net.n) & ~net.boundary
+        if unknown.any():
+            raise Fem2TmmError(f"{net.source}: nothing was reduced and {int(unknown.sum())} of the "
+                               f"{int((~net.boundary).sum())} non-boundary nodes have no position (never condensed): "
+                               f"{net.describe(np.flatnonzero(unknown)[:10])}; {_POSITIONS_HOW}")
     return res
+
+
+#: where a network's node positions come from (Fernandez Rico 4.2.1: a coupling is sized by the nodes' distance)
+_POSITIONS_HOW = ("positions come from FX/FY/FZ of the ESATAN nodes, 'positions' of a reduced.npz or --coordinates "
+                  "nodes.csv (columns node,x,y,z in m; a fem2tmm run writes one beside its decks)")
+
+
+def _check_positions(net: Network, deck, coordinates) -> None:
+    """Refuse, before the reduction, a network none of whose non-boundary nodes has a position: no coupling
+    can be sized, so nothing would be condensed (Fernandez Rico 4.2.1)."""
+    known = G.known_positions(net.coordinates, net.n)
+    if known[~net.boundary].any():
+        return
+    beside = Path(deck).with_name("nodes.csv")
+    if coordinates is not None:
+        how = f"the nodes of {coordinates} are none of its non-boundary nodes: check its node numbers"
+    elif beside.is_file():
+        how = f"give --coordinates {beside} (the positions written beside the deck)"
+    else:
+        how = _POSITIONS_HOW
+    raise Fem2TmmError(f"{net.source}: no node has a position, so no coupling can be sized and nothing would be "
+                       f"reduced; {how}")
 
 
 def _validate(net: Network, settings: NetworkSettings) -> None:
@@ -135,12 +165,6 @@ def _validate(net: Network, settings: NetworkSettings) -> None:
 
 
 def _auto(net, cases, detailed, settings, pf, dtmax) -> NetworkReduction:
-    known = G.known_positions(net.coordinates, net.n)
-    if not known[~net.boundary].any():
-        import warnings
-
-        warnings.warn(f"{net.source}: no node has a position, so no coupling can be sized and nothing is condensed "
-                      "(Fernandez Rico 4.2.1); give --coordinates nodes.csv (columns node,x,y,z in m)", stacklevel=2)
     grouper = G.prepare(net, cases, crit=settings.criteria, mu=settings.mu,
                         internal_boundary=settings.internal_boundary, detailed=detailed)
     sw = G.sweep(grouper, settings.pf_values, settings.dtmax_values)

@@ -25,7 +25,8 @@ def read_reduced_npz(path: str | Path) -> Network:
 
     Node numbers follow :func:`fem2tmm.export.esatan.node_numbers` (the numbers of the ESATAN / SINDA decks written
     beside it); the space node (last row/column of ``GR``) becomes a boundary node labelled SPACE at ``T_sink``.
-    Off-diagonal ``−K`` are the GL (negative ones included: the exact reduction's).
+    Off-diagonal ``−K`` are the GL (negative ones included: the exact reduction's).  ``positions`` (n, 3) m, when
+    the file holds them, are the nodes' coordinates (what sizes the couplings of ``fem2tmm network reduce``).
     """
     path = Path(path)
     try:
@@ -35,6 +36,7 @@ def read_reduced_npz(path: str | Path) -> Network:
         Q = z["Q"]
         part = z["part"] if "part" in z else np.full(len(names), -1)
         T_sink = float(z["T_sink"]) if "T_sink" in z else -270.0
+        X = np.asarray(z["positions"], float) if "positions" in z else None  # (n, 3) m; older files: none
     except (OSError, KeyError, ValueError) as exc:
         raise Fem2TmmError(f"{path}: not a fem2tmm reduced.npz ({exc})") from None
     n = len(names)
@@ -49,10 +51,11 @@ def read_reduced_npz(path: str | Path) -> Network:
     GR = 0.5 * (GRs + GRs.T)
     np.fill_diagonal(GR, 0.0)
     kind = np.where(fixed, "B", "D")
+    coords = None if X is None or X.shape != (n, 3) else np.r_[X, np.full((1, 3), np.nan)]  # space: nowhere
     return Network(numbers=np.r_[numbers, space], labels=np.r_[names.astype(str), ["SPACE"]],
                    kind=np.r_[kind, ["B"]], T=np.r_[T, T_sink] + KELVIN, C=np.r_[C, 0.0], A=np.zeros(n + 1),
                    alp=np.zeros(n + 1), eps=np.zeros(n + 1), QI=np.r_[Q, 0.0], GL=sp.csr_matrix(GLf),
-                   GR=sp.csr_matrix(GR), source=str(path))
+                   GR=sp.csr_matrix(GR), coordinates=coords, source=str(path))
 
 
 def read_network(path: str | Path) -> Network:

@@ -265,4 +265,52 @@ def _check_parts_fixed(sn: SuperNodes, cells: np.ndarray, valid: np.ndarray) -> 
             "so that each lies within one connected part, or connect the parts")
 
 
-__all__ = ["SuperNodes", "build_supernodes"]
+def super_node_positions(supernodes: SuperNodes, element_cluster: np.ndarray, element_cells: np.ndarray,
+                         shares: np.ndarray, node_dof: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Position of each super node: a cluster's centroid weighted by its elements' nodal capacitance shares (the
+    capacitance-weighted centroid), a one-node super node's (fixed-temperature group, kept node) the centroid of
+    the mesh nodes merged into its DOF.
+
+    Parameters
+    ----------
+    supernodes : SuperNodes
+        ``cluster`` and ``dof`` of each super node (n_SN,).
+    element_cluster : (m,) int
+        Cluster of each model element, -1 for none.
+    element_cells : (m, k) int
+        Mesh node indices of each model element, padded with -1.
+    shares : (m, k) float
+        Capacitance (J/K) or volume (m³) each element gives each of its nodes.
+    node_dof : (n_nodes,) int
+        DOF of each mesh node, -1 outside the model.
+    points : (n_nodes, 3) float
+        Mesh node coordinates, m.
+
+    Returns
+    -------
+    (n_SN, 3) float
+        Positions in m (NaN for a super node without weight).
+    """
+    out = np.full((supernodes.n_sn, 3), np.nan)
+    ok = (element_cells >= 0) & (np.asarray(element_cluster)[:, None] >= 0)
+    cl = np.broadcast_to(np.asarray(element_cluster)[:, None], element_cells.shape)[ok]
+    w = np.asarray(shares, float)[ok]
+    xyz = points[element_cells[ok]]
+    n_cl = int(max(cl.max(initial=-1), supernodes.cluster.max(initial=-1))) + 1
+    total = np.bincount(cl, weights=w, minlength=n_cl)
+    centroid = np.stack([np.bincount(cl, weights=w * xyz[:, i], minlength=n_cl) for i in range(3)], axis=1)
+    centroid /= np.where(total > 0, total, np.nan)[:, None]
+    rows = np.flatnonzero(supernodes.cluster >= 0)
+    out[rows] = centroid[supernodes.cluster[rows]]
+    one = np.flatnonzero(supernodes.dof >= 0)
+    if len(one):
+        has = node_dof >= 0
+        dof = node_dof[has]
+        count = np.bincount(dof, minlength=supernodes.n_dof).astype(float)
+        mean = np.stack([np.bincount(dof, weights=points[has, i], minlength=supernodes.n_dof) for i in range(3)],
+                        axis=1) / np.where(count > 0, count, np.nan)[:, None]
+        out[one] = mean[supernodes.dof[one]]
+    return out
+
+
+__all__ = ["SuperNodes", "build_supernodes", "super_node_positions"]
