@@ -250,3 +250,75 @@ def test_network_refuses_a_reduction_without_positions(plate_run, tmp_path, caps
     np.savez(tmp_path / "old.npz", **z)
     assert main(["network", "reduce", str(tmp_path / "old.npz"), "--out", str(tmp_path / "b")]) == 2
     assert "no node has a position" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------------ item 6: small items
+
+
+def test_space_separated_bdf_is_one_clear_error(tmp_path, capsys):
+    from fem2tmm.cli import main
+
+    # free field is comma-separated (MSC Nastran QRG, "Bulk Data Entry format"): blanks between the fields are
+    # refused at the first such card with one message, instead of a list of unknown 'cards' 'GRID 1' ...
+    path = _plate_bdf(tmp_path / "plate.bdf", sep=" ")
+    assert main(["inspect", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and len(err) < 400, err
+    assert f"{path}:2:" in err and "separated by blanks" in err and "'GRID,1,0.0,0.0,0.0'" in err
+    # the same plate with commas reads: 16 quads
+    from fem2tmm.io import read_mesh
+
+    assert read_mesh(_plate_bdf(tmp_path / "ok.bdf"), unit="mm").n_elements == 16
+
+
+def test_a_value_with_its_unit_says_what_was_expected(tmp_path, capsys):
+    from fem2tmm.cli import main
+
+    case = _plate_case(tmp_path, boundary='value = "5 W"')
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{case}: [[boundary]][0].value: cannot read '5 W': not a number" in err, err
+    assert "expected a number in W, a time table [[t, v], ...] or a CSV file name" in err
+    assert "write value = 5 (no quotes, no unit)" in err
+
+
+def test_quiet_hides_the_progress_not_the_result(tmp_path):
+    p = _cli("run", str(_plate_case(tmp_path)), "--out", str(tmp_path / "out"), "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert "[fem2tmm]" not in p.stderr  # no progress
+    assert "reduced model" in p.stdout and "T min/mean/max 'plate'" in p.stdout  # the result table
+    assert p.stdout.rstrip().endswith(f"outputs in {tmp_path / 'out'}")
+    # the negative-GL note: short, inside the reduced model's row (the full note is in report.html)
+    row = next(ln for ln in p.stdout.splitlines() if "reduced model" in ln)
+    assert len(row) < 140 and "negative GL are" not in p.stdout, row
+    assert "negative GL are positive off-diagonal terms" in (tmp_path / "out" / "report.html").read_text()
+
+
+def test_periodic_transient_progress_is_labelled_and_has_no_carriage_return_in_a_log():
+    import io
+
+    from conftest import make_case
+    from fem2tmm.fem.model import build_model
+    from fem2tmm.mesh import shapes
+    from fem2tmm.progress import Progress, reporting
+    from fem2tmm.solve.transient import TransientSettings, solve_transient
+    from fem2tmm.timefunc import Series, Table
+    from test_transient import problem_of
+
+    case = make_case([{"name": "p", "groups": ["plate"], "material": "al", "thickness": 5e-3, "front": "black",
+                       "back": "black"}], [{"kind": "flux", "groups": ["plate"], "value": 1.0}],
+                     environment={"sink_temperature": -270.0})
+    model = build_model(shapes.plate(0.2, 0.2, 2, 2), case)
+    P = 6000.0
+    t = np.linspace(0, P, 13)
+    problem = problem_of(model, model.capacity, Series(0 * model.Q, (model.Q,),
+                                                       (Table(t, 500 * (1 + np.sin(2 * np.pi * t / P))),)))
+    log = io.StringIO()  # a log file: not a terminal
+    prog = Progress(stream=log)
+    with reporting(prog.callback()), prog.stage("transient", "integrating"):
+        sol = solve_transient(problem, TransientSettings(end=P, step=300.0, output_every=600.0, periodic=True), 293.15)
+    text = log.getvalue()
+    periods = sol.stats["periods"]
+    assert periods >= 2 and "\r" not in text
+    for k in range(1, periods + 1):  # one line per period, each labelled: 10 output intervals of 600 s
+        assert text.count(f"[fem2tmm]   transient intervals, period {k}: 10/10\n") == 1, text

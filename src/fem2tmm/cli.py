@@ -23,7 +23,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("case", help="case file (TOML)")
     r.add_argument("--out", default=None, help="output folder (default: <case name>-out next to the case)")
     r.add_argument("--no-reference", action="store_true", help="do not solve the detailed reference model")
-    r.add_argument("--quiet", action="store_true", help="no progress output")
+    r.add_argument("--quiet", action="store_true", help="no progress output (the result table and the output folder "
+                                                       "are printed)")
     r.add_argument("--scheduler", default=None,
                    help="where the work runs: serial (default, in-process), local (a Dask LocalCluster on this "
                         "machine's cores) or a Dask scheduler address tcp://host:8786; overrides [compute] scheduler")
@@ -31,7 +32,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="stage cache folder shared by runs (default: <out>/.cache)")
     d = sub.add_parser("demo", help="built-in baffle study (no input files needed)")
     d.add_argument("--out", default="fem2tmm-demo", help="output folder (default: ./fem2tmm-demo)")
-    d.add_argument("--quiet", action="store_true")
+    d.add_argument("--quiet", action="store_true", help="no progress output")
     b = sub.add_parser("bench", help="benchmarks of a source checkout (benchmarks/); one JSON object per line")
     b.add_argument("names", nargs="*", help="benchmarks to run (default: all); 'list' lists them")
     i = sub.add_parser("inspect", help="what a mesh holds: groups, regions, pieces, cards (before writing a case); "
@@ -170,11 +171,10 @@ def _run(args) -> int:
 
     result = run(case, out=out, quiet=args.quiet, reference=False if args.no_reference else None,
                  cache=Path(args.cache) if args.cache else None)
-    if not args.quiet:
-        from .export.summary import cases_table, summary_table
+    from .export.summary import cases_table, summary_table  # --quiet hides the progress, never the result
 
-        print(cases_table(result.summary) if "cases" in result.summary else summary_table(result.summary))
-        print(f"outputs in {result.out}")
+    print(cases_table(result.summary) if "cases" in result.summary else summary_table(result.summary))
+    print(f"outputs in {result.out}")
     return 0
 
 

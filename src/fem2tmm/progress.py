@@ -63,6 +63,55 @@ def reporting_units(callback: Callable[[int, int, str], None] | None):
         _units.reset(token)
 
 
+#: seconds between two progress lines on a stream that is not a terminal (a log file)
+LOG_EVERY = 30.0
+
+
+def is_terminal(stream) -> bool:
+    """Whether ``stream`` is a terminal (a tqdm bar redraws there with carriage returns; a log gets lines)."""
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # no isatty, or a closed stream
+        return False
+
+
+class LogBar:
+    """The progress of one kind of work on a stream that is not a terminal: no carriage returns; a line
+    ``[fem2tmm]   desc: done/total`` at most every :data:`LOG_EVERY` s while it runs and one when it is closed.
+    Has the ``total``, ``n``, ``update``, ``refresh`` and ``close`` of a tqdm bar."""
+
+    def __init__(self, total: int, desc: str, stream):
+        self.total, self.desc, self.stream, self.n = total, desc, stream, 0
+        self._last = time.monotonic()
+        self._open = True
+
+    def _line(self) -> None:
+        print(f"[fem2tmm]   {self.desc}: {self.n}/{self.total}", file=self.stream, flush=True)
+        self._last = time.monotonic()
+
+    def update(self, k: int = 1) -> None:
+        self.n += k
+        if time.monotonic() - self._last >= LOG_EVERY:
+            self._line()
+
+    def refresh(self) -> None:
+        pass
+
+    def close(self) -> None:
+        if self._open and self.n > 0:
+            self._line()
+        self._open = False
+
+
+def progress_bar(total: int, desc: str, stream, disable: bool = False):
+    """A tqdm bar on a terminal, a :class:`LogBar` on any other stream, a disabled tqdm bar when ``disable``."""
+    from tqdm.auto import tqdm
+
+    if not disable and not is_terminal(stream):
+        return LogBar(total, desc, stream)
+    return tqdm(total=total, desc=desc, disable=disable, file=stream, leave=False)
+
+
 class UnitsBar:
     """One progress bar over the work units of many concurrent :func:`~fem2tmm.compute.map_units` calls (threads):
     units finished / units submitted so far, ``desc`` e.g. "work units on 2 workers".  Use it as the
@@ -93,9 +142,7 @@ class UnitsBar:
             if self.quiet:
                 return
             if self._bar is None:
-                from tqdm.auto import tqdm
-
-                self._bar = tqdm(total=self.submitted, desc=self.desc, file=self.stream, leave=False)
+                self._bar = progress_bar(self.submitted, self.desc, self.stream)
             self._bar.total = self.submitted
             self._bar.update(self.done - self._bar.n)  # tqdm limits the redraw rate
             if self.done >= self.submitted:
@@ -140,10 +187,9 @@ class Progress:
             print(f"[fem2tmm] {text}", file=self.stream, flush=True)
 
     def bar(self, total: int, desc: str):
-        """A tqdm bar (or a no-op object) with ``update(n)`` and ``close()``."""
-        from tqdm.auto import tqdm
-
-        return tqdm(total=total, desc=desc, disable=self.quiet or total <= 1, file=self.stream, leave=False)
+        """A tqdm bar on a terminal, progress lines in a log (:func:`progress_bar`), or a no-op object, with
+        ``update(n)`` and ``close()``."""
+        return progress_bar(total, desc, self.stream, disable=self.quiet or total <= 1)
 
     def callback(self):
         """A :func:`report` callback driving one tqdm bar per kind of work (None if quiet).

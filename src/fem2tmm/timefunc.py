@@ -16,6 +16,7 @@ Units are the caller's: seconds for ``t``; K, W or W/m² for the values.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -90,19 +91,27 @@ class Table:
         return np.unique(bp[(bp > start) & (bp < end)])
 
 
-def parse_table(value, where: str, base_dir: Path | None = None) -> Table:
+def parse_table(value, where: str, base_dir: Path | None = None, unit: str = "") -> Table:
     """A :class:`Table` from a case-file value: a number, ``[[t, v], ...]`` or the path of a two-column CSV file.
 
-    ``where`` names the key in error messages; relative CSV paths are relative to ``base_dir``.
+    ``where`` names the file and key in error messages, ``unit`` the value's unit (e.g. "W"); relative CSV paths
+    are relative to ``base_dir``.
     """
+    expected = f"expected a number{' in ' + unit if unit else ''}, a time table [[t, v], ...] or a CSV file name"
     if isinstance(value, bool):
-        raise Fem2TmmError(f"{where}: expected a number, a table [[t, v], ...] or a CSV file name, got {value!r}")
+        raise Fem2TmmError(f"{where}: {expected}, got {value!r}")
     if isinstance(value, (int, float)):
         return Table.constant(float(value))
     if isinstance(value, str):
         path = Path(value)
         if base_dir is not None and not path.is_absolute():
             path = base_dir / path
+        if not path.exists():  # "5 W", "20 C": a number with its unit is read as a file name
+            number = re.match(r"^\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", value)
+            like = f"; for the number write {where.rsplit('.', 1)[-1].split(' ')[-1]} = {number.group(0).strip()} " \
+                   "(no quotes, no unit)" if number else ""
+            raise Fem2TmmError(f"{where}: cannot read {value!r}: not a number, and there is no file {path}; {expected} "
+                               f"(two columns: time s, value){like}")
         return read_csv_table(path, where)
     if isinstance(value, list):
         rows = value

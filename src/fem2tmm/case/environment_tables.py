@@ -12,9 +12,10 @@ from .types import Environment, OrbitSettings, SolarOn, _default
 
 
 class _EnvironmentTables:
-    def time_table(self, value, where: str, kelvin: bool) -> Table:
-        """A value given as ``[[t, v], ...]`` or a two-column CSV file; °C -> K when ``kelvin``."""
-        table = parse_table(value, where, self.base)
+    def time_table(self, value, where: str, kelvin: bool, unit: str = "°C") -> Table:
+        """A value given as ``[[t, v], ...]`` or a two-column CSV file (values in ``unit``); °C -> K when
+        ``kelvin``."""
+        table = parse_table(value, f"{self.src}: {where}", self.base, unit=unit)
         if kelvin:
             if not table.v.min() > ABSOLUTE_ZERO_C:
                 raise self.err(where, f"temperatures must be above {ABSOLUTE_ZERO_C} °C, got {table.v.min()}")

@@ -157,7 +157,8 @@ class _ModelTables:
             raise self.err(w, "give 'groups' (mesh group names) and/or 'nodes' (original node ids)")
         table = None
         if isinstance(d["value"], (list, str)):
-            table = self.time_table(d["value"], f"{w}.value", kelvin=kind == "temperature")
+            table = self.time_table(d["value"], f"{w}.value", kelvin=kind == "temperature",
+                                    unit={"temperature": "°C", "power": "W", "flux": "W/m²"}[kind])
             v = table(self.t0)
         elif kind == "temperature":
             v = self.number(d, "value", w, lo=ABSOLUTE_ZERO_C, lo_open=True) + KELVIN

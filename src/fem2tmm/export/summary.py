@@ -311,6 +311,12 @@ NEGATIVE_GL_NOTE = ("negative GL are positive off-diagonal terms of the exact re
                     "[reduction] filter removes weak links")
 
 
+def negative_gl_count(n: int) -> str:
+    """'12 negative: exact reduction, keep them' (the terminal's short form of :data:`NEGATIVE_GL_NOTE`, which
+    the report and the decks' comment give in full), '0 negative' when there are none."""
+    return f"{n} negative: exact reduction, keep them" if n else "0 negative"
+
+
 def _three(d: dict) -> str:
     return "—" if d.get("min") is None else f"{d['min']:.2f} / {d['mean']:.2f} / {d['max']:.2f} °C"
 
@@ -375,9 +381,8 @@ def summary_table(s: dict) -> str:
     red = s.get("reduced")
     if red:
         rows.append(("reduced model", f"{red['super_nodes']} super nodes + {red['boundary_nodes']} boundary nodes, "
-                     f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR"))
-        if red["negative_links"]:
-            rows.append(("", NEGATIVE_GL_NOTE))
+                     f"{red['conductive_links']} GL ({negative_gl_count(red['negative_links'])}), "
+                     f"{red['radiative_links']} GR"))
         if red.get("choice"):
             rows.append(("reduction", choice_text(red["choice"])))
         rows += parametric_rows(red)

@@ -295,10 +295,11 @@ def super_node_positions(supernodes: SuperNodes, element_cluster: np.ndarray, el
     ok = (element_cells >= 0) & (np.asarray(element_cluster)[:, None] >= 0)
     cl = np.broadcast_to(np.asarray(element_cluster)[:, None], element_cells.shape)[ok]
     w = np.asarray(shares, float)[ok]
-    xyz = points[element_cells[ok]]
+    xyz = np.asarray(points, float)[element_cells[ok]]
     n_cl = int(max(cl.max(initial=-1), supernodes.cluster.max(initial=-1))) + 1
-    total = np.bincount(cl, weights=w, minlength=n_cl)
-    centroid = np.stack([np.bincount(cl, weights=w * xyz[:, i], minlength=n_cl) for i in range(3)], axis=1)
+    total = np.bincount(cl, weights=w, minlength=n_cl).astype(float)  # (an empty bincount is int)
+    centroid = np.stack([np.bincount(cl, weights=w * xyz[:, i], minlength=n_cl) for i in range(3)],
+                        axis=1).astype(float)
     centroid /= np.where(total > 0, total, np.nan)[:, None]
     rows = np.flatnonzero(supernodes.cluster >= 0)
     out[rows] = centroid[supernodes.cluster[rows]]
@@ -308,7 +309,7 @@ def super_node_positions(supernodes: SuperNodes, element_cluster: np.ndarray, el
         dof = node_dof[has]
         count = np.bincount(dof, minlength=supernodes.n_dof).astype(float)
         mean = np.stack([np.bincount(dof, weights=points[has, i], minlength=supernodes.n_dof) for i in range(3)],
-                        axis=1) / np.where(count > 0, count, np.nan)[:, None]
+                        axis=1).astype(float) / np.where(count > 0, count, np.nan)[:, None]
         out[one] = mean[supernodes.dof[one]]
     return out
 

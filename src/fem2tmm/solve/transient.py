@@ -556,7 +556,8 @@ def _solve(problem: TransientProblem, settings: TransientSettings, initial) -> T
             integ.advance(te + offset)
             if is_out[j]:
                 out.append(integ.T.copy())
-            report(j + 1, len(seg), "transient intervals")
+            report(j + 1, len(seg), f"transient intervals, period {periods + 1}" if settings.periodic
+                   else "transient intervals")
         periods += 1
         out = np.array(out)
         if not settings.periodic:

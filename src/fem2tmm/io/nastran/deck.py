@@ -68,6 +68,21 @@ for _n in _SUPPORTED:
 _BEGIN_BULK = re.compile(rb"^[ \t]*BEGIN[ \t]+BULK", re.IGNORECASE | re.MULTILINE)
 _SMALL, _LARGE, _GENERIC = 8, 16, 1  # card storage modes (fixed widths, or a list of field strings)
 _SPACE, _PLUS, _STAR, _COMMA = 32, 43, 42, 44
+#: field 1 holding a card name, blanks and a number: data separated by blanks ("GRID 1 0 0.0 ..."), which
+#: Nastran does not read (free field is comma-separated; MSC Nastran Quick Reference Guide, "Bulk Data Entry format")
+_BLANK_SEPARATED = re.compile(rb"^([A-Z][A-Z0-9]{0,7})\*?\s+[-+.0-9]")
+
+
+def _blank_separated(head: bytes, where: str, raw: bytes) -> Fem2TmmError | None:
+    """The one error for a card written with blanks between its fields (``head``: field 1, upper case), or None."""
+    m = _BLANK_SEPARATED.match(head)
+    if m is None or (m.group(1) not in _NAMES and not is_structural(m.group(1).decode("latin-1"))):
+        return None
+    text = raw.decode("latin-1").strip()
+    return Fem2TmmError(f"{where}: {text[:60]!r}: fields separated by blanks, which Nastran does not read: bulk data "
+                        "is fixed field (8 columns a field, the card name in columns 1-8) or free field separated by "
+                        f"commas ({','.join(text.split())[:60]!r}); rewrite the file with commas or in 8-column "
+                        "fields")
 
 
 # --------------------------------------------------------------------------------------------- scanning
@@ -279,6 +294,8 @@ class _Deck:
                 continue
             key = names.get(uhead)
             if key is None:
+                if not free and (bad := _blank_separated(uhead, f"{where_file}:{i + 1}", raw)) is not None:
+                    raise bad
                 self.unknown[uhead.rstrip(b"*").decode("latin-1")] += 1
                 continue
             card, width, recs, seqs = key
