@@ -322,3 +322,14 @@ def test_periodic_transient_progress_is_labelled_and_has_no_carriage_return_in_a
     assert periods >= 2 and "\r" not in text
     for k in range(1, periods + 1):  # one line per period, each labelled: 10 output intervals of 600 s
         assert text.count(f"[fem2tmm]   transient intervals, period {k}: 10/10\n") == 1, text
+
+
+def test_a_number_given_with_its_unit_names_the_file_key_and_what_was_expected(tmp_path, capsys):
+    from fem2tmm.cli import main
+
+    case = _plate_case(tmp_path)
+    case.write_text(case.read_text().replace("thickness = 0.001", 'thickness = "2 mm"'))
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{case}: [[parts]][0] ('plate').thickness: expected a number, got '2 mm'" in err
+    assert "write the number alone, no quotes, in SI units (m," in err

@@ -10,6 +10,7 @@ See DESIGN §4.2 for an annotated example.
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -157,7 +158,9 @@ class _Parser(_ModelTables, _EnvironmentTables, _SettingsTables):
             return default
         v = d[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.err(f"{where}.{key}", f"expected a number, got {v!r}")
+            unit = (": write the number alone, no quotes, in SI units (m, W, W/(m K); temperatures in °C)"
+                    if isinstance(v, str) and re.match(r"\s*[-+]?\.?\d", v) else "")  # "2 mm", "170 W/mK"
+            raise self.err(f"{where}.{key}", f"expected a number, got {v!r}{unit}")
         if integer and (not float(v).is_integer()):
             raise self.err(f"{where}.{key}", f"expected an integer, got {v!r}")
         v = int(v) if integer else float(v)
