@@ -333,3 +333,23 @@ def test_a_number_given_with_its_unit_names_the_file_key_and_what_was_expected(t
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{case}: [[parts]][0] ('plate').thickness: expected a number, got '2 mm'" in err
     assert "write the number alone, no quotes, in SI units (m," in err
+
+
+def test_inspect_of_a_case_advises_its_unit_key_and_a_closed_pipe_is_no_traceback(tmp_path, capsys):
+    import os
+    import subprocess
+    import sys
+
+    from fem2tmm.cli import main
+
+    case = _plate_case(tmp_path, unit="m")
+    assert main(["inspect", str(case)]) == 0
+    size = capsys.readouterr().out.splitlines()[1]
+    assert 'with [mesh] unit = "m"' in size and 'then give [mesh] unit = "mm"' in size, size
+    # `fem2tmm inspect case.toml | head -0`: the reader is gone before the report is printed
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), str(ROOT)]))
+    p = subprocess.Popen([sys.executable, "-m", "fem2tmm.cli", "inspect", str(case)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, env=env)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 0 and err == "", err

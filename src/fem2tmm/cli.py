@@ -116,6 +116,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("fem2tmm: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the output went to a command that stopped reading it (fem2tmm inspect ... | head)
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # nothing more to flush at exit
+        return 0
     finally:
         warnings.formatwarning = old_format
     return 0
@@ -147,6 +152,7 @@ def _inspect(args) -> int:
         parts = [(p.name, list(p.groups), p.super_nodes) for p in case.parts]
         rep = inspect_mesh(case.mesh.file, unit=case.mesh.unit,
                            unit_system=args.unit_system or getattr(case.mesh, "unit_system", None), parts=parts)
+        rep["unit_key"] = "[mesh] unit"  # where the unit comes from (what a size warning advises to change)
     else:
         rep = inspect_mesh(args.mesh, unit=args.unit, unit_system=args.unit_system)
     print(json.dumps(rep, indent=2) if args.json else inspection_text(rep))

@@ -217,7 +217,7 @@ def inspection_text(rep: dict) -> str:
     ext = rep.get("extent_m") or [0.0, 0.0, 0.0]
     lines = [f"{rep['file']}: {rep['nodes']} nodes, {rep['elements']} elements (unit {rep['unit']})",
              "size {} m (bounding box, file lengths x the unit)".format(" x ".join(f"{x:.4g}" for x in ext))
-             + (f": {note}" if (note := extent_note(max(ext), rep["unit"], "--unit")) else ""), "",
+             + (f": {note}" if (note := extent_note(max(ext), rep["unit"], rep.get("unit_key", "--unit"))) else ""), "",
              f"groups (regions at the default feature angle {rep['feature_angle_deg']:g} deg = the fewest super "
              "nodes a part of that group takes without merging; 'min' the fewest it can take: fewer regions are "
              "merged smallest first across the strongest link, and pieces beyond the count join the clusters they "
