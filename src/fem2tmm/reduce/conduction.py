@@ -286,6 +286,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
         clusters.append(cl)
         if nI >= SPARSE_FROM:
             release_freed_memory()
+    report(nc, nc, "clusters reduced")  # (each cluster is reported as it starts: this is the last one's end)
 
     # tree of clusters from the interface unknowns they share, then multifrontal condensation
     var = np.concatenate([g for g, _ in blocks]) if blocks else np.zeros(0, np.int64)
