@@ -156,7 +156,8 @@ def trace_orbit(surface: Surface, orbit: Orbit, attitude: Attitude, kinds=KINDS,
     for c in range(0, len(traces), ORBIT_JOBS):  # loop over chunks of traces
         chunk = traces[c:c + ORBIT_JOBS]
         built = [job(*t) for t in chunk]
-        parts = map_jobs([b[0] for b in built], [b[1] for b in built], threads, what="orbit ray batches")
+        parts = map_jobs([b[0] for b in built], [b[1] for b in built], threads,
+                         what=f"orbit ray batches, traces {c + 1}-{c + len(chunk)} of {len(traces)}")
         for (jd, j0, kind), (_, _, finish), p in zip(chunk, built, parts):
             res = finish(p)
             rows = np.flatnonzero(positions.true_anomaly == distinct[jd])
