@@ -129,6 +129,8 @@ def test_a_plausible_case_gets_no_warning_and_the_cli_warns_before_the_clusterin
     # aluminium's 170 W/(m K) written in mW/(m K): above diamond's ~2200 (CONDUCTIVITY_RANGE, CRC Handbook)
     ("conductivity", "conductivity = 1.7e5", "[materials.al] conductivity = 170000 W/(m K) is outside"),
     ("boundary", "value = 5.0e4", "value = 50000 W over 0.01 m2 is a heat flux of 5e+06 W/m2"),
+    # the solar constant written in mW/m2
+    ("sun", "sun_direction = [0, 0, 1]\nsolar_flux = 1.361e6", "[environment] solar_flux = 1.361e+06 W/m2 is above"),
 ])
 def test_conductivity_and_flux_out_of_physical_range_warn(tmp_path, key, text, expect):
     from fem2tmm.case import Case
@@ -137,8 +139,10 @@ def test_conductivity_and_flux_out_of_physical_range_warn(tmp_path, key, text, e
     from fem2tmm.pipeline import load_mesh
 
     path = _plate_case(tmp_path, boundary=text if key == "boundary" else "value = 5.0")
-    if key == "conductivity":  # 170 W/(m K) given in W/(mm K)
+    if key == "conductivity":
         path.write_text(path.read_text().replace("conductivity = 170.0", text))
+    if key == "sun":
+        path.write_text(path.read_text().replace("[environment]\n", f"[environment]\n{text}\n"))
     case = Case.from_toml(path)
     notes = implausible(build_model(load_mesh(case), case), case)
     assert len(notes) == 1 and expect in notes[0], notes

@@ -30,7 +30,8 @@ THICK_SHELL_RATIO = 0.2
 #: conductivities of real solids, W/(m K): silica aerogel ~0.015 (lowest solid), diamond ~2200 and pyrolytic
 #: graphite in-plane ~1700-2000 (highest); CRC Handbook of Chemistry and Physics, "Thermal conductivity of solids"
 CONDUCTIVITY_RANGE = (1.0e-3, 3000.0)
-#: a heat flux above this (W/m²) is 100 W/cm², about the densest electronics dissipation; 70x the solar constant
+#: a heat flux above this (W/m²) is 100 W/cm², about the densest electronics dissipation; 730x the solar constant
+#: and above the sunlight at Parker Solar Probe's closest perihelion (~0.046 au: 1361 / 0.046² ~ 6.4e5 W/m²)
 MAX_FLUX = 1.0e6
 
 
@@ -59,8 +60,9 @@ def _unit_setting(key: str, unit: str) -> str:
 def implausible(model: FEModel, case: Case) -> list[str]:
     """One message per implausible input of ``case`` on its assembled ``model`` (empty when all is plausible):
     the model's extent against ``[mesh] unit``, each shell part's thickness against the part's size, each
-    conductivity against :data:`CONDUCTIVITY_RANGE` and the heat flux of each power / flux boundary against
-    :data:`MAX_FLUX`.  Emissivity and absorptivity outside [0, 1] are refused by the case reader already."""
+    conductivity against :data:`CONDUCTIVITY_RANGE` and the heat flux of the Sun and of each power / flux
+    boundary against :data:`MAX_FLUX`.  Emissivity and absorptivity outside [0, 1] are refused by the case reader
+    already."""
     src = case.source
     out = []
     mesh = model.mesh
@@ -122,9 +124,17 @@ def _conductivity_notes(model: FEModel, case: Case) -> list[str]:
 
 
 def _flux_notes(model: FEModel, case: Case) -> list[str]:
-    """Power and flux boundaries whose heat flux exceeds :data:`MAX_FLUX` (power: over its surface groups)."""
+    """The solar flux, and the power and flux boundaries, whose heat flux exceeds :data:`MAX_FLUX` (a power: over
+    its surface groups)."""
     mesh = model.mesh
     out = []
+    suns = [("[environment] solar_flux", case.environment.solar_flux)]
+    if case.orbit is not None:
+        suns.append(("[orbit] solar_flux", getattr(case.orbit.orbit, "solar_flux", 0.0)))
+    for key, q in suns:
+        if q > MAX_FLUX:
+            out.append(f"{case.source}: {key} = {q:g} W/m2 is above {MAX_FLUX:g} W/m2 (the Sun at Parker Solar Probe's "
+                       "perihelion is ~6.4e5; at the Earth 1361): the solar flux is in W/m2")
     for b in case.boundaries:
         if b.kind == "flux":
             q = abs(b.value)
