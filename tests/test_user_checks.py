@@ -125,6 +125,21 @@ def test_a_plausible_case_gets_no_warning_and_the_cli_warns_before_the_clusterin
     assert err.index("m across") < err.index("[fem2tmm] clustering"), err
 
 
+def test_a_case_set_warns_once(tmp_path):
+    from fem2tmm.case import Case
+    from fem2tmm.pipeline import run
+
+    case = _plate_case(tmp_path, unit="m")
+    text = case.read_text().replace('kind = "power"', 'name = "heater"\nkind = "power"')
+    case.write_text(text + '[[cases]]\nname = "cold"\n[cases.boundary.heater]\nvalue = 1.0\n'
+                           '[[cases]]\nname = "hot"\n[cases.boundary.heater]\nvalue = 10.0\n')
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")  # every warning call shows: the once is the run's own
+        multi = run(Case.from_toml(case), cache=False)
+    assert len(multi.results) == 2
+    assert sum("m across" in str(w.message) for w in rec) == 1, [str(w.message) for w in rec]
+
+
 @pytest.mark.parametrize("key,text,expect", [
     # aluminium's 170 W/(m K) written in mW/(m K): above diamond's ~2200 (CONDUCTIVITY_RANGE, CRC Handbook)
     ("conductivity", "conductivity = 1.7e5", "[materials.al] conductivity = 170000 W/(m K) is outside"),

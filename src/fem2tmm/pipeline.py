@@ -26,7 +26,7 @@ from .constants import KELVIN
 from .export.output import check_output_place, write_cases_outputs, write_outputs
 from .export.summary import build_cases_summary, build_summary
 from .fem.model import build_model
-from .fem.plausibility import warn_implausible
+from .fem.plausibility import warn_implausible, warn_once_per_run
 from .mesh import Mesh
 from .progress import Progress, report, reporting
 from .radiation.compiled import compile_estimate
@@ -112,6 +112,7 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
 
     out = None if out is None else check_output_place(out)  # before any computation
     cases = load_cases(case)  # every case validated before any computation
+    warn_once_per_run()  # each unit warning once, whatever the number of cases
     explicit = cache not in (None, True, False)
     store = None if cache is False else StageCache(Path(cache) if explicit else None)
     if store is not None and not explicit and out is not None:

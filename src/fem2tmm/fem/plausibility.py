@@ -11,6 +11,7 @@ The ranges (sources beside each constant) are wide on purpose: a warning must me
 
 from __future__ import annotations
 
+import contextvars
 import warnings
 
 import numpy as np
@@ -156,13 +157,29 @@ def _flux_notes(model: FEModel, case: Case) -> list[str]:
     return out
 
 
+#: the messages a run has warned already (:func:`warn_once_per_run`)
+_warned: contextvars.ContextVar[set | None] = contextvars.ContextVar("fem2tmm_plausibility_warned", default=None)
+
+
+def warn_once_per_run() -> None:
+    """Start a run: from here on :func:`warn_implausible` warns each message once (the load cases of a run, its
+    refinement rounds and its linearisation share their inputs; Python's own once-per-place rule is reset whenever
+    a warnings filter changes)."""
+    _warned.set(set())
+
+
 def warn_implausible(model: FEModel, case: Case) -> list[str]:
-    """Warn (:class:`UserWarning`) each message of :func:`implausible`; returns them."""
+    """Warn (:class:`UserWarning`) each message of :func:`implausible` not warned yet in this run; returns them."""
     notes = implausible(model, case)
+    seen = _warned.get()
     for note in notes:
+        if seen is not None:
+            if note in seen:
+                continue
+            seen.add(note)
         warnings.warn(note, stacklevel=2)
     return notes
 
 
 __all__ = ["CONDUCTIVITY_RANGE", "LARGE_EXTENT_M", "MAX_FLUX", "SMALL_EXTENT_M", "THICK_SHELL_RATIO", "extent_note",
-           "implausible", "warn_implausible"]
+           "implausible", "warn_implausible", "warn_once_per_run"]
