@@ -43,6 +43,7 @@ RANK = {
     "stages": 13, "inspection": 13,  # the adapters from a Case to each stage's plain arrays
     "pipeline": 14,
     "handover": 14, "recovering": 14,  # the network handed over read back and checked; outside temperatures back
+    "verify": 14,  # the validity range of the network handed over, checked against the detailed model
     "demo": 15, "cli": 16,
 }
 #: the stage packages and the reduction methods: never the orchestration, the CLI or a benchmark ("a method never

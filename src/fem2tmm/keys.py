@@ -37,7 +37,7 @@ def network_group(case: Case) -> str:
     bounds = tuple((b.kind, b.groups, b.nodes, b.name) for b in case.boundaries)
     return digest("network", repr(case.mesh), sorted((k, repr(v)) for k, v in case.materials.items()),
                   sorted((k, repr(v)) for k, v in case.optics.items()), repr(case.parts), repr(case.joints), bounds,
-                  repr(case.radiation), repr(case.reduction), repr(case.clustering))
+                  repr(case.radiation), repr(_network_settings(case.reduction)), repr(case.clustering))
 
 
 def reduce_key(model: FEModel, case: Case, clustering_key: str, T_ref: np.ndarray | None = None) -> str:
@@ -52,7 +52,12 @@ def reduce_key(model: FEModel, case: Case, clustering_key: str, T_ref: np.ndarra
     fixed = [(g.name, g.dof, g.nodes) for g in model.fixed]
     aware = None if T_ref is None else (T_ref, model.faces.eps_area, model.T_sink)
     return digest("reduce", clustering_key, fields, faces, fixed, model.mesh.node_ids, kept_dofs(model, case),
-                  case.reduction, aware)
+                  _network_settings(case.reduction), aware)
+
+
+def _network_settings(reduction):
+    """The ``[reduction]`` settings that make the network: without ``verify`` (the validity check after it)."""
+    return dataclasses.replace(reduction, verify=True, verify_range=())
 
 
 def scene_key(fit: tuple | None) -> str:

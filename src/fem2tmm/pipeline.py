@@ -687,5 +687,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
 
         with prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
             reduced.delivered = check_deliverable(result, recover=dpart.solution is not None)
+        from .verify import verify_network, why_unverified
+
+        reduced.verified = why_unverified(result)  # the validity range: checked against the detailed model, or not
+        if reduced.verified is None:
+            with prog.stage("verify", "verifying the network over its validity range (edited decks vs detailed)"):
+                reduced.verified = verify_network(result, problem)
     result.summary = build_summary(result, prog.timings)
     return result

@@ -81,6 +81,8 @@ class Reduced:
     delivered : :func:`fem2tmm.handover.check_deliverable`: the network written, read back, solved and recovered
     parametric : ``[reduction] parametric``: the correction load at each parametric state as a departure from the
         design's (:func:`fem2tmm.reductors.radiation_aware.parametric_corrections`), written into the deck
+    verified : the validity range and its check against the detailed model (:func:`fem2tmm.verify.verify_network`),
+        or ``{"status": "UNVERIFIED", "reason"}``; stated in the decks and ``reduced.npz``
     """
 
     method: str
@@ -105,6 +107,7 @@ class Reduced:
     refinement: object | None = None
     delivered: dict | None = None
     parametric: dict | None = None
+    verified: dict | None = None
 
     @property
     def positive(self) -> dict | None:

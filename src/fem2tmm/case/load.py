@@ -258,6 +258,8 @@ class _Parser(_ModelTables, _EnvironmentTables, _SettingsTables):
         reduction = replace(reduction, parametric=self.parametric(
             top.get("reduction", {}).get("parametric") if isinstance(top.get("reduction"), Mapping) else None,
             boundaries, reduction))
+        reduction = replace(reduction, **self.verify(
+            top.get("reduction", {}).get("verify") if isinstance(top.get("reduction"), Mapping) else None, boundaries))
         if radiation.ir_on in ("detailed", "faces") and (reduction.radiation_aware is False or not radiation.enabled):
             raise self.err("[radiation].ir_on", f'"{radiation.ir_on}" places absorbed IR on the FE faces through the '
                            "radiation-aware reduction: set [reduction] radiation_aware = true or \"auto\" (and keep "

@@ -44,7 +44,7 @@ class _SettingsTables:
         w = "[reduction]"
         d = self.table(d, w, {"enabled", "method", "capacitance", "filter", "keep_nodes", "network", "radiation_aware",
                               "outer_iterations", "target_rms", "max_super_nodes", "refine_rounds",
-                              "refine_rays_per_face", "refine_estimator", "parametric"})
+                              "refine_rays_per_face", "refine_estimator", "parametric", "verify"})
         if d.get("radiation_aware") is True and d.get("network", "exact") == "positive":
             raise self.err(w, "radiation_aware = true needs network = \"exact\" (the radiation-aware network is "
                               "K'_SN - diag(H_SN) with a correction load; the positive fit is not defined for it)")
@@ -113,6 +113,54 @@ class _SettingsTables:
                 raise self.err(where, "repeated values")
             out.append((name, tuple(vals)))
         return tuple(out)
+
+    def verify(self, d, boundaries) -> dict:
+        """``[reduction] verify``: ``true`` (default: the range chosen from the case, :mod:`fem2tmm.verify`),
+        ``false`` (not verified) or ``{name = [low, high], ...}`` of named power / flux / temperature boundaries
+        (W, W/m², °C; the name as in ``[[boundary]]``, any case) or ``sink`` (°C): the range of those constants;
+        the others keep the automatic range.  Returns ``{"verify": bool, "verify_range": ((name, low, high), ...)}``
+        in SI with each boundary's own name."""
+        w = "[reduction].verify"
+        if d is None or d is True:
+            return {"verify": True, "verify_range": ()}
+        if d is False:
+            return {"verify": False, "verify_range": ()}
+        if not isinstance(d, Mapping) or not d:
+            raise self.err(w, "expected true, false or a table {name = [low, high], ...} of named [[boundary]] "
+                              "entries or sink, e.g. verify = {heater = [0, 40], sink = [-270, 20]}")
+        named = {b.name.upper(): b for b in boundaries if b.name}
+        out = []
+        for key, values in d.items():
+            where = f"{w}.{key}"
+            if str(key).lower() == "sink":
+                name, offset, lo_abs, unit = "sink", KELVIN, ABSOLUTE_ZERO_C, "°C"
+            elif str(key).upper() in named:
+                b = named[str(key).upper()]
+                name = b.name
+                if b.kind not in ("power", "flux", "temperature"):
+                    raise self.err(where, f"[[boundary]] {b.name!r} is a {b.kind} boundary: only power, flux and "
+                                          "temperature boundaries are deck constants")
+                if b.table is not None:
+                    raise self.err(where, f"[[boundary]] {b.name!r} follows a table in time: it is not a constant of "
+                                          "the deck; remove it from verify")
+                offset, lo_abs, unit = ((KELVIN, ABSOLUTE_ZERO_C, "°C") if b.kind == "temperature" else
+                                        (0.0, None, "W" if b.kind == "power" else "W/m²"))
+            else:
+                raise self.err(where, f"no [[boundary]] named {key!r} (named boundaries: "
+                                      f"{', '.join(sorted(b.name for b in boundaries if b.name)) or 'none'}; or sink)")
+            if any(n == name for n, _, _ in out):
+                raise self.err(where, f"{name!r} is given twice")
+            if (not isinstance(values, list) or len(values) != 2
+                    or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                           for v in values)):
+                raise self.err(where, f"expected [low, high], two numbers in {unit}; got {values!r}")
+            low, high = (float(v) for v in values)
+            if low > high:
+                raise self.err(where, f"low {low:g} is above high {high:g} {unit}: give [low, high]")
+            if lo_abs is not None and low <= lo_abs:
+                raise self.err(where, f"low {low:g} °C is at or below absolute zero ({lo_abs:g} °C)")
+            out.append((name, low + offset, high + offset))
+        return {"verify": True, "verify_range": tuple(out)}
 
     def clustering(self, d) -> ClusteringSettings:
         w = "[clustering]"

@@ -156,6 +156,10 @@ class ReductionSettings:
     # the deck follows them (fem2tmm.reductors.radiation_aware.parametric_corrections): ((name, values), ...) with a
     # named [[boundary]] (values in SI: W, W/m², K) or "sink" (K)
     parametric: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    # the validity range the run verifies against the detailed reference (fem2tmm.verify): False skips it; the
+    # ranges the user sets, ((name, low, high), ...) in SI (W, W/m², K), replace the automatic choice for those names
+    verify: bool = True
+    verify_range: tuple[tuple[str, float, float], ...] = ()
 
 
 @dataclass(frozen=True)

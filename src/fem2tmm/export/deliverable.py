@@ -20,6 +20,7 @@ from ..result import Result
 from .esatan import Deck, constant_name, node_numbers, write_esatan
 from .sinda import write_sinda
 from .transient import deck_transient
+from .validity import validity_arrays, validity_lines
 
 
 def network_positions(result: Result) -> np.ndarray:
@@ -63,6 +64,7 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
         out["parametric_names"] = np.array(par["names"], dtype=str)
         for k, (values, dQ) in enumerate(zip(par["values"], par["dQ"])):
             out[f"parametric_values_{k}"], out[f"parametric_dQ_{k}"] = np.asarray(values, float), np.asarray(dQ, float)
+    out.update(validity_arrays(result.reduced.verified))  # the range it was verified over (fem2tmm.verify)
     return out
 
 
@@ -113,7 +115,8 @@ def network_deck(result: Result) -> Deck:
                 GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
                 transient=transient,
                 model_name=ex.model_name or Path(result.case.source).stem, load_terms=load_terms,
-                temperature_terms=temperature_terms, parametric_terms=parametric_terms)
+                temperature_terms=temperature_terms, parametric_terms=parametric_terms,
+                validity=tuple(validity_lines(result.reduced.verified)))
 
 
 def write_network(folder: Path, result: Result, sinda: bool = True) -> None:

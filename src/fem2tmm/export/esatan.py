@@ -101,6 +101,8 @@ class Deck:
     #: weights W (m, s) of each state as a function of NAME, dQ (m, n) W each state's correction minus the design's);
     #: node i's QI adds Σ_j dQ[j, i] × INTRP1(NAME, table of W[j]).  The constant SINK is the sink temperature (°C)
     parametric_terms: tuple = ()
+    #: the validity statement (comment lines without the mark, :func:`fem2tmm.export.validity.validity_lines`)
+    validity: tuple = ()
 
 
 def node_numbers(part: np.ndarray, n_parts: int) -> tuple[np.ndarray, int]:
@@ -341,6 +343,7 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines = [f"$MODEL {name}"]
     lines += comment_lines(title)
     lines += comment_lines("written by fem2tmm; units: T degC, C J/K, A m2, GL W/K, GR m2, QI W")
+    lines += [f"# {line}" for line in deck.validity]  # the validity range (fem2tmm.export.validity)
     lines.append("$LOCALS")
     lines.append("$NODES")
     init = None if tr is None else tr.initial

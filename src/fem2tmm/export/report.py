@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
-from .summary import NEGATIVE_GL_NOTE, choice_text, parametric_rows, refinement_rows
+from .summary import NEGATIVE_GL_NOTE, choice_text, parametric_rows, refinement_rows, verified_rows
 from .orbit import orbit_plots
 
 #: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
@@ -223,6 +223,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
             rows.append(("heat out by radiation", f"{100 * acc['radiation_share']:.1f} % (detailed model)"))
         for e in acc.get("excludes") or ():
             rows.append(("not in the error", e))
+    rows += verified_rows(red)
     pn = s.get("positive_network")
     if pn:
         text = (f"{pn['links']} positive GL between touching super nodes (exact: {pn['exact_links']} GL, "
@@ -285,6 +286,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
         if eb:
             flows.append((f"energy imbalance ({k})", _fmt(eb["imbalance_W"], " W"), ""))
     timings = [(k, f"{v:.2f} s") for k, v in (s.get("timings_s") or {}).items()]
+    verified = _verified_section((red or {}).get("verified"))
 
     wide = {"temperature.png", "error.png"}  # two views side by side: the full page width
     figs = "".join(f'<figure{" class=wide" if name in wide else ""}><img src="{name}" alt="{html.escape(cap)}">'
@@ -298,12 +300,33 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
 <h2>Heat flows: reduced against detailed</h2>{_table(flows, ("", "reduced", "detailed"))}
 <p>Signs: loads are positive when they heat the model; "into fixed boundary" is positive when heat flows into the
 fixed-temperature boundary; "radiated to space" is positive when the model loses heat to the sink.</p>
-<h2>Maps</h2>{figs}
+{verified}<h2>Maps</h2>{figs}
 <h2>Stage timings</h2>{_table(timings, ("stage", "time"))}
 <h2>Case</h2><pre>{html.escape(case_text)}</pre>
 <h2>summary.json</h2><pre>{html.escape(json.dumps(s, indent=1, default=str))}</pre>""")
     (folder / "report.html").write_text(doc, encoding="utf-8")
     return [name for name, _ in images]
+
+
+def _verified_section(v: dict | None) -> str:
+    """The report's validity-range section: one row per verified state (summary.json ``reduced.verified``)."""
+    if not v or v["status"] == "UNVERIFIED":
+        return ""
+    names = [r["name"] for r in v["range"]]
+    rows = [("design", *(_fmt(r["nominal"], "") for r in v["range"]), _fmt(v["design"]["rms_K"], ""),
+             _fmt(v["design"]["max_K"], ""), "", "")]
+    for st in v["states"]:
+        rows.append((st["label"], *(_fmt(st["values"][n], "") for n in names), _fmt(st["rms_K"], ""),
+                     _fmt(st["max_K"], ""), _fmt(st.get("seconds"), " s"),
+                     st["error"] or ("above the threshold" if st["flagged"] else "")))
+    head = ("state", *(f"{r['name']} [{r['unit']}]" for r in v["range"]), "RMS [K]", "max [K]", "cost", "")
+    noise = v.get("reference_noise")
+    return (f"<h2>Validity range: the deck edited, solved and recovered against the detailed model</h2>"
+            f"{_table(rows, head)}<p>Each state: <code>model.esatan</code> with those constants edited, read back and "
+            "solved, recovered with the recovery of <code>reduced.npz</code>, against the detailed model solved at "
+            "that state. Reference noise (design state): "
+            + ("not estimated" if noise is None else f"RMS {noise['rms_K']:.2g} K, max {noise['max_K']:.2g} K")
+            + ".</p>")
 
 
 def _page(body: str, title: str = "fem2tmm report") -> str:

@@ -78,6 +78,7 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
     tabled = _tabled_loads(deck)
     out = [f"C fem2tmm reduced model, submodel {sub}",
            "C units: T degC, C J/K, linear conductors W/K, radiation conductors m2 (SIGMA below)",
+           *(f"C {line}" for line in deck.validity),
            "HEADER OPTIONS DATA", "TITLE fem2tmm reduced model"]
     sink_named = any(c == "SINK" for c, *_ in deck.parametric_terms)
     registers = named_constants(deck)

@@ -103,6 +103,10 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         s["energy_balance_W"]["reduced"] = rs.balance
         if red.parametric is not None:  # the states the deck's correction follows
             s["reduced"]["parametric"] = parametric_summary(result)
+        if red.verified is not None:  # the validity range (fem2tmm.verify) and its cost within the run
+            s["reduced"]["verified"] = dict(red.verified)
+            if red.verified.get("seconds") is not None and timings:
+                s["reduced"]["verified"]["cost_fraction"] = red.verified["seconds"] / max(sum(timings.values()), 1e-9)
         if result.reduced.delivered is not None:
             s["reduced"]["delivered"] = {k: result.reduced.delivered.get(k) for k in ("npz_vs_in_process_K",
                                                                                 "esatan_vs_in_process_K",
@@ -375,6 +379,30 @@ def parametric_rows(red: dict | None) -> list[tuple[str, str]]:
     return [("parametric deck", f"the correction load follows {what} (model.esatan INTRP1 tables)")]
 
 
+def verified_rows(red: dict | None) -> list[tuple[str, str]]:
+    """The terminal / report row of the validity range (summary.json ``reduced.verified``): its worst verified
+    state beside the design state's error and the reference noise, or why it is unverified."""
+    v = (red or {}).get("verified")
+    if not v:
+        return []
+    if v["status"] == "UNVERIFIED":
+        return [("validity range", f"UNVERIFIED ({v['reason']})")]
+    rng = "; ".join(f"{r['name']} {r['low']:.4g}..{r['high']:.4g} {r['unit']}" for r in v["range"])
+    d, w, n = v["design"], v["worst"], v.get("reference_noise")
+    text = f"{len(v['states'])} states over {rng or 'the design state only'}: "
+    text += (f"worst '{w['label']}' RMS {w['rms_K']:.3g} K, max {w['max_K']:.3g} K" if w else "no state solved")
+    text += f" (design RMS {d['rms_K']:.3g} K, max {d['max_K']:.3g} K"
+    text += "" if n is None else f"; reference noise RMS {n['rms_K']:.2g} K"
+    frac = v.get("cost_fraction")
+    text += f"; {v['seconds']:.1f} s" + ("" if frac is None else f", {100 * frac:.0f} % of the run") + ")"
+    rows = [("validity range", text)]
+    if v["flagged"] or v["failed"]:
+        rows.append(("", "WARNING: " + "; ".join(x for x in (
+            v["flagged"] and f"above {v['threshold']['factor']:g} x the design error at {', '.join(v['flagged'])}",
+            v["failed"] and f"no solution at {', '.join(v['failed'])}") if x)))
+    return rows
+
+
 def summary_table(s: dict) -> str:
     """The plain-text table the command line prints after a run, from the ``summary.json`` dict."""
     rows = [("mesh", f"{s['mesh']['nodes']} nodes, {s['mesh']['elements']} elements")]
@@ -411,6 +439,7 @@ def summary_table(s: dict) -> str:
             rows.append(("heat out by radiation", f"{100 * acc['radiation_share']:.1f} % (detailed model)"))
         for e in acc.get("excludes") or ():
             rows.append(("not in the error", e))
+    rows += verified_rows(red)
     det = s.get("detailed") or {}
     loads = s.get("loads_W") or {}
     for name, w in (loads.get("boundaries") or {}).items():

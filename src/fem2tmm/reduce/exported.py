@@ -351,6 +351,12 @@ class ExportedRecovery:
                                    "physical?")
             if self.ir_A is None or np.abs(T - T_start).max() < RECOVERY_TOLERANCE:
                 return T
+            # the emission is solved for this round's IR: the rounds left are the IR fixed point, which the chord
+            # iteration (whole residual, one factorisation) follows at a back-substitution per step (a state 100 K
+            # off the start: 39 -> ~8 factorisations, examples/composite, docs/design-notes.md)
+            done = self._chord(T_sn, q, T_sink, T)
+            if done is not None:
+                return done
         raise Fem2TmmError(f"the recovery's absorbed-IR fixed point did not settle in {RECOVERY_MAX_ROUNDS} rounds "
                            f"(last change {np.abs(T - T_start).max():.3g} K)")
 
