@@ -152,6 +152,10 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
         for r in results:
             if r.reduced is not None and r.reduced.parametric is not None:
                 r.summary.setdefault("reduced", {})["parametric"] = parametric_summary(r)
+                if r.reduced.parametric.get("from") == "the case set":  # a deck the validity check did not see
+                    from .verify import superseded
+
+                    r.reduced.verified = r.summary["reduced"]["verified"] = superseded(r.reduced.verified)
     multi = CasesResult(case=case, results={n: r for (n, _, _), r in zip(cases, results)},
                         parameters={n: p for n, _, p in cases})
     multi.summary = build_cases_summary(multi, {"scheduler": case.compute.scheduler, "workers": workers},
