@@ -201,3 +201,21 @@ def test_the_verified_figure_is_what_an_independent_solve_of_the_edited_deck_giv
     assert any("off the detailed model beyond its design state" in str(w.message) for w in caught)
     table = summary_table(r.summary)
     assert "validity range" in table and f"worst '{v['worst']['label']}'" in table
+
+
+def test_a_set_deck_that_gets_the_sets_tables_after_its_check_says_unverified(tmp_path):
+    # two cases sharing one radiation-aware network that differ in the heater alone: each deck gets the set's
+    # parametric tables after its own run (set_parametric), so the deck handed over is not the deck verified
+    from conftest import box_set_raw
+
+    raw = box_set_raw(8, 5.0, [{"name": "cold", "boundary": {"heater": {"value": 2.0}}},
+                               {"name": "hot", "boundary": {"heater": {"value": 10.0}}}],
+                      {"radiation_aware": True}, True)
+    box = meshes.box(0.3, 0.3, 0.3, 6, 6, 6)
+    multi = run(Case.from_dict(raw), mesh=box, out=tmp_path / "out")
+    for name, r in multi.results.items():
+        assert r.reduced.parametric is not None and r.reduced.parametric.get("from") == "the case set"
+        v = r.reduced.verified
+        assert v["status"] == "UNVERIFIED" and "parametric tables, added after the check" in v["reason"]
+        assert r.summary["reduced"]["verified"] == v
+        assert "# VALIDITY RANGE: UNVERIFIED" in (tmp_path / "out" / name / "model.esatan").read_text()

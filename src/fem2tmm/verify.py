@@ -235,7 +235,7 @@ def edit_deck(text: str, constants: dict[str, float], sink_C: float | None = Non
 
 
 # -------------------------------------------------------------------------------------- the detailed state
-def state_problem(problem, model, case, values: dict):
+def state_problem(problem, model, case, values: dict, patterns: dict | None = None):
     """The detailed steady problem at another value of the named constants.
 
     Parameters
@@ -248,14 +248,14 @@ def state_problem(problem, model, case, values: dict):
         The run's case (its ``[[boundary]]`` entries at their design values).
     values : dict
         {constant name: SI value} (:class:`State` ``values``); "sink" the sink temperature (K).
+    patterns : dict, optional
+        {named load: (n_dof,) W per unit value}, computed once for several states (:func:`load_patterns`).
 
     Returns
     -------
     SteadyProblem
         Loads (n_dof,) W, held temperatures (n_dof,) K and sink (K) of that state; the rest shared with ``problem``.
     """
-    from .fem.model import boundary_load
-
     Q = np.array(problem.Q, float)
     T_fixed = np.array(problem.T_fixed, float)
     named = {b.name: b for b in case.boundaries if b.name}
@@ -270,8 +270,17 @@ def state_problem(problem, model, case, values: dict):
                 if g.name == name:
                     T_fixed[g.dof] = v
         else:
-            Q += (v - b.value) * boundary_load(model, case, dataclasses.replace(b, value=1.0))
+            Q += (v - b.value) * (load_patterns(model, case, [name]) if patterns is None else patterns)[name]
     return dataclasses.replace(problem, Q=Q, T_fixed=T_fixed, T_sink=float(values.get("sink", problem.T_sink)))
+
+
+def load_patterns(model, case, names) -> dict:
+    """{name: (n_dof,) W per unit value (W or W/m²)} of the named power / flux boundaries ``names`` of ``case``
+    (:func:`fem2tmm.fem.model.boundary_load` at value 1)."""
+    from .fem.model import boundary_load
+
+    named = {b.name: b for b in case.boundaries if b.name}
+    return {n: boundary_load(model, case, dataclasses.replace(named[n], value=1.0)) for n in names}
 
 
 # ---------------------------------------------------------------------------------------------- the check
@@ -347,6 +356,7 @@ def verify_network(result, problem) -> dict:
     states = verify_states(constants)
     deck_name = {c.name: constant_name(c.name) for c in constants if c.kind != "sink"}
     names = red.network.names
+    patterns = load_patterns(model, case, [c.name for c in constants if c.kind in ("power", "flux")])
     ok = model.node_dof >= 0
     T_ref_design = model.node_temperatures(det.T)[ok]
 
@@ -421,7 +431,7 @@ def verify_network(result, problem) -> dict:
                 t1 = time.perf_counter()
                 # the detailed model at that state, its Newton from the recovered field (it converges to the
                 # solver's tolerance from any start: the start only saves iterations, 7 -> 4 on examples/composite)
-                p_state = state_problem(problem, model, case, st.values)
+                p_state = state_problem(problem, model, case, st.values, patterns)
                 settings = {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
                 try:
                     ref = solve_steady(p_state, T0=T_rec, **settings)
