@@ -219,3 +219,22 @@ def test_a_set_deck_that_gets_the_sets_tables_after_its_check_says_unverified(tm
         assert v["status"] == "UNVERIFIED" and "parametric tables, added after the check" in v["reason"]
         assert r.summary["reduced"]["verified"] == v
         assert "# VALIDITY RANGE: UNVERIFIED" in (tmp_path / "out" / name / "model.esatan").read_text()
+
+
+def test_the_deck_is_edited_where_an_engineer_edits_it():
+    # $CONSTANTS with its sub-blocks at column 0 (as ESATAN-TMS writes them) or indented (as fem2tmm does); the
+    # sink is the space node's T unless the deck has a constant SINK; nothing else changes
+    from fem2tmm.verify import edit_deck
+
+    deck = ("$MODEL X\n$NODES\n    D1 = 'a', T = EDGE, C = 1;\n    B9000 = 'SPACE', T = -270.0;\n$CONDUCTORS\n"
+            "    GL(1, 9000) = 1.0;\n$CONSTANTS\n$REAL\n    HEATER = 30.0;  # W\n    EDGE = 20.0;\n$CONTROL\n"
+            "    STEFAN = 5.67e-8;\n$VARIABLES1\n    QI1 = 0.5 * HEATER;\n$ENDMODEL X\n")
+    e = edit_deck(deck, {"HEATER": 120.0, "EDGE": -30.0}, sink_C=10.0)
+    assert e == (deck.replace("HEATER = 30.0;", "HEATER = 120.0;").replace("EDGE = 20.0;", "EDGE = -30.0;")
+                 .replace("'SPACE', T = -270.0;", "'SPACE', T = 10.0;"))
+    parametric = deck.replace("T = -270.0;", "T = SINK;").replace("  $REAL", "").replace(
+        "    EDGE = 20.0;\n", "    EDGE = 20.0;\n    SINK = -270.0;\n")
+    e = edit_deck(parametric, {}, sink_C=-100.0)
+    assert "SINK = -100.0;" in e and "T = SINK;" in e
+    with pytest.raises(Exception, match="NOZZLE 0 times"):
+        edit_deck(deck, {"NOZZLE": 1.0})

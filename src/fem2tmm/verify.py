@@ -184,8 +184,22 @@ def worse_than_design(rms: float, mx: float, design_rms: float, design_max: floa
 
 
 # ------------------------------------------------------------------------------------------- the deck edited
-_BLOCK = re.compile(r"^\$([A-Z0-9]+)", re.M)
+_BLOCK = re.compile(r"^\s*\$([A-Z0-9]+)", re.M | re.I)
+_SUBBLOCKS = {"REAL", "INTEGER", "CHARACTER", "CONTROL"}  # within $CONSTANTS, indented or not
 _SPACE_T = re.compile(r"^(\s*B\d+\s*=\s*'SPACE'\s*,\s*T\s*=\s*)([^,;]+)", re.M | re.I)
+
+
+def _span(text: str, name: str) -> tuple[int, int] | None:
+    """Where the deck's ``$name`` block starts and ends in ``text`` (None when it has none)."""
+    blocks = [(m.start(), m.group(1).upper()) for m in _BLOCK.finditer(text)
+              if m.group(1).upper() not in _SUBBLOCKS] + [(len(text), "")]
+    return next(((a, blocks[k + 1][0]) for k, (a, b) in enumerate(blocks[:-1]) if b == name), None)
+
+
+def _block(text: str, name: str) -> str:
+    """The text of the deck's ``$name`` block (empty when it has none)."""
+    span = _span(text, name)
+    return "" if span is None else text[span[0]:span[1]]
 
 
 def edit_deck(text: str, constants: dict[str, float], sink_C: float | None = None) -> str:
@@ -211,8 +225,7 @@ def edit_deck(text: str, constants: dict[str, float], sink_C: float | None = Non
     InternalError
         A constant is not defined once in ``$CONSTANTS`` (the deck fem2tmm wrote names every constant it edits).
     """
-    blocks = [(m.start(), m.group(1).upper()) for m in _BLOCK.finditer(text)] + [(len(text), "")]
-    span = next(((a, blocks[k + 1][0]) for k, (a, name) in enumerate(blocks[:-1]) if name == "CONSTANTS"), None)
+    span = _span(text, "CONSTANTS")
     edits = dict(constants)
     has_sink = span is not None and re.search(r"^\s*SINK\s*=", text[span[0]:span[1]], re.M | re.I) is not None
     if sink_C is not None and has_sink:
@@ -353,10 +366,8 @@ def verify_network(result, problem) -> dict:
     T_warmest = float(np.max(det.T))
     radiating = bool(np.any(np.asarray(problem.g_space) > 0) or problem.faced is not None or problem.GR is not None)
     constants = verify_range(case, T_warmest, radiating)
-    states = verify_states(constants)
     deck_name = {c.name: constant_name(c.name) for c in constants if c.kind != "sink"}
     names = red.network.names
-    patterns = load_patterns(model, case, [c.name for c in constants if c.kind in ("power", "flux")])
     ok = model.node_dof >= 0
     T_ref_design = model.node_temperatures(det.T)[ok]
 
@@ -372,6 +383,12 @@ def verify_network(result, problem) -> dict:
         deck_name["sink"] = "SINK" if re.search(r"^\s*SINK\s*=", text, re.M | re.I) else "SPACE node T"
         recovery = load(folder / "reduced.npz")
         load_names = set(map(str, recovery.load_names))
+        # only what the deck holds as a constant (and the recovery as a named load) is a constant a user edits
+        defined = set(re.findall(r"^\s*([A-Za-z_]\w*)\s*=", _block(text, "CONSTANTS"), re.M))
+        constants = tuple(c for c in constants if c.kind == "sink" or (
+            deck_name[c.name] in defined and (c.kind == "temperature" or c.name in load_names)))
+        states = verify_states(constants)
+        patterns = load_patterns(model, case, [c.name for c in constants if c.kind in ("power", "flux")])
 
         def deck_state(values: dict | None):
             """The deck edited to ``values`` (None: as written), read back and solved: (T_sn (n,) K in the order
