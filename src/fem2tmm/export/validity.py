@@ -35,7 +35,7 @@ def validity_lines(verified: dict | None) -> list[str]:
                 f"design state ({v['reason']}); edited constants (loads, held temperatures, sink) give results of "
                 "unknown accuracy.")
         return textwrap.wrap(text, WIDTH)
-    out = [f"VALIDITY RANGE: {v['status']} by fem2tmm against the detailed model at {len(v['states'])} states",
+    out = [f"VALIDITY RANGE: {v['status']} against the detailed FE model at {len(v['states'])} states",
            "(each constant at either end of its range, the others at design; then all low, all high):"]
     for r in v["range"]:
         out.append(f"  {r['deck']:<24} {r['low']:.5g} .. {r['high']:.5g} {r['unit']} (design {r['nominal']:.5g}; "
