@@ -68,6 +68,12 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
     return out
 
 
+def deck_node_numbers(result: Result) -> np.ndarray:
+    """(n,) the deck number of each node of the reduced network (as in ``model.esatan`` and ``model.sinda``: D1001 …,
+    :func:`fem2tmm.export.esatan.node_numbers` shifted by ``[export] node_offset``)."""
+    return node_numbers(result.reduced.network.part, len(result.model.parts))[0] + result.case.export.node_offset
+
+
 def network_deck(result: Result) -> Deck:
     """The ESATAN / SINDA deck of the reduced network."""
     rm, rs = result.reduced.network, result.reduced.solution
@@ -132,4 +138,5 @@ def write_network(folder: Path, result: Result, sinda: bool = True) -> None:
         write_sinda(folder / "model.sinda", deck, submodel=deck.model_name)
 
 
-__all__ = ["network_arrays", "network_deck", "network_positions", "write_network", "write_positions"]
+__all__ = ["deck_node_numbers", "network_arrays", "network_deck", "network_positions", "write_network",
+           "write_positions"]

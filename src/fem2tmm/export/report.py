@@ -18,6 +18,7 @@ import numpy as np
 from ..constants import KELVIN
 from .summary import NEGATIVE_GL_NOTE, choice_text, parametric_rows, refinement_rows, verified_rows
 from .orbit import orbit_plots
+from .viewer import VIEWER_CSS, distinct_colors, face_super_nodes, view_data, viewer_html
 
 #: faces drawn at most per image (larger meshes are sub-sampled uniformly; the caption says so)
 MAX_FACES = 60_000
@@ -52,12 +53,10 @@ def render_faces(path: Path, points: np.ndarray, faces: np.ndarray, values: np.n
         note = f" ({MAX_FACES:,} of {len(faces):,} faces drawn)"
     f, v = faces[idx], np.asarray(values, float)[idx]
     fig = plt.figure(figsize=(7.5 * len(views) if len(views) > 1 else 7.5, 6.0), dpi=110)
-    if categorical:
+    if categorical:  # the 3-D view's colours: distinct for hundreds of categories, grey for none
         k = int(np.nanmax(v)) + 1 if np.isfinite(v).any() else 1
-        perm = np.random.default_rng(0).permutation(max(k, 1))
-        vv = np.where(np.isfinite(v), perm[np.nan_to_num(v, nan=0).astype(np.int64) % max(k, 1)], np.nan)
-        cm = plt.get_cmap("tab20")
-        colors = cm((vv % 20) / 19.0)
+        palette = np.vstack([distinct_colors(max(k, 1)) / 255.0, [[0.75, 0.75, 0.75]]])
+        colors = palette[np.where(np.isfinite(v) & (v >= 0), np.nan_to_num(v, nan=-1), k).astype(np.int64)]
         norm = None
     else:
         finite = v[np.isfinite(v)]
@@ -170,15 +169,16 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     def face_values(T_dof: np.ndarray) -> np.ndarray:
         return np.asarray(f.W @ T_dof).ravel()
 
+    view = view_data(result)
     if result.reduced is not None:
-        labels = result.reduced.clustering.labels[f.element].astype(float)
+        labels = face_super_nodes(result).astype(float)
         note = render_faces(folder / "clusters.png", pts, f.nodes, labels,
                             "Clusters (super nodes)", "cluster", categorical=True)
-        images.append(("clusters.png", "Clusters: each colour is one super node" + note))
+        images.append(("clusters.png", "Clusters: each colour is one super node (the colours of the 3-D view)" + note))
     T_dof = result.reduced.T_recovered if result.reduced is not None else result.detailed.solution.T
     kind = "recovered from the reduced model" if result.reduced is not None else "detailed model"
     note = render_faces(folder / "temperature.png", pts, f.nodes, face_values(T_dof) - KELVIN,
-                        f"Temperature ({kind})", "T [°C]", views=BOTH_SIDES, mark_max=True)
+                        f"Temperature ({kind})", "T [°C]", cmap="turbo", views=BOTH_SIDES, mark_max=True)
     images.append(("temperature.png", f"Temperature, {kind}, seen from two opposite sides" + note))
     if result.reduced is not None and result.detailed.solution is not None:
         err = face_values(result.reduced.T_recovered - result.detailed.solution.T)
@@ -300,7 +300,11 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
 <h2>Heat flows: reduced against detailed</h2>{_table(flows, ("", "reduced", "detailed"))}
 <p>Signs: loads are positive when they heat the model; "into fixed boundary" is positive when heat flows into the
 fixed-temperature boundary; "radiated to space" is positive when the model loses heat to the sink.</p>
-{verified}<h2>Maps</h2>{figs}
+{verified}<h2>3-D view</h2>
+<p>Turn, zoom and cut the model; colour it by temperature, super node or part; hover a face for its super node
+(name, deck number as in <code>model.esatan</code>, part, area, capacitance, temperature).{_view_note(view)}</p>
+{viewer_html(view)}
+<h2>Maps (static, for printing)</h2>{figs}
 <h2>Stage timings</h2>{_table(timings, ("stage", "time"))}
 <h2>Case</h2><pre>{html.escape(case_text)}</pre>
 <h2>summary.json</h2><pre>{html.escape(json.dumps(s, indent=1, default=str))}</pre>""")
@@ -329,6 +333,18 @@ def _verified_section(v: dict | None) -> str:
             + ".</p>")
 
 
+def _view_note(view: dict) -> str:
+    """What the 3-D view leaves out (sub-sampled triangles or output times), in a sentence; empty when nothing."""
+    out = ""
+    if view["n_triangles"] < view["triangles_total"]:
+        out += (f" It draws {view['n_triangles']:,} of the {view['triangles_total']:,} surface triangles (at most "
+                f"{view['max_triangles']:,}, sub-sampled uniformly: holes show where faces are left out).")
+    tr = view.get("transient")
+    if tr and len(tr["times_s"]) < tr["frames_total"]:
+        out += f" It plays {len(tr['times_s'])} of the {tr['frames_total']} output times (evenly spaced)."
+    return out
+
+
 def _page(body: str, title: str = "fem2tmm report") -> str:
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
@@ -338,7 +354,7 @@ table {{ border-collapse: collapse; margin: 1em 0; }} td, th {{ border: 1px soli
 figure {{ display: inline-block; margin: 0.5em; vertical-align: top; }} img {{ max-width: 520px; border: 1px solid #ddd; }}
 figure.wide {{ display: block; }} figure.wide img {{ max-width: 100%; }}
 pre {{ background: #f6f6f6; padding: 1em; overflow-x: auto; }}
-</style></head><body>
+{VIEWER_CSS}</style></head><body>
 {body}
 </body></html>
 """
