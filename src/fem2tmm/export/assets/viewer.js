@@ -311,6 +311,8 @@
     if (tr && tr.super_nodes_T_C) check.transient_last_C = tr.super_nodes_T_C[nFrames - 1];
     document.getElementById("f2t-check").textContent = JSON.stringify(check);
     root.setAttribute("data-nonblank-pixels", String(n));
+    const r = renderer.domElement.getBoundingClientRect();
+    root.setAttribute("data-canvas-rect", [r.left + window.scrollX, r.top + window.scrollY, r.width, r.height].map(Math.round).join(","));
     root.setAttribute("data-rendered", "1");
   }
 
