@@ -259,32 +259,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     part_head = ("part", f"min ({head})", "mean", "max") + (("min (detailed)", "mean", "max") if ref else ())
     sn_rows = [(k, f"{v:.3f}") for k, v in (tc.get("super_nodes") or {}).items()]
 
-    loads = s.get("loads_W") or {}
-    flows = []
-    for name, w in (loads.get("boundaries") or {}).items():
-        flows.append((f"applied load '{name}'", _fmt(w, " W"), _fmt(w, " W") if s.get("detailed") else "—"))
-    if loads.get("absorbed_solar") is not None:
-        sol = s.get("solar") or {}
-        det_sol = (sol.get("detailed_mesh") or {}).get("absorbed_W")
-        flows.append(("absorbed solar", _fmt(loads["absorbed_solar"] if red else None, " W"),
-                      _fmt(det_sol if s.get("detailed") else None, " W")))
-    det = s.get("detailed") or {}
-    red_in = (red or {}).get("heat_into_fixed_W", {})
-    det_in = det.get("heat_into_fixed_W", {})
-    for name in sorted(set(red_in) | set(det_in)):
-        flows.append((f"into fixed boundary '{name}'", _fmt(red_in.get(name), " W"), _fmt(det_in.get(name), " W")))
-    ra = (red or {}).get("radiation_aware") or {}
-    if ra.get("radiated_W") is not None:  # part of the radiation goes through the correction load
-        flows.append(("radiated (to space and through the radiation-aware correction load)",
-                      f"{_fmt(ra['radiated_W'], ' W')} ({_fmt(red.get('to_space_W'), ' W')} by the couplings to "
-                      f"space, {_fmt(ra['radiated_by_correction_W'], ' W')} by the correction)",
-                      _fmt(det.get("to_space_W"), " W")))
-    else:
-        flows.append(("radiated to space", _fmt((red or {}).get("to_space_W"), " W"), _fmt(det.get("to_space_W"), " W")))
-    for k in ("reduced", "detailed"):
-        eb = (s.get("energy_balance_W") or {}).get(k)
-        if eb:
-            flows.append((f"energy imbalance ({k})", _fmt(eb["imbalance_W"], " W"), ""))
+    flows_html = _heat_flows_html(s.get("heat_flows") or {}) + _step_table(result)
     timings = [(k, f"{v:.2f} s") for k, v in (s.get("timings_s") or {}).items()]
     verified = _verified_section((red or {}).get("verified"))
 
@@ -297,9 +272,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
 <h2>Temperatures per part [°C]</h2>{_table(part_rows, part_head)}
 <p>Min and max over the part's nodes, mean = plain mean over its nodes.</p>
 <details><summary>Temperatures of the {len(sn_rows)} reduced nodes [°C]</summary>{_table(sn_rows, ("node", "T [°C]"))}</details>
-<h2>Heat flows: reduced against detailed</h2>{_table(flows, ("", "reduced", "detailed"))}
-<p>Signs: loads are positive when they heat the model; "into fixed boundary" is positive when heat flows into the
-fixed-temperature boundary; "radiated to space" is positive when the model loses heat to the sink.</p>
+<h2>Heat flows</h2>{flows_html}
 {verified}<h2>3-D view</h2>
 <p>Turn, zoom and cut the model; colour it by temperature, super node or part; hover a face for its super node
 (name, deck number as in <code>model.esatan</code>, part, area, capacitance, temperature).{_view_note(view)}</p>
@@ -331,6 +304,71 @@ def _verified_section(v: dict | None) -> str:
             "that state. Reference noise (design state): "
             + ("not estimated" if noise is None else f"RMS {noise['rms_K']:.2g} K, max {noise['max_K']:.2g} K")
             + ".</p>")
+
+
+def _num(v: float, unit: str) -> str:
+    """A flow for a table: thousands separated from 10 000 on (J over an orbit), 6 significant digits below."""
+    v = float(v)
+    return f"{v:,.0f}{unit}" if abs(v) >= 1e4 else f"{v:.6g}{unit}"
+
+
+def _step_table(result) -> str:
+    """The transient's heat flows step by step (reduced network, else detailed), collapsed."""
+    from .heatflow import step_powers
+
+    if result.transient is None:
+        return ""
+    model = "reduced" if result.transient.reduced is not None else "detailed"
+    cols, data = step_powers(result, model)
+    if not len(data):
+        return ""
+    head = ("end of step [s]", *(c.removesuffix("_W") + " [W]" for c in cols[1:]))
+    rows = [(f"{r[0]:.6g}", *(f"{v:.5g}" for v in r[1:])) for r in data]
+    return (f"<details><summary>Heat flows at each of the {len(rows)} time steps ({model} model, mean power over "
+            "the step)</summary>" + _table(rows, head) + "<p>Each orbital kind: the exact integral of its table over "
+            "the step divided by the step; all inputs: the solver's quadrature (Crank-Nicolson: the step's two ends).</p>"
+            "</details>")
+
+
+def _heat_flows_html(hf: dict) -> str:
+    """The heat-flow section: the steady (or orbit-averaged) and transient books, reduced against detailed, every
+    input and output named; the balance of each part; the flows between parts (summary.json ``heat_flows``)."""
+    from .heatflow import book_rows
+
+    out = []
+    steady = hf.get("steady") or {}
+    if steady:
+        basis = next(iter(steady.values())).get("basis", "steady")
+        models, rows = book_rows(steady, lambda v: _num(v, " W"))
+        out.append(f"<h3>Steady solution ({html.escape(basis)}) [W]</h3>" + _table(rows, ("", *models)))
+    tr = hf.get("transient") or {}
+    if tr:
+        b = next(iter(tr.values()))
+        models, rows = book_rows(tr, lambda v: _num(v, " J"))
+        out.append(f"<h3>Transient: energy from {b['start_s']:g} s to {b['end_s']:g} s [J]</h3>"
+                   "<p>The interval of the solver's energy books (the last period of a periodic run). Stored heat "
+                   "is an output: the model's heat content at the end minus at the start.</p>" + _table(rows, ("", *models)))
+    out.append("<p>Signs: inputs heat the model; outputs are positive when the model loses heat (radiated to space, "
+               "into a fixed boundary, stored). The imbalance is relative to the larger of the inputs' and the outputs' "
+               "sums.</p>")
+    parts = hf.get("parts") or []
+    if parts:
+        rows = [(p["part"], _fmt(p["in_W"], " W"), _fmt(p["to_space_W"], " W"), _fmt(p["to_held_W"], " W"),
+                 _fmt(p["to_other_parts_W"], " W"), _fmt(p["imbalance_W"], " W")) for p in parts]
+        out.append("<h3>Balance of each part (reduced network, steady) [W]</h3>"
+                   + _table(rows, ("part", "into its super nodes (Q)", "radiated to space", "to fixed boundaries",
+                                   "to other parts (GL and GR, net)", "imbalance"))
+                   + "<p>Q is the load the network puts on the part's super nodes (applied, absorbed and, for a "
+                     "radiation-aware network, its correction load); the exchanges are the network's conductors "
+                     "at its solved temperatures.</p>")
+    matrix = hf.get("part_to_part")
+    if matrix:
+        names = matrix["names"]
+        rows = [(a, *(_fmt(v, " W") if i != j else "—" for j, v in enumerate(row)))
+                for i, (a, row) in enumerate(zip(names, matrix["W"]))]
+        out.append("<h3>Heat from part (row) to part (column) [W]</h3>" + _table(rows, ("from \\ to", *names))
+                   + f"<p>{html.escape(matrix.get('note', ''))}</p>")
+    return "".join(out)
 
 
 def _view_note(view: dict) -> str:

@@ -9,6 +9,7 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
+from .heatflow import heat_flow_rows, heat_flow_summary
 from .orbit import orbit_summary
 
 
@@ -129,6 +130,8 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             if result.reduced.thesis_T_recovered is not None:
                 s["accuracy"]["thesis_method"] = accuracy(result.reduced.thesis_T_recovered)
             s["accuracy"].update(_honesty(result))
+    # every input and output named, steady (or orbit-averaged) and transient, and per part (fem2tmm.export.heatflow)
+    s["heat_flows"] = heat_flow_summary(result)
     if red is not None and red.positive is not None:
         s["positive_network"] = dict(result.reduced.positive)
         if detailed is not None and result.reduced.T_recovered_exact is not None:
@@ -453,6 +456,7 @@ def summary_table(s: dict) -> str:
     for k in ("detailed", "reduced"):
         if eb.get(k):
             rows.append((f"energy balance ({k})", f"{eb[k]['imbalance_W']:.3e} W (relative {eb[k]['relative']:.1e})"))
+    rows += heat_flow_rows(s, "steady")
     tr = s.get("transient") or {}
     if tr:
         rows.append(("transient", f"{tr['method']}, {tr['start_s']:g} to {tr['end_s']:g} s, {len(tr['times_s'])} output "
@@ -464,6 +468,7 @@ def summary_table(s: dict) -> str:
         for k, e in (tr.get("energy_balance") or {}).items():
             rows.append((f"transient energy ({k})", f"stored {e['stored_J']:.4g} J, imbalance {e['imbalance_J']:.2e} J "
                          f"(relative {e['relative']:.1e})"))
+    rows += heat_flow_rows(s, "transient")
     t = s.get("timings_s") or {}
     if t:
         rows.append(("time", ", ".join(f"{k} {v:.2f} s" for k, v in t.items())))

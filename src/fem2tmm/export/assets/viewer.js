@@ -120,7 +120,7 @@
     if (Math.abs(d.z) > 0.99) camera.up.set(0, 1, 0);
     const fov = camera.fov * Math.PI / 180;
     const fit = Math.min(fov, 2 * Math.atan(Math.tan(fov / 2) * Math.max(camera.aspect, 1e-3)));
-    const dist = radius / Math.sin(fit / 2) * 0.92;
+    const dist = radius / Math.sin(fit / 2);
     camera.position.copy(center).addScaledVector(d, dist);
     controls.target.copy(center);
     camera.lookAt(center);
