@@ -310,7 +310,7 @@ def heat_flow_rows(s: dict, key: str = "steady") -> list[tuple[str, str]]:
         word = "heat" if key == "steady" else "energy"
 
         def terms(rows):
-            return " + ".join(f"{v:.6g} {unit} {label}" for label, v in rows) or f"0 {unit}"
+            return " + ".join(f"{v:.6g} {unit} {label}" for label, v in rows) or "none"
 
         out.append((f"{word} in ({m}, {when})", f"{terms(b['in'])} = {b['in_total']:.6g} {unit}"))
         out.append((f"{word} out ({m})", f"{terms(b['out'])} = {b['out_total']:.6g} {unit}; imbalance "

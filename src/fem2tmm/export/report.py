@@ -1,10 +1,11 @@
-"""Static HTML report (``report.html`` + PNG images), opens offline.
+"""HTML report (``report.html`` + PNG images), opens offline from the output folder alone.
 
 Contents: summary (with what negative GL mean), temperatures per part (result and reference side by side) and
-per reduced node, heat flows (applied loads, absorbed solar, heat into each fixed boundary, to space; reduced
-against detailed), cluster map, temperature and error maps seen from two opposite sides (the hottest face
-marked), absorbed solar flux map, exchange-factor line-sum-error histogram, stage timings and the case as the
-user wrote it.  Images are matplotlib renderings of the radiating faces (shells and the outer faces of solids).
+per reduced node, the interactive 3-D view (:mod:`fem2tmm.export.viewer`), the heat flows with every input and
+output named, per part and between parts (:mod:`fem2tmm.export.heatflow`), static maps for printing (clusters,
+temperature and error seen from two opposite sides with the hottest face marked, absorbed solar flux),
+exchange-factor line-sum-error histogram, stage timings and the case as the user wrote it.  Images are matplotlib
+renderings of the radiating faces (shells and the outer faces of solids).
 """
 
 from __future__ import annotations
@@ -272,11 +273,11 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
 <h2>Temperatures per part [°C]</h2>{_table(part_rows, part_head)}
 <p>Min and max over the part's nodes, mean = plain mean over its nodes.</p>
 <details><summary>Temperatures of the {len(sn_rows)} reduced nodes [°C]</summary>{_table(sn_rows, ("node", "T [°C]"))}</details>
-<h2>Heat flows</h2>{flows_html}
 {verified}<h2>3-D view</h2>
 <p>Turn, zoom and cut the model; colour it by temperature, super node or part; hover a face for its super node
 (name, deck number as in <code>model.esatan</code>, part, area, capacitance, temperature).{_view_note(view)}</p>
 {viewer_html(view)}
+<h2>Heat flows</h2>{flows_html}
 <h2>Maps (static, for printing)</h2>{figs}
 <h2>Stage timings</h2>{_table(timings, ("stage", "time"))}
 <h2>Case</h2><pre>{html.escape(case_text)}</pre>

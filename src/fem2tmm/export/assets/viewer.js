@@ -118,9 +118,15 @@
     const d = name in dirs ? new THREE.Vector3(...dirs[name]) : isoDirection();
     camera.up.set(0, 0, 1);
     if (Math.abs(d.z) > 0.99) camera.up.set(0, 1, 0);
-    const fov = camera.fov * Math.PI / 180;
-    const fit = Math.min(fov, 2 * Math.atan(Math.tan(fov / 2) * Math.max(camera.aspect, 1e-3)));
-    const dist = radius / Math.sin(fit / 2);
+    // the nearest distance at which the 8 corners of the bounding box fit the view (5 % margin)
+    const tv = Math.tan(camera.fov * Math.PI / 360), th = tv * Math.max(camera.aspect, 1e-3);
+    const right = new THREE.Vector3().crossVectors(d, camera.up).normalize(), up = new THREE.Vector3().crossVectors(right, d);
+    let dist = 0;
+    for (let k = 0; k < 8; k++) {
+      const c = new THREE.Vector3(k & 1 ? box.max.x : box.min.x, k & 2 ? box.max.y : box.min.y, k & 4 ? box.max.z : box.min.z).sub(center);
+      dist = Math.max(dist, c.dot(d) + Math.max(Math.abs(c.dot(right)) / th, Math.abs(c.dot(up)) / tv) * 1.05);
+    }
+    dist = Math.max(dist, radius * 0.1);
     camera.position.copy(center).addScaledVector(d, dist);
     controls.target.copy(center);
     camera.lookAt(center);
