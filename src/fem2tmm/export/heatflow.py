@@ -268,6 +268,13 @@ __all__ = ["INPUT_NOT_NAMED", "QUADRATURE", "heat_flow_summary", "part_books", "
            "transient_books"]
 
 
+def flow_text(v: float, unit: str) -> str:
+    """A flow or an energy for a table: thousands separated from 10 000 on (J over an orbit), 6 significant digits
+    below, e.g. ``1,382,299 J``, ``233.245 W``."""
+    v = float(v) + 0.0  # no "-0"
+    return f"{v:,.0f} {unit}" if abs(v) >= 1e4 else f"{v:.6g} {unit}"
+
+
 def _side_by_side(books: dict) -> tuple[list[str], list[tuple[str, str, dict]]]:
     """The models of ``books`` (reduced first) and the union of their rows in order: (section, label, {model: value})."""
     models = [m for m in ("reduced", "detailed") if m in books]
@@ -310,12 +317,12 @@ def heat_flow_rows(s: dict, key: str = "steady") -> list[tuple[str, str]]:
         word = "heat" if key == "steady" else "energy"
 
         def terms(rows):
-            return " + ".join(f"{v:.6g} {unit} {label}" for label, v in rows) or "none"
+            return " + ".join(f"{flow_text(v, unit)} {label}" for label, v in rows) or "none"
 
-        out.append((f"{word} in ({m}, {when})", f"{terms(b['in'])} = {b['in_total']:.6g} {unit}"))
-        out.append((f"{word} out ({m})", f"{terms(b['out'])} = {b['out_total']:.6g} {unit}; imbalance "
+        out.append((f"{word} in ({m}, {when})", f"{terms(b['in'])} = {flow_text(b['in_total'], unit)}"))
+        out.append((f"{word} out ({m})", f"{terms(b['out'])} = {flow_text(b['out_total'], unit)}; imbalance "
                     f"{b['imbalance']:.3g} {unit} ({b['relative']:.1e} relative)"))
     return out
 
 
-__all__ += ["book_rows", "heat_flow_rows", "step_powers"]
+__all__ += ["book_rows", "flow_text", "heat_flow_rows", "step_powers"]

@@ -334,18 +334,18 @@ def _step_table(result) -> str:
 def _heat_flows_html(hf: dict) -> str:
     """The heat-flow section: the steady (or orbit-averaged) and transient books, reduced against detailed, every
     input and output named; the balance of each part; the flows between parts (summary.json ``heat_flows``)."""
-    from .heatflow import book_rows
+    from .heatflow import book_rows, flow_text
 
     out = []
     steady = hf.get("steady") or {}
     if steady:
         basis = next(iter(steady.values())).get("basis", "steady")
-        models, rows = book_rows(steady, lambda v: _num(v, " W"))
+        models, rows = book_rows(steady, lambda v: flow_text(v, "W"))
         out.append(f"<h3>Steady solution ({html.escape(basis)}) [W]</h3>" + _table(rows, ("", *models)))
     tr = hf.get("transient") or {}
     if tr:
         b = next(iter(tr.values()))
-        models, rows = book_rows(tr, lambda v: _num(v, " J"))
+        models, rows = book_rows(tr, lambda v: flow_text(v, "J"))
         out.append(f"<h3>Transient: energy from {b['start_s']:g} s to {b['end_s']:g} s [J]</h3>"
                    "<p>The interval of the solver's energy books (the last period of a periodic run). Stored heat "
                    "is an output: the model's heat content at the end minus at the start.</p>" + _table(rows, ("", *models)))
@@ -365,7 +365,7 @@ def _heat_flows_html(hf: dict) -> str:
     matrix = hf.get("part_to_part")
     if matrix:
         names = matrix["names"]
-        rows = [(a, *(_fmt(v, " W") if i != j else "—" for j, v in enumerate(row)))
+        rows = [(a, *(f"{v + 0.0:.4g}" if i != j else "—" for j, v in enumerate(row)))
                 for i, (a, row) in enumerate(zip(names, matrix["W"]))]
         out.append("<h3>Heat from part (row) to part (column) [W]</h3>" + _table(rows, ("from \\ to", *names))
                    + f"<p>{html.escape(matrix.get('note', ''))}</p>")
