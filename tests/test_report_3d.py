@@ -30,10 +30,11 @@ OFFLINE = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-
 
 
 def open_in_chromium(page: Path, tmp: Path, screenshot: Path | None = None, width: int = 1200,
-                     height: int = 1400) -> str:
-    """The DOM of ``page`` after its scripts ran (and, with ``screenshot``, a PNG of the window)."""
+                     height: int = 1400, fragment: str = "") -> str:
+    """The DOM of ``page`` (``#fragment`` appended) after its scripts ran (and, with ``screenshot``, a PNG of the
+    window)."""
     args = [CHROMIUM, *OFFLINE, f"--user-data-dir={tmp / 'chromium-profile'}", f"--window-size={width},{height}"]
-    url = page.resolve().as_uri()
+    url = page.resolve().as_uri() + (f"#{fragment}" if fragment else "")
     if screenshot is not None:
         subprocess.run([*args, f"--screenshot={screenshot}", url], capture_output=True, timeout=180, check=True)
     out = subprocess.run([*args, "--dump-dom", url], capture_output=True, timeout=180, check=True, text=True)
@@ -117,6 +118,28 @@ def test_report_3d_view_renders_and_holds_the_run(box_run):
     assert check["frames"] == len(tr["times"]) == 3
     np.testing.assert_allclose(check["transient_last_C"], tr["sn_temperature"][-1], atol=1e-8)
     assert check["triangles"] == 2 * res.model.faces.n  # quads, none sub-sampled
+
+
+@needs_chromium
+def test_report_3d_view_names_a_super_node_as_the_deck_does(box_run):
+    # a super node named in the address (as a click would select it): the page shows its deck number as written in
+    # model.esatan (D<number> = 'name'), its part, area, capacitance and temperature from reduced.npz
+    res, out, tmp = box_run
+    deck = (out / "model.esatan").read_text()
+    name = "panels_2"
+    number = re.search(rf"D(\d+) = '{name}'", deck).group(1)
+    dom = open_in_chromium(out / "report.html", tmp, fragment=f"sn={name}&mode=cluster")
+    info = re.sub(r"<[^>]+>", "", re.search(r'<div id="f2t-info">(.*?)</div>', dom, re.S).group(1))
+    net = np.load(out / "reduced.npz")
+    i = list(net["names"]).index(name)
+    assert f"{name} (D{number})" in info and "part panels" in info
+    # shown with 4 significant digits (C, area) and 0.01 K (T)
+    assert float(re.search(r"C ([-\d.e+]+) J/K", info).group(1)) == pytest.approx(net["C"][i], rel=1e-3)
+    tr = np.load(out / "transient.npz")  # the first frame of the transient
+    assert float(re.search(r"T ([-\d.]+) °C \(t = 0 s\)", info).group(1)) == pytest.approx(
+        tr["sn_temperature"][0, i], abs=0.006)
+    _, check = view_state(dom)
+    assert check["mode"] == "cluster"
 
 
 @needs_chromium
