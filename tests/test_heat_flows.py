@@ -90,12 +90,11 @@ def test_steady_sun_on_a_plate_names_the_absorbed_solar():
         assert INPUT_NOT_NAMED not in rows and b["relative"] < STEADY_RTOL
 
 
-@pytest.fixture(scope="module")
-def orbit_transient(tmp_path_factory):
+def orbit_box(steady: str = "average", transient: dict | None = None) -> Case:
     """A small box on a 700 km orbit (solar, albedo, planet IR at 6 positions), its deck held at 20 °C, a heater
-    following a time table; orbit-average steady start, then a transient over 3000 s (about half an orbit)."""
+    following a time table."""
     walls = ["xmin", "xmax", "ymin", "ymax", "zmax"]
-    case = make_case([{"name": "walls", "groups": walls, "material": "al", "thickness": 1e-3, "front": "paint",
+    return make_case([{"name": "walls", "groups": walls, "material": "al", "thickness": 1e-3, "front": "paint",
                        "back": "paint", "super_nodes": 5},
                       {"name": "deck", "groups": ["zmin"], "material": "al", "thickness": 1e-3, "front": "paint",
                        "back": "paint", "super_nodes": 1}],
@@ -106,10 +105,16 @@ def orbit_transient(tmp_path_factory):
                      environment={"sink_temperature": -270.15},
                      orbit={"altitude": 700e3, "inclination": 98.19, "beta": 30.0, "positions": 6,
                             "eclipse": "cylindrical", "kinds": ["solar", "albedo", "ir"], "rays_per_face": 20,
-                            "fluxes_on": "detailed", "steady": "average",
+                            "fluxes_on": "detailed", "steady": steady,
                             "attitude": {"kind": "nadir", "primary": "-z", "secondary": "+x"}},
                      radiation={"rays_per_face": 100}, reference={"detailed": True, "rays_per_face": 20},
-                     transient={"end": 3000.0, "step": 120.0, "output_every": 600.0})
+                     **({"transient": transient} if transient else {}))
+
+
+@pytest.fixture(scope="module")
+def orbit_transient(tmp_path_factory):
+    """:func:`orbit_box`: orbit-average steady start, then a transient over 3000 s (about half an orbit)."""
+    case = orbit_box(transient={"end": 3000.0, "step": 120.0, "output_every": 600.0})
     out = tmp_path_factory.mktemp("orbit") / "out"
     res = run(case, mesh=meshes.box(0.3, 0.3, 0.3, 3, 3, 3), out=out)
     return res, json.loads((out / "summary.json").read_text()), out
@@ -154,3 +159,15 @@ def test_transient_books_name_every_input_and_balance_with_stored_heat(orbit_tra
     assert "energy in (reduced, 0 to 3000 s)" in table and "stored (heat capacity)" in table
     html = (out / "report.html").read_text()
     assert "Transient: energy from 0 s to 3000 s" in html and "Heat flows at each of the" in html
+
+
+def test_per_position_orbit_case_books_are_the_orbit_average(tmp_path):
+    # steady = "positions": the steady solve still takes the orbit-averaged loads (docs/case-file.md [orbit]); its
+    # books name them, and the report lists every position's absorbed power per kind
+    res = run(orbit_box(steady="positions"), mesh=meshes.box(0.3, 0.3, 0.3, 3, 3, 3), out=tmp_path / "out")
+    for m in ("reduced", "detailed"):
+        b = res.summary["heat_flows"]["steady"][m]
+        assert b["basis"] == "orbit average" and INPUT_NOT_NAMED not in dict(b["in"])
+        assert b["relative"] < STEADY_RTOL
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "Absorbed orbital power at each of the" in html

@@ -75,7 +75,7 @@ def _steady_inputs(result, model: str) -> tuple[list, str]:
     if sol is not None:
         rows.append(("absorbed solar", float(sol.absorbed)))
     fl = _orbit_fluxes(result, model)
-    if fl is not None and result.case.orbit.steady == "average":
+    if fl is not None:  # an orbit's steady solve takes the orbit-averaged loads (steady = "positions" too)
         from ..radiation.orbital import period_average
 
         basis = "orbit average"
@@ -175,6 +175,18 @@ def transient_books(result) -> dict:
         outs += [("stored (heat capacity)", float(e["stored_J"]))]
         out[model] = dict(_book(rows, outs, applied, QUADRATURE, "J"), start_s=a, end_s=b)
     return out
+
+
+def position_inputs(result, model: str = "reduced") -> tuple[list[str], np.ndarray]:
+    """The absorbed power (W) of each orbital kind at each orbit position (the fluxes ``model`` took): columns
+    ``true_anomaly_deg``, ``time_s``, one per kind, ``total``; (columns, (positions, columns) array)."""
+    fl = _orbit_fluxes(result, model)
+    if fl is None:
+        return [], np.zeros((0, 0))
+    cols = ["true_anomaly_deg", "time_s"] + [f"{KIND_LABEL.get(k, k)}_W" for k in fl.kinds] + ["total_W"]
+    per = [fl.absorbed[k].sum(axis=1) for k in fl.kinds]
+    data = np.column_stack([fl.true_anomaly, fl.time, *per, np.sum(per, axis=0)])
+    return cols, data
 
 
 def step_powers(result, model: str = "reduced") -> tuple[list[str], np.ndarray]:
@@ -325,4 +337,4 @@ def heat_flow_rows(s: dict, key: str = "steady") -> list[tuple[str, str]]:
     return out
 
 
-__all__ += ["book_rows", "flow_text", "heat_flow_rows", "step_powers"]
+__all__ += ["book_rows", "flow_text", "heat_flow_rows", "position_inputs", "step_powers"]

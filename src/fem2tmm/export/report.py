@@ -314,18 +314,27 @@ def _num(v: float, unit: str) -> str:
 
 
 def _step_table(result) -> str:
-    """The transient's heat flows step by step (reduced network, else detailed), collapsed."""
-    from .heatflow import step_powers
+    """Collapsed: the orbital inputs at each orbit position, and the transient's heat flows step by step (reduced
+    network, else detailed)."""
+    from .heatflow import position_inputs, step_powers
 
+    out = ""
+    cols, data = position_inputs(result, "reduced" if result.reduced is not None else "detailed")
+    if len(data):
+        head = ("true anomaly [°]", "time [s]", *(c.removesuffix("_W") + " [W]" for c in cols[2:]))
+        rows = [(f"{r[0]:.4g}", f"{r[1]:.6g}", *(f"{v:.5g}" for v in r[2:])) for r in data]
+        out += (f"<details><summary>Absorbed orbital power at each of the {len(rows)} orbit positions (repeated at "
+                "eclipse boundaries)</summary>" + _table(rows, head) + "<p>Linear in time between positions; the "
+                "orbit averages above are the time averages of these tables.</p></details>")
     if result.transient is None:
-        return ""
+        return out
     model = "reduced" if result.transient.reduced is not None else "detailed"
     cols, data = step_powers(result, model)
     if not len(data):
-        return ""
+        return out
     head = ("end of step [s]", *(c.removesuffix("_W") + " [W]" for c in cols[1:]))
     rows = [(f"{r[0]:.6g}", *(f"{v:.5g}" for v in r[1:])) for r in data]
-    return (f"<details><summary>Heat flows at each of the {len(rows)} time steps ({model} model, mean power over "
+    return out + (f"<details><summary>Heat flows at each of the {len(rows)} time steps ({model} model, mean power over "
             "the step)</summary>" + _table(rows, head) + "<p>Each orbital kind: the exact integral of its table over "
             "the step divided by the step; all inputs: the solver's quadrature (Crank-Nicolson: the step's two ends).</p>"
             "</details>")
