@@ -276,7 +276,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
 {verified}<h2>3-D view</h2>
 <p>Turn, zoom and cut the model; colour it by temperature, super node or part; hover a face for its super node
 (name, deck number as in <code>model.esatan</code>, part, area, capacitance, temperature).{_view_note(view)}</p>
-{viewer_html(view)}
+{viewer_html(view) if view["n_triangles"] else "<p>The model has no radiating face to draw.</p>"}
 <h2>Heat flows</h2>{flows_html}
 <h2>Maps (static, for printing)</h2>{figs}
 <h2>Stage timings</h2>{_table(timings, ("stage", "time"))}

@@ -96,6 +96,8 @@ def _edges(faces_nodes: np.ndarray, face_label: np.ndarray, with_mesh: bool) -> 
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     keep = lo != hi
     lo, hi, lab = lo[keep], hi[keep], lab[keep]
+    if not len(lo):
+        return np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64)
     key = lo * (int(f.max(initial=0)) + 1) + hi
     order = np.lexsort((lab, key))
     key, lab, lo, hi = key[order], lab[order], lo[order], hi[order]
