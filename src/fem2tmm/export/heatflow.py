@@ -86,10 +86,15 @@ def _steady_inputs(result, model: str) -> tuple[list, str]:
     return rows, basis
 
 
-def _by_correction(result) -> float | None:
-    """W a radiation-aware network radiates through its correction load; None for other networks."""
-    from .summary import _by_correction as by_correction  # the one definition (summary.json's radiated_by_correction_W)
+def by_correction(rm) -> float | None:
+    """Heat (W) a radiation-aware network ``rm`` radiates outside its couplings to space: its known loads minus the
+    sum of its Q (the correction load and the distribution with K' = K + diag(h) take it out); None for other
+    networks."""
+    known = getattr(rm.radiative, "known_load_W", None) if rm.radiative is not None else None
+    return None if known is None else float(known - np.sum(rm.Q))
 
+
+def _by_correction(result) -> float | None:
     return by_correction(result.reduced.network)
 
 
@@ -276,7 +281,7 @@ def heat_flow_summary(result) -> dict:
     return out
 
 
-__all__ = ["INPUT_NOT_NAMED", "QUADRATURE", "heat_flow_summary", "part_books", "part_exchange", "steady_books",
+__all__ = ["INPUT_NOT_NAMED", "QUADRATURE", "by_correction", "heat_flow_summary", "part_books", "part_exchange", "steady_books",
            "transient_books"]
 
 

@@ -9,7 +9,7 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
-from .heatflow import heat_flow_rows, heat_flow_summary
+from .heatflow import by_correction as _by_correction, heat_flow_rows, heat_flow_summary
 from .orbit import orbit_summary
 
 
@@ -474,10 +474,3 @@ def summary_table(s: dict) -> str:
         rows.append(("time", ", ".join(f"{k} {v:.2f} s" for k, v in t.items())))
     w = max(len(r[0]) for r in rows)
     return "\n".join(f"  {a.ljust(w)}  {b}" for a, b in rows)
-
-
-def _by_correction(rm) -> float | None:
-    """Heat (W) a radiation-aware network radiates outside its couplings to space: its known loads minus the sum of
-    its Q (the correction load and the distribution with K' = K + diag(h) take it out); None for other networks."""
-    known = getattr(rm.radiative, "known_load_W", None) if rm.radiative is not None else None
-    return None if known is None else float(known - np.sum(rm.Q))
