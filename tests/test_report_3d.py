@@ -6,6 +6,7 @@ alone.  Skips, saying why, where Debian's ``chromium`` is missing."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -165,7 +166,7 @@ def test_report_3d_view_screenshot_is_coloured_by_temperature(box_run):
 @needs_chromium
 def test_smallsat_transient_report_renders_the_satellite(tmp_path):
     # the acceptance case of the 3-D report: examples/smallsat/case_transient.toml (about 40 s); the screenshot is
-    # left in the test's folder (printed with -s)
+    # left in the test's folder, or in $FEM2TMM_SCREENSHOTS (its path printed with -s)
     from fem2tmm.case import Case
 
     root = Path(__file__).resolve().parents[1]
@@ -181,4 +182,14 @@ def test_smallsat_transient_report_renders_the_satellite(tmp_path):
         assert check["super_nodes_C"][k] == pytest.approx(v, abs=1e-9)
     shot = tmp_path / "smallsat_3d.png"
     open_in_chromium(out / "report.html", tmp_path, screenshot=shot, height=y + h + 40)
+    import matplotlib.image
+
+    img = matplotlib.image.imread(shot)[y:y + h, x:x + w, :3]
+    px = np.round(img.reshape(-1, 3) * 255).astype(int)
+    assert ((px < 245).any(axis=1)).sum() > 0.05 * w * h
+    keep = os.environ.get("FEM2TMM_SCREENSHOTS")  # a folder that outlives pytest's rotating temporary folders
+    if keep:
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        shutil.copy(shot, Path(keep) / shot.name)
+        shot = Path(keep) / shot.name
     print(f"screenshot: {shot}")
