@@ -171,3 +171,19 @@ def test_per_position_orbit_case_books_are_the_orbit_average(tmp_path):
         assert b["relative"] < STEADY_RTOL
     html = (tmp_path / "out" / "report.html").read_text()
     assert "Absorbed orbital power at each of the" in html
+
+
+def test_a_load_table_starting_at_zero_is_integrated():
+    # a heater ramping 0 -> 10 W over 600 s on a plate held at one edge: 0.5 · 10 W · 600 s = 3000 J by hand (its
+    # start value, 0 W, says nothing of its size: the table's power per unit value is the boundary's own)
+    case = make_case([{"name": "plate", "groups": ["plate"], "material": "al", "thickness": 1e-3, "front": "black",
+                       "back": "black", "super_nodes": 3}],
+                     [{"kind": "temperature", "groups": ["xmin"], "value": 20.0, "name": "edge"},
+                      {"kind": "power", "groups": ["plate"], "value": [[0.0, 0.0], [600.0, 10.0]], "name": "heater"}],
+                     environment={"sink_temperature": -100.0},
+                     transient={"end": 600.0, "step": 30.0, "output_every": 300.0})
+    res = run(case, mesh=meshes.plate(0.5, 0.5, 6, 6))
+    for m in ("reduced", "detailed"):
+        b = res.summary["heat_flows"]["transient"][m]
+        assert dict(b["in"])["applied 'heater'"] == pytest.approx(3000.0, rel=1e-12)
+        assert named_balance(b, QUADRATURE) < TRANSIENT_RTOL and b["relative"] < TRANSIENT_RTOL

@@ -23,9 +23,12 @@ solved temperatures.  Part-to-part flows come from the same matrices (:func:`par
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..constants import SIGMA
+from ..fem.model import boundary_load
 
 #: the row of a difference between the solver's applied load and the named inputs
 INPUT_NOT_NAMED = "input not named (the solver's load minus the named inputs)"
@@ -145,17 +148,15 @@ def transient_books(result) -> dict:
         a = float(sol.steps["t"][0] - sol.steps["h"][0])
         b = float(sol.steps["t"][-1])
         rows = []
-        for bd in case.boundaries:  # named loads: constant, or their table (read periodically in a periodic run)
-            if bd.kind == "temperature" or bd.name not in result.model.loads:
+        tabled = {bd.name: bd for bd in case.boundaries if bd.kind != "temperature" and bd.table is not None}
+        for name, w in result.model.loads.items():  # every named load (deck loads too): constant, or its table
+            bd = tabled.get(name)
+            if bd is None:
+                rows.append((f"applied '{name}'", float(w) * (b - a)))
                 continue
-            w = float(result.model.loads[bd.name])
-            if bd.table is None:
-                rows.append((f"applied '{bd.name}'", w * (b - a)))
-                continue
+            per_unit = float(boundary_load(result.model, case, dataclasses.replace(bd, value=1.0)).sum())
             tab = bd.table.periodic(start, period) if run.settings.periodic else bd.table
-            per_unit = w / bd.value if bd.value else 0.0
-            breaks = tab.breakpoints(a, b) if hasattr(tab, "breakpoints") else tab.t
-            rows.append((f"applied '{bd.name}'", per_unit * _integral(tab, a, b, np.asarray(breaks, float))))
+            rows.append((f"applied '{name}'", per_unit * _integral(tab, a, b, np.asarray(tab.breakpoints(a, b), float))))
         sol_sun = result.reduced.solar if model == "reduced" and result.reduced is not None else None
         sol_sun = sol_sun if sol_sun is not None else result.detailed.solar
         if sol_sun is not None:
