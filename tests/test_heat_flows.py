@@ -132,6 +132,15 @@ def test_orbit_averaged_books_name_every_kind_and_balance(orbit_transient):
         assert rows["applied 'heater'"] == pytest.approx(5.0, rel=1e-12)  # the table's value at the start
         assert INPUT_NOT_NAMED not in rows
         assert b["relative"] < STEADY_RTOL and named_balance(b, INPUT_NOT_NAMED) < STEADY_RTOL
+    # per part, on the FE faces (each face in one part): the parts add up to the whole model's orbit average
+    pa = s["heat_flows"]["part_absorbed"]
+    assert pa["parts"] == ["walls", "deck"]
+    total = np.sum(pa["W"], axis=0)
+    for j, label in enumerate(pa["columns"]):
+        kind = {"absorbed solar (orbit average)": "solar", "albedo (orbit average)": "albedo",
+                "planet IR (orbit average)": "ir"}[label]
+        assert total[j] == pytest.approx(s["orbit"]["kinds"][kind]["absorbed_mean_W"], rel=1e-12)
+    assert min(np.asarray(pa["W"]).ravel()) >= 0.0
 
 
 def test_transient_books_name_every_input_and_balance_with_stored_heat(orbit_transient):

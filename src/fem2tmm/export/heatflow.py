@@ -269,10 +269,36 @@ def part_books(result) -> list[dict]:
     return rows
 
 
+def part_absorbed(result) -> dict | None:
+    """Absorbed power (W) per part on the detailed model's FE faces (each face belongs to one part): a steady Sun's,
+    and each orbital kind's orbit average.  ``{"parts": [...], "columns": [...], "W": (parts, columns)}`` or None
+    when nothing was traced on the FE faces."""
+    f = result.model.faces
+    n_p = len(result.model.parts)
+    cols, data = [], []
+    sun = result.detailed.solar
+    if sun is not None and getattr(sun, "absorbed_face", None) is not None and len(sun.absorbed_face) == f.n:
+        cols.append("absorbed solar")
+        data.append(np.bincount(f.part, weights=sun.absorbed_face, minlength=n_p))
+    fl = None if result.orbit is None else result.orbit.detailed
+    if fl is not None and all(fl.absorbed[k].shape[1] == f.n for k in fl.kinds):
+        from ..radiation.orbital import period_average
+
+        pos = fl.positions
+        for kind in fl.kinds:
+            mean = period_average(pos.time, fl.absorbed[kind], pos.period)  # (n_faces,)
+            cols.append(f"{KIND_LABEL.get(kind, kind)} (orbit average)")
+            data.append(np.bincount(f.part, weights=mean, minlength=n_p))
+    if not cols:
+        return None
+    return {"parts": [p.name for p in result.model.parts], "columns": cols,
+            "W": np.stack(data, axis=1).tolist()}
+
+
 def heat_flow_summary(result) -> dict:
     """The ``heat_flows`` entry of summary.json: steady and transient books, and the per-part balance."""
     out = {"steady": steady_books(result), "transient": transient_books(result), "parts": part_books(result),
-           "part_to_part": None}
+           "part_absorbed": part_absorbed(result), "part_to_part": None}
     if result.reduced is not None:
         names, F = part_exchange(result)
         out["part_to_part"] = {"names": names, "W": F.tolist(),
@@ -343,4 +369,4 @@ def heat_flow_rows(s: dict, key: str = "steady") -> list[tuple[str, str]]:
     return out
 
 
-__all__ += ["book_rows", "flow_text", "heat_flow_rows", "position_inputs", "step_powers"]
+__all__ += ["part_absorbed", "book_rows", "flow_text", "heat_flow_rows", "position_inputs", "step_powers"]

@@ -371,6 +371,12 @@ def _heat_flows_html(hf: dict) -> str:
                    + "<p>Q is the load the network puts on the part's super nodes (applied, absorbed and, for a "
                      "radiation-aware network, its correction load); the exchanges are the network's conductors "
                      "at its solved temperatures.</p>")
+    absorbed = hf.get("part_absorbed")
+    if absorbed:
+        rows = [(p, *(flow_text(v, "W") for v in row)) for p, row in zip(absorbed["parts"], absorbed["W"])]
+        rows.append(("all parts", *(flow_text(v, "W") for v in np.sum(absorbed["W"], axis=0))))
+        out.append("<h3>Absorbed by each part (detailed model, FE faces) [W]</h3>"
+                   + _table(rows, ("part", *absorbed["columns"])))
     matrix = hf.get("part_to_part")
     if matrix:
         names = matrix["names"]
