@@ -1,6 +1,6 @@
 """Heat-flow books a thermal engineer reads: every input named, every output named, and what they leave open.
 
-:func:`heat_flow_books` gives, for the reduced network and the detailed model, the steady books (W; an orbit
+:func:`heat_flow_summary` (summary.json ``heat_flows``) gives, for the reduced network and the detailed model, the steady books (W; an orbit
 case's steady solve takes the orbit-averaged loads) and the transient books (J over the interval the solver's
 energy books cover: the whole run, or the last period of a periodic one):
 
@@ -18,7 +18,9 @@ loads linear over each step; its first backward-Euler steps are not).
 
 :func:`part_books` balances each part of the reduced network: the heat put into its super nodes (Q), radiated to
 space, and exchanged with the other parts and with the held nodes through the network's GL and GR, from the
-solved temperatures.  Part-to-part flows come from the same matrices (:func:`part_exchange`).
+solved temperatures.  Part-to-part flows come from the same matrices (:func:`part_exchange`); what each part
+absorbs on its FE faces from :func:`part_absorbed`.  Per time: :func:`position_inputs` (each orbit position's
+absorbed power per kind) and :func:`step_powers` (a transient's mean powers over each step).
 """
 
 from __future__ import annotations
