@@ -224,7 +224,8 @@ def viewer_html(data: dict) -> str:
 <div class="f2t-bar">
  <label>Colour by <select id="f2t-mode"></select></label>
  <span id="f2t-timebox" hidden><button id="f2t-play" type="button">▶ play</button>
-  <input id="f2t-time" type="range" min="0" max="0" value="0"> <span id="f2t-tlabel"></span></span>
+  <input id="f2t-time" type="range" min="0" max="0" value="0"> <span id="f2t-tlabel"></span>
+  <label title="colour range of the time shown, not of every time"><input id="f2t-local" type="checkbox"> range of this time</label></span>
  <label>Cut <select id="f2t-clip"><option value="">none</option><option>x</option><option>y</option><option>z</option></select></label>
  <input id="f2t-cut" type="range" min="0" max="1000" value="500" disabled>
  <label><input id="f2t-flip" type="checkbox" disabled> flip</label>

@@ -148,15 +148,20 @@
     if (frame >= 0 && frames[name]) return frames[name].subarray(frame * nv, (frame + 1) * nv);
     return fields[name].data;
   }
-  function fieldRange(name) {  // over every frame too, so that colours compare between times
+  function valueRange(a, symmetric) {
     let lo = Infinity, hi = -Infinity;
-    const arrs = [fields[name].data];
-    if (frames[name]) arrs.push(frames[name]);
-    for (const a of arrs) for (let i = 0; i < a.length; i++) { const v = a[i]; if (v === v) { if (v < lo) lo = v; if (v > hi) hi = v; } }
+    for (let i = 0; i < a.length; i++) { const v = a[i]; if (v === v) { if (v < lo) lo = v; if (v > hi) hi = v; } }
     if (!(hi > lo)) { hi = lo + 1e-6; lo -= 1e-6; }
-    if (fields[name].symmetric) { const m = Math.max(Math.abs(lo), Math.abs(hi)); lo = -m; hi = m; }
+    if (symmetric) { const m = Math.max(Math.abs(lo), Math.abs(hi)); lo = -m; hi = m; }
     return [lo, hi];
   }
+  function fieldRange(name) {  // over every frame too, so that colours compare between times
+    const [a, b] = valueRange(fields[name].data, fields[name].symmetric);
+    if (!frames[name]) return [a, b];
+    const [c, d] = valueRange(frames[name], fields[name].symmetric);
+    return [Math.min(a, c), Math.max(b, d)];
+  }
+  let localRange = false;
   const ranges = {};
   for (const f of D.fields) ranges[f.name] = fieldRange(f.name);
 
@@ -164,7 +169,7 @@
     const setTri = (t, rgb, o) => { for (let c = 0; c < 3; c++) { colors[9 * t + 3 * c] = toLin[rgb[o]]; colors[9 * t + 3 * c + 1] = toLin[rgb[o + 1]]; colors[9 * t + 3 * c + 2] = toLin[rgb[o + 2]]; } };
     if (mode.startsWith("field:")) {
       const name = mode.slice(6), f = fields[name], lut = D.colormaps[f.cmap], vals = fieldValues(name);
-      const [lo, hi] = ranges[name];
+      const [lo, hi] = localRange && frame >= 0 && frames[name] ? valueRange(vals, f.symmetric) : ranges[name];
       for (let t = 0; t < nt; t++) for (let c = 0; c < 3; c++) {
         const v = vals[tri[3 * t + c]];
         const k = v === v ? Math.max(0, Math.min(255, Math.round((v - lo) / (hi - lo) * 255))) : -1;
@@ -198,7 +203,7 @@
       "<div class='f2t-cb' style='background:linear-gradient(to top," + stops.join(",") + ")'>";
     for (const v of ticks) html += "<div class='f2t-tick' style='bottom:" + ((v - lo) / (hi - lo) * 100) + "%'>" + fmt(v, step) + " " + esc(f.unit) + "</div>";
     html += "</div><div class='f2t-cbnote'>range " + fmt(lo, step / 10) + " to " + fmt(hi, step / 10) + " " + esc(f.unit) +
-      (frames[f.name] ? " over all times" : "") + "</div>";
+      (frames[f.name] && frame >= 0 ? (localRange ? " at this time" : " over all times") : "") + "</div>";
     legend.innerHTML = html;
   }
 
@@ -333,6 +338,7 @@
       paint(); if (selected >= 0) select(selected);
     };
     slider.addEventListener("input", () => setFrame(+slider.value));
+    document.getElementById("f2t-local").addEventListener("change", ev => { localRange = ev.target.checked; paint(); });
     let timer = null;
     play.addEventListener("click", () => {
       if (timer) { clearInterval(timer); timer = null; play.textContent = "▶ play"; return; }
@@ -344,7 +350,7 @@
     label.textContent = "t = " + tr.times_s[0].toFixed(0) + " s (1/" + nFrames + ")";
   }
 
-  // ---- a view named in the address: #mode=cluster&sn=walls_1&t=10&view=+x&cut=z:0.5:flip
+  // ---- a view named in the address: #mode=cluster&sn=walls_1&t=10&range=local&view=+x&cut=z:0.5:flip
   const want = {};
   for (const kv of decodeURIComponent(location.hash.slice(1)).split("&")) { const i = kv.indexOf("="); if (i > 0) want[kv.slice(0, i)] = kv.slice(i + 1); }
   resize();
@@ -357,6 +363,7 @@
     for (let i = 0; i < nFrames; i++) if (Math.abs(tr.times_s[i] - +want.t) < Math.abs(tr.times_s[k] - +want.t)) k = i;
     const sl = document.getElementById("f2t-time"); sl.value = String(k); sl.dispatchEvent(new Event("input"));
   }
+  if (want.range === "local" && tr) { localRange = true; document.getElementById("f2t-local").checked = true; }
   if (want.cut) {
     const [ax, at, fl] = want.cut.split(":");
     if ("xyz".includes(ax) && ax) { clipSel.value = ax; cut.value = String(Math.round(1000 * (+at || 0.5))); flip.checked = fl === "flip"; updateClip(); }
