@@ -273,12 +273,12 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
 <h2>Temperatures per part [°C]</h2>{_table(part_rows, part_head)}
 <p>Min and max over the part's nodes, mean = plain mean over its nodes.</p>
 <details><summary>Temperatures of the {len(sn_rows)} reduced nodes [°C]</summary>{_table(sn_rows, ("node", "T [°C]"))}</details>
-{verified}<h2>3-D view</h2>
+<h2>3-D view</h2>
 <p>Turn, zoom and cut the model; colour it by temperature, super node or part; hover a face for its super node
 (name, deck number as in <code>model.esatan</code>, part, area, capacitance, temperature).{_view_note(view)}</p>
 {viewer_html(view) if view["n_triangles"] else "<p>The model has no radiating face to draw.</p>"}
 <h2>Heat flows</h2>{flows_html}
-<h2>Maps (static, for printing)</h2>{figs}
+{verified}<h2>Maps (static, for printing)</h2>{figs}
 <h2>Stage timings</h2>{_table(timings, ("stage", "time"))}
 <h2>Case</h2><pre>{html.escape(case_text)}</pre>
 <h2>summary.json</h2><pre>{html.escape(json.dumps(s, indent=1, default=str))}</pre>""")
@@ -305,12 +305,6 @@ def _verified_section(v: dict | None) -> str:
             "that state. Reference noise (design state): "
             + ("not estimated" if noise is None else f"RMS {noise['rms_K']:.2g} K, max {noise['max_K']:.2g} K")
             + ".</p>")
-
-
-def _num(v: float, unit: str) -> str:
-    """A flow for a table: thousands separated from 10 000 on (J over an orbit), 6 significant digits below."""
-    v = float(v)
-    return f"{v:,.0f}{unit}" if abs(v) >= 1e4 else f"{v:.6g}{unit}"
 
 
 def _step_table(result) -> str:
