@@ -1,31 +1,149 @@
-"""Sparse direct solves shared by the stages, and the BLAS thread limit (:func:`blas_threads`).
+"""Sparse direct solves shared by the stages, the backend chosen in one place (:func:`factorize`), and the BLAS
+thread limit (:func:`blas_threads`).
 
-Thermal conduction matrices (plus radiative linearisations) are symmetric, or diagonally dominant
-M-matrices, so LU without pivoting on a minimum-degree ordering of A + Aᵀ is stable and, on 2-D/3-D
-meshes, faster and leaner than SuperLU's default column ordering (measurements: docs/design-notes.md, linalg.py).
+Thermal conduction matrices (plus radiative linearisations) are symmetric positive definite once a temperature is
+held, or diagonally dominant, structurally symmetric M-matrices (a radiative Jacobian ``L diag(4σT³)``).  Every
+sparse factorisation in the tool goes through :func:`factorize`, told what the matrix is (``kind``):
+
+- ``"spd"``: symmetric positive definite (a conduction matrix with a held DOF or a conductance to ground, the
+  detailed Newton matrix K + diag(4σT³g), a transient's C/Δt + J): PARDISO (Intel MKL, through ``pypardiso``) or
+  CHOLMOD (``scikit-sparse``) when installed and the matrix has at least :data:`FAST_MIN` unknowns, else
+  SuperLU on a minimum-degree ordering of A + Aᵀ without pivoting (stable on an SPD matrix);
+- ``"symmetric"``: symmetric indefinite (a saddle matrix [[K, Aᵀ], [A, 0]]): PARDISO's symmetric indefinite
+  factorisation (Bunch-Kaufman pivoting, iterative refinement), else SuperLU on the same symmetric ordering with
+  threshold pivoting;
+- ``"general"``: structurally symmetric, diagonally dominant (a Jacobian with node-to-node radiation): SuperLU on the
+  symmetric ordering without pivoting; ``"pivoting"``: the same ordering with threshold pivoting (the fallbacks for
+  a Jacobian that is not diagonally dominant).
+
+Neither package is required (``pip install fem2tmm[bench]``; CHOLMOD is GPL in part).  The environment variable
+``FEM2TMM_SPARSE_SOLVER`` = ``pardiso`` | ``cholmod`` | ``scipy`` forces one (``auto``, the default: PARDISO, then
+CHOLMOD, then scipy).  The backends agree to round-off (measurements: docs/benchmarks.md, "Performance").
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
+import weakref
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
+#: the sparse direct backend: "auto" (PARDISO, CHOLMOD, scipy: the first installed), or "pardiso" | "cholmod" | "scipy"
+SOLVER = os.environ.get("FEM2TMM_SPARSE_SOLVER", "auto").strip().lower()
+#: matrices with fewer unknowns stay with SuperLU even when PARDISO or CHOLMOD is installed: below ~10⁴ unknowns
+#: every backend takes milliseconds and SuperLU has no setup cost (one code path for the small models of the tests)
+FAST_MIN = 20_000
 
-def factorize(A) -> "spla.SuperLU":
-    """LU factorisation of a sparse, structurally symmetric, diagonally dominant matrix (n, n)."""
+_BACKENDS: dict[str, bool] = {}
+
+
+def _installed(name: str) -> bool:
+    if name not in _BACKENDS:
+        try:
+            if name == "pardiso":
+                import pypardiso  # noqa: F401
+            elif name == "cholmod":
+                import sksparse.cholmod  # noqa: F401
+            _BACKENDS[name] = True
+        except Exception:  # ImportError, or MKL's library not found
+            _BACKENDS[name] = False
+    return _BACKENDS[name]
+
+
+def backend(n: int, kind: str = "spd") -> str:
+    """The backend :func:`factorize` uses for an (n, n) matrix of ``kind``: "pardiso", "cholmod" or "scipy"."""
+    if kind in ("general", "pivoting") or n < FAST_MIN or SOLVER == "scipy":
+        return "scipy"
+    order = ("pardiso", "cholmod") if SOLVER == "auto" else (SOLVER,)
+    for name in order:
+        if name == "cholmod" and kind != "spd":
+            continue  # CHOLMOD's LDLᵀ does not pivot: not for an indefinite matrix
+        if _installed(name):
+            return name
+    return "scipy"
+
+
+class _PardisoFactor:
+    """A PARDISO factorisation (upper triangle of a symmetric matrix); ``solve(b)`` for b (n,) or (n, r)."""
+
+    def __init__(self, A: sp.spmatrix, mtype: int):
+        import pypardiso
+
+        s = pypardiso.PyPardisoSolver(mtype=mtype)
+        # the upper triangle with every diagonal entry stored, zeros included (PARDISO's symmetric input; a row
+        # without its diagonal, a saddle's constraint row, hangs or crashes it)
+        Uc = sp.triu(A, k=1, format="coo")
+        n = A.shape[0]
+        ar = np.arange(n)
+        U = sp.csr_matrix((np.concatenate([Uc.data, A.diagonal()]), (np.concatenate([Uc.row, ar]),
+                           np.concatenate([Uc.col, ar]))), shape=A.shape)
+        U.sort_indices()
+        self.U, self.shape = U, A.shape
+        s.iparm[11] = 0  # CSR, no transpose
+        self._s = s
+        weakref.finalize(self, _pardiso_free, s)
+        s.set_phase(12)  # analysis and numerical factorisation
+        s._call_pardiso(U, np.zeros((A.shape[0], 1), order="F"))
+        if s.iparm[13] > 0:  # perturbed pivots: (nearly) singular; SuperLU decides and says so
+            raise ArithmeticError(f"PARDISO perturbed {int(s.iparm[13])} pivots")
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        b = np.asarray(b, float)
+        s = self._s
+        s.set_phase(33)
+        return s._call_pardiso(self.U, np.asfortranarray(b))
+
+
+def _pardiso_free(s) -> None:
+    try:
+        s.free_memory(everything=False)
+    except Exception:  # interpreter shutdown
+        pass
+
+
+class _CholmodFactor:
+    def __init__(self, A: sp.spmatrix):
+        from sksparse.cholmod import cholesky
+
+        self._f = cholesky(sp.csc_matrix(A))
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        return self._f(np.asarray(b, float))
+
+
+def factorize(A, kind: str = "spd"):
+    """A factorisation of the sparse (n, n) matrix A with ``solve(b)``, b (n,) or (n, r).
+
+    ``kind``: "spd" symmetric positive definite, "symmetric" symmetric indefinite, "general" structurally
+    symmetric and diagonally dominant, "pivoting" structurally symmetric with partial pivoting (a fallback for a
+    matrix that is not diagonally dominant); module docstring: which backend each takes.  A PARDISO or CHOLMOD
+    factorisation that finds the matrix not positive definite falls back to SuperLU (which then decides).
+    """
+    name = backend(A.shape[0], kind)
+    if name == "pardiso":
+        try:
+            return _PardisoFactor(A, 2 if kind == "spd" else -2)
+        except Exception:  # PyPardisoError: not positive definite, singular
+            pass
+    elif name == "cholmod":
+        try:
+            return _CholmodFactor(A)
+        except Exception:  # CholmodNotPositiveDefiniteError
+            pass
     A = sp.csc_matrix(A)
-    return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                     options=dict(SymmetricMode=True))
+    if kind in ("symmetric", "pivoting"):
+        return spla.splu(A, permc_spec="MMD_AT_PLUS_A")
+    return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 
-def solve(A, b: np.ndarray) -> np.ndarray:
+def solve(A, b: np.ndarray, kind: str = "spd") -> np.ndarray:
     """x = A⁻¹ b for a sparse (see :func:`factorize`) or dense A; b (n,) or (n, r)."""
     if sp.issparse(A):
-        return factorize(A).solve(np.asarray(b, dtype=float))
+        return factorize(A, kind).solve(np.asarray(b, dtype=float))
     return np.linalg.solve(np.asarray(A, float), b)
 
 

@@ -243,7 +243,8 @@ def balance(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, weig
     passes : passes done
     """
     import scipy.sparse as sp
-    from scipy.sparse.linalg import spsolve
+
+    from ..linalg import solve
 
     lab = np.array(labels, np.int64)
     seeds = np.asarray(seeds, np.int64)
@@ -277,7 +278,7 @@ def balance(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, weig
         L = sp.csr_matrix((np.r_[-c, -c, np.bincount(a, c, minlength=k) + np.bincount(b, c, minlength=k)],
                            (np.r_[a, b, np.arange(k)], np.r_[b, a, np.arange(k)])), shape=(k, k))
         phi = np.zeros(k)
-        phi[1:] = spsolve(L[1:, 1:].tocsc(), (W - mean)[1:])  # the cluster graph of a region is connected
+        phi[1:] = solve(L[1:, 1:], (W - mean)[1:], "spd")  # the cluster graph of a region is connected
         f = c * (phi[a] - phi[b])
         src, dst = np.where(f > 0, a, b), np.where(f > 0, b, a)
         amount = np.abs(f)

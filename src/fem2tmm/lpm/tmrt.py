@@ -26,6 +26,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import Fem2TmmError
+from ..linalg import factorize
 from ..reduce.filters import filter_links
 from .grouping import assemble_reduced, restriction, sum_couplings, weighted_mean
 from .network import Network
@@ -125,7 +126,7 @@ def tmrt_reduce(net: Network, suppress=(), groups=(), capacitance: str = "equiva
         Ksr = K[s][:, r].tocsc()
         adj = np.flatnonzero(np.diff(Ksr.indptr))  # remaining nodes touching a suppressed one
         try:
-            lu = spla.splu(Kss)
+            lu = factorize(Kss, "pivoting")
             X = lu.solve(Ksr[:, adj].toarray()) if len(adj) else np.zeros((len(s), 0))
         except RuntimeError:
             X = None

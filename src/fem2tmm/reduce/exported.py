@@ -42,7 +42,7 @@ import scipy.sparse.linalg as spla
 
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
-from ..linalg import ROUNDOFF_ULPS, roundoff
+from ..linalg import ROUNDOFF_ULPS, factorize, roundoff
 
 #: Newton stops once the largest temperature step is below this (K), the IR fixed point likewise
 RECOVERY_TOLERANCE = 1e-10
@@ -193,11 +193,11 @@ class ExportedRecovery:
         h = np.array([np.interp(tau, self.orbit_nodes, self.orbit_H[:, j]) for j in range(self.orbit_H.shape[1])])
         return np.asarray(self.orbit_q.T @ (h - self.orbit_weights)).ravel()
 
-    def _saddle(self, diag: np.ndarray | None = None) -> spla.SuperLU:
+    def _saddle(self, diag: np.ndarray | None = None):
         Kd = self.K if diag is None else self.K + sp.diags(diag)
         M = sp.bmat([[Kd, self.A.T], [self.A, None]], format="csc")
         try:
-            return spla.splu(M)
+            return factorize(M, "symmetric")  # [[K + diag, Aᵀ], [A, 0]]: symmetric indefinite
         except RuntimeError as exc:  # a singular saddle: dependent super nodes (DESIGN §3.2)
             raise Fem2TmmError(f"the recovery's saddle matrix is singular ({exc}): the super nodes do not fix every "
                                "connected part's mean temperature") from None

@@ -30,6 +30,7 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from ..errors import Fem2TmmError
+from ..linalg import factorize
 
 #: widest band (reverse Cuthill-McKee order of K_II) for which a "sparse" cluster is factorised by LAPACK's banded
 #: Cholesky instead of SuperLU (measurements: docs/design-notes.md, reduce/conduction.py)
@@ -59,7 +60,7 @@ class Factor:
             self._lu = (lu, piv)
         else:
             try:
-                self._lu = spla.splu(self._matrix)
+                self._lu = factorize(self._matrix, "symmetric")
             except RuntimeError as exc:  # "Factor is exactly singular"
                 raise Fem2TmmError(f"{what} is singular ({exc})") from None
 
@@ -69,7 +70,7 @@ class Factor:
     def __setstate__(self, state):
         self.__dict__.update(state)
         if not self.dense:
-            self._lu = spla.splu(self._matrix)
+            self._lu = factorize(self._matrix, "symmetric")
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         if self.dense:
@@ -243,11 +244,14 @@ class ClusterSolver:
             rhs = np.empty((nI, nB + 1))
             rhs[:, :nB] = Cd[:nI]
             rhs[:, nB] = self.a
-            if self.kind == "cholesky":  # rhsᵀ K_II⁻¹ rhs = Wᵀ W with W = L⁻¹ rhs
+            # rhsᵀ K_II⁻¹ rhs = Wᵀ W with W = L⁻¹ rhs: one triangular solve (dense, or banded in the RCM order)
+            if self.kind == "cholesky":
                 W = sla.solve_triangular(self.L, rhs, lower=True, check_finite=False, overwrite_b=True)
-                G = -(W.T @ W)
             else:
-                G = -(rhs.T @ self._ksolve(rhs))
+                W, info = sla.lapack.dtbtrs(self.cb, rhs[self.order], uplo="L", overwrite_b=1)
+                if info != 0:
+                    raise Fem2TmmError(f"{self.what}: banded triangular solve failed (LAPACK info {info})")
+            G = -(W.T @ W)
             G[:nB, :nB] += KBB
             G[:nB, nB] += Cd[nI]
             G[nB, :nB] += Cd[nI]

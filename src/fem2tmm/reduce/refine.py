@@ -47,10 +47,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import splu
 
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
+from ..linalg import factorize
 
 #: Dörfler marking fraction: the worst clusters carrying this share of the estimated squared error are split
 BULK = 0.5
@@ -113,7 +113,7 @@ def local_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, dof_cluster
     if not inner.size:
         return dT
     Kp = (sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[inner][:, inner]
-    dT[inner] = splu(sp.csc_matrix(Kp)).solve(np.asarray(residual, float)[inner])
+    dT[inner] = factorize(Kp, "spd").solve(np.asarray(residual, float)[inner])
     return dT
 
 
@@ -160,7 +160,7 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     share = np.zeros(n_clusters)
     if not idx.size:
         return dT, share
-    lu = splu(sp.csc_matrix((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx]))
+    lu = factorize((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx], "spd")
     if feedback is None:
         dT[idx] = lu.solve(r[idx])
         z[idx] = lu.solve((np.asarray(weight, float) * dT)[idx])  # K' symmetric: its own adjoint

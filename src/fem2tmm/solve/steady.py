@@ -266,7 +266,8 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
             return np.linalg.solve(ops.jacobian(d, free), b)
         if krylov:
             return _newton_krylov_step(ops, d, free, b, stats)
-        lu = factorize(ops.jacobian(d, free))
+        # K + diag(4σT³g) is SPD; with node-to-node radiation, L diag(4σT³) makes it unsymmetric
+        lu = factorize(ops.jacobian(d, free), "spd" if ops.L is None else "general")
         if not ops.radiative:
             cache["lu"] = lu.solve
         return lu.solve(b)
@@ -381,7 +382,7 @@ def _newton_krylov_step(ops: _Operators, d: np.ndarray, free: np.ndarray, b: np.
     import scipy.sparse.linalg as spla
 
     n = len(d)
-    lu = factorize(ops.jacobian(d, free, lumped_faces=True))
+    lu = factorize(ops.jacobian(d, free, lumped_faces=True), "spd" if ops.L is None else "general")
     full = np.zeros(n)
 
     def matvec(x):
@@ -409,7 +410,7 @@ def _newton_krylov_step(ops: _Operators, d: np.ndarray, free: np.ndarray, b: np.
             # assembled (denser, but exact)
             stats["direct_fallbacks"] = stats.get("direct_fallbacks", 0) + 1
             try:
-                x = spla.splu(sp.csc_matrix(ops.jacobian(d, free))).solve(b)  # partial pivoting: a fallback
+                x = factorize(ops.jacobian(d, free), "pivoting").solve(b)  # partial pivoting: a fallback
             except (RuntimeError, np.linalg.LinAlgError, MemoryError) as exc:
                 raise Fem2TmmError(f"the radiative Newton step did not converge (GMRES relative residual {rel:.1e}) "
                                    f"and the direct factorisation of the exact Jacobian failed ({exc}); check the "

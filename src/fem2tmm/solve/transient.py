@@ -212,7 +212,7 @@ class _Newton:
             solve = lambda b: sla.lu_solve(lu, b, check_finite=False)  # noqa: E731
         else:
             A = beta * J + (sp.diags(self.Cff) if self.lumped else self.Cff)
-            solve = factorize(A.tocsc()).solve
+            solve = factorize(A.tocsc(), "spd" if self.ops.L is None else "general").solve
         self.stats["factorizations"] += 1
         return solve
 
