@@ -120,6 +120,7 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7, 
     (issue 43: ≤ 6x PARDISO, peak ≤ 6 GB)."""
     import os
     import statistics
+    import sys
 
     from fem2tmm.pipeline import run
 
@@ -130,6 +131,11 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7, 
     case = pipeline_1m_case(super_nodes, rays)
     solvers = list(available())
     run(pipeline_1m_case(8, 1e4), mesh=big_shell_structure(20), reference=False)  # warm-up: JIT compilation, imports
+    import numpy as np
+    import scipy.sparse as sp
+
+    for k in solvers:  # warm-up: loading MKL costs ~1.7 s on the first PARDISO call of a process
+        timed_solve(k, sp.csr_matrix(sp.diags(np.arange(1.0, 101.0))), np.ones(100))
     walls, peaks, base = [], [], {k: [] for k in solvers}
     residuals = {}
     J = b = None
@@ -151,6 +157,9 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7, 
             t, rel = timed_solve(k, J, b)
             base[k].append(t)
             residuals[k] = max(residuals.get(k, 0.0), rel)
+        print(f"pipeline_1m round {r + 1}/{rounds}: pipeline {walls[-1]:.1f} s, peak {peaks[-1]:.2f} GB, "
+              + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in base.items()) + f", load {os.getloadavg()[0]:.1f}",
+              file=sys.stderr, flush=True)
     best = solvers[0]
     ratios = [w / t for w, t in zip(walls, base[best])]
     row.update(
@@ -167,12 +176,14 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7, 
     return [row]
 
 
-def pipeline_1m_case(super_nodes: int = 1000, rays: float = 1e7):
-    """The case of :func:`bench_pipeline_1m` (its mesh: ``big_shell_structure``)."""
+def pipeline_1m_case(super_nodes: int = 1000, rays: float = 1e7, reduction: dict | None = None):
+    """The case of :func:`bench_pipeline_1m` (its mesh: ``big_shell_structure``); ``reduction`` its ``[reduction]``
+    table (default none: ``radiation_aware = "auto"``)."""
     from fem2tmm.case import Case
 
     n_sf = 2 * super_nodes
-    return Case.from_dict({
+    extra = {} if reduction is None else {"reduction": dict(reduction)}
+    return Case.from_dict({**extra,
         "materials": {"al": {"conductivity": 170.0, "density": 2700.0, "specific_heat": 900.0}},
         "optics": {"white": {"emissivity": 0.85, "absorptivity": 0.2}},
         "parts": [{"name": "box", "groups": ["box"], "material": "al", "thickness": 1.5e-3, "front": "white",

@@ -185,7 +185,7 @@ class ClusterSolver:
             return False
         low = Kp.row >= Kp.col
         ab = np.zeros((band + 1, nI))
-        np.add.at(ab, ((Kp.row - Kp.col)[low], Kp.col[low]), Kp.data[low])
+        ab[(Kp.row - Kp.col)[low], Kp.col[low]] = Kp.data[low]  # (a CSR matrix's entries are unique)
         try:
             self.cb = sla.cholesky_banded(ab, lower=True, check_finite=False)
         except np.linalg.LinAlgError:
