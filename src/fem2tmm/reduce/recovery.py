@@ -251,7 +251,10 @@ class ClusterSolver:
                 W, info = sla.lapack.dtbtrs(self.cb, rhs[self.order], uplo="L", overwrite_b=1)
                 if info != 0:
                     raise Fem2TmmError(f"{self.what}: banded triangular solve failed (LAPACK info {info})")
-            G = -(W.T @ W)
+            # −WᵀW by BLAS' symmetric rank-k update (half a product's flops), its upper triangle mirrored
+            G = sla.blas.dsyrk(-1.0, W, trans=1, lower=0)
+            iu = np.triu_indices(nB + 1, 1)
+            G[iu[1], iu[0]] = G[iu]
             G[:nB, :nB] += KBB
             G[:nB, nB] += Cd[nI]
             G[nB, :nB] += Cd[nI]
