@@ -24,7 +24,7 @@ from .cache import digest
 from .compute import map_units
 from .constants import KELVIN
 from .export.output import check_output_place, write_cases_outputs, write_outputs
-from .export.summary import build_cases_summary, build_summary
+from .export.summary import _by_correction, build_cases_summary, build_summary
 from .fem.model import build_model
 from .fem.plausibility import warn_implausible, warn_once_per_run
 from .mesh import Mesh
@@ -32,6 +32,7 @@ from .progress import Progress, report, reporting
 from .radiation.compiled import compile_estimate
 from .radiation.quadric_scene import QuadricScene
 from .radiation.surfaces import TriangleScene
+from .radiation.tracer import side_fractions
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for
 from .reductors.radiation_aware import parametric_corrections, parametric_states, set_parametric
@@ -44,8 +45,8 @@ from .stages.cluster import check_super_node_counts, cluster_key, cluster_model,
 from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_positions_detailed,
                            orbit_positions_reduced, super_face_orbit)
 from .stages.quadrics import fit_quadrics, quadric_regions
-from .stages.radiation import (detailed_radiation, ir_absorption, mean_faced, radiation_surface, reduced_radiation,
-                               reference_noise, tracer_settings)
+from .stages.radiation import (detailed_radiation, emission_check, ir_absorption, mean_faced, radiation_surface,
+                               reduced_radiation, reference_noise, tracer_settings)
 from .stages.refine import Refinement, refinement_step
 from .stages.solar import absorbed_solar_maps, detailed_solar, solar_prepass, super_face_solar
 from .stages.transient import check_transient, run_transient
@@ -503,8 +504,11 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         if q_orbit is not None and orbit.fluxes_on == "detailed":
             pos = opart.fluxes.positions
             orbit_rec = (q_orbit, pos.time, pos.period)
+        fates = (side_fractions(sf[0], extra["radiation"].blocked, extra["radiation"].space) if trace
+                 else (None, None))
         inputs = ReductionInputs(model=model, case=case, clustering=clustering, network=rm,
                                  q_recover=q_recover, q_lumped=q_lumped, orbit=orbit_rec,
+                                 unblocked=fates[0], to_space=fates[1],
                                  ir_on_asked=case.radiation.ir_on,
                                  trace_ir=(lambda c: ir_absorption(model, rm, c, surface, scene=scenes.main(), sf=sf))
                                  if trace else None)
@@ -529,6 +533,13 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             case = red.case
         red = reductor.deliver(dataclasses.replace(inputs, case=case), red, prog)
         reduced = result.reduced = dataclasses.replace(red, clustering=clustering, choice=choice, **extra)
+        if trace:  # one emission for every method: the network's radiation to space against its field's (issue 42)
+            res = extra["radiation"]
+            ir_sides = red.ir is not None and red.ir.to_space is not None
+            reduced.emission_check = emission_check(
+                model, float(reduced.solution.to_space.sum()) + (_by_correction(reduced.network) or 0.0),
+                reduced.T_recovered, red.ir.to_space if ir_sides else inputs.to_space, res.blocked, res.eps_area,
+                rm.part[sf[1]])
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):

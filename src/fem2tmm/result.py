@@ -83,6 +83,8 @@ class Reduced:
         design's (:func:`fem2tmm.reductors.radiation_aware.parametric_corrections`), written into the deck
     verified : the validity range and its check against the detailed model (:func:`fem2tmm.verify.verify_network`),
         or ``{"status": "UNVERIFIED", "reason"}``; stated in the decks and ``reduced.npz``
+    emission_check : :func:`fem2tmm.stages.radiation.emission_check`: the network's radiation to space against the traced
+        emission of its recovered field, and the blocked fraction of each part's emission (face-to-face radiation)
     """
 
     method: str
@@ -108,6 +110,7 @@ class Reduced:
     delivered: dict | None = None
     parametric: dict | None = None
     verified: dict | None = None
+    emission_check: dict | None = None
 
     @property
     def positive(self) -> dict | None:

@@ -80,6 +80,9 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             "iterations": rs.iterations,
             "heat_into_fixed_W": {str(rm.names[i]): -float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
             "to_space_W": float(rs.to_space.sum()),
+            # the network's radiation to space (couplings and correction) against the traced emission to space of
+            # its recovered field (relative difference), and each part's emission share stopped by inactive sides
+            "emission_check": result.reduced.emission_check,
             "radiation_aware": None if rm.radiative is None else {
                 "outer_iterations": result.reduced.outer_iterations,
                 "last_step_K": (result.reduced.outer_iterations or [{}])[-1].get("max_dT_K"),

@@ -20,7 +20,7 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -61,6 +61,10 @@ class Faces:
     ``part`` (f,) part index, ``kind`` (f,) 0 shell / 1 solid face.  Side arrays (2f,), side 2i = front
     of face i: ``emissivity absorptivity specular transmissivity transmission_specular`` and ``active``.
     ``W`` (f, n_dof) sparse averaging weights (rows sum to 1): face value = W @ nodal value.
+    ``unblocked`` (2f,) or None: the traced fraction of each side's emission that is not stopped by an inactive side
+    (optics ``"none"``; docs/case-file.md), None before any tracing (1 everywhere).  A blocked ray is one the side
+    never emits, as the traced exchange factors count it: :attr:`eps_area` is the emission εA (1 − blocked) that
+    the REFs close on (:meth:`FEModel.with_unblocked`).
     """
 
     nodes: np.ndarray
@@ -78,6 +82,7 @@ class Faces:
     transmission_specular: np.ndarray
     active: np.ndarray
     W: sp.csr_matrix
+    unblocked: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -85,8 +90,11 @@ class Faces:
 
     @property
     def eps_area(self) -> np.ndarray:
-        """(f,) εA of each face summed over its active sides, m²."""
-        return (self.emissivity * self.active).reshape(-1, 2).sum(axis=1) * self.area
+        """(f,) εA of each face summed over its active sides, m² (times :attr:`unblocked` once traced)."""
+        e = self.emissivity * self.active
+        if self.unblocked is not None:
+            e = e * self.unblocked
+        return e.reshape(-1, 2).sum(axis=1) * self.area
 
     @property
     def active_area(self) -> np.ndarray:
@@ -144,6 +152,17 @@ class FEModel:
         for g in self.fixed:
             v[g.dof] = g.T
         return v
+
+    def with_unblocked(self, unblocked: np.ndarray | None) -> "FEModel":
+        """This model whose sides emit εA (1 − blocked): ``unblocked`` (2f,) the traced fraction of each side's
+        emission not stopped by an inactive side (:func:`fem2tmm.radiation.side_fractions`), or None (this model).
+        The emission every method and the detailed reference then share (the REFs close on it)."""
+        if unblocked is None:
+            return self
+        u = np.clip(np.asarray(unblocked, float), 0.0, 1.0)
+        if u.shape != (2 * self.faces.n,):
+            raise ValueError(f"unblocked must have one value per side ({2 * self.faces.n},), got {u.shape}")
+        return replace(self, faces=replace(self.faces, unblocked=u))
 
     def space_coupling(self) -> np.ndarray:
         """(n_dof,) εA (m²) of every DOF to space, summed over the active sides of its faces."""

@@ -20,12 +20,16 @@ class IRAbsorption:
     each at its super node's temperature (raw ray tally); ``"faces"``: the emitters are the active FE face sides,
     ``face`` (g,) the FE face of each, at the recovered field's face temperature ((W T⁴)^¼, as the detailed
     model's REFs), and A their REFs after reciprocity and closure (the detailed reference's estimator, own rays).
+    ``unblocked``, ``to_space`` (2f,): per FE side, the traced fraction of its emission not stopped by inactive sides
+    and the fraction that leaves to space (:func:`~fem2tmm.radiation.tracer.side_fractions`; per emitter).
     """
 
     A: sp.csr_matrix
     owner: np.ndarray
     eps_area: np.ndarray
     face: np.ndarray | None = None
+    unblocked: np.ndarray | None = None
+    to_space: np.ndarray | None = None
 
     def face_power(self, T_sn: np.ndarray, T_sink: float, T4_face: np.ndarray | None = None) -> np.ndarray:
         """(f,) W absorbed by each FE face (both sides) when each emitter emits σ εA (T⁴ − T_sink⁴): T the super

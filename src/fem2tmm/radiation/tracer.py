@@ -761,6 +761,24 @@ def trace_absorption(surface: Surface, groups, rays_per_group=None, ray_density:
     return frac[:, :ns].tocsr(), np.asarray(frac[:, ns:].todense()), tracer.emitters.weight.copy()
 
 
+def side_fractions(groups: np.ndarray, blocked: np.ndarray, space: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per FE side, the traced fates of its emission from those of the groups (emitters) it belongs to.
+
+    ``groups`` (2f,) emitter of each side (-1: emits nothing), ``blocked`` (g,) fraction of each emitter's rays
+    stopped by inactive sides (optics ``"none"``) and ``space`` (g,) fraction that left to space (after closure).
+    Returns ``(unblocked (2f,), to_space (2f,))``: 1 − blocked and the space fraction of the side's emitter (1 and 0
+    for sides that emit nothing).  A blocked ray counts as never emitted (the REFs close on 1 − blocked), so a
+    side's emission is εA·unblocked (:meth:`fem2tmm.fem.model.FEModel.with_unblocked`) and its emission to space
+    εA·to_space: the one emission the detailed reference, the thesis' network and the radiation-aware reduction
+    share."""
+    groups = np.asarray(groups, np.int64)
+    on = groups >= 0
+    unblocked, to_space = np.ones(len(groups)), np.zeros(len(groups))
+    unblocked[on] = 1.0 - np.asarray(blocked, float)[groups[on]]
+    to_space[on] = np.asarray(space, float)[groups[on]]
+    return unblocked, to_space
+
+
 def exchange_factors(points, faces, emissivity=0.8, specular=0.0, transmissivity=0.0, super_faces=None,
                      rays_per_face=10_000, ray_density=None, sampling="halton", seed=0, *,
                      target_lse=None, threads=2, max_bounces=MAX_BOUNCES, quadric=None) -> ExchangeResult:

@@ -46,6 +46,10 @@ class ReductionInputs:
     trace_ir : ``trace_ir(case) -> IRAbsorption``: traces where the emitted IR is absorbed on the FE sides
         (:func:`fem2tmm.stages.radiation.ir_absorption`), or None when nothing is traced
     ir_on_asked : the case file's ``[radiation] ir_on`` before "auto" was resolved
+    unblocked, to_space : (2f,) per FE side, the fraction of its emission not stopped by inactive sides and the
+        fraction that leaves to space, from the super faces' tracing (:func:`fem2tmm.radiation.tracer.side_fractions`),
+        or None without face-to-face radiation: a method that emits from the FE sides emits εA·unblocked
+        (:meth:`fem2tmm.fem.model.FEModel.with_unblocked`), as the traced REFs close on it
     """
 
     model: FEModel
@@ -58,6 +62,8 @@ class ReductionInputs:
     linearised_at: np.ndarray | None = None
     trace_ir: Callable | None = None
     ir_on_asked: str = "auto"
+    unblocked: np.ndarray | None = None
+    to_space: np.ndarray | None = None
 
 
 class Reductor:
