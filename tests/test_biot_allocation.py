@@ -207,3 +207,50 @@ def test_ir_on_faces_fixed_point_does_not_depend_on_the_clustering():
     d_faces = np.abs(field("faces", 4) - field("faces", 12)).max()
     d_detailed = np.abs(field("detailed", 4) - field("detailed", 12)).max()
     assert d_faces < 1e-2 and d_detailed > 10 * d_faces, (d_faces, d_detailed)
+
+
+def test_an_element_collapsed_by_an_isothermal_joint_has_no_biot_number(tmp_path):
+    # issue 42 item 5: a quad whose four corners an isothermal RBE2 ties into one node conducts nothing of its own
+    # (its k t is round-off); main 3955e37 warned "Bi > 1 (max 6.9e11)" for it.  1 m plate of 8 x 8 quads, k 200,
+    # 2 mm, black both sides, held at 20 °C on x = 0: the other elements' Bi = 8σT³ A / (k t) <= 0.48 at 300 K.
+    from fem2tmm.reduce.biot import element_biot
+
+    n = 8
+    lines = []
+    for j in range(n + 1):
+        for i in range(n + 1):
+            lines.append(f"GRID,{1 + i + (n + 1) * j},,{i / n},{j / n},0.0")
+    for j in range(n):
+        for i in range(n):
+            g = 1 + i + (n + 1) * j
+            lines.append(f"CQUAD4,{1 + i + n * j},1,{g},{g + 1},{g + n + 2},{g + n + 1}")
+    corners = (1 + 4 + (n + 1) * 4, 1 + 5 + (n + 1) * 4, 1 + 5 + (n + 1) * 5, 1 + 4 + (n + 1) * 5)  # element 37
+    lines += ["PSHELL,1,10,0.002", "MAT4,10,200.0,900.0,2700.0", f"RBE2,900,{corners[0]},123456,"
+              + ",".join(map(str, corners[1:]))]
+    deck = tmp_path / "plate.bdf"
+    deck.write_text("\n".join(lines) + "\n")
+    mesh_nodes = ",".join(str(1 + (n + 1) * j) for j in range(n + 1))
+    case = make_case([{"name": "p", "groups": ["PID 1"], "front": "black", "back": "black", "super_nodes": 4}],
+                     [{"kind": "temperature", "nodes": [int(x) for x in mesh_nodes.split(",")], "value": 20.0}],
+                     mesh={"file": str(deck)}, joints=[{"cards": ["RBE2"], "treatment": "isothermal"}],
+                     environment={"sink_temperature": -270.0}, radiation={"enabled": False},
+                     reduction={"radiation_aware": True, "outer_iterations": 2}, reference={"detailed": False})
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = run(case)
+    assert not [x for x in w if "Biot number h_rad A/(k t) > 1" in str(x.message)], [str(x.message) for x in w]
+    model = res.model
+    h = 4.0 * SIGMA * model.space_coupling() * 300.0**3
+    h_el, kt, shell = element_biot(model, h)
+    ed = model.element_dofs[:, :4]
+    collapsed = np.flatnonzero((ed == ed[:, :1]).all(axis=1))
+    assert len(collapsed) == 1  # element 37
+    row = int(collapsed[0])
+    assert h_el[row] == 0.0  # no conduction of its own: no Biot number
+    far = np.flatnonzero(shell)
+    held = model.fixed[0].dof
+    far = far[np.all((model.element_dofs[far, :4] != model.element_dofs[row, 0])
+                     & (model.element_dofs[far, :4] != held), axis=1)]  # touching neither the joint nor the held edge
+    bi = h_el[far] / kt[far]
+    # closed form for the elements that do not touch the joint: 4σT³ · 2 sides · A / (k t), A = 1/64 m², k t = 0.4
+    assert bi.max() == pytest.approx(4 * SIGMA * 300.0**3 * 2 / 64 / 0.4, rel=1e-6)

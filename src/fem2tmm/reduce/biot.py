@@ -18,7 +18,8 @@ def element_biot(model: FEModel, h_dof: np.ndarray) -> tuple[np.ndarray, np.ndar
     element's ``k t`` is read off its conduction matrix (a bilinear quad's diagonal is 2/3 k t, a linear
     triangle's about the same: ``k t ≈ 1.5 · trace(K_e) / n_nodes``); its ``h_rad A`` is its nodes' h shared by
     their nodal volume shares.  Returns ``(h_rad A (m,) W/K, k t (m,) W/K, shell (m,) bool)``; ``Bi = h_rad A /
-    (k t)`` where ``shell`` (a conducting shell element).
+    (k t)`` where ``shell`` (a conducting shell element); an element whose nodes are all one DOF (an isothermal
+    joint ties them) conducts nothing of its own: its h_rad A is 0 (Bi 0).
     """
     coo = model.coo
     m = len(model.elements)
@@ -33,6 +34,11 @@ def element_biot(model: FEModel, h_dof: np.ndarray) -> tuple[np.ndarray, np.ndar
     tot = np.bincount(ed[ok], shares[ok], minlength=model.n_dof)
     frac = np.where(ok, shares / np.where(ok, tot[np.maximum(ed, 0)], 1.0), 0.0)
     h_el = (frac * np.where(ok, h_dof[np.maximum(ed, 0)], 0.0)).sum(axis=1)
+    # an element whose nodes are all one DOF (its corners tied by an isothermal joint, issue 42) has no conduction
+    # of its own (its k t above is round-off, 1e-17 W/K): no Biot number (0, like a non-radiating element)
+    lo = np.where(ok, ed, np.iinfo(np.int64).max).min(axis=1)
+    hi = np.where(ok, ed, -1).max(axis=1)
+    h_el = np.where(hi > lo, h_el, 0.0)
     shell = np.isin(model.element_types, [TYPE_CODE[t] for t in SHELL_TYPES]) & (kt > 0)
     return h_el, kt, shell
 
