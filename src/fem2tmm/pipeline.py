@@ -36,7 +36,7 @@ from .radiation.tracer import side_fractions
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for
 from .reductors.radiation_aware import parametric_corrections, parametric_states, set_parametric
-from .result import CasesResult, Detailed, Orbit, Result
+from .result import CasesResult, Detailed, Orbit, Reduced, Result
 from .solve.steady import check_solvable
 from .keys import geometry_key, network_group, reduce_key, scene_key, trace_key
 from .reduce.biot import biot_weights, warn_coarse_mesh
@@ -514,19 +514,43 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                                  if trace else None)
         # the thesis' reduction first: the network when nothing else is chosen, else the next method's start
         reductor = first_reductor(case)
-        red = reductor.reduce(inputs, prog)
+        thesis_failed = None
+        try:
+            red = reductor.reduce(inputs, prog)
+        except Fem2TmmError as exc:
+            if (case.reduction.radiation_aware is False or case.reduction.network == "positive"
+                    or not np.any(model.space_coupling() > 0)):
+                raise
+            # the thesis' network has no physical solution (its negative conductances, a strong heater on a thin
+            # panel): the radiation-aware reduction needs none, it starts from the detailed field radiating to
+            # space (issue 42: a thin composite bracket at 30 super nodes, 40 W)
+            thesis_failed = str(exc)
+            with prog.stage("presolve_space", "the detailed field radiating to space (the thesis' network has no "
+                                              "physical solution)"):
+                T_start = presolve_space(model, case)
+            red = Reduced(method=reductor.name, network=rm, solution=None, T_recovered=T_start, q_recover=q_recover,
+                          case=case)
+            case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
         group = (linearised or {}).get(network_group(case)) if case.reduction.radiation_aware is not False else None
         if group is not None and case.reduction.radiation_aware == "auto":  # the set's choice, made by its first case
             case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction,
                                                                           radiation_aware=group["aware"]))
         case, choice = choose_reduction(model, case, red.network, red.T_recovered)
+        if thesis_failed is not None:
+            choice = {**choice, "chosen_by": "the thesis' network has no physical steady solution (its negative "
+                                             "conductances): the radiation-aware reduction, started from the "
+                                             "detailed field radiating to space",
+                      "thesis_refused": thesis_failed}
         if group is not None and case.reduction.radiation_aware:
             extra["shared_network"] = {"linearised_at": group["case"], "cases": list(group["cases"])}
         inputs = dataclasses.replace(inputs, case=case, linearised_at=None if group is None else group["T"])
         if reductor_for(case).name != reductor.name:
-            extra["thesis_T_recovered"] = red.T_recovered
+            if thesis_failed is None:
+                extra["thesis_T_recovered"] = red.T_recovered
             reductor = reductor_for(case)
             red = reductor.reduce(inputs, prog, start=red)
+            if red.network.radiative is not None and not red.network.radiative.shared:
+                extra.pop("shared_network", None)  # left the set's network (no solution there): its own
             if red.notes:
                 choice = {**choice, "ir_on": red.case.radiation.ir_on,
                           "chosen_by": "; ".join([choice["chosen_by"], *red.notes])}

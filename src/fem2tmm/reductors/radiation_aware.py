@@ -73,11 +73,28 @@ class RadiationAwareReductor(Reductor):
         with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
             args = (model, inputs.clustering, case, start.network, inputs.q_recover, inputs.q_lumped,
                     start.T_recovered)
+            lin, out, failed = inputs.linearised_at, None, None
             try:
-                rm, sol, T, history = radiation_aware_network(*args, ir, linearised_at=inputs.linearised_at)
+                out = radiation_aware_network(*args, ir, linearised_at=lin)
             except Fem2TmmError as exc:
+                failed = exc
+            if out is None and lin is not None:
+                # a case set's network, linearised about another case's field, can have no physical solution at
+                # this case's loads (issue 42: a thin bracket linearised at 0 W, this case 40 W): its own network
+                warnings.warn(f"the load-case set's shared radiation-aware network has no physical steady solution "
+                              f"for this case ({failed}); this case gets a network of its own", stacklevel=2)
+                notes.append("the set's shared network had no solution for this case: a network of its own")
+                lin = None
+                try:
+                    out = radiation_aware_network(*args, ir)
+                except Fem2TmmError as exc:
+                    failed = exc
+            if out is not None:
+                rm, sol, T, history = out
+            else:
+                exc = failed
                 if not (inputs.ir_on_asked == "auto" and case.radiation.ir_on == "faces"):
-                    raise
+                    raise exc
                 # ir_on chosen by "auto": the per-side IR correction, linearised far from the solution, can leave
                 # the network without a physical solution (a 0.1 mm panel under 745 W on one super node,
                 # tests/test_robustness.py); the super faces' IR (ir_on = "super_faces") is the robust form
@@ -87,8 +104,7 @@ class RadiationAwareReductor(Reductor):
                 case = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation, ir_on="super_faces"))
                 notes.append("ir_on = \"faces\" had no network solution: \"super_faces\"")
                 ir = None
-                rm, sol, T, history = radiation_aware_network(*args[:2], case, *args[3:], None,
-                                                              linearised_at=inputs.linearised_at)
+                rm, sol, T, history = radiation_aware_network(*args[:2], case, *args[3:], None, linearised_at=lin)
         return Reduced(method=self.name, network=rm, solution=sol, T_recovered=T, q_recover=inputs.q_recover,
                        case=case, method_report=history, ir=ir, notes=notes)
 

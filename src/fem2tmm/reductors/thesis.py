@@ -45,8 +45,12 @@ def solve_exact(inputs: ReductionInputs):
             raise
         # the exact condensation's negative conductances break the maximum principle: with extreme loads such a
         # network can have no positive steady solution although the detailed model has one
+        # (a refusal never advises a setting already in force)
+        advice = [x for x, now in (("[reduction] network = \"positive\"", case.reduction.network == "positive"),
+                                   ("radiation_aware = true", case.reduction.radiation_aware is True))
+                  if not now] + ["more super nodes"]
         raise Fem2TmmError(
             f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation of the "
             "thesis' reduction), which break the maximum principle, and no physical steady solution under these "
-            "loads (the detailed model has one); use [reduction] network = \"positive\", radiation_aware = true, or "
-            "more super nodes") from None
+            f"loads (the detailed model has one); use {', '.join(advice[:-1])}{' or ' if len(advice) > 1 else ''}"
+            f"{advice[-1]}") from None
