@@ -432,6 +432,14 @@ def summary_table(s: dict) -> str:
     rad = s.get("radiation") or {}
     if rad.get("rays"):
         rows.append(("radiation", f"{rad['rays']:,} rays, RMS line-sum error {rad['lse_rms']:.2e}"))
+    chk = (red or {}).get("emission_check")
+    if chk:
+        rows.append(("emission to space", f"network {chk['network_W']:.4g} W, its recovered field {chk['traced_W']:.4g} "
+                     f"W traced ({100 * chk['relative']:.2g} % apart)"))
+        blocked = {k: v for k, v in (chk.get("blocked_by_part") or {}).items() if v > 0}
+        if blocked:
+            rows.append(("blocked by inactive sides", ", ".join(f"{k} {100 * v:.3g} %" for k, v in blocked.items())
+                         + " of the part's emission (never emitted)"))
     rows += temperature_rows(s)
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is not None:
