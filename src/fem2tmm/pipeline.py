@@ -563,7 +563,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             reduced.emission_check = emission_check(
                 model, float(reduced.solution.to_space.sum()) + (_by_correction(reduced.network) or 0.0),
                 reduced.T_recovered, red.ir.to_space if ir_sides else inputs.to_space, res.blocked, res.eps_area,
-                rm.part[sf[1]])
+                rm.part[sf[1]], warn=reduced.method == "radiation_aware")
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):

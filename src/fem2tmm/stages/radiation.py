@@ -185,15 +185,16 @@ def space_emission(model: FEModel, T: np.ndarray, to_space: np.ndarray) -> float
 
 def emission_check(model: FEModel, network_W: float, T: np.ndarray, to_space: np.ndarray | None,
                    blocked: np.ndarray | None = None, eps_area: np.ndarray | None = None,
-                   part: np.ndarray | None = None) -> dict | None:
+                   part: np.ndarray | None = None, warn: bool = True) -> dict | None:
     """The network's radiation to space against the traced emission to space of its recovered field.
 
     ``network_W`` what the network radiates at its solution (its couplings to space, plus what a radiation-aware
     network's correction load radiates), ``T`` (n_dof,) K its recovered field, ``to_space`` (2f,) per side traced
     space fraction (None: no face-to-face tracing, nothing to check).  ``blocked``, ``eps_area``, ``part`` (g,) per
     super face: its blocked fraction, εA and part index, for the blocked fraction per part.  Returns
-    ``{"network_W", "traced_W", "relative", "blocked_by_part"}`` and warns when ``relative`` exceeds
-    :data:`EMISSION_MISMATCH`."""
+    ``{"network_W", "traced_W", "relative", "blocked_by_part"}`` and, with ``warn``, warns when ``relative``
+    exceeds :data:`EMISSION_MISMATCH` (for the radiation-aware network, whose fixed point makes the two equal up to
+    the ray noise; the thesis' network differs by its uniform-load error: examples/cylinders, 0.095 K RMS, 1.1 %)."""
     if to_space is None:
         return None
     traced = space_emission(model, T, to_space)
@@ -207,7 +208,7 @@ def emission_check(model: FEModel, network_W: float, T: np.ndarray, to_space: np
         blk = np.bincount(p[ok], ea[ok] * np.asarray(blocked, float)[ok], minlength=len(model.parts))
         out["blocked_by_part"] = {model.parts[i].name: float(blk[i] / tot[i]) for i in range(len(model.parts))
                                   if tot[i] > 0}
-    if rel > EMISSION_MISMATCH:
+    if warn and rel > EMISSION_MISMATCH:
         import warnings
 
         warnings.warn(f"the network radiates {network_W:.4g} W to space at its solution, but its recovered field "
