@@ -1,5 +1,6 @@
-"""Generated small models for the robustness campaign (issue 31): shared by tests/test_robustness.py (a budget that
-fits in the default run) and ``fem2tmm bench robustness`` (a longer profile).
+"""Generated small models for the robustness campaign (issue 31; a plate under an inactive lid, issue 42): shared by
+tests/test_robustness.py (a budget that fits in the default run) and ``fem2tmm bench robustness`` (a longer
+profile).
 
 Every generated model must either solve, with both energy balances closed and every temperature within the bounds
 of its sources of heat and cold, or stop with a :class:`~fem2tmm.Fem2TmmError` that names the cause.
@@ -34,7 +35,7 @@ def make_mesh(call: str):
 def models(draw):
     """(case data, mesh, what): a random small shell or solid model; the case is parsed by :func:`check`, whose
     refusals count as outcomes."""
-    kind = draw(st.sampled_from(["plate", "sliver", "box", "solid", "two_plates_at_a_node"]))
+    kind = draw(st.sampled_from(["plate", "sliver", "box", "solid", "two_plates_at_a_node", "blocked"]))
     if kind == "plate":
         call = (f"plate({draw(st.floats(0.05, 0.5))!r}, {draw(st.floats(0.05, 0.5))!r}, {draw(st.integers(1, 12))}, "
                 f"{draw(st.integers(1, 12))})")
@@ -50,6 +51,11 @@ def models(draw):
                 f"{draw(st.integers(1, 3))}, kind='solid', "
                 f"element={draw(st.sampled_from(['hex8', 'tet4', 'wedge6']))!r})")
         part_groups, held = ["box"], "xmin"
+    elif kind == "blocked":  # a plate under an inactive lid (optics "none": it shades and conducts, issue 42)
+        n = draw(st.integers(1, 8))
+        call = (f"merge(plate(0.2, 0.2, {n}, {n}), plate(0.2, 0.2, {n}, {n}, "
+                f"origin=(0.0, 0.0, {draw(st.floats(0.01, 0.2))!r}), name='lid'))")
+        part_groups, held = ["plate"], "xmin"  # xmin: both plates' edges (the lid is held with the plate)
     else:  # two plates touching at one corner node only
         call = "merge(plate(0.1, 0.1, 3, 3), transform(plate(0.1, 0.1, 3, 3), translation=(0.1, 0.1, 0.0)))"
         part_groups, held = ["plate"], "xmin"
@@ -65,7 +71,7 @@ def models(draw):
         part["thickness"] = draw(st.floats(1e-4, 5e-3))
         part["back"] = draw(st.sampled_from(["paint", "none"]))
     boundary = []
-    hold = draw(st.booleans())
+    hold = draw(st.booleans()) or kind == "blocked"  # the lid has no load of its own: held, else undetermined
     if hold:
         boundary.append({"name": "held", "kind": "temperature", "groups": [held],
                          "value": draw(st.floats(-150.0, 120.0))})
@@ -79,7 +85,10 @@ def models(draw):
         optics["paint"]["emissivity"] = eps
     data = {"materials": {"m": {"conductivity": 10 ** draw(st.floats(0.0, 3.0)), "density": 2000.0,
                                 "specific_heat": 900.0}},
-            "optics": optics, "parts": [part], "boundary": boundary,
+            "optics": optics, "parts": [part] + ([{"name": "lid", "groups": ["lid"], "material": "m",
+                                                    "thickness": part.get("thickness", 1e-3), "front": "none",
+                                                    "back": "none", "super_nodes": 1}] if kind == "blocked" else []),
+            "boundary": boundary,
             "environment": {"sink_temperature": sink},
             "radiation": {"enabled": draw(st.booleans()), "rays_per_face": 50},
             "reduction": {"radiation_aware": draw(st.booleans()), "outer_iterations": 20},
