@@ -567,7 +567,10 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
-                nxt = refinement_step(model, clustering, case, reduced.network, reduced.solution.T,
+                # the estimate's emission is the one every method shares: εA (1 − blocked) per side (issue 42)
+                unblocked = red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None else inputs.unblocked
+                nxt = refinement_step(model.with_unblocked(unblocked), clustering, case, reduced.network,
+                                      reduced.solution.T,
                                       reduced.T_recovered, q_recover, q_lumped, reduced.ir, refine,
                                       surface if trace else None, scenes.main() if trace else None)
             if nxt is not None:
