@@ -47,7 +47,7 @@ from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_posi
 from .stages.quadrics import fit_quadrics, quadric_regions
 from .stages.radiation import (detailed_radiation, emission_check, ir_absorption, mean_faced, radiation_surface,
                                reduced_radiation, reference_noise, tracer_settings)
-from .stages.refine import Refinement, refinement_step
+from .stages.refine import Refinement, error_estimate, refinement_step
 from .stages.solar import absorbed_solar_maps, detailed_solar, solar_prepass, super_face_solar
 from .stages.transient import check_transient, run_transient
 
@@ -514,7 +514,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                                  if trace else None)
         # the thesis' reduction first: the network when nothing else is chosen, else the next method's start
         reductor = first_reductor(case)
-        thesis_failed = None
+        thesis_failed = thesis_red = None
         try:
             red = reductor.reduce(inputs, prog)
         except Fem2TmmError as exc:
@@ -547,6 +547,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         if reductor_for(case).name != reductor.name:
             if thesis_failed is None:
                 extra["thesis_T_recovered"] = red.T_recovered
+                thesis_red = red
             reductor = reductor_for(case)
             red = reductor.reduce(inputs, prog, start=red)
             if red.network.radiative is not None and not red.network.radiative.shared:
@@ -564,6 +565,19 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
                 model, float(reduced.solution.to_space.sum()) + (_by_correction(reduced.network) or 0.0),
                 reduced.T_recovered, red.ir.to_space if ir_sides else inputs.to_space, res.blocked, res.eps_area,
                 rm.part[sf[1]], warn=reduced.method == "radiation_aware")
+        if thesis_red is not None and case_asked.reduction.radiation_aware == "auto":
+            # the a-posteriori estimate of both candidates' error (no detailed reference), beside the choice
+            with prog.stage("estimate", "estimating both reductions' errors (a-posteriori)"):
+                t0 = time.perf_counter()
+                m_est = model.with_unblocked(red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None
+                                             else inputs.unblocked)
+                st, sc = Refinement(), (surface if trace else None, scenes.main() if trace else None)
+                est = {"thesis": error_estimate(m_est, clustering, case, thesis_red.network, thesis_red.solution.T,
+                                                thesis_red.T_recovered, q_recover, q_lumped, None, st, *sc)[0],
+                       reduced.method: error_estimate(m_est, clustering, case, reduced.network, reduced.solution.T,
+                                                      reduced.T_recovered, q_recover, q_lumped, reduced.ir, st, *sc)[0]}
+                reduced.choice = {**reduced.choice, "estimated_rms_K": est,
+                                  "estimate_seconds": time.perf_counter() - t0}
         if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):

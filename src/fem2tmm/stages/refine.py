@@ -109,6 +109,31 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
     return r, h, source, feedback
 
 
+def error_estimate(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
+                   T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
+                   state: Refinement, surface: Surface | None = None, scene=None) -> tuple[float, np.ndarray]:
+    """``(rms K, e2 (k,))``: the a-posteriori estimate of the recovered field's RMS error and each cluster's share
+    (``[reduction] refine_estimator``), without a detailed reference.  Arguments as for :func:`refinement_step`
+    (``rm`` any reduced model: the thesis' or the radiation-aware; ``ir`` its IR absorption or None)."""
+    from ..reduce.refine import cluster_errors, global_estimate, interior_dofs, local_error, owner_dofs
+
+    el_cluster = clustering.labels[model.elements]
+    k = int(len(clustering.cluster_part))
+    r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
+                                                 surface, scene)
+    weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
+    if case.reduction.refine_estimator == "local":
+        if source is not None:
+            r = r + np.asarray(source[0].T @ source[1]).ravel()
+        dof_cluster = interior_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
+        e2, rms = cluster_errors(local_error(model.K, h, r, dof_cluster), dof_cluster, k, weight)
+    else:
+        owner = owner_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
+        dT, e2 = global_estimate(model.K, h, r, ~model.fixed_mask, weight, owner, k, source, feedback)
+        rms = float(np.sqrt((weight * dT**2).sum() / weight.sum()))
+    return float(rms), e2
+
+
 def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
                     T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
                     state: Refinement,
@@ -139,26 +164,14 @@ def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: Redu
     """
     import time
 
-    from ..reduce.refine import (cluster_errors, global_estimate, interior_dofs, local_error, mark, owner_dofs,
-                                split_clusters)
+    from ..reduce.refine import mark, split_clusters
 
     t0 = time.perf_counter()
     red = case.reduction
     labels = clustering.labels
     el_cluster = labels[model.elements]
     k = int(len(clustering.cluster_part))
-    r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
-                                                 surface, scene)
-    weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
-    if red.refine_estimator == "local":
-        if source is not None:
-            r = r + np.asarray(source[0].T @ source[1]).ravel()
-        dof_cluster = interior_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
-        e2, rms = cluster_errors(local_error(model.K, h, r, dof_cluster), dof_cluster, k, weight)
-    else:
-        owner = owner_dofs(model.element_dofs, el_cluster, model.n_dof, model.fixed_mask)
-        dT, e2 = global_estimate(model.K, h, r, ~model.fixed_mask, weight, owner, k, source, feedback)
-        rms = float(np.sqrt((weight * dT**2).sum() / weight.sum()))
+    rms, e2 = error_estimate(model, clustering, case, rm, T_sn, T, q_recover, q_lumped, ir, state, surface, scene)
     entry = {"round": len(state.history), "n_super_nodes": k, "estimated_rms_K": rms, "split_clusters": []}
     state.history.append(entry)
     state.labels.append(labels.copy())
