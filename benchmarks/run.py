@@ -62,6 +62,8 @@ REGISTRY: dict[str, str] = {
     "satellite": "benchmarks.satellite:bench_satellite",
     "thermoelastic": "benchmarks.thermoelastic:bench_thermoelastic",
     "choice": "benchmarks.choice:bench_choice",
+    "offdesign": "benchmarks.offdesign:bench_offdesign",
+    "offdesign_curve": "benchmarks.offdesign:bench_offdesign_curve",
 }
 
 

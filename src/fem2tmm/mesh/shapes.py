@@ -204,6 +204,43 @@ def box(lx: float = 1.0, ly: float = 1.0, lz: float = 1.0, nx: int = 4, ny: int 
     return _build(pts[used], {element: renum[allc]}, groups, "box")
 
 
+def bracket(width: float = 1.2, length: float = 1.2, n: int = 60, patch=(0.6, 1.0, 0.2),
+            element: str = "quad4", name: str = "bracket") -> Mesh:
+    """An L-bracket: two ``width`` x ``length`` panels meeting at a right angle along the x axis (the joint).
+
+    The floor lies in z = 0, y in [0, length] (front side +z, towards the wall); the wall in y = 0, z in [0, length]
+    (front side +y, towards the floor); both x in [0, width], ``n`` x ``n`` quads each, sharing the joint's nodes.
+    ``patch = (x centre, z centre, side)``, m: a square heater patch of whole elements on the wall (the elements whose
+    centre lies inside it).  Groups: ``floor``, ``wall`` (without the patch), ``heater`` (2-D), ``edge`` (the
+    floor's free edge, y = length, nodes), ``top`` (the wall's free edge, z = length, nodes) and ``name`` (all).
+    """
+    _check(n=n)
+    xs, ys = np.linspace(0, width, n + 1), np.linspace(0, length, n + 1)
+    X, Y = np.meshgrid(xs, ys, indexing="xy")
+    floor = np.column_stack([X.ravel(), Y.ravel(), np.zeros(X.size)])
+    wall = np.column_stack([X.ravel(), np.zeros(X.size), Y.ravel()])[n + 1:]  # its first row is the joint
+    pts = np.concatenate([floor, wall])
+    q = _grid_quads(n, n)  # counter-clockwise in (x, y): floor normal +z
+    wall_index = np.concatenate([np.arange(n + 1), (n + 1) ** 2 + np.arange(n * (n + 1))])
+    qw = wall_index[q][:, ::-1]  # (x, z) counter-clockwise is normal -y: reversed, front side +y
+    cells = np.concatenate([q, qw])
+    centre = pts[cells].mean(axis=1)
+    cx, cz, side = patch
+    nf = len(q)
+    in_patch = np.zeros(len(cells), bool)
+    in_patch[nf:] = (np.abs(centre[nf:, 0] - cx) < side / 2) & (np.abs(centre[nf:, 2] - cz) < side / 2)
+    shell = _shell_cells(cells, element)
+    per = len(next(iter(shell.values()))) // len(cells)  # tri3: two triangles per quad, first halves then second
+    tile = lambda mask: np.flatnonzero(np.tile(mask, per))
+    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    groups = {name: (2, np.arange(per * len(cells)), None),
+              "floor": (2, tile(np.arange(len(cells)) < nf), None),
+              "wall": (2, tile((np.arange(len(cells)) >= nf) & ~in_patch), None),
+              "heater": (2, tile(in_patch), None),
+              "edge": (1, None, idx[-1]), "top": (1, None, wall_index[idx[-1]])}
+    return _build(pts, shell, groups, "bracket")
+
+
 def merge(*parts: Mesh, tol: float = 1e-9, name: str = "merged") -> Mesh:
     """Concatenate meshes and merge nodes closer than ``tol`` (relative to the overall size).
 
