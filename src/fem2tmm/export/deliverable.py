@@ -57,6 +57,8 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
     out = dict(names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR, Q=rm.Q, T=rs.T - KELVIN,
                kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN),
                positions=network_positions(result))
+    if rm.g_space_table is not None:  # GR to space (the last column of GR) as a function of each node's own T
+        out["GR_space_table_T"], out["GR_space_table"] = (np.asarray(v, float) for v in rm.g_space_table)
     if result.reduced.recovery is not None:
         out.update(result.reduced.recovery.arrays())
     par = result.reduced.parametric
@@ -122,7 +124,8 @@ def network_deck(result: Result) -> Deck:
                 transient=transient,
                 model_name=ex.model_name or Path(result.case.source).stem, load_terms=load_terms,
                 temperature_terms=temperature_terms, parametric_terms=parametric_terms,
-                validity=tuple(validity_lines(result.reduced.verified)))
+                validity=tuple(validity_lines(result.reduced.verified)),
+                space_tables=rm.g_space_table)
 
 
 def write_network(folder: Path, result: Result, sinda: bool = True) -> None:

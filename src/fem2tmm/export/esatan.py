@@ -103,6 +103,26 @@ class Deck:
     parametric_terms: tuple = ()
     #: the validity statement (comment lines without the mark, :func:`fem2tmm.export.validity.validity_lines`)
     validity: tuple = ()
+    #: ``(x (n, m) K, y (n, m) m²)`` or None: each node's GR to space as a function of its own temperature
+    #: (``GR_space`` its design value); written as $ARRAYS doublet tables read by INTRP1 of the node's T
+    space_tables: tuple | None = None
+
+
+def space_table_name(number: int) -> str:
+    """The $ARRAYS name of node ``number``'s table of GR to space against its own temperature."""
+    return f"GRS{int(number)}"
+
+
+def space_table_array(number: int, x_C: np.ndarray, y: np.ndarray) -> list[str]:
+    """The $ARRAYS statement (lines, continued at the deck's width) of node ``number``'s GR-to-space table: doublets
+    (temperature °C, GR m²)."""
+    return continued(f"{space_table_name(number)}({2 * len(x_C)}) = ",
+                     [f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(x_C, y)])
+
+
+def space_table_statement(number: int, space: int) -> str:
+    """The $VARIABLES1 statement that sets node ``number``'s GR to ``space`` from its own temperature."""
+    return f"    GR({int(number)}, {int(space)}) = INTRP1(T{int(number)}, {space_table_name(number)});"
 
 
 def node_numbers(part: np.ndarray, n_parts: int) -> tuple[np.ndarray, int]:
@@ -388,8 +408,10 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append(f"    RELXCA = {_fmt(RELXCA)};")
     lines.append(f"    NLOOP = {NLOOP};")
     lines += [f"    {c} = {_fmt(v)};" for c, v in transient_controls(tr)]
+    space_rows = [] if deck.space_tables is None else [
+        i for i in range(n) if not deck.boundary[i] and deck.GR_space[i] != 0]
     lines.append("$ARRAYS")
-    if tr is not None or deck.parametric_terms:
+    if tr is not None or deck.parametric_terms or space_rows:
         lines.append("  $REAL")
     if tr is not None:
         lines += comment_lines("doublet arrays (time s, value), read by linear interpolation in time (INTRP1), "
@@ -409,6 +431,13 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
             for j in range(1, len(W)):
                 lines += comment_lines(f"P{k + 1}W{j}: {c}, state {j}")
                 lines += continued(f"P{k + 1}W{j}({2 * len(x)}) = ", [f"{_fmt(a)}, {_fmt(b)}" for a, b in zip(x, W[j])])
+    if space_rows:
+        lines += comment_lines("the effective emission to space of each node (GR m2) against its own temperature "
+                               "(degC): doublet arrays read by INTRP1 in $VARIABLES1, constant outside (the emission "
+                               "then grows as T^4)")
+        x, y = deck.space_tables
+        for i in space_rows:
+            lines += space_table_array(deck.numbers[i], np.asarray(x[i]) - KELVIN, y[i])
     lines.append("$EVENTS")
     lines.append("$SUBROUTINES")
     lines.append("$INITIAL")
@@ -434,6 +463,8 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
             lines.append(f"    T{deck.numbers[i]} = INTRP1(TIMEM, TTAB{k + 1});")
         if tr.sink is not None:
             lines.append(f"    T{deck.space} = INTRP1(TIMEM, TSINK);")
+    for i in space_rows:
+        lines.append(space_table_statement(deck.numbers[i], deck.space))
     lines.append("$VARIABLES2")
     lines.append("$OUTPUTS")
     lines.append("    CALL PRNDTB(' ', 'L, T, QI, C', CURRENT);")

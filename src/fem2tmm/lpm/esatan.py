@@ -39,6 +39,10 @@ _ASSIGN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$", re.S)
 _QI = re.compile(r"^(QI|T)\s*(?:\(\s*(\d+)\s*\)|(\d+))\s*=\s*(.+)$", re.S | re.I)
 _ARRAY = re.compile(r"^([A-Za-z_]\w*)\s*\(\s*(\d+)\s*\)\s*=\s*(.+)$", re.S)
 _INTRP1 = re.compile(r"INTRP1\s*\(\s*TIMEM\s*,\s*([A-Za-z_]\w*)\s*\)", re.I)
+#: a conductor following a node's own temperature: ``GR(a, b) = INTRP1(Tk, A);`` in $VARIABLES1 (A a doublet array of
+#: temperature, value; constant outside), as fem2tmm's writer emits for the effective emission to space
+_GR_OF_T = re.compile(r"GR\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*INTRP1\s*\(\s*T\s*(\d+)\s*,\s*([A-Za-z_]\w*)\s*\)$",
+                      re.I)
 _INTRP1_OF = re.compile(r"INTRP1\s*\(\s*([A-Za-z_]\w*)\s*,\s*([A-Za-z_]\w*)\s*\)", re.I)  # of any name
 # the plain conductor, one node to one node with a number (what fem2tmm writes, ~10⁶ of them at 1 000 super nodes):
 # read without the general expression path
@@ -217,6 +221,7 @@ def _read(path, time, window):
     conds: list[tuple] = []
     plain: list[tuple] = []  # (line, is GR, a, b, value) of the plain conductors
     qi_set: list[tuple] = []
+    gr_of_t: list[tuple] = []
     skipped = 0
     for block, sub, line, s in stmts:
         if block == "NODES":
@@ -264,7 +269,14 @@ def _read(path, time, window):
             conds.append((line, kind, a, b, value(line, m.group(4), kind)))
         elif block == "VARIABLES1":
             m = _QI.match(s)
-            if m:
+            g = _GR_OF_T.match(s)
+            if g:
+                a = arrays.get(g.group(4).upper())
+                if a is None or len(a) < 2:
+                    fail(line, f"INTRP1 of the unknown doublet array {g.group(4)!r}")
+                gr_of_t.append((line, int(g.group(1)), int(g.group(2)), int(g.group(3)), a[0::2] + tabs,
+                                a[1::2] * gr_scale))
+            elif m:
                 qi_set.append((line, m.group(1).upper(), int(m.group(2) or m.group(3)), value(line, m.group(4),
                                                                                         m.group(1).upper()),
                                m.group(4)))
@@ -338,6 +350,8 @@ def _read(path, time, window):
             vals = [value(line, expr, what, at(t)) + others for t in times] if _INTRP1.search(expr) else \
                 [q + others] * len(times)
             (Q_t if what == "QI" else T_t)[:, i] = vals
+    gr_tables = tuple((rows(line, np.array([a]))[0], rows(line, np.array([b]))[0], rows(line, np.array([k]))[0], x, y)
+                      for line, a, b, k, x, y in gr_of_t)
     coords = None
     if any(("FX" in nd[4] or "FY" in nd[4] or "FZ" in nd[4]) for nd in nodes):
         has = np.array([any(k in nd[4] for k in ("FX", "FY", "FZ")) for nd in nodes])
@@ -350,7 +364,7 @@ def _read(path, time, window):
     net = Network(numbers=numbers, labels=np.array([nd[3] for nd in nodes], dtype=object).astype(str),
                   kind=np.array([nd[1] for nd in nodes]), T=T, C=get("C"), A=get("A"),
                   alp=get("ALP"), eps=get("EPS"), QI=Q, GL=mats["GL"], GR=mats["GR"], coordinates=coords,
-                  source=str(path), notes=notes)
+                  source=str(path), notes=notes, gr_tables=gr_tables)
     return net, times, Q_t, T_t
 
 

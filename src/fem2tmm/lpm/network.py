@@ -85,6 +85,9 @@ class Network:
     coordinates: np.ndarray | None = None
     source: str = "network"
     notes: tuple = field(default_factory=tuple)
+    #: conductors GR(i, j) that follow node k's temperature: ``(i, j, k, x (m,) K, y (m,) m²)`` row indices and a
+    #: table (piecewise linear, constant outside); their ``GR`` entry holds the value at the deck's T
+    gr_tables: tuple = ()
 
     def __post_init__(self):
         n = len(self.numbers)

@@ -56,8 +56,27 @@ def steady_problem(net: Network, case: LoadCase) -> SteadyProblem:
         faced = FacedRadiation(W=sp.identity(n, format="csr"), G=GR)
     elif GR.nnz:
         node_gr = GR
+    g_space, T_sink, g_table = np.zeros(n), 3.0, None
+    if net.gr_tables:  # GR to one boundary node following each node's own temperature: its coupling to the sink
+        i, j, k = (np.array([t[c] for t in net.gr_tables]) for c in range(3))
+        if not (np.all(i == k) and np.all(j == j[0]) and fixed[j[0]]) or len(np.unique(i)) < len(i):
+            raise Fem2TmmError(f"{net.source}: temperature-dependent GR are read only as each node's coupling to one "
+                               "boundary node (the space node) following the node's own temperature")
+        m = max(len(t[3]) for t in net.gr_tables)
+        x, y = np.zeros((n, m)), np.zeros((n, m))
+        x[:] = np.arange(m)  # nodes without a table: constant 0
+        for a, _, _, xs, ys in net.gr_tables:
+            x[a], y[a] = np.pad(xs, (0, m - len(xs)), mode="edge"), np.pad(ys, (0, m - len(ys)), mode="edge")
+        g_space[i] = y[i, 0]
+        T_sink, g_table = float(T_fixed[j[0]]), (x, y)
+        keep = sp.csr_matrix((np.ones(len(i) * 2), (np.r_[i, j], np.r_[j, i])), shape=(n, n))
+        GR = (GR - GR.multiply(keep)).tocsr()
+        GR.eliminate_zeros()
+        node_gr = GR if GR.nnz and faced is None else None
+        if faced is not None:
+            faced = FacedRadiation(W=faced.W, G=GR)
     return SteadyProblem(K=net.K(), Q=np.asarray(case.Q, float), fixed=fixed, T_fixed=T_fixed,
-                         g_space=np.zeros(n), T_sink=3.0, GR=node_gr, faced=faced)
+                         g_space=g_space, T_sink=T_sink, GR=node_gr, faced=faced, g_table=g_table)
 
 
 def boundary_flows(net: Network, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

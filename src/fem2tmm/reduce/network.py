@@ -51,6 +51,10 @@ class ReducedModel:
     area: np.ndarray | None = None  # (n,) m² radiating area of each super node (both sides, active)
     report: dict = field(default_factory=dict)
     radiative: RadiationAware | None = None  # radiation-aware reduction (K is then K̃ = K'_SN − diag(H_SN))
+    #: ``(x (n, m) K, y (n, m) m²)`` or None: each super node's coupling to space as a function of its own
+    #: temperature (the radiation-aware network's effective emission, :func:`fem2tmm.reduce.radiative.effective_emission`);
+    #: ``g_space`` then holds its value at the design state
+    g_space_table: tuple | None = None
 
     @property
     def n(self) -> int:

@@ -175,6 +175,62 @@ class RadiationAware:
         return self.reduction.recover(T_sn, q + (extra[:, None] if q.ndim == 2 else extra))
 
 
+#: the effective emission's table spans [T*/EMISSION_SPAN, T*·EMISSION_SPAN] about each super node's design
+#: temperature T*.  Measured on issue 41's L-bracket at 300 super nodes (heater 0 / 5 / 40 W, sink -100 °C, RMS / max
+#: K): span 1.1: 1.04/2.3, 0.27/2.0, 1.03/9.5, 0.32/1.9; 1.2: 1.02/2.3, 0.23/1.3, 0.65/5.1, 0.25/1.6; 1.25:
+#: 1.03/2.3, 0.17/0.9, 0.55/3.2, 0.36/2.6; 1.3: 1.03/2.4, 0.16/0.8, 0.60/3.8, 0.53/4.0; 1.5: a state without
+#: solution (docs/design-notes.md)
+EMISSION_SPAN = 1.25
+#: where the linear table would change the sign of the design value or fall below this fraction of it, it holds
+#: this fraction instead (an emission that vanishes would leave the node without its physical heat path)
+EMISSION_FLOOR = 0.05
+
+
+def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixed: np.ndarray, T_sn: np.ndarray,
+                       T_sink: float, H: np.ndarray, g_fixed: np.ndarray,
+                       span: float = EMISSION_SPAN) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """Each super node's coupling to space as a function of its own temperature, in place of a correction load.
+
+    The network ``K T + σ e(T) ⊙ (T⁴ − T_s⁴) + σ L_GR T⁴ = Q`` (``K`` = K̃ with zero row sums, ``Q`` the applied
+    loads as the exact reduction distributes them, Y'q, ``L_GR`` the Laplacian of the super nodes' exchange GR)
+    holds at the design state ``T_sn`` when ``e(T*)`` is what closes each node's balance there, and its Jacobian
+    there is the exact reduced operator K'_SN = K̃ + diag(H) when ``e'(T*)`` makes the node's emission slope
+    ``σ e' (T⁴ − T_s⁴) + 4σ e T³ + 4σ GR1 T³`` equal ``H``, the linearised emission of the field it stands for
+    (Y'h, :class:`RadiationAware`).  So the network is exact at the design state and exact to first order about
+    it, whatever load or sink moves it; further off, e(T) is linear in T up to ``T*·span`` (down to ``T*/span``)
+    and constant beyond, where the emission grows as T⁴.
+
+    Parameters
+    ----------
+    K : (n, n) W/K, K̃ ; Q : (n,) W ; GR : (n, n) m² or None ; fixed : (n,) bool ; T_sn : (n,) K design state
+    T_sink : K ; H : (n,) W/K ; g_fixed : (n,) m² the couplings of the fixed nodes (kept as they are)
+    span : the table's reach about T*
+
+    Returns
+    -------
+    ``(e_star (n,) m², (x (n, 3) K, y (n, 3) m²))``: the design values and the tables (fixed nodes: constant).
+    """
+    n = len(T_sn)
+    T = np.asarray(T_sn, float)
+    G = np.zeros((n, n)) if GR is None else np.array(GR, float)
+    np.fill_diagonal(G, 0.0)
+    GR1 = G.sum(axis=1)
+    T4 = T**4
+    r = Q - K @ T - SIGMA * (GR1 * T4 - G @ T4)  # heat each node must still lose to space at T*
+    d4 = T4 - T_sink**4
+    free = ~np.asarray(fixed, bool) & (np.abs(d4) > 1e-12 * np.maximum(T4, 1e-300))
+    e = np.array(g_fixed, float)
+    de = np.zeros(n)
+    e[free] = r[free] / (SIGMA * d4[free])
+    de[free] = (H[free] - 4.0 * SIGMA * (GR1[free] + e[free]) * T[free] ** 3) / (SIGMA * d4[free])
+    x = T[:, None] * np.array([1.0 / span, 1.0, span])[None, :]
+    y = e[:, None] + de[:, None] * (x - T[:, None])
+    weak = (np.sign(y) != np.sign(e)[:, None]) | (np.abs(y) < EMISSION_FLOOR * np.abs(e)[:, None])
+    y = np.where(weak, EMISSION_FLOOR * e[:, None], y)
+    y[:, 1] = e
+    return e, (x, y)
+
+
 def parametric_weights(values_si: np.ndarray, sink: bool, samples: int = 32) -> tuple[np.ndarray, np.ndarray]:
     """Interpolation weights of the parametric states as functions of the parameter, sampled for a deck table.
 
@@ -207,4 +263,5 @@ def parametric_weights(values_si: np.ndarray, sink: bool, samples: int = 32) -> 
     return grid, W[inverse]
 
 
-__all__ = ["RadiationAware", "emission_entries", "emission_weights", "parametric_weights", "split_radiative"]
+__all__ = ["RadiationAware", "effective_emission", "emission_entries", "emission_weights", "parametric_weights",
+           "split_radiative"]

@@ -273,6 +273,8 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                       f"{', '.join(format(h['max_dT_K'], '.3g') for h in history)} K); the temperatures are off "
                       "by about that much: raise outer_iterations (the steps shrink quadratically once they are "
                       "small; fewer super nodes need more)", stacklevel=2)
+    if not shared and not case.reduction.parametric:
+        ra_rm, sol = effective_network(ra_rm, sol, ra.reduction.distribute(q_detailed) + q_lumped, case)
     ra.history = history
     ra.shared = shared
     ra.T_lin, ra.q_tally = lin_T, lin_q
@@ -282,6 +284,24 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     ra.known_load_W = float(np.sum(q_detailed) + np.sum(q_lumped))
     return ra_rm, sol, T, history
 
+
+
+def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case
+                      ) -> tuple[ReducedModel, SteadySolution]:
+    """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
+    the exact reduction distributes them, K̃ and GR as they are, and each super node's coupling to space a function of
+    its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design state ``sol``.
+    Returns the network and its solution (the design state again, to the solver's tolerance)."""
+    from ..linalg import blas_threads
+    from ..reduce.radiative import effective_emission
+
+    e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, sol.T, rm.T_sink, rm.radiative.H,
+                                  np.where(rm.fixed, rm.g_space, 0.0))
+    net = dataclasses.replace(rm, Q=np.asarray(Q_applied, float), g_space=e, g_space_table=table)
+    with blas_threads(1):
+        new = solve_steady(reduced_problem(net), T0=sol.T, tol=case.solver.tolerance,
+                           max_iter=case.solver.max_iterations)
+    return net, new
 
 
 # ------------------------------------------------------------------------------------------ parametric correction

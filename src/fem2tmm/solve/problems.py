@@ -27,7 +27,7 @@ def detailed_problem(model: FEModel) -> SteadyProblem:
 def reduced_problem(rm: ReducedModel) -> SteadyProblem:
     """The steady problem of the reduced network ``rm``."""
     return SteadyProblem(K=rm.K, Q=rm.Q, fixed=rm.fixed, T_fixed=rm.T_fixed, g_space=rm.g_space,
-                         T_sink=rm.T_sink, GR=rm.GR, names=tuple(rm.names))
+                         T_sink=rm.T_sink, GR=rm.GR, names=tuple(rm.names), g_table=rm.g_space_table)
 
 
 def solver_settings(case: Case) -> dict:

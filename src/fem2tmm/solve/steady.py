@@ -61,6 +61,27 @@ class SteadyProblem:
     GR: object | None = None  # (n, n) node-to-node radiative couplings, m²
     faced: FacedRadiation | None = None
     names: tuple[str, ...] | None = None
+    #: ``(x, y)``, both (n, m): each node's coupling to the sink as a piecewise-linear function of its own
+    #: temperature (knots ``x`` K ascending per row, values ``y`` m², constant beyond the end knots: the emission
+    #: then grows as σ y_end T⁴); ``g_space`` is then only the start's value.  None: ``g_space`` constant
+    g_table: tuple | None = None
+
+
+def table_value(x: np.ndarray, y: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row piecewise-linear interpolation ``(v, dv/dT)`` (n,) of tables ``x``, ``y`` (n, m) at ``T`` (n,),
+    constant beyond each row's end knots (like ESATAN's INTRP1), ``dv/dT`` 0 there."""
+    x, y, T = np.asarray(x, float), np.asarray(y, float), np.asarray(T, float)
+    m = x.shape[1]
+    if m == 1:
+        return y[:, 0].copy(), np.zeros(len(T))
+    k = np.clip((x <= T[:, None]).sum(axis=1) - 1, 0, m - 2)[:, None]
+    x0, x1 = np.take_along_axis(x, k, 1)[:, 0], np.take_along_axis(x, k + 1, 1)[:, 0]
+    y0, y1 = np.take_along_axis(y, k, 1)[:, 0], np.take_along_axis(y, k + 1, 1)[:, 0]
+    slope = np.divide(y1 - y0, x1 - x0, out=np.zeros(len(T)), where=x1 > x0)
+    inside = (T > x[:, 0]) & (T < x[:, -1])
+    Tc = np.clip(T, x[:, 0], x[:, -1])
+    v = np.where(Tc <= x0, y0, y0 + slope * (Tc - x0))
+    return v, np.where(inside, slope, 0.0)
 
 
 @dataclass(frozen=True)
@@ -110,7 +131,15 @@ class _Operators:
             # each node's emitting share of the face couplings, diag(Wᵀ G W 1) = Wᵀ G 1 (W 1 = 1), m²
             self.face_lumped = np.asarray(self.W.T @ np.asarray(self.Gf.sum(axis=1)).ravel()).ravel()
         self.g = np.asarray(problem.g_space, float)
-        self.radiative = bool((self.g > 0).any() or self.L is not None or self.Gf is not None)
+        self.dg = None  # σ g'(T)(T⁴ − T_s⁴) at the last state (W/K), with a g_table
+        self.radiative = bool((self.g > 0).any() or self.L is not None or self.Gf is not None
+                              or problem.g_table is not None)
+
+    def at(self, T: np.ndarray) -> None:
+        """The sink couplings at the state T (a ``g_table``: each node's own temperature), else nothing."""
+        if self.p.g_table is not None:
+            self.g, dg = table_value(*self.p.g_table, T)
+            self.dg = SIGMA * dg * (T**4 - self.p.T_sink**4)
 
     def radiation(self, T4: np.ndarray) -> np.ndarray:
         """Net radiated heat (n,) W for nodal T⁴ (without the space term)."""
@@ -132,13 +161,14 @@ class _Operators:
 
     def residual(self, T: np.ndarray) -> np.ndarray:
         p = self.p
+        self.at(T)
         T4 = T**4
         r = self.K @ T + SIGMA * self.g * (T4 - p.T_sink**4) - p.Q + self.radiation(T4)
         return np.asarray(r).ravel()
 
     def jvp(self, d: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Jacobian-vector product J x with d = 4σT³ (full-length vectors)."""
-        y = self.K @ x + d * self.g * x
+        y = self.K @ x + d * self.g * x + (0.0 if self.dg is None else self.dg * x)
         dx = d * x / SIGMA
         return np.asarray(y).ravel() + self.radiation(dx)
 
@@ -150,12 +180,12 @@ class _Operators:
             J = np.array(self.K, float)
             if self.L is not None:
                 J = J + self.L * d[None, :]
-            J[np.diag_indices(n)] += d * self.g
+            J[np.diag_indices(n)] += d * self.g + (0.0 if self.dg is None else self.dg)
             if self.Gf is not None:
                 J[np.diag_indices(n)] += d * self.face_lumped
                 J = J - (self.W.T @ (self.Gf @ (self.W @ sp.diags(d)))).toarray()
             return J[np.ix_(free, free)]
-        J = self.K + sp.diags(d * self.g)
+        J = self.K + sp.diags(d * self.g + (0.0 if self.dg is None else self.dg))
         if self.L is not None:
             J = J + sp.csr_matrix(self.L) @ sp.diags(d)
         if self.Gf is not None:
@@ -262,6 +292,7 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         if not ops.radiative and "lu" in cache:
             return cache["lu"](b)
         d = 4 * SIGMA * T**3
+        ops.at(T)
         if ops.dense:
             return np.linalg.solve(ops.jacobian(d, free), b)
         if krylov:
@@ -355,7 +386,9 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         )
     heat_fixed = np.zeros(n)
     heat_fixed[fixed] = r[fixed]  # net heat leaving a fixed node into the network = heat supplied by the boundary
-    to_space = SIGMA * problem.g_space * (T**4 - problem.T_sink**4)
+    ops.at(T)
+    g_now = ops.g  # the sink couplings at the solution (g_table), else g_space
+    to_space = SIGMA * g_now * (T**4 - problem.T_sink**4)
     applied = float(np.sum(problem.Q))
     fixed_in = float(np.sum(heat_fixed))
     space = float(np.sum(to_space))
@@ -368,7 +401,7 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
     # the conduction of a BALANCE_CONDUCTION relative temperature change
     k_diag = np.abs(ops.K.diagonal() if not ops.dense else np.diag(ops.K))
     scale = max(float(np.abs(problem.Q).sum()), float(np.abs(heat_fixed).sum()),
-                SIGMA * float(problem.g_space @ (T**4 + problem.T_sink**4)),
+                SIGMA * float(g_now @ (T**4 + problem.T_sink**4)),
                 BALANCE_FLOOR * flow_scale, cold_scale * (BALANCE_COLD / COLD_FIELD) ** 4,
                 BALANCE_CONDUCTION * float(k_diag @ np.abs(T)), 1e-300)
     balance = {"applied_W": applied, "fixed_W": fixed_in, "space_W": space, "imbalance_W": imbalance,
