@@ -111,7 +111,11 @@ def deck_books(net, T: np.ndarray) -> dict:
         if len(space) and j == space[0]:
             GRs[i] = float(np.interp(T[k], x, y))
     to_space = float(SIGMA * np.sum(GRs * (T**4 - T_space**4)))
-    return {"applied": float(np.sum(np.asarray(net.QI, float)[free])), "from_held": from_held, "to_space": to_space}
+    # the held nodes' own GR to space (the emission of the fin next to them that the conductors do not carry)
+    held_gr = float(SIGMA * np.sum(GRs[held] * (T[held] ** 4 - T_space**4)))
+    to_space += 0.0
+    return {"applied": float(np.sum(np.asarray(net.QI, float)[free])), "from_held": from_held + held_gr,
+            "to_space": to_space, "from_held_through_GL": from_held}
 
 
 def detailed_books(res) -> dict:

@@ -274,7 +274,8 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                       "by about that much: raise outer_iterations (the steps shrink quadratically once they are "
                       "small; fewer super nodes need more)", stacklevel=2)
     if not shared and not case.reduction.parametric:
-        ra_rm, sol = effective_network(ra_rm, sol, ra.reduction.distribute(q_detailed) + q_lumped, case)
+        held = held_reactions(model, ra_rm, T, q_detailed, None if ir is None else q_rec - q_detailed)
+        ra_rm, sol = effective_network(ra_rm, sol, ra.reduction.distribute(q_detailed) + q_lumped, case, held)
     ra.history = history
     ra.shared = shared
     ra.T_lin, ra.q_tally = lin_T, lin_q
@@ -286,22 +287,49 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 
 
 
-def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case
-                      ) -> tuple[ReducedModel, SteadySolution]:
+def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case,
+                      held_W: np.ndarray | None = None) -> tuple[ReducedModel, SteadySolution]:
     """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
-    the exact reduction distributes them, K̃ and GR as they are, and each super node's coupling to space a function of
-    its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design state ``sol``.
-    Returns the network and its solution (the design state again, to the solver's tolerance)."""
+    the exact reduction distributes them (Y'q), K̃ and GR as they are, and each super node's coupling to space a
+    function of its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design
+    state ``sol``.  ``held_W`` (n,) W or None: the heat each fixed node gives the structure in the detailed model at
+    that state; what its conductors do not carry (the emission of the fin next to it, steeper than its neighbours'
+    mean temperatures show) becomes its own coupling to space, at its own temperature, so that the network's heat
+    books match the detailed ones (it moves no temperature: the node is fixed).  Returns the network and its
+    solution (the design state again, to the solver's tolerance)."""
     from ..linalg import blas_threads
     from ..reduce.radiative import effective_emission
 
-    e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, sol.T, rm.T_sink, rm.radiative.H,
-                                  np.where(rm.fixed, rm.g_space, 0.0))
+    T = sol.T
+    g_fixed = np.where(rm.fixed, rm.g_space, 0.0)
+    if held_W is not None:
+        d4 = T**4 - rm.T_sink**4
+        for i in np.flatnonzero(rm.fixed):
+            row = -np.array(rm.K[i], float)
+            row[i] = 0.0
+            left = float(held_W[i] - row @ (T[i] - T))  # W the conductors do not carry
+            if np.isfinite(left) and abs(d4[i]) > 1e-12 * T[i] ** 4:
+                g_fixed[i] = left / (SIGMA * d4[i])
+    e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, rm.radiative.H, g_fixed)
     net = dataclasses.replace(rm, Q=np.asarray(Q_applied, float), g_space=e, g_space_table=table)
     with blas_threads(1):
-        new = solve_steady(reduced_problem(net), T0=sol.T, tol=case.solver.tolerance,
+        new = solve_steady(reduced_problem(net), T0=T, tol=case.solver.tolerance,
                            max_iter=case.solver.max_iterations)
     return net, new
+
+
+def held_reactions(model: FEModel, rm: ReducedModel, T: np.ndarray, q: np.ndarray, q_abs: np.ndarray | None
+                   ) -> np.ndarray:
+    """(n,) W: the heat each fixed super node gives the structure in the detailed model at the field ``T`` (n_dof,) K:
+    ``K T + σ e (T⁴ − T_s⁴) − q − q_abs`` at its DOF (its conduction and its own faces' net emission), NaN elsewhere."""
+    e = np.asarray(rm.radiative.e, float)
+    r = np.asarray(model.K @ T).ravel() + SIGMA * e * (T**4 - model.T_sink**4) - q
+    if q_abs is not None:
+        r = r - q_abs
+    out = np.full(rm.n, np.nan)
+    dof = np.asarray(rm.supernodes.dof)
+    out[rm.fixed] = r[dof[rm.fixed]]
+    return out
 
 
 # ------------------------------------------------------------------------------------------ parametric correction
