@@ -107,7 +107,7 @@ def deck_books(net, T: np.ndarray) -> dict:
     from_held = float((GLh.multiply(T[held][:, None] - T[free][None, :])).sum())
     GRs = np.asarray(net.GR.tocsr()[:, space].todense()).ravel() if len(space) else np.zeros(net.n)
     T_space = float(T[space[0]]) if len(space) else 0.0
-    for i, j, k, x, y in net.gr_tables:  # couplings following a node's own temperature
+    for i, j, k, x, y in getattr(net, "gr_tables", ()):  # couplings following a node's own temperature
         if len(space) and j == space[0]:
             GRs[i] = float(np.interp(T[k], x, y))
     to_space = float(SIGMA * np.sum(GRs * (T**4 - T_space**4)))
