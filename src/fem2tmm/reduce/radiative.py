@@ -187,7 +187,7 @@ EMISSION_FLOOR = 0.05
 
 
 def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixed: np.ndarray, T_sn: np.ndarray,
-                       T_sink: float, H: np.ndarray, g_fixed: np.ndarray,
+                       T_sink: float, H: np.ndarray, g_fixed: np.ndarray, g_space: np.ndarray,
                        span: float = EMISSION_SPAN) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """Each super node's coupling to space as a function of its own temperature, in place of a correction load.
 
@@ -204,6 +204,7 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     ----------
     K : (n, n) W/K, K̃ ; Q : (n,) W ; GR : (n, n) m² or None ; fixed : (n,) bool ; T_sn : (n,) K design state
     T_sink : K ; H : (n,) W/K ; g_fixed : (n,) m² the couplings of the fixed nodes (kept as they are)
+    g_space : (n,) m² each node's physical coupling to space (kept by a node at the sink's temperature)
     span : the table's reach about T*
 
     Returns
@@ -219,7 +220,8 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     r = Q - K @ T - SIGMA * (GR1 * T4 - G @ T4)  # heat each node must still lose to space at T*
     d4 = T4 - T_sink**4
     free = ~np.asarray(fixed, bool) & (np.abs(d4) > 1e-12 * np.maximum(T4, 1e-300))
-    e = np.array(g_fixed, float)
+    # a node at the sink's temperature has no balance to close: it keeps its physical coupling
+    e = np.where(np.asarray(fixed, bool), g_fixed, g_space)
     de = np.zeros(n)
     e[free] = r[free] / (SIGMA * d4[free])
     de[free] = (H[free] - 4.0 * SIGMA * (GR1[free] + e[free]) * T[free] ** 3) / (SIGMA * d4[free])

@@ -310,11 +310,17 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
             left = float(held_W[i] - row @ (T[i] - T))  # W the conductors do not carry
             if np.isfinite(left) and abs(d4[i]) > 1e-12 * T[i] ** 4:
                 g_fixed[i] = left / (SIGMA * d4[i])
-    e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, rm.radiative.H, g_fixed)
+    e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, rm.radiative.H, g_fixed,
+                                  rm.g_space)
     net = dataclasses.replace(rm, Q=np.asarray(Q_applied, float), g_space=e, g_space_table=table)
-    with blas_threads(1):
-        new = solve_steady(reduced_problem(net), T0=T, tol=case.solver.tolerance,
-                           max_iter=case.solver.max_iterations)
+    try:
+        with blas_threads(1):
+            new = solve_steady(reduced_problem(net), T0=T, tol=case.solver.tolerance,
+                               max_iter=case.solver.max_iterations)
+    except Fem2TmmError as exc:  # a network without a solution at its own design state is not handed over
+        warnings.warn(f"the radiation-aware network without a correction load has no steady solution at its own "
+                      f"design state ({exc}); the network with the correction load is written instead", stacklevel=2)
+        return rm, sol
     return net, new
 
 
