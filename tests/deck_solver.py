@@ -614,13 +614,14 @@ def read_sinda(path: str | Path) -> Model:
     ``HEADER REGISTER DATA`` (``NAME = expr``: the named constants), ``CONTROL DATA`` (SIGMA, ABSZRO, TIMEO, TIMEND,
     DTIMEI, OUTPUT), ``NODE DATA`` (``id, T, C``; negative id: boundary; ``$ label``), ``CONDUCTOR DATA``
     (``id, a, b, G``; negative id: radiation), ``SOURCE DATA`` (``node, expr``), ``ARRAY DATA`` (``id = x1, y1,
-    ...`` continued, ``END``), ``VARIABLES 1`` (Fortran ``Q12 = expr`` / ``T12 = expr``, ``&`` in column 6
+    ...`` continued, ``END``), ``VARIABLES 1`` (Fortran ``Q12 = expr`` / ``T12 = expr`` / ``G7 = expr`` (conductor 7's value), ``&`` in column 6
     continues; ``D1DEG1(x, An)`` is linear interpolation of array n at x) and ``OPERATIONS DATA`` (``CALL STEADY``,
     ``CALL FWDBCK``).  Comments: ``C`` in column 1, everything after ``$``."""
     path = Path(path)
     name = str(path)
     text = path.read_text(encoding="utf-8", errors="replace")
     block, nodes, cond, var1, calls = None, [], [], [], []
+    conductor_id = {}  # conductor id -> (kind, a, b)
     defs = {"TABS": "273.15"}
     arrays, cur = {}, None
     logic = []
@@ -655,6 +656,7 @@ def read_sinda(path: str | Path) -> Model:
             f = _split_top(body.strip())
             cid = int(f[0])
             cond.append(("GR" if cid < 0 else "GL", abs(int(f[1])), abs(int(f[2])), expr(f[3], where)))
+            conductor_id[abs(cid)] = cond[-1][:3]
         elif block == "SOURCE":
             f = _split_top(body.strip())
             var1.append(("QI", abs(int(f[0])), expr(f[1], where)))
@@ -680,6 +682,13 @@ def read_sinda(path: str | Path) -> Model:
             if m:
                 calls.append({"STEADY": "SOLVFM"}.get(m.group(1).upper(), m.group(1).upper()))
     for where, stmt in logic:
+        g = re.match(r"^G\s*(\d+)\s*=\s*(.+)$", stmt, re.I)  # a conductor's value (G<id>), e.g. D1DEG1 of a T
+        if g:
+            if int(g.group(1)) not in conductor_id:
+                raise DeckError(f"{where}: G{g.group(1)}: no conductor {g.group(1)} in CONDUCTOR DATA")
+            kind, a, b = conductor_id[int(g.group(1))]
+            var1.append((kind, (a, b), expr(re.sub(r"D1DEG1\s*\(", "INTRP1(", g.group(2), flags=re.I), where)))
+            continue
         m = re.match(r"^(Q|T)\s*(\d+)\s*=\s*(.+)$", stmt, re.I)
         if not m:
             raise DeckError(f"{where}: cannot read the VARIABLES 1 statement {stmt[:60]!r}")

@@ -108,6 +108,14 @@ class Deck:
     space_tables: tuple | None = None
 
 
+def space_table_rows(deck: "Deck") -> list[int]:
+    """The nodes whose GR to space follows their own temperature (``deck.space_tables``): free nodes with a GR to
+    space."""
+    if deck.space_tables is None:
+        return []
+    return [i for i in range(len(deck.numbers)) if not deck.boundary[i] and deck.GR_space[i] != 0]
+
+
 def space_table_name(number: int) -> str:
     """The $ARRAYS name of node ``number``'s table of GR to space against its own temperature."""
     return f"GRS{int(number)}"
@@ -408,8 +416,7 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append(f"    RELXCA = {_fmt(RELXCA)};")
     lines.append(f"    NLOOP = {NLOOP};")
     lines += [f"    {c} = {_fmt(v)};" for c, v in transient_controls(tr)]
-    space_rows = [] if deck.space_tables is None else [
-        i for i in range(n) if not deck.boundary[i] and deck.GR_space[i] != 0]
+    space_rows = space_table_rows(deck)
     lines.append("$ARRAYS")
     if tr is not None or deck.parametric_terms or space_rows:
         lines.append("  $REAL")

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN, SIGMA
-from .esatan import (Deck, _tabled_loads, linear_sum, named_constants, node_loads, transient_controls,
-                     transient_routine)
+from .esatan import (Deck, _tabled_loads, linear_sum, named_constants, node_loads, space_table_rows,
+                     transient_controls, transient_routine)
 
 #: Fortran fixed-form statement field (logic blocks: columns 7 to 72)
 FORTRAN_WIDTH = 72
@@ -112,9 +112,11 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
             out.append(f"      {sign}{cid}, {deck.numbers[a]}, {deck.numbers[b]}, {float(M[a, b])!r}")
         count[kind] = len(nz)
     lin, rad = count["linear"], count["radiation"]
+    space_cid = {}
     for a in np.flatnonzero(deck.GR_space):
         cid += 1
         rad += 1
+        space_cid[int(a)] = cid
         out.append(f"      -{cid}, {deck.numbers[a]}, {deck.space}, {float(deck.GR_space[a])!r}")
     tables = tr.tables() if tr is not None else []
     arrays = []  # (SINDA array id, name, x, y, what)
@@ -129,6 +131,12 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
             nm = f"P{k + 1}W{j}"
             arrays.append((len(arrays) + 1, nm, x, W[j], f"{c}: weight of state {j} ({c}, weight)"))
             ids[nm] = arrays[-1][0]
+    space_rows = space_table_rows(deck)  # GR to space following the node's own temperature: G<cid> = D1DEG1(T<n>, A)
+    for i in space_rows:
+        x, y = deck.space_tables
+        arrays.append((len(arrays) + 1, f"GRS{deck.numbers[i]}", np.asarray(x[i]) - KELVIN, y[i],
+                       "GR to space m2 against the node temperature degC"))
+        ids[f"GRS{deck.numbers[i]}"] = arrays[-1][0]
     # the loads: the constant part and the named loads in SOURCE DATA (expressions of the registers); a node whose
     # load follows a table or the parametric correction, or whose expression does not fit a data line, gets its whole
     # load in VARIABLES 1 instead
@@ -155,6 +163,8 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
             logic += _fortran(f"T{deck.numbers[i]} = D1DEG1(TIMEM, A{ids[f'TTAB{k + 1}']})")
         if tr.sink is not None:
             logic += _fortran(f"T{deck.space} = D1DEG1(TIMEM, A{ids['TSINK']})")
+    for i in space_rows:
+        logic += _fortran(f"G{space_cid[i]} = D1DEG1(T{deck.numbers[i]}, A{ids[f'GRS{deck.numbers[i]}']})")
     if logic:
         out.append(f"HEADER VARIABLES 1, {sub}")
         out += logic

@@ -50,6 +50,8 @@ def _header(body: str):
 _ASSIGN = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$")
 _ARRAY_START = re.compile(r"^\s*(\d+)\s*=\s*(.*)$")
 _LOGIC = re.compile(r"^(Q|T)\s*(\d+)\s*=\s*(.+)$", re.I)
+#: a conductor following a node's temperature: ``G12 = D1DEG1(T7, A3)`` (fem2tmm's GR to space of node 7)
+_GTAB = re.compile(r"^G\s*(\d+)\s*=\s*D1DEG1\s*\(\s*T\s*(\d+)\s*,\s*A(\d+)\s*\)$", re.I)
 _D1DEG1 = re.compile(r"D1DEG1\s*\(\s*([A-Za-z_]\w*)\s*,\s*A(\d+)\s*\)", re.I)
 
 
@@ -178,7 +180,14 @@ def read_sinda(path: str | Path) -> Network:
         return sub
 
     assigned, skipped, current = [], 0, {}
+    g_tables = []  # (line, conductor id, node number, array id)
     for lineno, stmt in _logic_statements(logic_lines):
+        g = _GTAB.match(stmt)
+        if g:
+            if int(g.group(3)) not in array_values:
+                fail(lineno, f"D1DEG1 of the undefined array A{g.group(3)}")
+            g_tables.append((lineno, int(g.group(1)), int(g.group(2)), int(g.group(3))))
+            continue
         m = _LOGIC.match(stmt)
         if not m:
             skipped += 1
@@ -197,6 +206,7 @@ def read_sinda(path: str | Path) -> Network:
 
     nodes: dict[int, tuple] = {}  # number -> (line, kind, T, C, label)
     conds: list[tuple] = []  # (line, radiative, a, b, G)
+    single: dict[int, tuple] = {}  # conductor id -> (line, a, b) of the one-pair conductors
     sources: list[tuple] = []
     block = None
     submodels = set()
@@ -260,6 +270,8 @@ def read_sinda(path: str | Path) -> Network:
             else:
                 a, b = np.array([node_ref(lineno, fields[1])]), np.array([node_ref(lineno, fields[2])])
             conds.append((lineno, cid < 0, np.abs(a), np.abs(b), G))
+            if not gen:
+                single[abs(cid)] = (lineno, int(abs(a[0])), int(abs(b[0])))
         else:  # SOURCE
             if len(fields) % 2:
                 fail(lineno, f"source data needs node, Q pairs; got {body.strip()!r}")
@@ -298,12 +310,21 @@ def read_sinda(path: str | Path) -> Network:
             T_set[i] = v
     info = [nodes[int(v)] for v in numbers]
     info = [(a, b, T_set.get(i, c), d, e) for i, (a, b, c, d, e) in enumerate(info)]
+    gr_tables = []
+    for lineno, cid, num, aid in g_tables:  # GR to a node following a node's own temperature
+        if cid not in single:
+            fail(lineno, f"G{cid}: no one-pair conductor {cid} in CONDUCTOR DATA")
+        _, a, b = single[cid]
+        arr = array_values[aid]
+        ia, ib, it = (int(rows(lineno, [v])[0]) for v in (a, b, num))
+        gr_tables.append((ia, ib, it, arr[0::2] - abszro, arr[1::2] * gr_scale))
     if gr_scale != 1.0:
         notes.append(f"radiation conductors rescaled from SIGMA = {gr_scale * SIGMA!r} to {SIGMA!r}")
     return Network(numbers=numbers, labels=np.array([i[4] for i in info], dtype=object).astype(str),
                    kind=np.array([i[1] for i in info]), T=np.array([i[2] for i in info], float) - abszro,
                    C=np.array([i[3] for i in info], float), A=np.zeros(n), alp=np.zeros(n), eps=np.zeros(n),
-                   QI=Q, GL=mats[False], GR=mats[True], source=str(path), notes=tuple(notes))
+                   QI=Q, GL=mats[False], GR=mats[True], source=str(path), notes=tuple(notes),
+                   gr_tables=tuple(gr_tables))
 
 
 __all__ = ["read_sinda"]
