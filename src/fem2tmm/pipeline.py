@@ -353,9 +353,109 @@ class _Scenes:
         return self._main
 
 
+@dataclasses.dataclass
+class _RunState:
+    """What the stages of one :func:`_run` share: the case as the stages see it (the reduction's choice may replace
+    it: ``case``; ``asked`` as given), the FE model, the stage cache and its status, the ray surface and scenes with
+    their keys, and the result's parts being filled."""
+
+    case: Case
+    asked: Case
+    prog: Progress
+    store: object
+    model: object
+    result: Result
+    do_ref: bool
+    trace: bool  # exchange factors traced
+    sun: bool
+    orbit: object  # ``case.orbit`` when something radiates, else None
+    surface: object
+    scenes: _Scenes
+    geometry: str | None
+    ir: object
+    solar: object
+    dpart: Detailed
+    opart: Orbit | None
+    skey: str | None = None  # the scene's key (the quadric fit)
+
+    @property
+    def status(self) -> dict:
+        return self.result.cache
+
+    def cached(self, stage: str, label: str, key, compute):
+        return _cached(self.prog, self.store, self.status, stage, label, key, compute)
+
+    def sun_key(self, stage: str, scene: str, role: str, *more) -> str:
+        env = self.asked.environment
+        return trace_key(stage, self.geometry, self.solar, scene, env.sun_direction, env.solar_flux,
+                         env.solar_rays_per_face, tracer_settings(self.case, exchange=False, role=role), *more)
+
+    def orbit_key(self, stage: str, *more) -> str:  # exactly what trace_orbit reads: both bands' optics, the orbit
+        orbit = self.orbit
+        return trace_key(stage, self.geometry, (self.solar, self.ir), self.skey, orbit.orbit, orbit.attitude,
+                         orbit.kinds, orbit.rays_per_face, tracer_settings(self.case, exchange=False), *more)
+
+
+@dataclasses.dataclass
+class _Network:
+    """The reduced network before a reduction method: conduction, radiation and this case's loads."""
+
+    rm: object  # the network with the orbit-averaged loads
+    rm_base: object  # ... without them
+    sf: tuple | None  # super faces
+    q_recover: np.ndarray  # (n_dof,) W loads recovered exactly
+    q_recover_base: np.ndarray
+    q_lumped: np.ndarray  # (n_SN,) W loads lumped per super node
+    q_sn_orbit: np.ndarray | None  # (k, n_SN) W per orbit position
+    inputs: ReductionInputs
+
+
 def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, store=None,
          labels: np.ndarray | None = None, refine: Refinement | None = None,
          shelf: SceneShelf | None = None, linearised: dict | None = None) -> Result:
+    mesh, run, problem = _prepare(case, prog, mesh, reference, store, labels, shelf)
+    result = run.result
+    clustering = reduced = reductor = ckey = None
+    extra = {}  # what the run adds to the reduction method's output (result.reduced)
+    if case.reduction.enabled:
+        clustering, ckey = _cluster(run, labels, refine)
+    _quadrics(run, clustering)
+    q_solar = _detailed_solar(run)  # (n_dof,) W or None
+    q_orbit = _detailed_orbit(run)  # (k, n_dof) W per position or None
+    q_sn_orbit = None  # (k, n_SN) W per position
+    if case.reduction.enabled:
+        net = _reduced_network(run, clustering, ckey, q_solar, q_orbit, extra)
+        q_sn_orbit = net.q_sn_orbit
+        reduced, reductor, red, thesis_red = _reduce(run, net, clustering, linearised, extra)
+        if run.trace:
+            _emission_check(run, net, reduced, red, extra["radiation"])
+        if thesis_red is not None and case.reduction.radiation_aware == "auto":
+            _estimate(run, net, clustering, reduced, red, thesis_red)
+        if run.case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
+            refine = Refinement() if refine is None else refine
+            nxt = _refinement_step(run, net, clustering, reduced, red, refine)
+            if nxt is not None:
+                return _run(case, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=run.scenes.shelf,
+                            linearised=linearised)
+            reduced.refinement = refine
+        _parametric(run, mesh, reduced)
+        if q_sn_orbit is not None and run.orbit.steady == "positions":
+            _orbit_positions_reduced(run, net, reduced, q_orbit)
+    if run.do_ref or not run.case.reduction.enabled:  # the detailed reference model (with its own random streams)
+        problem = _reference(run, problem, q_solar, q_orbit)
+    result.detailed, result.orbit = run.dpart, run.opart
+    if run.case.transient is not None:
+        _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
+    if reduced is not None:
+        _deliver_and_verify(run, reduced, problem)
+    result.summary = build_summary(result, prog.timings)
+    return result
+
+
+def _prepare(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, store,
+             labels: np.ndarray | None, shelf: SceneShelf | None):
+    """Read and assemble, check the case against the model, and set up what the stages share: the mesh, the
+    :class:`_RunState` and the detailed problem (without radiation and external loads)."""
     if case.clustering.method == "metis" and labels is None:
         from .cluster.metis import require
 
@@ -370,8 +470,6 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     do_ref = case.reference.detailed if reference is None else reference
     problem = detailed_problem(model)
     check_solvable(problem, describe=describe_nodes(model))
-    result = Result(case=case, mesh=mesh, model=model, cache={})
-    status = result.cache
     radiating = bool(model.faces.active.any())
     trace = case.radiation.enabled and radiating
     sun = case.has_sun and radiating
@@ -381,373 +479,409 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         seconds = compile_estimate()
         if seconds > 0:
             prog.note(f"compiling the ray tracer's kernels (first run after an install, ~{seconds:.0f} s)")
-    scenes = _Scenes(surface, shelf)  # the ray scenes, built when a stage traces (a cached stage needs none)
-    geometry = geometry_key(model) if surface is not None else None
-    ir = surface.optics("ir") if surface is not None else None
-    solar = surface.optics("solar") if surface is not None else None
-    env = case.environment
+    return mesh, _RunState(
+        case=case, asked=case, prog=prog, store=store, model=model,
+        result=Result(case=case, mesh=mesh, model=model, cache={}), do_ref=do_ref, trace=trace, sun=sun,
+        orbit=orbit, surface=surface,
+        scenes=_Scenes(surface, shelf),  # the ray scenes, built when a stage traces (a cached stage needs none)
+        geometry=geometry_key(model) if surface is not None else None,
+        ir=surface.optics("ir") if surface is not None else None,
+        solar=surface.optics("solar") if surface is not None else None,
+        dpart=Detailed(),  # the detailed model's part of the result (its fields set by the stages that run)
+        opart=Orbit() if orbit is not None else None), problem
 
-    def sun_key(stage: str, scene: str, role: str, *more) -> str:
-        return trace_key(stage, geometry, solar, scene, env.sun_direction, env.solar_flux, env.solar_rays_per_face,
-                         tracer_settings(case, exchange=False, role=role), *more)
 
-    q_solar = None  # detailed solar nodal loads (n_dof,) W
-    dpart = Detailed()  # the detailed model's part of the result (its fields set by the stages that run)
-    opart = Orbit() if orbit is not None else None
-    clustering = reduced = reductor = None
-    extra = {}  # what the run adds to the reduction method's output (result.reduced)
+def _cluster(run: _RunState, labels: np.ndarray | None, refine: Refinement | None):
+    """Super nodes (following a coarse solar map when asked, weighted by Biot numbers when asked): the
+    clustering and its cache key."""
+    model, case, prog = run.model, run.case, run.prog
+    flux = None
+    if run.sun and case.solar_aware:
+        flux = run.cached("solar_prepass", "tracing a coarse solar map for the clustering",
+                          lambda: run.sun_key("solar_prepass", "flat", "prepass"),
+                          lambda: solar_prepass(model, case, run.surface, scene=run.scenes.flat()))
+    weights = weights_report = None
+    if case.clustering.allocation == "biot" and labels is None:
+        check_super_node_counts(model, case)  # before the pre-solve
+        with prog.stage("presolve_biot", "pre-solve for the Biot numbers (emission to space only)"):
+            weights, weights_report = biot_weights(model, presolve_space(model, case))
+        if case.reduction.radiation_aware is not True:  # (that one warns from its own pre-solve)
+            warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
+                             max((r["max"] for r in weights_report.values()), default=None))
+    ckey = cluster_key(model, case, flux, labels, weights)
+    clustering = run.cached(
+        "cluster", "clustering", lambda: ckey,
+        lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
+                              labels=labels, weights=weights, weights_report=weights_report))
+    if refine is None and case.reduction.target_rms is not None:
+        from .reduce.refine import check_budget
 
-    # clustering (following a coarse solar map when asked)
-    ckey = None
-    if case.reduction.enabled:
-        flux = None
-        if sun and case.solar_aware:
-            flux = _cached(prog, store, status, "solar_prepass", "tracing a coarse solar map for the clustering",
-                           lambda: sun_key("solar_prepass", "flat", "prepass"),
-                           lambda: solar_prepass(model, case, surface, scene=scenes.flat()))
-        weights = weights_report = None
-        if case.clustering.allocation == "biot" and labels is None:
-            check_super_node_counts(model, case)  # before the pre-solve
-            with prog.stage("presolve_biot", "pre-solve for the Biot numbers (emission to space only)"):
-                weights, weights_report = biot_weights(model, presolve_space(model, case))
-            if case.reduction.radiation_aware is not True:  # (that one warns from its own pre-solve)
-                warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
-                                 max((r["max"] for r in weights_report.values()), default=None))
-        ckey = cluster_key(model, case, flux, labels, weights)
-        clustering = _cached(
-            prog, store, status, "cluster", "clustering", lambda: ckey,
-            lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
-                                  labels=labels, weights=weights, weights_report=weights_report))
-        if refine is None and case.reduction.target_rms is not None:
-            from .reduce.refine import check_budget
+        check_budget(case.reduction.target_rms, case.reduction.max_super_nodes, len(clustering.cluster_part))
+    return clustering, ckey
 
-            check_budget(case.reduction.target_rms, case.reduction.max_super_nodes,
-                         len(clustering.cluster_part))
 
-    # quadrics where the case asks for them (the scene itself is built when a stage traces)
-    if surface is not None and any(p.quadric for p in case.parts):
-        regions = quadric_regions(model, case, clustering)
-        scenes.fit = _cached(prog, store, status, "quadrics", "fitting quadrics", lambda: digest("quadrics", *regions),
-                             lambda: fit_quadrics(*regions))
-        result.quadrics = scenes.fit[2]
-    skey = scene_key(scenes.fit)
+def _quadrics(run: _RunState, clustering) -> None:
+    """Quadrics where the case asks for them (the scene itself is built when a stage traces); sets the scene key."""
+    if run.surface is not None and any(p.quadric for p in run.case.parts):
+        regions = quadric_regions(run.model, run.case, clustering)
+        run.scenes.fit = run.cached("quadrics", "fitting quadrics", lambda: digest("quadrics", *regions),
+                                    lambda: fit_quadrics(*regions))
+        run.result.quadrics = run.scenes.fit[2]
+    run.skey = scene_key(run.scenes.fit)
 
-    # solar loads on the detailed mesh
-    if sun and (do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed"):
-        q_solar, dpart.solar = _cached(
-            prog, store, status, "solar_detailed", "tracing solar rays on the detailed mesh",
-            lambda: sun_key("solar_detailed", skey, "reference"),
-            lambda: detailed_solar(model, case, surface, scene=scenes.main()))
-        result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(model, dpart.solar)
 
-    # orbital loads (solar, albedo, planet IR at every position) on the detailed mesh
-    q_orbit = None  # (k, n_dof) W per position
-    q_sn_orbit = None  # (k, n_SN) W per position
-    def orbit_key(stage: str, *more) -> str:  # exactly what trace_orbit reads: both bands' optics, the orbit
-        return trace_key(stage, geometry, (solar, ir), skey, orbit.orbit, orbit.attitude, orbit.kinds,
-                         orbit.rays_per_face, tracer_settings(case, exchange=False), *more)
+def _detailed_solar(run: _RunState) -> np.ndarray | None:
+    """Solar nodal loads (n_dof,) W on the detailed mesh, when the reference or the reduction needs them."""
+    case = run.case
+    if not (run.sun and (run.do_ref or not case.reduction.enabled or case.environment.solar_on == "detailed")):
+        return None
+    q_solar, run.dpart.solar = run.cached(
+        "solar_detailed", "tracing solar rays on the detailed mesh",
+        lambda: run.sun_key("solar_detailed", run.skey, "reference"),
+        lambda: detailed_solar(run.model, case, run.surface, scene=run.scenes.main()))
+    run.result.absorbed_solar_faces, run.result.absorbed_solar_elements = absorbed_solar_maps(run.model,
+                                                                                              run.dpart.solar)
+    return q_solar
 
-    if orbit is not None and (do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
-        q_orbit, opart.detailed = _cached(
-            prog, store, status, "orbit_detailed", "tracing orbital fluxes on the detailed mesh",
-            lambda: orbit_key("orbit_detailed"), lambda: detailed_orbit(model, case, surface, scene=scenes.main()))
 
-    # reduced model: conduction, radiation, solar loads, solve, recovery
-    if case.reduction.enabled:
-        rm = _cached(prog, store, status, "reduce", "reducing conduction", lambda: reduce_key(model, case, ckey),
-                     lambda: build_reduced(model, clustering, case))
-        rm = refresh_reduced(rm, model)  # this case's loads, boundary temperatures, sink and optics
-        sf = super_faces(model, rm) if surface is not None else None
-        if trace:
-            GR, g_space, extra["radiation"], extra["super_faces_count"] = _cached(
-                prog, store, status, "radiation", "tracing super-face exchange factors",
-                lambda: trace_key("radiation", geometry, ir, skey, sf, rm.n, tracer_settings(case)),
-                lambda: reduced_radiation(model, rm, case, surface, scene=scenes.main(), sf=sf))
-            rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
-        q_recover = model.Q
-        q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
-        if sun:
-            if case.environment.solar_on == "detailed":
-                # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
-                q_sn = rm.reduction.distribute(q_solar)
-                q_recover = model.Q + q_solar
-            else:
-                q_sn, extra["solar"], _ = _cached(
-                    prog, store, status, "solar", "tracing solar rays on the super faces",
-                    lambda: sun_key("solar", skey, "reduced", sf, rm.n),
-                    lambda: super_face_solar(model, rm, case, surface, scene=scenes.main(), sf=sf))
-                if result.absorbed_solar_elements is None:
-                    result.absorbed_solar_faces, result.absorbed_solar_elements = absorbed_solar_maps(
-                        model, extra["solar"])
-                q_lumped = q_sn
-            rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
-            extra["solar_on"] = case.environment.solar_on
-        if orbit is not None:
-            if orbit.fluxes_on == "detailed":
-                q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
-            else:
-                q_sn_orbit, opart.super_faces = _cached(
-                    prog, store, status, "orbit", "tracing orbital fluxes on the super faces",
-                    lambda: orbit_key("orbit", sf, rm.n),
-                    lambda: super_face_orbit(model, rm, case, surface, scene=scenes.main(), sf=sf))
-            opart.fluxes_on = orbit.fluxes_on
-        rm_base, q_recover_base = rm, q_recover
-        if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
-            q_sn_avg = orbit_average(opart.fluxes, q_sn_orbit)
-            rm = dataclasses.replace(rm, Q=rm.Q + q_sn_avg)
-            if orbit.fluxes_on == "detailed":
-                q_recover = q_recover + orbit_average(opart.fluxes, q_orbit)
-            else:
-                q_lumped = q_lumped + q_sn_avg
-        case_asked = case  # (the refinement's next round starts again from what the case asks)
-        orbit_rec = None  # orbital loads traced on the FE faces travel with the recovery
-        if q_orbit is not None and orbit.fluxes_on == "detailed":
-            pos = opart.fluxes.positions
-            orbit_rec = (q_orbit, pos.time, pos.period)
-        fates = (side_fractions(sf[0], extra["radiation"].blocked, extra["radiation"].space) if trace
-                 else (None, None))
-        inputs = ReductionInputs(model=model, case=case, clustering=clustering, network=rm,
-                                 q_recover=q_recover, q_lumped=q_lumped, orbit=orbit_rec,
-                                 unblocked=fates[0], to_space=fates[1],
-                                 ir_on_asked=case.radiation.ir_on,
-                                 trace_ir=(lambda c: ir_absorption(model, rm, c, surface, scene=scenes.main(), sf=sf))
-                                 if trace else None)
-        # the thesis' reduction first: the network when nothing else is chosen, else the next method's start
-        reductor = first_reductor(case)
-        thesis_failed = thesis_red = None
-        try:
-            red = reductor.reduce(inputs, prog)
-        except Fem2TmmError as exc:
-            if (case.reduction.radiation_aware is False or case.reduction.network == "positive"
-                    or not np.any(model.space_coupling() > 0)):
-                raise
-            # the thesis' network has no physical solution (its negative conductances, a strong heater on a thin
-            # panel): the radiation-aware reduction needs none, it starts from the detailed field radiating to
-            # space (issue 42: a thin composite bracket at 30 super nodes, 40 W)
-            thesis_failed = str(exc)
-            with prog.stage("presolve_space", "the detailed field radiating to space (the thesis' network has no "
-                                              "physical solution)"):
-                T_start = presolve_space(model, case)
-            red = Reduced(method=reductor.name, network=rm, solution=None, T_recovered=T_start, q_recover=q_recover,
-                          case=case)
-            case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
-        group = (linearised or {}).get(network_group(case)) if case.reduction.radiation_aware is not False else None
-        if group is not None and case.reduction.radiation_aware == "auto":  # the set's choice, made by its first case
-            case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction,
-                                                                          radiation_aware=group["aware"]))
-        case, choice = choose_reduction(model, case, red.network, red.T_recovered)
-        if thesis_failed is not None:
-            choice = {**choice, "chosen_by": "the thesis' network has no physical steady solution (its negative "
-                                             "conductances): the radiation-aware reduction, started from the "
-                                             "detailed field radiating to space",
-                      "thesis_refused": thesis_failed}
-        if group is not None and case.reduction.radiation_aware:
-            extra["shared_network"] = {"linearised_at": group["case"], "cases": list(group["cases"])}
-        inputs = dataclasses.replace(inputs, case=case, linearised_at=None if group is None else group["T"])
-        if reductor_for(case).name != reductor.name:
-            if thesis_failed is None:
-                extra["thesis_T_recovered"] = red.T_recovered
-                thesis_red = red
-            reductor = reductor_for(case)
-            red = reductor.reduce(inputs, prog, start=red)
-            if red.network.radiative is not None and not red.network.radiative.shared:
-                extra.pop("shared_network", None)  # left the set's network (no solution there): its own
-            if red.notes:
-                choice = {**choice, "ir_on": red.case.radiation.ir_on,
-                          "chosen_by": "; ".join([choice["chosen_by"], *red.notes])}
-            case = red.case
-        red = reductor.deliver(dataclasses.replace(inputs, case=case), red, prog)
-        reduced = result.reduced = dataclasses.replace(red, clustering=clustering, choice=choice, **extra)
-        if trace:  # one emission for every method: the network's radiation to space against its field's (issue 42)
-            res = extra["radiation"]
-            ir_sides = red.ir is not None and red.ir.to_space is not None
-            reduced.emission_check = emission_check(
-                model, float(reduced.solution.to_space.sum()) + (_by_correction(reduced.network) or 0.0),
-                reduced.T_recovered, red.ir.to_space if ir_sides else inputs.to_space, res.blocked, res.eps_area,
-                rm.part[sf[1]], warn=reduced.method == "radiation_aware")
-        if thesis_red is not None and case_asked.reduction.radiation_aware == "auto":
-            # the a-posteriori estimate of both candidates' error (no detailed reference), beside the choice
-            with prog.stage("estimate", "estimating both reductions' errors (a-posteriori)"):
-                t0 = time.perf_counter()
-                m_est = model.with_unblocked(red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None
-                                             else inputs.unblocked)
-                st, sc = Refinement(), (surface if trace else None, scenes.main() if trace else None)
-                est = {"thesis": error_estimate(m_est, clustering, case, thesis_red.network, thesis_red.solution.T,
-                                                thesis_red.T_recovered, q_recover, q_lumped, None, st, *sc)[0],
-                       reduced.method: error_estimate(m_est, clustering, case, reduced.network, reduced.solution.T,
-                                                      reduced.T_recovered, q_recover, q_lumped, reduced.ir, st, *sc)[0]}
-                reduced.choice = {**reduced.choice, "estimated_rms_K": est,
-                                  "estimate_seconds": time.perf_counter() - t0}
-        if case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
-            refine = Refinement() if refine is None else refine
-            with prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
-                # the estimate's emission is the one every method shares: εA (1 − blocked) per side (issue 42)
-                unblocked = red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None else inputs.unblocked
-                nxt = refinement_step(model.with_unblocked(unblocked), clustering, case, reduced.network,
-                                      reduced.solution.T,
-                                      reduced.T_recovered, q_recover, q_lumped, reduced.ir, refine,
-                                      surface if trace else None, scenes.main() if trace else None)
-            if nxt is not None:
-                return _run(case_asked, prog, mesh, reference, store, labels=nxt, refine=refine, shelf=scenes.shelf,
-                            linearised=linearised)
-            reduced.refinement = refine
-        if case_asked.reduction.parametric and reduced.method == "radiation_aware":
-            # the correction load at the parametric states, with this network's linearisation (same K̃, GR, C)
-            states = parametric_states(case_asked)
-            with prog.stage("parametric", f"the network's correction at {len(states)} parametric states"):
-                at = {"T": reduced.network.radiative.T_built, "aware": True, "case": "design", "cases": []}
-                runs = []
-                celsius = {b.name for b in case_asked.boundaries if b.kind == "temperature"} | {"sink"}
-                for name, value, c in states:
-                    where = (f"{case.source}: [reduction] parametric {name} = "
-                             f"{value - KELVIN if name in celsius else value:g}")
-                    try:
-                        r = _run(c, Progress(quiet=True), mesh, False, store, shelf=scenes.shelf,
-                                 linearised={network_group(c): at})
-                    except Fem2TmmError as exc:
-                        raise Fem2TmmError(f"{where}: that state has no solution on this network ({exc}); "
-                                           "narrow the values") from None
-                    if r.reduced.method != reduced.method or r.reduced.choice["ir_on"] != reduced.choice["ir_on"]:
-                        raise Fem2TmmError(
-                            f"{where}: that state ran {r.reduced.method} with ir_on = {r.reduced.choice['ir_on']!r}, "
-                            f"not the design's {reduced.method} with {reduced.choice['ir_on']!r}, so its correction "
-                            "does not belong to this network; narrow the values or set [radiation] ir_on explicitly")
-                    runs.append((name, value, r.reduced))
-                reduced.parametric = parametric_corrections(
-                    reduced, case_asked, [n for n, _ in case_asked.reduction.parametric], runs)
-                if reduced.parametric["gl_change"] > 1e-9:  # the states must share this network's GL
-                    raise InternalError(f"the parametric states' networks differ from the design's by "
-                                        f"{reduced.parametric['gl_change']:.3g} (relative GL)")
-        elif case_asked.reduction.parametric:
-            import warnings
+def _detailed_orbit(run: _RunState) -> np.ndarray | None:
+    """Orbital loads (solar, albedo, planet IR) (k, n_dof) W at every position on the detailed mesh, when needed."""
+    case, orbit = run.case, run.orbit
+    if orbit is None or not (run.do_ref or not case.reduction.enabled or orbit.fluxes_on == "detailed"):
+        return None
+    q_orbit, run.opart.detailed = run.cached(
+        "orbit_detailed", "tracing orbital fluxes on the detailed mesh", lambda: run.orbit_key("orbit_detailed"),
+        lambda: detailed_orbit(run.model, case, run.surface, scene=run.scenes.main()))
+    return q_orbit
 
-            warnings.warn(f"{case.source}: [reduction] parametric is not used: the run's network is the thesis' "
-                          f"({reduced.choice['chosen_by']}), which is state-independent: a named constant edited in "
-                          "the deck already gives what fem2tmm gives", stacklevel=2)
-        if q_sn_orbit is not None and orbit.steady == "positions":
-            with prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
-                if reduced.method == "radiation_aware":  # the network handed over: the average and each departure
-                    red = reduced.network
-                    if orbit.fluxes_on == "detailed":
-                        dq = q_orbit - orbit_average(opart.fluxes, q_orbit)
-                        pos_args = (reduced.q_recover, red.reduction.distribute(dq.T).T, dq)
-                    else:
-                        pos_args = (reduced.q_recover, q_sn_orbit - orbit_average(opart.fluxes, q_sn_orbit), None)
-                    opart.T_positions = orbit_positions_reduced(red, *pos_args, reduced.solution.T, case,
-                                                                exported=reduced.recovery)
-                else:
-                    opart.T_positions = orbit_positions_reduced(
-                        rm_base, q_recover_base, q_sn_orbit, q_orbit if orbit.fluxes_on == "detailed" else None,
-                        reduced.solution.T, case)
 
-    # detailed reference model (with its own random streams; two independent halves estimate its noise)
-    if do_ref or not case.reduction.enabled:
-        noise = do_ref and case.reduction.enabled and case.reference.noise
-        halves = []  # the problems of the two half references, when the reference is noisy
-        if trace:
-            ref = case.reference
+def _reduced_network(run: _RunState, clustering, ckey: str, q_solar: np.ndarray | None,
+                     q_orbit: np.ndarray | None, extra: dict) -> _Network:
+    """Conduction reduced, super-face radiation, solar and orbital loads: the reduction method's inputs."""
+    model, case, orbit, opart, surface, scenes = run.model, run.case, run.orbit, run.opart, run.surface, run.scenes
+    rm = run.cached("reduce", "reducing conduction", lambda: reduce_key(model, case, ckey),
+                    lambda: build_reduced(model, clustering, case))
+    rm = refresh_reduced(rm, model)  # this case's loads, boundary temperatures, sink and optics
+    sf = super_faces(model, rm) if surface is not None else None
+    if run.trace:
+        GR, g_space, extra["radiation"], extra["super_faces_count"] = run.cached(
+            "radiation", "tracing super-face exchange factors",
+            lambda: trace_key("radiation", run.geometry, run.ir, run.skey, sf, rm.n, tracer_settings(case)),
+            lambda: reduced_radiation(model, rm, case, surface, scene=scenes.main(), sf=sf))
+        rm = dataclasses.replace(rm, GR=GR, g_space=g_space)
+    q_recover = model.Q
+    q_lumped = np.zeros(rm.n)  # loads lumped per super node (super-face solar)
+    if run.sun:
+        if case.environment.solar_on == "detailed":
+            # exact power distribution: q_SN = Y q; the non-uniform part stays in the recovery (X q)
+            q_sn = rm.reduction.distribute(q_solar)
+            q_recover = model.Q + q_solar
+        else:
+            q_sn, extra["solar"], _ = run.cached(
+                "solar", "tracing solar rays on the super faces",
+                lambda: run.sun_key("solar", run.skey, "reduced", sf, rm.n),
+                lambda: super_face_solar(model, rm, case, surface, scene=scenes.main(), sf=sf))
+            if run.result.absorbed_solar_elements is None:
+                run.result.absorbed_solar_faces, run.result.absorbed_solar_elements = absorbed_solar_maps(
+                    model, extra["solar"])
+            q_lumped = q_sn
+        rm = dataclasses.replace(rm, Q=rm.Q + q_sn)
+        extra["solar_on"] = case.environment.solar_on
+    q_sn_orbit = None
+    if orbit is not None:
+        if orbit.fluxes_on == "detailed":
+            q_sn_orbit = rm.reduction.distribute(q_orbit.T).T  # exact distribution, per position
+        else:
+            q_sn_orbit, opart.super_faces = run.cached(
+                "orbit", "tracing orbital fluxes on the super faces", lambda: run.orbit_key("orbit", sf, rm.n),
+                lambda: super_face_orbit(model, rm, case, surface, scene=scenes.main(), sf=sf))
+        opart.fluxes_on = orbit.fluxes_on
+    rm_base, q_recover_base = rm, q_recover
+    if q_sn_orbit is not None:  # the steady case: orbit-averaged loads
+        q_sn_avg = orbit_average(opart.fluxes, q_sn_orbit)
+        rm = dataclasses.replace(rm, Q=rm.Q + q_sn_avg)
+        if orbit.fluxes_on == "detailed":
+            q_recover = q_recover + orbit_average(opart.fluxes, q_orbit)
+        else:
+            q_lumped = q_lumped + q_sn_avg
+    orbit_rec = None  # orbital loads traced on the FE faces travel with the recovery
+    if q_orbit is not None and orbit.fluxes_on == "detailed":
+        pos = opart.fluxes.positions
+        orbit_rec = (q_orbit, pos.time, pos.period)
+    fates = (side_fractions(sf[0], extra["radiation"].blocked, extra["radiation"].space) if run.trace
+             else (None, None))
+    inputs = ReductionInputs(model=model, case=case, clustering=clustering, network=rm,
+                             q_recover=q_recover, q_lumped=q_lumped, orbit=orbit_rec,
+                             unblocked=fates[0], to_space=fates[1],
+                             ir_on_asked=case.radiation.ir_on,
+                             trace_ir=(lambda c: ir_absorption(model, rm, c, surface, scene=scenes.main(), sf=sf))
+                             if run.trace else None)
+    return _Network(rm=rm, rm_base=rm_base, sf=sf, q_recover=q_recover, q_recover_base=q_recover_base,
+                    q_lumped=q_lumped, q_sn_orbit=q_sn_orbit, inputs=inputs)
 
-            def detailed_refs(role: str = "reference", fraction: float = 1.0):
-                return _cached(prog, store, status, "radiation_detailed",
-                               "tracing FE-face exchange factors (detailed model)",
-                               lambda: trace_key("radiation_detailed", geometry, ir, skey,
-                                                 tracer_settings(case, ref.rays_per_face, ref.ray_density, role=role,
-                                                                 fraction=fraction)),
-                               lambda: detailed_radiation(model, case, surface, rays_per_face=ref.rays_per_face,
-                                                          ray_density=ref.ray_density, scene=scenes.main(),
-                                                          role=role, fraction=fraction))
 
-            if noise:
-                parts = [detailed_refs(role, 0.5) for role in ("reference", "reference_b")]
-                halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
-                faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
-                dpart.radiation = parts[0][2]
-                dpart.halves = 2
-            else:
-                faced, g_space, dpart.radiation = detailed_refs()
-            problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
-        q_ref = q_solar
-        if q_solar is not None and noise and case.reduction.enabled and case.environment.solar_on != "detailed":
-            # the reference's own solar loads are noisy too: a second independent tracing
-            q_b, _ = _cached(prog, store, status, "solar_detailed_b",
-                             "tracing a second, independent detailed solar map (reference noise)",
-                             lambda: sun_key("solar_detailed", skey, "reference_b"),
-                             lambda: detailed_solar(model, case, surface, scene=scenes.main(), role="reference_b"))
-            halves = halves or [problem, problem]
-            halves = [dataclasses.replace(h, Q=h.Q + q) for h, q in zip(halves, (q_solar, q_b))]
-            q_ref = 0.5 * (q_solar + q_b)
-        elif q_solar is not None:
-            halves = [dataclasses.replace(h, Q=h.Q + q_solar) for h in halves]
-        if q_ref is not None:
-            problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
-        base = problem  # without the orbital loads
-        if q_orbit is not None:  # the steady case: orbit-averaged loads
-            q_avg = orbit_average(opart.fluxes, q_orbit)
-            problem = dataclasses.replace(problem, Q=problem.Q + q_avg)
-            halves = [dataclasses.replace(h, Q=h.Q + q_avg) for h in halves]
-        tr = case.transient
-        optional = tr is not None and tr.initial_temperature != "steady" and case.reduction.enabled
-        if not optional or case.reference.steady:
-            with prog.stage("solve_detailed", "solving the detailed model"):
+def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, extra: dict):
+    """The thesis' reduction first (the network when nothing else is chosen, else the next method's start), the
+    choice, the chosen method and its delivery.  Sets ``run.case`` to the case the chosen method ran and
+    ``run.result.reduced``; returns ``(reduced, reductor, red, thesis_red)`` (``red`` the method's delivered output,
+    ``thesis_red`` the thesis' when another method followed it)."""
+    model, case, prog, inputs = run.model, run.case, run.prog, net.inputs
+    reductor = first_reductor(case)
+    thesis_failed = thesis_red = None
+    try:
+        red = reductor.reduce(inputs, prog)
+    except Fem2TmmError as exc:
+        if (case.reduction.radiation_aware is False or case.reduction.network == "positive"
+                or not np.any(model.space_coupling() > 0)):
+            raise
+        # the thesis' network has no physical solution (its negative conductances, a strong heater on a thin
+        # panel): the radiation-aware reduction needs none, it starts from the detailed field radiating to
+        # space (issue 42: a thin composite bracket at 30 super nodes, 40 W)
+        thesis_failed = str(exc)
+        with prog.stage("presolve_space", "the detailed field radiating to space (the thesis' network has no "
+                                          "physical solution)"):
+            T_start = presolve_space(model, case)
+        red = Reduced(method=reductor.name, network=net.rm, solution=None, T_recovered=T_start,
+                      q_recover=net.q_recover, case=case)
+        case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=True))
+    group = (linearised or {}).get(network_group(case)) if case.reduction.radiation_aware is not False else None
+    if group is not None and case.reduction.radiation_aware == "auto":  # the set's choice, made by its first case
+        case = dataclasses.replace(case, reduction=dataclasses.replace(case.reduction,
+                                                                      radiation_aware=group["aware"]))
+    case, choice = choose_reduction(model, case, red.network, red.T_recovered)
+    if thesis_failed is not None:
+        choice = {**choice, "chosen_by": "the thesis' network has no physical steady solution (its negative "
+                                         "conductances): the radiation-aware reduction, started from the "
+                                         "detailed field radiating to space",
+                  "thesis_refused": thesis_failed}
+    if group is not None and case.reduction.radiation_aware:
+        extra["shared_network"] = {"linearised_at": group["case"], "cases": list(group["cases"])}
+    inputs = net.inputs = dataclasses.replace(inputs, case=case, linearised_at=None if group is None else group["T"])
+    if reductor_for(case).name != reductor.name:
+        if thesis_failed is None:
+            extra["thesis_T_recovered"] = red.T_recovered
+            thesis_red = red
+        reductor = reductor_for(case)
+        red = reductor.reduce(inputs, prog, start=red)
+        if red.network.radiative is not None and not red.network.radiative.shared:
+            extra.pop("shared_network", None)  # left the set's network (no solution there): its own
+        if red.notes:
+            choice = {**choice, "ir_on": red.case.radiation.ir_on,
+                      "chosen_by": "; ".join([choice["chosen_by"], *red.notes])}
+        case = red.case
+    run.case = case
+    red = reductor.deliver(dataclasses.replace(inputs, case=case), red, prog)
+    reduced = run.result.reduced = dataclasses.replace(red, clustering=clustering, choice=choice, **extra)
+    return reduced, reductor, red, thesis_red
+
+
+def _unblocked(net: _Network, red: Reduced) -> np.ndarray | None:
+    """The emission every method shares: the unblocked fraction per side (εA (1 − blocked), issue 42)."""
+    return red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None else net.inputs.unblocked
+
+
+def _emission_check(run: _RunState, net: _Network, reduced: Reduced, red: Reduced, res) -> None:
+    """One emission for every method: the network's radiation to space against its field's (issue 42)."""
+    ir_sides = red.ir is not None and red.ir.to_space is not None
+    reduced.emission_check = emission_check(
+        run.model, float(reduced.solution.to_space.sum()) + (_by_correction(reduced.network) or 0.0),
+        reduced.T_recovered, red.ir.to_space if ir_sides else net.inputs.to_space, res.blocked, res.eps_area,
+        net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware")
+
+
+def _estimate(run: _RunState, net: _Network, clustering, reduced: Reduced, red: Reduced,
+              thesis_red: Reduced) -> None:
+    """The a-posteriori estimate of both candidates' error (no detailed reference), beside the choice."""
+    with run.prog.stage("estimate", "estimating both reductions' errors (a-posteriori)"):
+        t0 = time.perf_counter()
+        m_est = run.model.with_unblocked(_unblocked(net, red))
+        st, sc = Refinement(), (run.surface if run.trace else None, run.scenes.main() if run.trace else None)
+        q = (net.q_recover, net.q_lumped)
+        est = {"thesis": error_estimate(m_est, clustering, run.case, thesis_red.network, thesis_red.solution.T,
+                                        thesis_red.T_recovered, *q, None, st, *sc)[0],
+               reduced.method: error_estimate(m_est, clustering, run.case, reduced.network, reduced.solution.T,
+                                              reduced.T_recovered, *q, reduced.ir, st, *sc)[0]}
+        reduced.choice = {**reduced.choice, "estimated_rms_K": est, "estimate_seconds": time.perf_counter() - t0}
+
+
+def _refinement_step(run: _RunState, net: _Network, clustering, reduced: Reduced, red: Reduced,
+                     refine: Refinement) -> np.ndarray | None:
+    """The error-driven refinement's estimate: the next round's labels, or None when the target is met."""
+    with run.prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
+        return refinement_step(run.model.with_unblocked(_unblocked(net, red)), clustering, run.case,
+                               reduced.network, reduced.solution.T, reduced.T_recovered, net.q_recover,
+                               net.q_lumped, reduced.ir, refine, run.surface if run.trace else None,
+                               run.scenes.main() if run.trace else None)
+
+
+def _parametric(run: _RunState, mesh: Mesh, reduced: Reduced) -> None:
+    """The radiation-aware network's correction load at the parametric states, with this network's
+    linearisation (same K̃, GR, C); a warning when the run's network is the thesis'."""
+    asked, case = run.asked, run.case
+    if asked.reduction.parametric and reduced.method == "radiation_aware":
+        states = parametric_states(asked)
+        with run.prog.stage("parametric", f"the network's correction at {len(states)} parametric states"):
+            at = {"T": reduced.network.radiative.T_built, "aware": True, "case": "design", "cases": []}
+            runs = []
+            celsius = {b.name for b in asked.boundaries if b.kind == "temperature"} | {"sink"}
+            for name, value, c in states:
+                where = (f"{case.source}: [reduction] parametric {name} = "
+                         f"{value - KELVIN if name in celsius else value:g}")
                 try:
-                    dpart.solution = solve_case(problem, case)
+                    r = _run(c, Progress(quiet=True), mesh, False, run.store, shelf=run.scenes.shelf,
+                             linearised={network_group(c): at})
                 except Fem2TmmError as exc:
-                    if not optional:
-                        raise
-                    import warnings  # asked for, but a transient from a given temperature does not need it
+                    raise Fem2TmmError(f"{where}: that state has no solution on this network ({exc}); "
+                                       "narrow the values") from None
+                if r.reduced.method != reduced.method or r.reduced.choice["ir_on"] != reduced.choice["ir_on"]:
+                    raise Fem2TmmError(
+                        f"{where}: that state ran {r.reduced.method} with ir_on = {r.reduced.choice['ir_on']!r}, "
+                        f"not the design's {reduced.method} with {reduced.choice['ir_on']!r}, so its correction "
+                        "does not belong to this network; narrow the values or set [radiation] ir_on explicitly")
+                runs.append((name, value, r.reduced))
+            reduced.parametric = parametric_corrections(
+                reduced, asked, [n for n, _ in asked.reduction.parametric], runs)
+            if reduced.parametric["gl_change"] > 1e-9:  # the states must share this network's GL
+                raise InternalError(f"the parametric states' networks differ from the design's by "
+                                    f"{reduced.parametric['gl_change']:.3g} (relative GL)")
+    elif asked.reduction.parametric:
+        import warnings
 
-                    warnings.warn(f"the detailed steady reference failed and is left out; the transient goes on: {exc}",
-                                  stacklevel=2)
-                    halves = []
-        else:  # a transient from a given temperature: its detailed reference needs no steady solution
-            halves = []
-        if halves:
-            with prog.stage("reference_noise", "solving the two half references (reference noise)"):
-                Ta, Tb = (s.T for s in map_units(solve_unit, halves, shared=solver_settings(case),
-                                                 what="steady solves"))
-            dpart.noise = reference_noise(model, Ta, Tb)
-        if q_orbit is not None and orbit.steady == "positions" and dpart.solution is not None:
-            with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
-                T = orbit_positions_detailed(base, q_orbit, dpart.solution.T, case)
-                if case.reduction.enabled:
-                    opart.T_positions_detailed = T
-                else:
-                    opart.T_positions = T
+        warnings.warn(f"{case.source}: [reduction] parametric is not used: the run's network is the thesis' "
+                      f"({reduced.choice['chosen_by']}), which is state-independent: a named constant edited in "
+                      "the deck already gives what fem2tmm gives", stacklevel=3)
 
-    result.detailed, result.orbit = dpart, opart
+
+def _orbit_positions_reduced(run: _RunState, net: _Network, reduced: Reduced, q_orbit: np.ndarray | None) -> None:
+    """The reduced model solved at every orbit position (the steady case with ``steady = "positions"``)."""
+    orbit, opart, q_sn_orbit = run.orbit, run.opart, net.q_sn_orbit
+    with run.prog.stage("orbit_positions", "solving the reduced model at every orbit position"):
+        if reduced.method == "radiation_aware":  # the network handed over: the average and each departure
+            red = reduced.network
+            if orbit.fluxes_on == "detailed":
+                dq = q_orbit - orbit_average(opart.fluxes, q_orbit)
+                pos_args = (reduced.q_recover, red.reduction.distribute(dq.T).T, dq)
+            else:
+                pos_args = (reduced.q_recover, q_sn_orbit - orbit_average(opart.fluxes, q_sn_orbit), None)
+            opart.T_positions = orbit_positions_reduced(red, *pos_args, reduced.solution.T, run.case,
+                                                        exported=reduced.recovery)
+        else:
+            opart.T_positions = orbit_positions_reduced(
+                net.rm_base, net.q_recover_base, q_sn_orbit, q_orbit if orbit.fluxes_on == "detailed" else None,
+                reduced.solution.T, run.case)
+
+
+def _reference(run: _RunState, problem, q_solar: np.ndarray | None, q_orbit: np.ndarray | None):
+    """The detailed reference model (with its own random streams; two independent halves estimate its noise):
+    its exchange factors and loads, its steady solution, its noise and its orbit positions.  Returns its problem
+    (with the orbit-averaged loads)."""
+    model, case, prog, dpart, opart, orbit = run.model, run.case, run.prog, run.dpart, run.opart, run.orbit
+    noise = run.do_ref and case.reduction.enabled and case.reference.noise
+    halves = []  # the problems of the two half references, when the reference is noisy
+    if run.trace:
+        ref = case.reference
+
+        def detailed_refs(role: str = "reference", fraction: float = 1.0):
+            return run.cached("radiation_detailed", "tracing FE-face exchange factors (detailed model)",
+                              lambda: trace_key("radiation_detailed", run.geometry, run.ir, run.skey,
+                                                tracer_settings(case, ref.rays_per_face, ref.ray_density, role=role,
+                                                                fraction=fraction)),
+                              lambda: detailed_radiation(model, case, run.surface, rays_per_face=ref.rays_per_face,
+                                                         ray_density=ref.ray_density, scene=run.scenes.main(),
+                                                         role=role, fraction=fraction))
+
+        if noise:
+            parts = [detailed_refs(role, 0.5) for role in ("reference", "reference_b")]
+            halves = [dataclasses.replace(problem, faced=fr, g_space=gs) for fr, gs, _ in parts]
+            faced, g_space = mean_faced([p[0] for p in parts]), 0.5 * (parts[0][1] + parts[1][1])
+            dpart.radiation = parts[0][2]
+            dpart.halves = 2
+        else:
+            faced, g_space, dpart.radiation = detailed_refs()
+        problem = dataclasses.replace(problem, faced=faced, g_space=g_space)
+    q_ref = q_solar
+    if q_solar is not None and noise and case.reduction.enabled and case.environment.solar_on != "detailed":
+        # the reference's own solar loads are noisy too: a second independent tracing
+        q_b, _ = run.cached("solar_detailed_b", "tracing a second, independent detailed solar map (reference noise)",
+                            lambda: run.sun_key("solar_detailed", run.skey, "reference_b"),
+                            lambda: detailed_solar(model, case, run.surface, scene=run.scenes.main(),
+                                                   role="reference_b"))
+        halves = halves or [problem, problem]
+        halves = [dataclasses.replace(h, Q=h.Q + q) for h, q in zip(halves, (q_solar, q_b))]
+        q_ref = 0.5 * (q_solar + q_b)
+    elif q_solar is not None:
+        halves = [dataclasses.replace(h, Q=h.Q + q_solar) for h in halves]
+    if q_ref is not None:
+        problem = dataclasses.replace(problem, Q=problem.Q + q_ref)
+    base = problem  # without the orbital loads
+    if q_orbit is not None:  # the steady case: orbit-averaged loads
+        q_avg = orbit_average(opart.fluxes, q_orbit)
+        problem = dataclasses.replace(problem, Q=problem.Q + q_avg)
+        halves = [dataclasses.replace(h, Q=h.Q + q_avg) for h in halves]
+    tr = case.transient
+    optional = tr is not None and tr.initial_temperature != "steady" and case.reduction.enabled
+    if not optional or case.reference.steady:
+        with prog.stage("solve_detailed", "solving the detailed model"):
+            try:
+                dpart.solution = solve_case(problem, case)
+            except Fem2TmmError as exc:
+                if not optional:
+                    raise
+                import warnings  # asked for, but a transient from a given temperature does not need it
+
+                warnings.warn(f"the detailed steady reference failed and is left out; the transient goes on: {exc}",
+                              stacklevel=3)
+                halves = []
+    else:  # a transient from a given temperature: its detailed reference needs no steady solution
+        halves = []
+    if halves:
+        with prog.stage("reference_noise", "solving the two half references (reference noise)"):
+            Ta, Tb = (s.T for s in map_units(solve_unit, halves, shared=solver_settings(case), what="steady solves"))
+        dpart.noise = reference_noise(model, Ta, Tb)
+    if q_orbit is not None and orbit.steady == "positions" and dpart.solution is not None:
+        with prog.stage("orbit_positions_detailed", "solving the detailed model at every orbit position"):
+            T = orbit_positions_detailed(base, q_orbit, dpart.solution.T, case)
+            if case.reduction.enabled:
+                opart.T_positions_detailed = T
+            else:
+                opart.T_positions = T
+    return problem
+
+
+def _transient(run: _RunState, reduced: Reduced | None, reductor, problem, q_orbit: np.ndarray | None,
+               q_sn_orbit: np.ndarray | None) -> None:
+    """The reduced model in time (recovered at every output time) and the detailed reference."""
+    case, orbit, opart, dpart = run.case, run.orbit, run.opart, run.dpart
     net = None if reduced is None else reduced.network
     # the exported recovery recovers the run's transient and per-position fields when it is the method's own
     exported = reduced.recovery if reduced is not None and reductor.field_from_export else None
-
-    # transient: the reduced model in time (recovered at every output time) and the detailed reference
-    if case.transient is not None:
-        with prog.stage("transient", "integrating the transient"):
-            rs, det = (None if reduced is None else reduced.solution), dpart.solution
-            orbit_loads = None
-            if q_orbit is not None or q_sn_orbit is not None:  # loads in time along the orbit
-                pos = opart.fluxes.positions
-                q_sn_t = q_sn_orbit
-                if (q_orbit is not None and orbit.fluxes_on == "detailed" and net is not None
-                        and net.radiative is not None):  # the radiation-aware network's own Y'
-                    q_sn_t = net.reduction.distribute(q_orbit.T).T
-                orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_t, q_dof=q_orbit,
-                                         recover_dof=orbit.fluxes_on == "detailed")
-            with_ref = do_ref or not case.reduction.enabled
-            result.transient = run_transient(case, model, net, None if rs is None else rs.T,
+    with run.prog.stage("transient", "integrating the transient"):
+        rs, det = (None if reduced is None else reduced.solution), dpart.solution
+        orbit_loads = None
+        if q_orbit is not None or q_sn_orbit is not None:  # loads in time along the orbit
+            pos = opart.fluxes.positions
+            q_sn_t = q_sn_orbit
+            if (q_orbit is not None and orbit.fluxes_on == "detailed" and net is not None
+                    and net.radiative is not None):  # the radiation-aware network's own Y'
+                q_sn_t = net.reduction.distribute(q_orbit.T).T
+            orbit_loads = OrbitLoads(times=pos.time, period=pos.period, q_sn=q_sn_t, q_dof=q_orbit,
+                                     recover_dof=orbit.fluxes_on == "detailed")
+        with_ref = run.do_ref or not case.reduction.enabled
+        run.result.transient = run_transient(case, run.model, net, None if rs is None else rs.T,
                                              None if reduced is None else reduced.q_recover,
                                              problem if with_ref else None, None if det is None else det.T,
                                              orbit=orbit_loads, exported=exported)
 
-    if reduced is not None:  # what the user receives: the network written, read back, solved, recovered
-        from .handover import check_deliverable
 
-        with prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
-            reduced.delivered = check_deliverable(result, recover=dpart.solution is not None)
-        from .verify import verify_network, why_unverified
+def _deliver_and_verify(run: _RunState, reduced: Reduced, problem) -> None:
+    """What the user receives (the network written, read back, solved, recovered), then its validity range."""
+    from .handover import check_deliverable
 
-        reduced.verified = why_unverified(result)  # the validity range: checked against the detailed model, or not
-        if reduced.verified is None:
-            with prog.stage("verify", "verifying the network over its validity range (edited decks vs detailed)"):
-                reduced.verified = verify_network(result, problem)
-    result.summary = build_summary(result, prog.timings)
-    return result
+    with run.prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
+        reduced.delivered = check_deliverable(run.result, recover=run.dpart.solution is not None)
+    from .verify import verify_network, why_unverified
+
+    reduced.verified = why_unverified(run.result)  # the validity range: checked against the detailed model, or not
+    if reduced.verified is None:
+        with run.prog.stage("verify", "verifying the network over its validity range (edited decks vs detailed)"):
+            reduced.verified = verify_network(run.result, problem)
