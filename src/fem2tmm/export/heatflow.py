@@ -99,6 +99,15 @@ def by_correction(rm) -> float | None:
     return None if known is None else float(known - np.sum(rm.Q))
 
 
+def correction_label(rm) -> str:
+    """The book row of :func:`by_correction`: a network with a correction load radiates that share through it; one
+    whose couplings to space follow its temperatures (``g_space_table``, no correction load) loses it in the
+    distribution of its loads (Y'q: the share a load's hot spot radiates inside its own super node)."""
+    if getattr(rm, "g_space_table", None) is not None:
+        return "radiated inside the loaded super nodes (load distribution Y'q)"
+    return "radiated through the radiation-aware correction load"
+
+
 def _by_correction(result) -> float | None:
     return by_correction(result.reduced.network)
 
@@ -119,9 +128,8 @@ def steady_books(result) -> dict:
         outs = [("radiated to space", float(rs.to_space.sum()))]
         applied = float(rs.balance["applied_W"])
         by_correction = _by_correction(result)
-        if by_correction is not None:  # the radiation-aware network radiates part of its heat through its correction load
-            outs = [("radiated to space", float(rs.to_space.sum())),
-                    ("radiated through the radiation-aware correction load", by_correction)]
+        if by_correction is not None:  # the radiation-aware network radiates part of its heat outside its couplings
+            outs = [("radiated to space", float(rs.to_space.sum())), (correction_label(rm), by_correction)]
             applied += by_correction
         outs += [(f"into fixed boundary '{rm.names[i]}'", -float(rs.heat_fixed[i])) for i in np.flatnonzero(rm.fixed)]
         out["reduced"] = dict(_book(rows, outs, applied, INPUT_NOT_NAMED, "W"), basis=basis)
@@ -177,7 +185,7 @@ def transient_books(result) -> dict:
         by_correction = _by_correction(result) if model == "reduced" else None
         if by_correction is not None:  # the correction load, constant in time, carries part of the radiation
             outs = [("radiated to space", float(e["to_space_J"])),
-                    ("radiated through the radiation-aware correction load", by_correction * (b - a))]
+                    (correction_label(result.reduced.network), by_correction * (b - a))]
             applied += by_correction * (b - a)
         outs += [("into fixed boundaries", float(e["into_fixed_J"]))]
         outs += [("stored (heat capacity)", float(e["stored_J"]))]
