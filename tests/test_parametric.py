@@ -119,6 +119,11 @@ def test_parametric_is_refused_where_it_has_no_meaning():
         composite_box_case(10, reduction={"parametric": {"power_1": [1.0, 1.0]}})
     with pytest.raises(Fem2TmmError, match="absolute zero"):
         composite_box_case(10, reduction={"parametric": {"sink": [-300.0]}})
+    # names as ESATAN reads them (any case), once each, and the boundary's own name in the result
+    assert composite_box_case(10, reduction={"parametric": {"POWER_1": [0.0]}}).reduction.parametric == \
+        (("power_1", (0.0,)),)
+    with pytest.raises(Fem2TmmError, match="'power_1' is given twice"):
+        composite_box_case(10, reduction={"parametric": {"power_1": [0.0], "Power_1": [2.0]}})
 
 
 def test_weights_reproduce_quadratics_and_are_exact_at_the_computed_values():

@@ -67,6 +67,27 @@ class _SettingsTables:
                                          choices=("global", "local")),
         )
 
+    def _deck_constant(self, where: str, key, boundaries, if_tabled: str) -> tuple:
+        """The deck constant ``key`` names in ``[reduction] parametric`` / ``verify``: ``sink`` or a named power, flux
+        or temperature ``[[boundary]]`` without a time table (any case, as ESATAN reads names).  Returns ``(name,
+        offset, lowest, unit)``: the boundary's own name, the offset from case units to SI (273.15 for °C), the
+        case-unit value at or below which the constant is unphysical (None: no bound) and the case unit."""
+        if str(key).lower() == "sink":
+            return "sink", KELVIN, ABSOLUTE_ZERO_C, "°C"
+        named = {b.name.upper(): b for b in boundaries if b.name}
+        b = named.get(str(key).upper())
+        if b is None:
+            raise self.err(where, f"no [[boundary]] named {key!r} (named boundaries: "
+                                  f"{', '.join(sorted(b.name for b in boundaries if b.name)) or 'none'}; or sink)")
+        if b.kind not in ("power", "flux", "temperature"):
+            raise self.err(where, f"[[boundary]] {b.name!r} is a {b.kind} boundary: only power, flux and "
+                                  "temperature boundaries are deck constants")
+        if b.table is not None:
+            raise self.err(where, f"[[boundary]] {b.name!r} follows a table in time: {if_tabled}")
+        if b.kind == "temperature":
+            return b.name, KELVIN, ABSOLUTE_ZERO_C, "°C"
+        return b.name, 0.0, None, "W" if b.kind == "power" else "W/m²"
+
     def parametric(self, d, boundaries, reduction) -> tuple:
         """``[reduction] parametric = {name = [values], ...}``: named power / flux / temperature boundaries (case units:
         W, W/m², °C) or ``sink`` (°C) and the values the radiation-aware correction is also computed at; SI out."""
@@ -79,27 +100,16 @@ class _SettingsTables:
             raise self.err(w, "the correction load it tabulates is the radiation-aware network's (the thesis' network "
                               "is state-independent: a named constant changed in the deck already gives what fem2tmm "
                               "gives): remove it, or keep [reduction] radiation_aware = \"auto\" or true")
-        named = {b.name: b for b in boundaries}
         out = []
-        for name, values in d.items():
-            where = f"{w}.{name}"
-            if name == "sink":
-                if any(n.strip().upper() == "SINK" for n in named):
-                    raise self.err(where, "a [[boundary]] is named 'sink', which parametric keeps for the sink "
-                                          "temperature: rename that boundary")
-                offset, lo = KELVIN, ABSOLUTE_ZERO_C
-            elif name in named:
-                b = named[name]
-                if b.kind not in ("power", "flux", "temperature"):
-                    raise self.err(where, f"[[boundary]] {name!r} is a {b.kind} boundary: only power, flux and "
-                                          "temperature boundaries are deck constants")
-                if b.table is not None:
-                    raise self.err(where, f"[[boundary]] {name!r} follows a table in time; a parametric value "
-                                          "would have no meaning there")
-                offset, lo = (KELVIN, ABSOLUTE_ZERO_C) if b.kind == "temperature" else (0.0, None)
-            else:
-                raise self.err(where, f"no [[boundary]] named {name!r} (named boundaries: "
-                                      f"{', '.join(sorted(n for n in named if n)) or 'none'}; or sink)")
+        for key, values in d.items():
+            where = f"{w}.{key}"
+            if str(key).lower() == "sink" and any(b.name.strip().upper() == "SINK" for b in boundaries if b.name):
+                raise self.err(where, "a [[boundary]] is named 'sink', which parametric keeps for the sink "
+                                      "temperature: rename that boundary")
+            name, offset, lo, _ = self._deck_constant(where, key, boundaries, "a parametric value would have no "
+                                                                              "meaning there")
+            if any(n == name for n, _ in out):
+                raise self.err(where, f"{name!r} is given twice")
             if not isinstance(values, list) or not values:
                 raise self.err(where, "expected a non-empty list of values")
             vals = []
@@ -128,26 +138,11 @@ class _SettingsTables:
         if not isinstance(d, Mapping) or not d:
             raise self.err(w, "expected true, false or a table {name = [low, high], ...} of named [[boundary]] "
                               "entries or sink, e.g. verify = {heater = [0, 40], sink = [-270, 20]}")
-        named = {b.name.upper(): b for b in boundaries if b.name}
         out = []
         for key, values in d.items():
             where = f"{w}.{key}"
-            if str(key).lower() == "sink":
-                name, offset, lo_abs, unit = "sink", KELVIN, ABSOLUTE_ZERO_C, "°C"
-            elif str(key).upper() in named:
-                b = named[str(key).upper()]
-                name = b.name
-                if b.kind not in ("power", "flux", "temperature"):
-                    raise self.err(where, f"[[boundary]] {b.name!r} is a {b.kind} boundary: only power, flux and "
-                                          "temperature boundaries are deck constants")
-                if b.table is not None:
-                    raise self.err(where, f"[[boundary]] {b.name!r} follows a table in time: it is not a constant of "
-                                          "the deck; remove it from verify")
-                offset, lo_abs, unit = ((KELVIN, ABSOLUTE_ZERO_C, "°C") if b.kind == "temperature" else
-                                        (0.0, None, "W" if b.kind == "power" else "W/m²"))
-            else:
-                raise self.err(where, f"no [[boundary]] named {key!r} (named boundaries: "
-                                      f"{', '.join(sorted(b.name for b in boundaries if b.name)) or 'none'}; or sink)")
+            name, offset, lo_abs, unit = self._deck_constant(where, key, boundaries,
+                                                             "it is not a constant of the deck; remove it from verify")
             if any(n == name for n, _, _ in out):
                 raise self.err(where, f"{name!r} is given twice")
             if (not isinstance(values, list) or len(values) != 2
