@@ -64,6 +64,7 @@ REGISTRY: dict[str, str] = {
     "choice": "benchmarks.choice:bench_choice",
     "offdesign": "benchmarks.offdesign:bench_offdesign",
     "offdesign_curve": "benchmarks.offdesign:bench_offdesign_curve",
+    "offdesign_transient": "benchmarks.offdesign_transient:bench_offdesign_transient",
 }
 
 

@@ -354,9 +354,12 @@ def test_radiation_aware_transient_follows_the_detailed_transient():
             # the start is the steady state: the recovery about the network's own linearisation returns the steady
             # recovered field to the outer iterations' tolerance (1 mK, reductors.radiation_aware.OUTER_TOLERANCE)
             assert np.abs(rec[0] - model.node_temperatures(res.reduced.T_recovered)).max() < 2e-3
-    # measured 2026-12-04: radiation-aware 0.39 K, thesis 4.8 K RMS over space and time (the network's correction
-    # stays the 2 W state's: at 5 W its second-order error shows); bound: 5x better than the thesis
-    assert errors[True] < 0.2 * errors[False], errors
+    # measured 2026-12-06: radiation-aware 1.02 K, thesis 4.77 K RMS over space and time.  The single case's
+    # network is the deck's: its couplings to space follow each super node's temperature (INTRP1 tables, evaluated
+    # by the run's integrator as by ESATAN's), exact at the 2 W start and 1.33 K off at the 5 W end (the tables'
+    # extrapolation to 2.5x the design heater).  Until 2026-12-06 the run integrated the design couplings with the
+    # correction load instead (0.39 K), which is not the network the deck holds.  Bound: 3x better than the thesis
+    assert errors[True] < errors[False] / 3.0, errors
 
 
 def test_a_set_linearised_about_a_cold_case_converges_on_a_hot_one():

@@ -234,10 +234,11 @@ def test_an_orbit_transient_fed_back_with_its_times_reproduces_the_runs_recovery
 
 
 def test_a_radiation_aware_transient_fed_back_reproduces_the_runs_recovery(tmp_path):
-    # issue 29: one recovery.  The radiation-aware network's output times are recovered in-process with the
-    # exported recovery (the constrained nonlinear problem, each time with its named loads and sink), so its own
-    # super-node temperatures fed back through fem2tmm recover give the run's transient field to the Newton
-    # tolerance (1e-10 K steps; asserted 1e-8 K).  The composite strip of tests/test_radiation_aware.py.
+    # issue 29: one recovery.  The radiation-aware network's transient is recovered in-process with the exported
+    # recovery in time (the constrained detailed transient, its loads from the time tables reduced.npz carries;
+    # issue 41), so its own super-node temperatures fed back through fem2tmm recover --in-time with the run's step
+    # give the run's transient field to the Newton tolerance (1e-10 K steps; asserted 1e-8 K).  The composite
+    # strip of tests/test_radiation_aware.py.
     mat = {"m": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}}
     case = make_case([{"name": "p", "groups": ["plate"], "material": "m", "thickness": 1e-3, "front": "black",
                        "back": "black", "super_nodes": 6}],
@@ -255,14 +256,24 @@ def test_a_radiation_aware_transient_fed_back_reproduces_the_runs_recovery(tmp_p
     heater = np.interp(tr.times, [0.0, 599.0, 601.0], [2.0, 2.0, 5.0])
     cols = [T - KELVIN for T in tr.reduced.T]
     f = write_csv(tmp_path / "T.csv", rec.names, cols, header=[f"t{i}" for i in range(len(cols))],
-                  extra=[["heater"] + [repr(float(h)) for h in heater], ["time"] + [repr(float(t)) for t in tr.times]])
-    back = recover(tmp_path / "out", f)["temperature"]
+                  extra=[["time"] + [repr(float(t)) for t in tr.times]])
+    back = recover(tmp_path / "out", f, in_time=True, step=60.0)["temperature"]
     mine = np.array([rec.node_temperatures(T) for T in tr.T_recovered]).T - KELVIN
     ok = np.isfinite(mine)
     assert np.abs(back[ok] - mine[ok]).max() < 1e-8
-    # and it still follows the detailed transient (measured 0.387 K RMS, the thesis' 4.8 K; test_radiation_aware)
+    # each column on its own with its heater value (the quasi-static field): the same at the steady start, off
+    # after the step
+    g = write_csv(tmp_path / "Tq.csv", rec.names, cols, header=[f"t{i}" for i in range(len(cols))],
+                  extra=[["heater"] + [repr(float(h)) for h in heater], ["time"] + [repr(float(t)) for t in tr.times]])
+    quasi = recover(tmp_path / "out", g)["temperature"]
+    assert np.abs(quasi[:, 0] - back[:, 0])[ok[:, 0]].max() < 1e-8
+    # and it follows the detailed transient better than the thesis' network (4.8 K RMS, test_radiation_aware):
+    # measured 2026-12-06 1.04 K RMS over the output times, 0.08 K before the step, 1.33 K at the 5 W steady end:
+    # the network as the deck runs it, its couplings to space following the super nodes' temperatures (until
+    # 2026-12-06 the run integrated the design couplings instead, 0.39 K, a network the deck does not hold); the
+    # recovery in time adds nothing (the detailed transient's own means recover to 0.22 K at 300 s outputs)
     det = np.array([res.model.node_temperatures(T) for T in tr.detailed.T]).T - KELVIN
-    assert np.sqrt(np.mean((mine[ok] - det[ok]) ** 2)) < 0.6
+    assert np.sqrt(np.mean((mine[ok] - det[ok]) ** 2)) < 1.2
 
 
 def test_per_position_temperatures_fed_back_with_their_positions_reproduce_the_run(tmp_path, capsys):

@@ -49,6 +49,15 @@ def _parser() -> argparse.ArgumentParser:
                          "rows: a named load (W or W/m2), 'sink' (degC), and 'time' (s: that time's orbital loads) "
                          "or 'position' (orbit position from 1: its loads) per column")
     rc.add_argument("--out", default=None, help="output folder (default: <OUT_DIR>-recovered next to it)")
+    rc.add_argument("--in-time", action="store_true",
+                    help="the columns are one transient (a 'time' row, increasing; the first column its start): "
+                         "integrate the heat stored inside each super node between them instead of recovering "
+                         "each column on its own; loads and sink linear between columns (give a column at each "
+                         "change of a load)")
+    rc.add_argument("--step", type=float, default=None, help="with --in-time: largest sub-step (s; default: "
+                                                               "one step per interval between columns)")
+    rc.add_argument("--scheme", default="crank-nicolson", choices=["crank-nicolson", "backward-euler", "bdf2"],
+                    help="with --in-time: the time scheme (default crank-nicolson, as ESATAN's SLCRNC)")
     _network_parser(sub)
     return p
 
@@ -133,7 +142,9 @@ def _recover(args) -> int:
 
     src = Path(args.out_dir)
     out = Path(args.out) if args.out else src.with_name(src.name + "-recovered")
-    res = recover(src, args.temperatures, out=out)
+    if not args.in_time and (args.step is not None or args.scheme != "crank-nicolson"):
+        raise Fem2TmmError("--step and --scheme go with --in-time (recovering the columns as one transient)")
+    res = recover(src, args.temperatures, out=out, in_time=args.in_time, step=args.step, scheme=args.scheme)
     T = res["temperature"]
     print(f"{T.shape[1]} column(s) recovered onto {int(np.isfinite(T[:, 0]).sum())} nodes "
           f"({np.nanmin(T):.2f} .. {np.nanmax(T):.2f} degC); outputs in {res['out']}")

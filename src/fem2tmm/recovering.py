@@ -105,7 +105,8 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
     return T, loads, sinks, labels, times, positions
 
 
-def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) -> dict:
+def recover(out_dir: str | Path, temperatures, out: str | Path | None = None, in_time: bool = False,
+            step: float | None = None, scheme: str = "crank-nicolson") -> dict:
     """Recover FE-node temperatures from super-node temperatures computed anywhere.
 
     Parameters
@@ -118,6 +119,15 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) ->
     out : str or Path, optional
         Folder to write ``temperatures.vtu`` / ``.pvd``, ``temperatures.bdf`` and ``temperatures.inp`` into
         (atomically; fem2tmm's output-folder policy).  None writes nothing.
+    in_time : bool
+        The columns are one transient at increasing ``time`` values (the first its start):
+        :meth:`~fem2tmm.reduce.exported.ExportedRecovery.recover_transient` integrates the heat each super node
+        stores between them, with named loads and sink linear between columns.  Needs a ``time`` row and a
+        ``reduced.npz`` with the capacitance.
+    step : float, optional
+        With ``in_time``: the largest sub-step (s).
+    scheme : str
+        With ``in_time``: ``"crank-nicolson"``, ``"backward-euler"`` or ``"bdf2"``.
 
     Returns
     -------
@@ -148,7 +158,19 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None) ->
                                "recovery when [orbit] fluxes_on = \"detailed\")")
         if positions.max() >= k:
             raise Fem2TmmError(f"{where}: orbit position {int(positions.max()) + 1} of a network with {k} positions")
-    T_dof = rec.recover(T_sn, loads=loads, T_sink=sinks, times=times, positions=positions).reshape(rec.n_dof, -1)
+    if in_time:
+        if times is None:
+            raise Fem2TmmError(f"{where}: recovering in time needs a 'time' row (s) giving each column's time")
+        if positions is not None:
+            raise Fem2TmmError(f"{where}: recovering in time takes a 'time' row, not 'position'")
+        if rec.C is None:
+            raise Fem2TmmError(f"{npz} carries no capacitance (its case gives no density and specific heat): "
+                               "recover without --in-time, or give them and run the case again")
+        orbital = rec.orbit_q is not None
+        T_dof = rec.recover_transient(T_sn.reshape(rec.n_sn, -1), np.asarray(times, float), loads=loads or None,
+                                      T_sink=sinks, step=step, scheme=scheme, orbital=orbital)
+    else:
+        T_dof = rec.recover(T_sn, loads=loads, T_sink=sinks, times=times, positions=positions).reshape(rec.n_dof, -1)
     T_nodes = rec.node_temperatures(T_dof) - KELVIN
     result = {"node_id": rec.node_ids, "temperature": T_nodes, "labels": labels, "out": None}
     if out is not None:

@@ -56,6 +56,17 @@ CHORD_RATE = 0.7
 _PREFIX = "recovery_"
 
 
+def _tables(g: dict) -> dict:
+    """The ``load_tables`` and ``sink_table`` fields from stored arrays (none in files written before 2026-12-06)."""
+    if "table_names" not in g:
+        return {}
+    ends = np.cumsum(g["table_lengths"])
+    starts = ends - g["table_lengths"]
+    tables = tuple((str(n), g["table_t"][a:b], g["table_v"][a:b]) for n, a, b in zip(g["table_names"], starts, ends))
+    sink = (g["sink_table_t"], g["sink_table_v"]) if len(g["sink_table_t"]) else None
+    return {"load_tables": tables, "sink_table": sink}
+
+
 def _csr_arrays(name: str, M: sp.spmatrix) -> dict:
     M = sp.csr_matrix(M)
     return {f"{name}_data": M.data, f"{name}_indices": M.indices.astype(np.int64),
@@ -96,6 +107,10 @@ class ExportedRecovery:
     orbit_nodes : (m,) s: times of the periodic piecewise-linear time functions (absolute: the orbit's time 0 at
         ``orbit_start``, one period long); orbit_H : (m, k): position j's time function sampled at the nodes
     orbit_weights : (k,): orbit-average weights; orbit_period : s; orbit_start : s (the [transient] start)
+    C : (n_dof, n_dof) csr J/K or None: the detailed capacitance (lumped: diagonal), for
+        :meth:`recover_transient`; None where the model has no density and specific heat
+    load_tables : ((name, t (m,) s, value (m,)), ...): the named loads that follow a time table (W or W/m², linear
+        between rows, held beyond), as the deck's; sink_table : (t (m,) s, T (m,) K) or None: the sink's
     """
 
     K: sp.csr_matrix
@@ -122,6 +137,9 @@ class ExportedRecovery:
     orbit_weights: np.ndarray = field(default_factory=lambda: np.zeros(0))
     orbit_period: float = 0.0
     orbit_start: float = 0.0
+    C: sp.csr_matrix | None = None
+    load_tables: tuple = ()
+    sink_table: tuple | None = None
 
     @property
     def n_dof(self) -> int:
@@ -145,6 +163,15 @@ class ExportedRecovery:
         if self.ir_A is not None:
             out.update(_csr_arrays("ir_A", self.ir_A))
             out.update(_csr_arrays("face_W", self.face_W))
+        out["table_names"] = np.array([n for n, _, _ in self.load_tables], dtype=str)
+        out["table_lengths"] = np.array([len(t) for _, t, _ in self.load_tables], np.int64)
+        out["table_t"] = np.concatenate([np.asarray(t, float) for _, t, _ in self.load_tables] or [np.zeros(0)])
+        out["table_v"] = np.concatenate([np.asarray(v, float) for _, _, v in self.load_tables] or [np.zeros(0)])
+        st, sv = self.sink_table if self.sink_table is not None else (np.zeros(0), np.zeros(0))
+        out["sink_table_t"], out["sink_table_v"] = np.asarray(st, float), np.asarray(sv, float)
+        out["has_C"] = np.array(self.C is not None)
+        if self.C is not None:
+            out.update(_csr_arrays("C", self.C))
         out["has_orbit"] = np.array(self.orbit_q is not None)
         if self.orbit_q is not None:
             out.update(_csr_arrays("orbit_q", self.orbit_q))
@@ -170,7 +197,8 @@ class ExportedRecovery:
                    load_values=g["load_values"], node_dof=g["node_dof"], node_ids=g["node_ids"],
                    midside=g["midside"], mode=str(g["mode"]), e=g["e"], T_sink=float(g["T_sink"]),
                    ir_A=_csr_from(g, "ir_A") if has_ir else None, ir_owner=g["ir_owner"], ir_face=g["ir_face"],
-                   ir_eps_area=g["ir_eps_area"], face_W=_csr_from(g, "face_W") if has_ir else None, **orbit)
+                   ir_eps_area=g["ir_eps_area"], face_W=_csr_from(g, "face_W") if has_ir else None,
+                   C=_csr_from(g, "C") if bool(g.get("has_C", False)) else None, **orbit, **_tables(g))
 
     # ----------------------------------------------------------------------------------------- recovery
     def loads(self, values: dict[str, float] | None = None) -> np.ndarray:
@@ -193,8 +221,10 @@ class ExportedRecovery:
         h = np.array([np.interp(tau, self.orbit_nodes, self.orbit_H[:, j]) for j in range(self.orbit_H.shape[1])])
         return np.asarray(self.orbit_q.T @ (h - self.orbit_weights)).ravel()
 
-    def _saddle(self, diag: np.ndarray | None = None):
+    def _saddle(self, diag: np.ndarray | None = None, M: sp.spmatrix | None = None):
         Kd = self.K if diag is None else self.K + sp.diags(diag)
+        if M is not None:
+            Kd = Kd + M
         M = sp.bmat([[Kd, self.A.T], [self.A, None]], format="csc")
         try:
             return factorize(M, "symmetric")  # [[K + diag, Aᵀ], [A, 0]]: symmetric indefinite
@@ -268,24 +298,163 @@ class ExportedRecovery:
                                           None if starts is None else T[:, j])
         return T[:, 0] if one else T
 
+    def recover_transient(self, T_sn: np.ndarray, times: np.ndarray, loads=None, T_sink=None,
+                          step: float | None = None, scheme: str = "crank-nicolson", orbital: bool = False,
+                          T0: np.ndarray | None = None, initial: np.ndarray | None = None) -> np.ndarray:
+        """The field in time, with the heat each super node stores inside it: ``(n_dof, k)`` K.
+
+        :meth:`recover` gives each time the field the loads of that instant hold at steady state inside super nodes
+        of the given means.  After a load step the heat a super node's elements store takes time to move: on the
+        L-bracket of ``fem2tmm bench offdesign_transient`` (300 super nodes, heater 10 → 40 W), recovering the
+        detailed transient's own means that way is 13 K off at its hot spot 200 s after the step, 3 K after 600 s.
+        Here the constrained detailed equations are integrated in time instead,
+
+            C dT/dt + K T + σ e ⊙ (T⁴ − T_s⁴) − q_abs(T) + Aᵀ μ = q(t),    A T = T_SN(t)
+
+        (linear mode: no emission terms), with ``scheme`` over sub-steps of at most ``step`` and the super-node
+        temperatures linear between the given times; the first column is :meth:`recover`'s (a steady start).
+        Given the exact means of a detailed transient it returns that transient up to the sub-step's truncation
+        (tests/test_recover_in_time.py).  Cost: one saddle solve of detailed size per sub-step, with one
+        factorisation per step size (emission mode: the chord iteration of :meth:`recover` on a factorisation kept
+        while it contracts, refreshed where it does not).
+
+        Parameters
+        ----------
+        T_sn : (n_sn, k) K
+            Super-node temperatures at ``times`` (boundary and kept nodes included).
+        times : (k,) s
+            Increasing output times.
+        loads : callable or dict, optional
+            ``loads(t) -> {name: value}`` (W, or W/m² for a flux) at any time, or ``{name: (k,) values}`` at
+            ``times`` (linear between them); a name not given follows its time table (:attr:`load_tables`, as in
+            the deck) or keeps its design value.
+        T_sink : callable, float or (k,), optional
+            Sink temperature (K): ``T_sink(t)``, one value, or one per time (linear between them); default its
+            time table (:attr:`sink_table`), else the design sink.
+        step : float, optional
+            Largest sub-step (s); default one step per interval of ``times``.
+        scheme : {"crank-nicolson", "backward-euler", "bdf2"}
+            The time scheme (bdf2 starts with one backward-Euler step and restarts where the step changes).
+        orbital : bool
+            Add each time's orbital loads (:meth:`orbit_departure`); ignored without orbital loads.
+        T0 : (n_dof,) K, optional
+            Start of the first column's Newton (emission mode).
+        initial : (n_dof,) K, optional
+            The field at ``times[0]`` (a transient started from a uniform temperature) instead of :meth:`recover`'s.
+
+        Returns
+        -------
+        (n_dof, k) K
+        """
+        if self.C is None:
+            raise Fem2TmmError("this reduced.npz carries no capacitance (its case gives no density and specific heat): "
+                               "recover in time needs it; recover() gives each time's quasi-static field")
+        if scheme not in ("crank-nicolson", "backward-euler", "bdf2"):
+            raise Fem2TmmError(f"recover_transient: scheme {scheme!r}; use crank-nicolson, backward-euler or bdf2")
+        times = np.asarray(times, float)
+        T_sn = np.asarray(T_sn, float).reshape(self.n_sn, -1)
+        k = len(times)
+        if T_sn.shape[1] != k:
+            raise Fem2TmmError(f"{T_sn.shape[1]} columns of super-node temperatures for {k} times")
+        if k > 1 and np.any(np.diff(times) <= 0.0):
+            raise Fem2TmmError("recover in time: the times must increase")
+        if step is not None and not step > 0.0:
+            raise Fem2TmmError(f"recover in time: step {step} s; give a positive step")
+
+        def between(values, t):  # a per-time value (k,) linear between the times, or a callable, or a constant
+            if callable(values):
+                return values(t)
+            v = np.asarray(values, float)
+            return float(v) if v.ndim == 0 else float(np.interp(t, times, v))
+
+        def load_at(t):
+            out = {n: float(np.interp(t, tt, vv)) for n, tt, vv in self.load_tables}
+            if loads is not None:
+                out.update(loads(t) if callable(loads) else {n: between(v, t) for n, v in loads.items()})
+            return out
+
+        def sink_at(t):
+            if T_sink is not None:
+                return between(T_sink, t)
+            if self.sink_table is not None:
+                return float(np.interp(t, *self.sink_table))
+            return self.T_sink
+
+        def q_at(t):
+            q = self.loads(load_at(t))
+            return q + self.orbit_departure(t) if orbital else q
+
+        def flux(T, Tsn, s, q):  # the steady residual's known-field part: K T + emission − absorbed − q
+            f = self.K @ T - q
+            if self.mode == "emission":
+                f = f + SIGMA * self.e * (T**4 - s**4) - self._absorbed(T, Tsn, s)
+            return f
+
+        out = np.empty((self.n_dof, k))
+        if initial is not None:
+            out[:, 0] = np.asarray(initial, float)
+        else:
+            out[:, 0] = self.recover(T_sn[:, 0], loads=load_at(times[0]), T_sink=sink_at(times[0]), T0=T0,
+                                     times=np.array([times[0]]) if orbital else None)
+        T, Tsn, s, q = out[:, 0], T_sn[:, 0], sink_at(times[0]), q_at(times[0])
+        T_old, h_old = None, None
+        factors, chord = {}, None
+        for i in range(1, k):
+            n_sub = 1 if step is None else max(1, int(np.ceil((times[i] - times[i - 1]) / step - 1e-9)))
+            h = (times[i] - times[i - 1]) / n_sub
+            for j in range(1, n_sub + 1):
+                t1 = times[i] if j == n_sub else times[i - 1] + j * h
+                w = j / n_sub
+                Tsn1 = (1.0 - w) * T_sn[:, i - 1] + w * T_sn[:, i]
+                s1, q1 = sink_at(t1), q_at(t1)
+                if scheme == "crank-nicolson":
+                    c = 2.0 / h
+                    rhs = q1 + c * (self.C @ T) - flux(T, Tsn, s, q)
+                elif scheme == "bdf2" and T_old is not None and h_old is not None and abs(h - h_old) < 1e-12 * h:
+                    c = 1.5 / h
+                    rhs = q1 + (self.C @ (2.0 * T - 0.5 * T_old)) / h
+                else:
+                    c = 1.0 / h
+                    rhs = q1 + c * (self.C @ T)
+                M = c * self.C
+                if self.mode == "emission":
+                    # the chord iteration on a saddle factorised once and kept while it contracts (the capacitance
+                    # term C/h dominates its diagonal), refreshed at the current state, then Newton
+                    T1 = None if chord is None or chord[0] != c else self._chord(Tsn1, rhs, float(s1), T, M, chord[1])
+                    if T1 is None:
+                        chord = (c, self._saddle(4.0 * SIGMA * self.e * T**3, M))
+                        T1 = self._chord(Tsn1, rhs, float(s1), T, M, chord[1])
+                    if T1 is None:
+                        T1 = self._nonlinear(Tsn1, rhs, float(s1), T, None, M)
+                else:
+                    lu = factors.get(c)
+                    if lu is None:
+                        lu = factors[c] = self._saddle(None, M)
+                    T1 = lu.solve(np.concatenate([rhs, Tsn1]))[: self.n_dof]
+                T_old, h_old = T, h
+                T, Tsn, s, q = T1, Tsn1, s1, q1
+            out[:, i] = T
+        return out
+
     def _nonlinear(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
-                   linear: np.ndarray | None = None) -> np.ndarray:
+                   linear: np.ndarray | None = None, M: sp.spmatrix | None = None) -> np.ndarray:
         """The emission mode for one state: :meth:`_chord` from ``T``, else Newton on the constrained problem with
         the absorbed IR lagged (:meth:`_newton`), from ``T`` and, should that fail, from the linear recovery
         ``linear`` (a given start can be far off: a transient starting at 0 °C recovered from its linearisation
         about a hot steady state, tests/test_robustness.py)."""
         T = np.maximum(np.asarray(T, float).copy(), 1.0)
-        done = self._chord(T_sn, q, T_sink, T)
+        done = self._chord(T_sn, q, T_sink, T, M)
         if done is not None:
             return done
         try:
-            return self._newton(T_sn, q, T_sink, T)
+            return self._newton(T_sn, q, T_sink, T, M)
         except Fem2TmmError:
             if linear is None or np.array_equal(linear, T):
                 raise
-            return self._newton(T_sn, q, T_sink, np.maximum(np.asarray(linear, float), 1.0))
+            return self._newton(T_sn, q, T_sink, np.maximum(np.asarray(linear, float), 1.0), M)
 
-    def _chord(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray) -> np.ndarray | None:
+    def _chord(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
+               M: sp.spmatrix | None = None, lu=None) -> np.ndarray | None:
         """One factorisation, at the start: iterations on the whole residual (emission and absorbed IR at the
         current field) solved with the saddle matrix of the start's linearised emission.  Near the solution (a
         transient's output times from their linearised recovery: ~0.5 K off) it contracts like the IR
@@ -294,12 +463,15 @@ class ExportedRecovery:
         Newton iteration then starts again from ``T``."""
         n = self.n_dof
         s4 = T_sink**4
-        lu = self._saddle(4.0 * SIGMA * self.e * T**3)
+        if lu is None:  # (a given lu: a saddle factorised at an earlier state, as a transient's steps reuse it)
+            lu = self._saddle(4.0 * SIGMA * self.e * T**3, M)
         mu = np.zeros(self.n_sn)
         prev = None
         X = T.copy()
         for _ in range(CHORD_MAX):
             r1 = self.K @ X + SIGMA * self.e * (X**4 - s4) + self.A.T @ mu - q - self._absorbed(X, T_sn, T_sink)
+            if M is not None:
+                r1 += M @ X
             r2 = self.A @ X - T_sn
             d = lu.solve(-np.concatenate([r1, r2]))
             size = float(np.abs(d[:n]).max())
@@ -312,7 +484,8 @@ class ExportedRecovery:
             prev = size
         return None
 
-    def _newton(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray) -> np.ndarray:
+    def _newton(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
+                M: sp.spmatrix | None = None) -> np.ndarray:
         """Newton on the constrained problem (a factorisation per step), the absorbed IR lagged over rounds."""
         T = T.copy()
         n = self.n_dof
@@ -324,8 +497,10 @@ class ExportedRecovery:
             prev = None
             for _ in range(RECOVERY_MAX_NEWTON):
                 r1 = self.K @ T + SIGMA * self.e * (T**4 - s4) + self.A.T @ mu - qa
+                if M is not None:
+                    r1 += M @ T
                 r2 = self.A @ T - T_sn
-                d = self._saddle(4.0 * SIGMA * self.e * T**3).solve(-np.concatenate([r1, r2]))
+                d = self._saddle(4.0 * SIGMA * self.e * T**3, M).solve(-np.concatenate([r1, r2]))
                 dT = d[:n]
                 step = 1.0
                 while np.any(T + step * dT <= 0.0) and step > 1e-6:  # temperatures stay positive
@@ -340,7 +515,8 @@ class ExportedRecovery:
                 # Newton no longer contracts with the residual at the round-off of the conduction terms: the
                 # floating-point floor of an ill-conditioned model
                 # (the emission and the loads count too: a 0 K start heated by 330 W, tests/test_robustness.py)
-                floor = roundoff(self.K, T) + ROUNDOFF_ULPS * float(np.finfo(float).eps) * float(
+                floor = roundoff(self.K, T) + (0.0 if M is None else roundoff(M, T))
+                floor += ROUNDOFF_ULPS * float(np.finfo(float).eps) * float(
                     np.abs(SIGMA * self.e * (T**4 + s4)).sum() + np.abs(qa).sum())
                 if prev is not None and size > 0.5 * prev and np.abs(r1).sum() <= floor:
                     break
@@ -354,7 +530,7 @@ class ExportedRecovery:
             # the emission is solved for this round's IR: the rounds left are the IR fixed point, which the chord
             # iteration (whole residual, one factorisation) follows at a back-substitution per step (a state 100 K
             # off the start: 39 -> ~8 factorisations, examples/composite, docs/design-notes.md)
-            done = self._chord(T_sn, q, T_sink, T)
+            done = self._chord(T_sn, q, T_sink, T, M)
             if done is not None:
                 return done
         raise Fem2TmmError(f"the recovery's absorbed-IR fixed point did not settle in {RECOVERY_MAX_ROUNDS} rounds "

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 
 from ..case import Case
 from ..cluster import Clustering
-from ..fem.model import FEModel, boundary_load
+from ..fem.model import FEModel, boundary_load, consistent_capacity
 from ..reduce.exported import ExportedRecovery
 from ..reduce.network import ReducedModel
 from ..result import Reduced
@@ -132,7 +132,21 @@ def exported_arrays(inputs: ReductionInputs, rm: ReducedModel) -> dict:
                 load_names=np.array(names, dtype=str), load_q=load_q, load_values=np.array(vals, float),
                 node_dof=np.asarray(model.node_dof, np.int64), node_ids=np.asarray(model.mesh.node_ids, np.int64),
                 midside=np.zeros((0, 3), np.int64) if ms is None else np.asarray(ms, np.int64),
-                T_sink=float(model.T_sink), **_orbit_recovery(case, inputs.orbit))
+                T_sink=float(model.T_sink), C=_capacitance(model, case), **_orbit_recovery(case, inputs.orbit),
+                load_tables=tuple((b.name, b.table.t, b.table.v) for b in case.boundaries
+                                  if b.kind in ("power", "flux") and b.table is not None),
+                sink_table=None if case.environment.sink_table is None
+                else (case.environment.sink_table.t, case.environment.sink_table.v))
+
+
+def _capacitance(model: FEModel, case: Case) -> sp.csr_matrix | None:
+    """The detailed capacitance the recovery in time integrates with (J/K, as the run's detailed transient:
+    consistent where ``[transient] capacitance = "consistent"``, lumped otherwise); None without one."""
+    if model.capacity is None:
+        return None
+    if case.transient is not None and case.transient.capacitance == "consistent":
+        return consistent_capacity(model)
+    return sp.diags(np.asarray(model.capacity, float)).tocsr()
 
 
 def _orbit_recovery(case: Case, orbit: tuple | None) -> dict:

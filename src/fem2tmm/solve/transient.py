@@ -51,7 +51,7 @@ from ..errors import Fem2TmmError
 from ..linalg import blas_threads, factorize
 from ..progress import report
 from ..constants import SIGMA
-from .steady import MAX_DROP, FacedRadiation, SteadyProblem, _Operators, solve_steady
+from .steady import MAX_DROP, FacedRadiation, SteadyProblem, _Operators, solve_steady, table_value
 from ..timefunc import Series, Table
 
 METHODS = ("crank-nicolson", "backward-euler", "bdf2")
@@ -85,7 +85,9 @@ class TransientProblem:
     ``K`` (n, n) W/K sparse or dense; ``C`` (n,) J/K lumped or (n, n) sparse/dense consistent (row sums = the
     lumped capacitance); ``Q`` :class:`Series` (n,) W; ``fixed`` (n,) bool; ``T_fixed`` :class:`Series` (n,) K
     (read on the fixed rows); ``g_space`` (n,) m²; ``T_sink`` :class:`Table` K; ``GR`` (n, n) m² or None;
-    ``faced`` :class:`FacedRadiation` or None.
+    ``faced`` :class:`FacedRadiation` or None; ``g_table`` ``(x (n, m) K, y (n, m) m²)`` or None: each node's
+    coupling to space as a table of its own temperature (:attr:`SteadyProblem.g_table`; it replaces ``g_space``
+    at every state, as the deck's ``GR(n, space) = INTRP1(Tn, …)`` does in ESATAN's transient).
     """
 
     K: object
@@ -98,6 +100,7 @@ class TransientProblem:
     GR: object | None = None
     faced: FacedRadiation | None = None
     names: tuple[str, ...] | None = None
+    g_table: tuple | None = None
 
     @property
     def n(self) -> int:
@@ -107,7 +110,7 @@ class TransientProblem:
         """The steady problem with the inputs frozen at time ``t`` (s)."""
         return SteadyProblem(K=self.K, Q=self.Q(t), fixed=np.asarray(self.fixed, bool), T_fixed=self.T_fixed(t),
                              g_space=self.g_space, T_sink=self.T_sink(t), GR=self.GR, faced=self.faced,
-                             names=self.names)
+                             names=self.names, g_table=self.g_table)
 
     def periodic(self, start: float, period: float) -> "TransientProblem":
         """The same problem with every input table read periodically (period ``period`` s from ``start``)."""
@@ -259,7 +262,8 @@ class _Integrator:
         self.fixed = np.asarray(problem.fixed, bool)
         self.free = np.flatnonzero(~self.fixed)
         self.ops = _Operators(SteadyProblem(K=problem.K, Q=np.zeros(n), fixed=self.fixed, T_fixed=np.zeros(n),
-                                            g_space=problem.g_space, T_sink=0.0, GR=problem.GR, faced=problem.faced))
+                                            g_space=problem.g_space, T_sink=0.0, GR=problem.GR, faced=problem.faced,
+                                            g_table=problem.g_table))
         C = problem.C
         self.lumped = np.ndim(C) == 1
         self.C = np.asarray(C, float) if self.lumped else (C if sp.issparse(C) else np.asarray(C, float))
@@ -287,7 +291,11 @@ class _Integrator:
         """F(t, T) (n,) W and the scalar pieces the energy books need."""
         T4 = T**4
         Q = self.p.Q(t)
-        space = SIGMA * self.ops.g * (T4 - self.p.T_sink(t) ** 4)
+        s4 = self.p.T_sink(t) ** 4
+        if self.p.g_table is not None:  # the couplings to space at this state, and their slope for the Jacobian
+            self.ops.g, dg = table_value(*self.p.g_table, T)
+            self.ops.dg = SIGMA * dg * (T4 - s4)
+        space = SIGMA * self.ops.g * (T4 - s4)
         # K and L have zero row sums: subtracting a uniform reference keeps the cancelling terms small, so
         # the books balance to round-off of the temperature differences, not of the absolute temperatures
         internal = np.asarray(self.ops.K @ (T - self.T_ref)).ravel() + self.ops.radiation(T4 - self.T_ref**4)

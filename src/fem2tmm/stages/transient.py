@@ -62,17 +62,31 @@ def load_series(Q_start: np.ndarray, tables, distribute=None) -> Series:
 def exported_series(exported, case: Case, T_sn: np.ndarray, times: np.ndarray, sink: Table,
                     settings: TransientSettings, orbital: bool, T0: np.ndarray | None = None) -> np.ndarray:
     """(n_t, n_dof) K: the exported recovery (:class:`~fem2tmm.reduce.exported.ExportedRecovery`) of the super-node
-    temperatures ``T_sn`` (n_t, n_SN) K at ``times`` (n_t,) s, each column with the named loads' and the sink's
-    table values at its time and (``orbital``) that time's orbital loads, as ``fem2tmm recover`` gives them from a
-    CSV with those rows; ``T0`` (n_t, n_dof) K starts each column's Newton."""
+    temperatures ``T_sn`` (n_t, n_SN) K at ``times`` (n_t,) s, with the named loads' and the sink's table values
+    and (``orbital``) the orbital loads of each time, as ``fem2tmm recover`` gives them from a CSV with those rows;
+    ``T0`` (n_t, n_dof) K starts each column's Newton.  With the capacitance (a case with density and specific
+    heat) and no periodic repetition: in time (:meth:`~fem2tmm.reduce.exported.ExportedRecovery.recover_transient`,
+    ``fem2tmm recover --in-time``) with the run's scheme and step, from the steady start or the uniform
+    ``initial_temperature``; otherwise each time on its own (quasi-static)."""
     def at(table: Table) -> np.ndarray:
         tab = table.periodic(settings.start, settings.end - settings.start) if settings.periodic else table
         return np.array([float(tab(t)) for t in times])
 
-    loads = {b.name: at(b.table) for b in case.boundaries
-             if b.table is not None and b.kind != "temperature" and b.name in set(exported.load_names)}
-    sinks = at(sink)
+    named = [b for b in case.boundaries
+             if b.table is not None and b.kind != "temperature" and b.name in set(exported.load_names)]
     T_sn = np.asarray(T_sn, float)
+    if exported.C is not None and not settings.periodic and len(times) > 1:
+        # in time: the heat each super node stores inside it moves as the detailed equations say (the recovery's
+        # own capacitance), the loads and the sink at every sub-step from the time tables reduced.npz carries (the
+        # case's), as fem2tmm recover --in-time does
+        spec = case.transient
+        initial = (None if spec.initial_temperature == "steady"
+                   else np.full(exported.n_dof, float(spec.initial_temperature)))
+        step = settings.step if settings.step is not None else float(np.min(np.diff(times))) / 10.0
+        return exported.recover_transient(T_sn.T, times, step=step, scheme=settings.method, orbital=orbital,
+                                          T0=None if T0 is None else T0[0], initial=initial).T
+    loads = {b.name: at(b.table) for b in named}
+    sinks = at(sink)
     out = np.array(T0, float) if T0 is not None else np.zeros((len(times), exported.n_dof))
     failed = []
     for i, t in enumerate(times):  # loop over the output times: one constrained solve each
@@ -160,7 +174,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
             Q_sn = orbit.add(Q_sn, orbit.q_sn, spec.start)
         prob = TransientProblem(K=rm.K, C=rm.C, Q=Q_sn, fixed=rm.fixed,
                                 T_fixed=fixed_series(rm.T_fixed, rows, case), g_space=rm.g_space, T_sink=sink,
-                                GR=rm.GR, names=tuple(rm.names))
+                                GR=rm.GR, names=tuple(rm.names), g_table=rm.g_space_table)
         run.reduced_problem = prob
         try:
             run.reduced = solve_transient(prob, settings, initial(T_reduced))
