@@ -275,6 +275,7 @@ class ExportedRecovery:
         Ts = T_sn[:, None] if one else T_sn
         if Ts.shape[0] != self.n_sn:
             raise Fem2TmmError(f"{Ts.shape[0]} super-node temperatures for a network of {self.n_sn}")
+        self._absolute(Ts)
         k = Ts.shape[1]
         sinks = np.broadcast_to(np.asarray(self.T_sink if T_sink is None else T_sink, float), (k,))
         q = np.empty((self.n_dof, k))
@@ -356,6 +357,7 @@ class ExportedRecovery:
         k = len(times)
         if T_sn.shape[1] != k:
             raise Fem2TmmError(f"{T_sn.shape[1]} columns of super-node temperatures for {k} times")
+        self._absolute(T_sn)
         if k > 1 and np.any(np.diff(times) <= 0.0):
             raise Fem2TmmError("recover in time: the times must increase")
         if step is not None and not step > 0.0:
@@ -417,24 +419,43 @@ class ExportedRecovery:
                     c = 1.0 / h
                     rhs = q1 + c * (self.C @ T)
                 M = c * self.C
-                if self.mode == "emission":
-                    # the chord iteration on a saddle factorised once and kept while it contracts (the capacitance
-                    # term C/h dominates its diagonal), refreshed at the current state, then Newton
-                    T1 = None if chord is None or chord[0] != c else self._chord(Tsn1, rhs, float(s1), T, M, chord[1])
-                    if T1 is None:
-                        chord = (c, self._saddle(4.0 * SIGMA * self.e * T**3, M))
-                        T1 = self._chord(Tsn1, rhs, float(s1), T, M, chord[1])
-                    if T1 is None:
-                        T1 = self._nonlinear(Tsn1, rhs, float(s1), T, None, M)
-                else:
-                    lu = factors.get(c)
-                    if lu is None:
-                        lu = factors[c] = self._saddle(None, M)
-                    T1 = lu.solve(np.concatenate([rhs, Tsn1]))[: self.n_dof]
+                try:
+                    T1, chord = self._step(Tsn1, rhs, float(s1), T, M, c, chord, factors)
+                except Fem2TmmError as exc:
+                    raise Fem2TmmError(f"recovering in time, the step to t = {t1:g} s: {exc}") from None
                 T_old, h_old = T, h
                 T, Tsn, s, q = T1, Tsn1, s1, q1
             out[:, i] = T
         return out
+
+    def _absolute(self, T_sn: np.ndarray) -> None:
+        """Refuse super-node temperatures at or below 0 K in emission mode (the field there radiates as T⁴)."""
+        if self.mode == "emission" and T_sn.size and not float(np.min(T_sn)) > 0.0:
+            j = np.unravel_index(int(np.argmin(T_sn)), T_sn.shape)[0]
+            raise Fem2TmmError(f"super node {self.names[j]} at {float(np.min(T_sn)):.3g} K, at or below absolute zero: "
+                               "the recovery radiates as T⁴ and needs temperatures above 0 K (are they in K?  A model "
+                               "whose whole field sits within millikelvins of 0 K, with no load, is below the "
+                               "solvers' resolution: raise the sink or add a load)")
+
+    def _step(self, Tsn1: np.ndarray, rhs: np.ndarray, s1: float, T: np.ndarray, M: sp.spmatrix, c: float,
+              chord: tuple | None, factors: dict) -> tuple[np.ndarray, tuple | None]:
+        """One step of :meth:`recover_transient` to the means ``Tsn1`` (K) with the step's right-hand side ``rhs``
+        (W) and mass term ``M`` = c C: ``(T1, chord)``, ``chord`` the kept ``(c, factorisation)`` of the emission
+        mode; ``factors`` the linear mode's factorisations by c."""
+        if self.mode != "emission":
+            lu = factors.get(c)
+            if lu is None:
+                lu = factors[c] = self._saddle(None, M)
+            return lu.solve(np.concatenate([rhs, Tsn1]))[: self.n_dof], chord
+        # the chord iteration on a saddle factorised once and kept while it contracts (the capacitance term C/h
+        # dominates its diagonal), refreshed at the current state, then Newton
+        T1 = None if chord is None or chord[0] != c else self._chord(Tsn1, rhs, s1, T, M, chord[1])
+        if T1 is None:
+            chord = (c, self._saddle(4.0 * SIGMA * self.e * T**3, M))
+            T1 = self._chord(Tsn1, rhs, s1, T, M, chord[1])
+        if T1 is None:
+            T1 = self._nonlinear(Tsn1, rhs, s1, T, None, M)
+        return T1, chord
 
     def _nonlinear(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
                    linear: np.ndarray | None = None, M: sp.spmatrix | None = None) -> np.ndarray:
