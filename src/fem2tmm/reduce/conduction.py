@@ -38,6 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, format_ids
 from ..fem.assembly import ElementCOO
 from ..linalg import blas_threads
@@ -174,7 +175,7 @@ def _entry_clusters(coo: ElementCOO, labels: np.ndarray, elements: np.ndarray | 
     row_of = np.full(size, -1, np.int64)
     row_of[elements] = np.arange(m)
     r = row_of[coo.elem]
-    missing = np.unique(coo.elem[r < 0])
+    missing = unique(coo.elem[r < 0])
     if missing.size:
         raise Fem2TmmError(f"conduction entries of elements {format_ids(missing)} have no cluster label; "
                            "pass the labels of every element of the thermal model")
@@ -198,7 +199,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
 
     # nodes of each cluster from the diagonal entries (every element node has one), sorted by cluster
     d = coo.rows == coo.cols
-    key = np.unique(ec[d] * n + coo.rows[d])
+    key = unique(ec[d] * n + coo.rows[d])
     p_cl, p_node = key // n, key % n
     n_touch = np.bincount(p_node, minlength=n)
     is_one = np.zeros(n, bool)

@@ -27,6 +27,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, shortest_path
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, InternalError
 
 #: largest sub-graph bisected with a dense eigensolver (spectral); larger ones use breadth-first levels
@@ -182,7 +183,7 @@ class Frontal:
                 members[tree.left[t]] = members[tree.right[t]] = None
             else:
                 parts = members[t]
-            front = np.unique(np.concatenate([idx for idx, _ in parts]))
+            front = unique(np.concatenate([idx for idx, _ in parts]))
             elim = elim_node[front] == t
             if not np.any(elim):  # nothing to eliminate here: pass the pieces up unsummed
                 members[t] = parts
