@@ -29,6 +29,7 @@ from scipy.sparse.csgraph import connected_components
 from ..arrays import unique, unique_rows
 from ..case import Boundary, Case
 from ..errors import Fem2TmmError, format_ids
+from ..linalg import blas_threads
 from ..mesh import Mesh
 from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices, line_matrices,
                        scatter_shares, to_coo, volume_shares)
@@ -343,7 +344,7 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
             if neg.any():  # a mirrored node order (a numbering convention): the same element, reoriented
                 warnings.warn(
                     f"{mesh.source}: {t} elements {format_ids(mesh.element_ids[elements[sel[neg]]])} have a negative "
-                    "Jacobian (mirrored node order); reoriented", stacklevel=3)
+                    "Jacobian (mirrored node order); reoriented", stacklevel=4)
                 c[neg] = c[neg][:, list(MIRROR[t])]
                 cells[sel[neg], :nk] = c[neg]
             geom = block_geometry(mesh.points, c, t)
@@ -405,7 +406,16 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
 
 # ------------------------------------------------------------------------------------------ builder
 def build_model(mesh: Mesh, case: Case) -> FEModel:
-    """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring)."""
+    """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring).
+
+    BLAS runs on one thread here: the assembly makes many small BLAS calls (element ``einsum``/``matmul`` on a few
+    nodes each) that threads only slow down on a shared machine (measured: docs/benchmarks.md, "Speed-ups of
+    2026-12-06"; the model is bit-identical).  Warnings of the body count this wrapper in their stacklevel."""
+    with blas_threads(1):
+        return _build_model(mesh, case)
+
+
+def _build_model(mesh: Mesh, case: Case) -> FEModel:
     parts, owner = _part_elements(mesh, case)
     props = _properties(mesh, case, parts, owner)
     elements = np.flatnonzero(owner >= 0)
@@ -556,7 +566,7 @@ def build_model(mesh: Mesh, case: Case) -> FEModel:
             warnings.warn(
                 f"{mesh.source}: {len(stray)} element(s) belong to no part and carry no boundary condition; they are "
                 f"not part of the thermal model (ids {format_ids(mesh.element_ids[stray])})",
-                stacklevel=2,
+                stacklevel=3,
             )
     key = np.column_stack([epart, props["k"][elements], props["rho"][elements] * props["cp"][elements],
                            props["t"][elements], props["area"][elements], props["tensor"][elements]])
@@ -676,7 +686,7 @@ def _midside_isothermal(mesh: Mesh, pairs: np.ndarray) -> np.ndarray:
     if len(loose):
         warnings.warn(f"{mesh.source}: isothermal joints reach mid-side GRIDs {format_ids(mesh.node_ids[loose])} whose "
                       "edge ends they do not merge; those whole edges are merged instead (a stronger constraint)",
-                      stacklevel=3)
+                      stacklevel=4)
     return out
 
 
@@ -751,7 +761,7 @@ def _check_load_on_fixed(mesh: Mesh, case: Case, b: Boundary, q: np.ndarray, fix
             "nothing; put the load on other groups or nodes"
         )
     warnings.warn(f"{where}: {on.sum():.6g} W of its {q.sum():.6g} W fall on nodes of the fixed-temperature boundary "
-                  f"{names} and flow straight into it", stacklevel=3)
+                  f"{names} and flow straight into it", stacklevel=4)
 
 
 def _boundary_nodes(mesh: Mesh, case: Case, b: Boundary) -> np.ndarray:
