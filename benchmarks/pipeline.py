@@ -197,3 +197,45 @@ def pipeline_1m_case(super_nodes: int = 1000, rays: float = 1e7, reduction: dict
         "radiation": {"rays_per_face": int(rays / n_sf)},
         "reference": {"detailed": False},
     })
+
+
+def bench_pipeline_stages(n: int = 204, rounds: int = 1) -> list[dict]:
+    """The pipeline_1m case on ``big_shell_structure(n)`` (266 832 quads for n = 204), stage by stage: wall time
+    (summary.json timings) and CPU time (``time.process_time()``, all threads of the process, around each stage;
+    on a shared machine the CPU column is the one to compare), after a warm-up run at n = 20.  Run it once per
+    checkout, alternating checkouts, for an A/B (docs/benchmarks.md, "Speed-ups of 2026-12-06")."""
+    import os
+    from contextlib import contextmanager
+
+    import fem2tmm.progress as progress
+    from fem2tmm.pipeline import run
+
+    cpu: dict[str, float] = {}
+    plain = progress.Progress.stage
+
+    @contextmanager
+    def stage(self, name, label=None):
+        c = time.process_time()
+        try:
+            with plain(self, name, label):
+                yield
+        finally:
+            cpu[name] = cpu.get(name, 0.0) + time.process_time() - c
+
+    mesh = big_shell_structure(n)
+    rows = []
+    progress.Progress.stage = stage
+    try:
+        run(pipeline_1m_case(8, 1e4), mesh=big_shell_structure(20), reference=False)  # warm-up: JIT, imports
+        for _ in range(rounds):
+            cpu.clear()
+            c0, t0 = time.process_time(), time.perf_counter()
+            res = run(pipeline_1m_case(), mesh=mesh, reference=False)
+            row = _pipeline_row("pipeline_stages", res, time.perf_counter() - t0)
+            row.update(cpu_s=round(time.process_time() - c0, 2), cpu_stage_s={k: round(v, 3) for k, v in cpu.items()},
+                       load_average=os.getloadavg())
+            rows.append(row)
+            del res
+    finally:
+        progress.Progress.stage = plain
+    return rows

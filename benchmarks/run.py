@@ -29,6 +29,7 @@ REGISTRY: dict[str, str] = {
     "pipeline_baffle": "benchmarks.pipeline:bench_pipeline_baffle",
     "pipeline_truss": "benchmarks.pipeline:bench_pipeline_truss",
     "pipeline_1m": "benchmarks.pipeline:bench_pipeline_1m",
+    "pipeline_stages": "benchmarks.pipeline:bench_pipeline_stages",
     "scaling": "benchmarks.scaling:bench_scaling",
     "nastran": "benchmarks.io:bench_nastran",
     "cluster": "benchmarks.cluster:bench_cluster",

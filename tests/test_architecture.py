@@ -25,7 +25,7 @@ PKG = SRC / "fem2tmm"
 #: rank of each top-level module or sub-package: a module may import only modules of a lower or equal rank
 #: (equal: inside its own package).  ``case`` (the TOML schema) sits above ``io`` because it checks the mesh unit.
 RANK = {
-    "_version": 0, "errors": 0, "constants": 0, "progress": 0, "linalg": 0, "_validation": 0, "timefunc": 0,
+    "_version": 0, "errors": 0, "constants": 0, "progress": 0, "linalg": 0, "arrays": 0, "_validation": 0, "timefunc": 0,
     "cache": 0, "compute": 0,  # stage cache (content hashes) and the executor (in-process or Dask): infrastructure
     "orbit": 0,  # orbit mechanics (planet, Kepler orbit, Sun, eclipses, attitude): an input description, like timefunc
     "mesh": 1,

@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from ..arrays import unique
 from ..linalg import dependent_rows
 from ..mesh.elements import ELEMENT_TYPES, LINE_TYPES, SHELL_TYPES
 
@@ -161,7 +162,7 @@ def join_units(labels: np.ndarray, unit: np.ndarray, unit_part: np.ndarray, clus
         cc /= np.maximum(counts, 1)[:, None]
         uc = np.stack([np.bincount(unit[in_unit], centroid[in_unit, i], minlength=n_units) for i in range(3)], 1)
         uc /= np.maximum(np.bincount(unit[in_unit], minlength=n_units), 1)[:, None]
-        for p in np.unique(unit_part[left]):
+        for p in unique(unit_part[left]):
             mine = left[unit_part[left] == p]
             pool = np.flatnonzero((cluster_part == p) & (counts > 0))
             if not pool.size:
@@ -211,7 +212,7 @@ def join_dependent(labels: np.ndarray, cluster_part: np.ndarray, dofs: np.ndarra
     limit = k if max_merges is None else int(max_merges)
     while len(merges) < limit:
         r_all = np.broadcast_to(labels[:, None], dofs.shape)[valid]
-        key = np.unique(r_all * n + d_all)
+        key = unique(r_all * n + d_all)
         pc, pn = key // n, key % n
         touch = np.bincount(pn, minlength=n)
         own = np.zeros(k, bool)
@@ -223,7 +224,7 @@ def join_dependent(labels: np.ndarray, cluster_part: np.ndarray, dofs: np.ndarra
         sel = np.isin(r_all, suspects)
         pos = np.full(k, -1, np.int64)
         pos[suspects] = np.arange(suspects.size)
-        nodes = np.unique(d_all[sel])
+        nodes = unique(d_all[sel])
         extra = nodes[one_node[nodes]]  # the one-node super nodes among the suspects' nodes: unit rows
         S = sp.csr_matrix((np.concatenate([w_all[sel] / totals[r_all[sel]], np.ones(extra.size)]),
                            (np.concatenate([pos[r_all[sel]], suspects.size + np.arange(extra.size)]),

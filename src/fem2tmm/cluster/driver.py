@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, format_ids
 from ..mesh import geometry
 from ..mesh.elements import ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
@@ -469,7 +470,7 @@ def _run(points, parts: Sequence[PartInput], n_elements: int, weights: Sequence[
     for pi, (p, w) in enumerate(zip(parts, weights)):
         rows = np.arange(start[pi], start[pi + 1])
         free = ~emb[rows]
-        kinds = [kind_of_rank(r) for r in np.unique(rank[rows])]
+        kinds = [kind_of_rank(r) for r in unique(rank[rows])]
         counts = _split_count(p.n_clusters, {k: int(np.count_nonzero(free & (rank[rows] == RANK[k])))
                                              for k in kinds})
         defer(rows[~free], whole=False)  # embedded elements join, one by one, the cluster holding their nodes
@@ -730,7 +731,7 @@ def from_labels(points: np.ndarray, parts: Sequence[PartInput], n_elements: int,
                            "used by any element of the parts (renumber them consecutively)")
     part_of = np.full(k, -1, np.int64)
     for pi, p in enumerate(parts):
-        lab = np.unique(labels[p.elements])
+        lab = unique(labels[p.elements])
         clash = lab[part_of[lab] >= 0]
         if clash.size:
             raise Fem2TmmError(f"{where}: clusters {format_ids(clash)} span part {p.name!r} and another part; a "
@@ -745,7 +746,7 @@ def from_labels(points: np.ndarray, parts: Sequence[PartInput], n_elements: int,
         region_out[p.elements] = prep.region + r_off
         cluster_region[local] = prep.region + r_off  # (one of) the region(s) each cluster covers
         offset = int(local.min())
-        lab_p = np.unique(local)
+        lab_p = unique(local)
         renum = np.searchsorted(lab_p, local)
         part = PartInput(p.name, p.kind, p.elements, p.cells, p.types, int(lab_p.size), p.attribute, p.ids)
         prep = _Prepared(part, prep.weights, prep.measure, prep.centroids, prep.graph, prep.keep, prep.region,
@@ -758,7 +759,7 @@ def from_labels(points: np.ndarray, parts: Sequence[PartInput], n_elements: int,
         n_comp = connected_components(sp.csr_matrix((np.ones(int(same.sum()), np.int8), (g.a[same], g.b[same])),
                                                     shape=(m, m)), directed=False)[0]
         n_reg = int(prep.region.max()) + 1
-        spans = np.bincount(np.unique(renum * n_reg + prep.region) // n_reg, minlength=lab_p.size)
+        spans = np.bincount(unique(renum * n_reg + prep.region) // n_reg, minlength=lab_p.size)
         crossing = int(np.count_nonzero(spans > 1))
         rep.update(contiguous=bool(n_comp == lab_p.size), clusters_crossing_regions=crossing, user_labels=True,
                    first_label=offset)

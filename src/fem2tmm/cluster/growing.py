@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..arrays import unique
 from .smoothing import cluster_lists, relink
 
 
@@ -272,7 +273,7 @@ def balance(indptr: np.ndarray, indices: np.ndarray, centroids: np.ndarray, weig
             break
         cut = (rows < indices) & (lab[rows] != lab[indices])
         la, lb = lab[rows[cut]], lab[indices[cut]]
-        key, inv = np.unique(np.minimum(la, lb) * k + np.maximum(la, lb), return_inverse=True)
+        key, inv = unique(np.minimum(la, lb) * k + np.maximum(la, lb), return_inverse=True)
         c = np.bincount(inv.ravel(), lengths[cut], minlength=len(key))
         a, b = key // k, key % k
         L = sp.csr_matrix((np.r_[-c, -c, np.bincount(a, c, minlength=k) + np.bincount(b, c, minlength=k)],

@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
+from ..arrays import unique
 
 BRUTE_BELOW = 2_000_000  # n·k below which the nearest centre is found by brute force (compiled), not a KD-tree
 
@@ -145,7 +146,7 @@ def weighted_kmeans(X: np.ndarray, w: np.ndarray, k: int, seed: int | Sequence[i
     Xs, ws = X, w
     if n > S:
         idx = rng.choice(n, size=S, p=w / w.sum())
-        u, cnt = np.unique(idx, return_counts=True)
+        u, cnt = unique(idx, return_counts=True)
         if len(u) >= k:
             Xs, ws = X[u], cnt.astype(float)
     if n_init is None:

@@ -29,6 +29,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..arrays import unique
+
 _CAP_TOTAL = 2**30  # finite capacities sum to at most this (kept from the int32 max-flow; exact in int64)
 _INF = 2**30 + 2**29
 
@@ -440,7 +442,7 @@ def smooth(indptr: np.ndarray, indices: np.ndarray, lengths: np.ndarray, labels:
     rows = np.repeat(np.arange(n), np.diff(indptr))
     cut = (rows < indices) & (lab[rows] != lab[indices])
     la, lb = lab[rows[cut]], lab[indices[cut]]
-    pair_keys = np.unique(np.minimum(la, lb) * k + np.maximum(la, lb))
+    pair_keys = unique(np.minimum(la, lb) * k + np.maximum(la, lb))
     stats["pairs"] = len(pair_keys)
     s = _smooth(np.asarray(indptr, np.int64), np.asarray(indices, np.int64), np.asarray(lengths, float), lab,
                 np.ascontiguousarray(centroids, dtype=float), np.asarray(weights, float),

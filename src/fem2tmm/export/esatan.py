@@ -154,6 +154,13 @@ def _fmt(v: float) -> str:
     return repr(float(v)) if np.isfinite(v) else "0.0"
 
 
+def _fmt_all(v: np.ndarray) -> list[str]:
+    """:func:`_fmt` of every value of ``v`` (the same strings; Python floats formatted in one list comprehension:
+    10⁶ conductors at 1 000 super nodes)."""
+    v = np.asarray(v, float)
+    return [repr(x) for x in np.where(np.isfinite(v), v, 0.0).tolist()]
+
+
 #: solver control of the steady solution ($CONSTANTS $CONTROL; ESATAN-TMS generated decks set the same two before
 #: CALL SOLVFM): convergence on the largest temperature change between iterations (K) and the iteration budget
 RELXCA, NLOOP = 1e-4, 1000
@@ -395,13 +402,13 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append("$CONDUCTORS")
     lines += comment_lines(f"{int(nz.sum())} conductive links; {negative} are negative (exact reduction: they "
                            "belong to the reduced conduction matrix as a whole and must be kept)")
-    for a, b, g in zip(iu[nz], ju[nz], gl[nz]):
-        tag = "  # negative" if g < 0 else ""
-        lines.append(f"    GL({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};{tag}")
+    num = np.asarray(deck.numbers).tolist()
+    lines += [f"    GL({num[a]}, {num[b]}) = {g};{'  # negative' if neg else ''}" for a, b, g, neg in
+              zip(iu[nz].tolist(), ju[nz].tolist(), _fmt_all(gl[nz]), (gl[nz] < 0).tolist())]
     gr = deck.GR[iu, ju]
     nzr = gr != 0
-    for a, b, g in zip(iu[nzr], ju[nzr], gr[nzr]):
-        lines.append(f"    GR({deck.numbers[a]}, {deck.numbers[b]}) = {_fmt(g)};")
+    lines += [f"    GR({num[a]}, {num[b]}) = {g};" for a, b, g in
+              zip(iu[nzr].tolist(), ju[nzr].tolist(), _fmt_all(gr[nzr]))]
     nzs = np.flatnonzero(deck.GR_space != 0)
     for a in nzs:
         lines.append(f"    GR({deck.numbers[a]}, {deck.space}) = {_fmt(deck.GR_space[a])};")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..arrays import unique
 from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
@@ -154,7 +155,7 @@ def part_node_sets(model) -> list[np.ndarray]:
     n = model.mesh.n_nodes
     part = np.broadcast_to(model.element_part[:, None], cells.shape)
     ok = cells >= 0
-    key = np.unique(part[ok].astype(np.int64) * n + cells[ok])
+    key = unique(part[ok].astype(np.int64) * n + cells[ok])
     bounds = np.searchsorted(key, np.arange(len(model.parts) + 1, dtype=np.int64) * n)
     return [key[bounds[p]:bounds[p + 1]] - p * n for p in range(len(model.parts))]
 

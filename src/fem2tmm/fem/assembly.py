@@ -44,9 +44,14 @@ class ElementCOO:
 
     @staticmethod
     def concatenate(parts: list["ElementCOO"]) -> "ElementCOO":
+        """The entries of ``parts`` in order; a single non-empty part is returned as it is, not copied (the arrays
+        are never written in place; at 10⁶ quads the copy of 1.6·10⁷ entries took ~1 s)."""
         if not parts:
             z = np.zeros(0, np.int64)
             return ElementCOO(z, z, np.zeros(0), z)
+        full = [p for p in parts if len(p.rows)]
+        if len(full) == 1:
+            return full[0]
         return ElementCOO(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("rows", "cols", "vals", "elem")))
 
 

@@ -26,8 +26,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..arrays import unique, unique_rows
 from ..case import Boundary, Case
 from ..errors import Fem2TmmError, format_ids
+from ..linalg import blas_threads
 from ..mesh import Mesh
 from .assembly import (ElementCOO, area_shares, block_geometry, capacity_matrices, conduction_matrices, line_matrices,
                        scatter_shares, to_coo, volume_shares)
@@ -138,7 +140,7 @@ class FEModel:
         """Sorted DOFs that conductance joints connect (kept as one-node super nodes by the reduction)."""
         if self.links is None or not len(self.links.rows):
             return np.zeros(0, np.int64)
-        return np.unique(self.links.rows)
+        return unique(self.links.rows)
 
     @property
     def fixed_mask(self) -> np.ndarray:
@@ -191,7 +193,7 @@ def consistent_capacity(model: FEModel) -> sp.csr_matrix:
         raise Fem2TmmError("the consistent capacitance needs density and specific_heat for every part's material")
     pts = model.mesh.points
     coos = []
-    for code in np.unique(model.element_types):
+    for code in unique(model.element_types):
         t = _CODE_TYPE[int(code)]
         sel = np.flatnonzero(model.element_types == code)
         nk = RULES[t].N.shape[1]
@@ -304,7 +306,7 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
     cells = cells.copy()
     size = float(np.ptp(mesh.points, axis=0).max()) or 1.0
     blocks = []
-    for code in np.unique(types):
+    for code in unique(types):
         t = _CODE_TYPE[int(code)]
         sel = np.flatnonzero(types == code)
         nk = RULES[t].N.shape[1]
@@ -342,7 +344,7 @@ def _check_and_orient(mesh: Mesh, elements: np.ndarray, types: np.ndarray, cells
             if neg.any():  # a mirrored node order (a numbering convention): the same element, reoriented
                 warnings.warn(
                     f"{mesh.source}: {t} elements {format_ids(mesh.element_ids[elements[sel[neg]]])} have a negative "
-                    "Jacobian (mirrored node order); reoriented", stacklevel=3)
+                    "Jacobian (mirrored node order); reoriented", stacklevel=4)
                 c[neg] = c[neg][:, list(MIRROR[t])]
                 cells[sel[neg], :nk] = c[neg]
             geom = block_geometry(mesh.points, c, t)
@@ -366,7 +368,7 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
     panel a fitting sits on): that face is a contact, covered; the shell keeps its other side.  A shell on a face
     between two solids (a deck through a block) has solid on both sides."""
     facelist, owner = [], []
-    for code in np.unique(types):
+    for code in unique(types):
         t = _CODE_TYPE[int(code)]
         if t not in SOLID_TYPES:
             continue
@@ -387,7 +389,7 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
     big = np.iinfo(np.int64).max
     key = np.sort(np.where(F < 0, big, F), axis=1)
     skey = np.sort(np.where(S < 0, big, S), axis=1)
-    _, inv, cnt = np.unique(np.concatenate([key, skey]), axis=0, return_inverse=True, return_counts=True)
+    _, inv, cnt = unique_rows(np.concatenate([key, skey]), return_inverse=True, return_counts=True)
     inv = inv.ravel()
     n_solid = np.bincount(inv[: len(key)], minlength=len(cnt))  # solids using each face
     outer_solid = n_solid[inv[: len(key)]] == 1
@@ -404,7 +406,16 @@ def _solid_outer_faces(cells: np.ndarray, types: np.ndarray, elem_pos: np.ndarra
 
 # ------------------------------------------------------------------------------------------ builder
 def build_model(mesh: Mesh, case: Case) -> FEModel:
-    """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring)."""
+    """Assemble the detailed FE thermal model of ``case`` on ``mesh`` (see module docstring).
+
+    BLAS runs on one thread here: the assembly makes many small BLAS calls (element ``einsum``/``matmul`` on a few
+    nodes each) that threads only slow down on a shared machine (measured: docs/benchmarks.md, "Speed-ups of
+    2026-12-06"; the model is bit-identical).  Warnings of the body count this wrapper in their stacklevel."""
+    with blas_threads(1):
+        return _build_model(mesh, case)
+
+
+def _build_model(mesh: Mesh, case: Case) -> FEModel:
     parts, owner = _part_elements(mesh, case)
     props = _properties(mesh, case, parts, owner)
     elements = np.flatnonzero(owner >= 0)
@@ -459,7 +470,7 @@ def build_model(mesh: Mesh, case: Case) -> FEModel:
         raise Fem2TmmError(f"{case.source}: isothermal joints ([[joints]] treatment = 'isothermal') connect two "
                            "fixed-temperature boundaries; make those joints 'conductance' or merge the boundaries")
     used_rep = rep[in_model]
-    uniq, inv = np.unique(used_rep, return_inverse=True)
+    uniq, inv = unique(used_rep, return_inverse=True)
     dof_of_rep = np.full(n_nodes, -1, np.int64)
     dof_of_rep[uniq] = np.arange(len(uniq))
     node_dof = np.full(n_nodes, -1, np.int64)
@@ -535,7 +546,7 @@ def build_model(mesh: Mesh, case: Case) -> FEModel:
             Q += qd
             loads[f"deck {name}"] = float(qd.sum())
         if eps_area is not None:
-            amb = np.unique(dl.rad_ambient)
+            amb = unique(dl.rad_ambient)
             T_sink = case.environment.sink_temperature
             if np.abs(amb - T_sink).max() > 1e-9 * max(T_sink, 1.0):
                 raise Fem2TmmError(
@@ -555,7 +566,7 @@ def build_model(mesh: Mesh, case: Case) -> FEModel:
             warnings.warn(
                 f"{mesh.source}: {len(stray)} element(s) belong to no part and carry no boundary condition; they are "
                 f"not part of the thermal model (ids {format_ids(mesh.element_ids[stray])})",
-                stacklevel=2,
+                stacklevel=3,
             )
     key = np.column_stack([epart, props["k"][elements], props["rho"][elements] * props["cp"][elements],
                            props["t"][elements], props["area"][elements], props["tensor"][elements]])
@@ -670,12 +681,12 @@ def _midside_isothermal(mesh: Mesh, pairs: np.ndarray) -> np.ndarray:
     out = np.concatenate([pairs[~mid.any(axis=1)], *extra])
     joined = np.zeros(mesh.n_nodes, bool)
     joined[pairs.ravel()] = True
-    m = np.unique(pairs[mid])
+    m = unique(pairs[mid])
     loose = m[~(joined[a[m]] & joined[b[m]])]
     if len(loose):
         warnings.warn(f"{mesh.source}: isothermal joints reach mid-side GRIDs {format_ids(mesh.node_ids[loose])} whose "
                       "edge ends they do not merge; those whole edges are merged instead (a stronger constraint)",
-                      stacklevel=3)
+                      stacklevel=4)
     return out
 
 
@@ -692,8 +703,8 @@ def _deck_fixed(mesh: Mesh, case_fixed: np.ndarray, in_model: np.ndarray) -> lis
         raise Fem2TmmError(f"{mesh.source}: SPC1 GRIDs {format_ids(mesh.node_ids[nodes[np.isnan(vals)]])} have no TEMP "
                            "(or TEMPD) value to be held at; add TEMP cards, or fix them in the case file")
     out = []
-    for v in np.unique(vals):
-        out.append((f"SPC {v - 273.15:g} C", float(v), np.unique(nodes[vals == v])))
+    for v in unique(vals):
+        out.append((f"SPC {v - 273.15:g} C", float(v), unique(nodes[vals == v])))
     return out
 
 
@@ -750,14 +761,14 @@ def _check_load_on_fixed(mesh: Mesh, case: Case, b: Boundary, q: np.ndarray, fix
             "nothing; put the load on other groups or nodes"
         )
     warnings.warn(f"{where}: {on.sum():.6g} W of its {q.sum():.6g} W fall on nodes of the fixed-temperature boundary "
-                  f"{names} and flow straight into it", stacklevel=3)
+                  f"{names} and flow straight into it", stacklevel=4)
 
 
 def _boundary_nodes(mesh: Mesh, case: Case, b: Boundary) -> np.ndarray:
     nodes = [mesh.group(g, where=f"{case.source}: [[boundary]] {b.name!r}.groups").nodes for g in b.groups]
     if b.nodes:
         nodes.append(mesh.node_index(b.nodes, where=f"{case.source}: [[boundary]] {b.name!r}.nodes"))
-    return np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
+    return unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
 
 
 def boundary_load(model: FEModel, case: Case, b: Boundary) -> np.ndarray:

@@ -16,6 +16,7 @@ import warnings
 
 import numpy as np
 
+from ..arrays import unique
 from ..case import Case
 from ..mesh.elements import SHELL_TYPES, TYPE_CODE
 from .model import FEModel
@@ -68,7 +69,7 @@ def implausible(model: FEModel, case: Case) -> list[str]:
     out = []
     mesh = model.mesh
     cells = model.element_cells
-    used = np.unique(cells[cells >= 0])
+    used = unique(cells[cells >= 0])
     if len(used):
         ext = float(np.ptp(mesh.points[used], axis=0).max())
         note = extent_note(ext, case.mesh.unit, "[mesh] unit")
@@ -92,7 +93,7 @@ def _thickness_notes(model: FEModel, case: Case) -> list[str]:
         area = mesh.element_areas(model.elements[sel])
         t = float(np.nanmax(model.volume_shares[sel].sum(axis=1) / np.where(area > 0, area, np.nan)))
         c = model.element_cells[sel]
-        span = float(np.ptp(mesh.points[np.unique(c[c >= 0])], axis=0).max())
+        span = float(np.ptp(mesh.points[unique(c[c >= 0])], axis=0).max())
         if not (np.isfinite(t) and span > 0 and t > THICK_SHELL_RATIO * span):
             continue
         key = (f"[[parts]] {cp.name!r}.thickness = {cp.thickness:g}" if cp.thickness is not None
@@ -140,7 +141,7 @@ def _flux_notes(model: FEModel, case: Case) -> list[str]:
         if b.kind == "flux":
             q = abs(b.value)
         elif b.kind == "power" and b.groups:
-            el = np.unique(np.concatenate([mesh.groups[g].elements for g in b.groups if g in mesh.groups]
+            el = unique(np.concatenate([mesh.groups[g].elements for g in b.groups if g in mesh.groups]
                                           or [np.zeros(0, np.int64)]))
             el = el[mesh.element_dims[el] == 2] if len(el) else el
             area = float(np.nansum(mesh.element_areas(el))) if len(el) else 0.0

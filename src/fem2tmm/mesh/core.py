@@ -13,6 +13,7 @@ from typing import Mapping
 
 import numpy as np
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, InternalError, format_ids
 from . import geometry
 from .elements import DIM, ELEMENT_TYPES, LINE_TYPES, N_NODES, SHELL_TYPES, SOLID_TYPES, TYPE_CODE
@@ -330,15 +331,9 @@ def pad_cells(blocks) -> np.ndarray:
 
 
 def unique_ints(a) -> np.ndarray:
-    """Sorted unique values of an integer array by sort + mask instead of ``np.unique`` (measurements:
-    docs/design-notes.md, mesh/core.py)."""
-    s = np.sort(np.asarray(a, dtype=np.int64).ravel())
-    if s.size == 0:
-        return s
-    keep = np.empty(s.size, bool)
-    keep[0] = True
-    np.not_equal(s[1:], s[:-1], out=keep[1:])
-    return s[keep]
+    """Sorted unique values of an integer array as int64 (:func:`fem2tmm.arrays.unique`: one sort and a mask, not
+    numpy 2's hash-based ``np.unique``)."""
+    return unique(np.asarray(a, dtype=np.int64).ravel())
 
 
 def make_group(name: str, dim: int, elements=None, nodes=None, mesh_cells: np.ndarray | None = None) -> Group:

@@ -47,6 +47,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, format_ids
 from .surfaces import pad_faces
 
@@ -474,7 +475,7 @@ def fit_regions(points, faces, region_of_face, names=None, tol: float = FIT_TOL)
     reg = np.asarray(region_of_face)
     if reg.shape != (len(f),) or not np.issubdtype(reg.dtype, np.integer):
         raise Fem2TmmError(f"region_of_face must be one int per face ({len(f)},), got {reg.shape} {reg.dtype}")
-    ids, qf = np.unique(reg, return_inverse=True)
+    ids, qf = unique(reg, return_inverse=True)
     qf = qf.ravel()
     if ids.size and ids[0] < 0:
         if ids[0] < -1:
@@ -487,7 +488,7 @@ def fit_regions(points, faces, region_of_face, names=None, tol: float = FIT_TOL)
     pts = np.asarray(points, float)
     for k, rid in enumerate(ids):  # loop over regions
         mine = order[start[k] : start[k + 1]]
-        nodes = np.unique(f[mine])
+        nodes = unique(f[mine])
         nodes = nodes[nodes >= 0]
         name = (names[rid] if names is not None else f"region {rid}")
         quadrics.append(fit_quadric(pts[nodes], nrm[mine], cen[mine], name=name, tol=tol))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, format_ids
 from .engine import make_engine
 from .quadric import (FIT_TOL, MIN_ALIGNMENT, RULE7, _Traced, _area_jacobian, _cofactor, _dot, _foot, _gradient,
@@ -119,7 +120,7 @@ class QuadricScene(TriangleScene):
             x = p[rows] - o
             qk, ok = _foot(Q, ev, beta, c0, x, self._tol[k])
             if check and not ok.all():
-                bad = np.unique(self.tri_face[prim[rows][~ok]])
+                bad = unique(self.tri_face[prim[rows][~ok]])
                 raise Fem2TmmError(f"faces {format_ids(bad)}: points on them do not project onto their quadric; the "
                                    "quadric does not fit these faces")
             g = _gradient(A, b, qk)
@@ -152,7 +153,7 @@ class QuadricScene(TriangleScene):
         """Merge coinciding quadrics into traced surfaces, then orient every quadric face like its FE normal."""
         K = len(self.quadrics)
         sf = self.surface
-        faces = np.unique(self.tri_face[self._quad_tri])
+        faces = unique(self.tri_face[self._quad_tri])
         first_tri = np.searchsorted(self.tri_face, faces)
         cen, nrm = face_frames(sf.points, sf.faces[faces])
         kf = self.quadric_of_face[faces]
@@ -195,7 +196,7 @@ class QuadricScene(TriangleScene):
         for k in np.flatnonzero(rep != np.arange(K)):  # merged regions trace their representative's quadric
             self._params[k] = self._params[rep[k]]
             self._tol[k] = self._tol[rep[k]]
-        self._surfaces, self.surface_of_quadric = np.unique(rep, return_inverse=True)
+        self._surfaces, self.surface_of_quadric = unique(rep, return_inverse=True)
         self.surface_of_quadric = self.surface_of_quadric.ravel()
         # orientation per face: sign of (facet normal . traced quadric normal) at the projected face centroid
         _, n, _, _ = self._lift(first_tri, cen)

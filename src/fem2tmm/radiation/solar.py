@@ -35,6 +35,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import _validation as check
+from ..arrays import unique
 from ..errors import Fem2TmmError
 from .sampling import HALTON_BASES, ScrambledHalton
 from .surfaces import (GroupEmitters, SideOptics, Surface, TriangleScene, TriangleWeights, pack_ints, pad_faces,
@@ -247,7 +248,7 @@ def side_sums(index: np.ndarray, weights: np.ndarray, n: int) -> tuple[np.ndarra
     when n < 2**31 else int64, sums (k,))``, bit-for-bit the dense values (each bin sums its weights in array order,
     as bincount does), in O(r log r) for r = len(index) whatever n.  ``index`` (r,) ints in [0, n), ``weights``
     (r,) float."""
-    bins, inverse = np.unique(index, return_inverse=True)
+    bins, inverse = unique(index, return_inverse=True)
     sums = np.bincount(inverse.ravel(), weights=weights, minlength=bins.size)
     return bins.astype(np.int32 if n < 2**31 else np.int64), sums
 

@@ -38,6 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, format_ids
 from ..fem.assembly import ElementCOO
 from ..linalg import blas_threads
@@ -174,20 +175,32 @@ def _entry_clusters(coo: ElementCOO, labels: np.ndarray, elements: np.ndarray | 
     row_of = np.full(size, -1, np.int64)
     row_of[elements] = np.arange(m)
     r = row_of[coo.elem]
-    missing = np.unique(coo.elem[r < 0])
+    missing = unique(coo.elem[r < 0])
     if missing.size:
         raise Fem2TmmError(f"conduction entries of elements {format_ids(missing)} have no cluster label; "
                            "pass the labels of every element of the thermal model")
     return labels[r]
 
 
-def _floating(li: np.ndarray, lj: np.ndarray, nI: int, nB: int) -> bool:
-    """True when some interior node of the cluster is not connected to any of its interface nodes."""
-    if nB == 0:
-        return True
-    g = sp.csr_matrix((np.ones(li.size, np.int8), (li, lj)), shape=(nI + nB, nI + nB))
-    _, comp = connected_components(g, directed=False)
-    return bool(np.any(~np.isin(comp[:nI], comp[nI:])))
+def _floating(rows: np.ndarray, cols: np.ndarray, iface: np.ndarray, p_cl: np.ndarray, p_node: np.ndarray,
+              nc: int) -> np.ndarray:
+    """(nc,) bool: True for the clusters where some interior node is not connected to any of their interface nodes
+    through their own conduction entries (``rows``, ``cols`` (nnz,) DOFs of all entries; ``iface`` (n,) bool;
+    ``p_cl``, ``p_node`` (p,) the (cluster, node) pairs).
+
+    One graph for all clusters: the entries that touch an interior node (an interior node's entries are all its own
+    cluster's), without the interface-interface ones.  A component that holds no interface node is then the interior
+    nodes of one cluster cut off from its interface."""
+    n = iface.size
+    keep = ~(iface[rows] & iface[cols])
+    g = sp.csr_matrix((np.ones(int(keep.sum()), np.int8), (rows[keep], cols[keep])), shape=(n, n))
+    n_comp, comp = connected_components(g, directed=False)
+    anchored = np.zeros(n_comp, bool)
+    anchored[comp[iface]] = True
+    inner = ~iface[p_node]
+    out = np.zeros(nc, bool)
+    out[p_cl[inner][~anchored[comp[p_node[inner]]]]] = True
+    return out
 
 
 def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, factor_memory_mb: float):
@@ -198,7 +211,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
 
     # nodes of each cluster from the diagonal entries (every element node has one), sorted by cluster
     d = coo.rows == coo.cols
-    key = np.unique(ec[d] * n + coo.rows[d])
+    key = unique(ec[d] * n + coo.rows[d])
     p_cl, p_node = key // n, key % n
     n_touch = np.bincount(p_node, minlength=n)
     is_one = np.zeros(n, bool)
@@ -209,6 +222,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
         raise Fem2TmmError(f"the conduction entries and the super-node definition disagree on which clusters touch "
                            f"DOFs {format_ids(bad)}; build both from the same cells and labels")
     p_start = np.searchsorted(p_cl, np.arange(nc + 1))
+    floating = _floating(coo.rows, coo.cols, iface, p_cl, p_node, nc)
     has_interior = np.zeros(nc, bool)
     has_interior[p_cl[~iface[p_node]]] = True
 
@@ -259,7 +273,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
             C = sp.csr_matrix((np.concatenate([v[ib], a[nI:]]),
                                (np.concatenate([li[ib], np.full(nB, nI)]),
                                 np.concatenate([lj[ib] - nI, np.arange(nB)]))), shape=(nI + 1, nB))
-            if _floating(li, lj, nI, nB):
+            if floating[c]:
                 kind = "sparse_lu" if nI >= dense_below else "lu"
             elif nI >= dense_below or (nI >= SPARSE_FROM and nB + 1 <= SPARSE_RATIO * nI):
                 kind = "sparse"

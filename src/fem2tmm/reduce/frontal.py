@@ -25,12 +25,25 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from numba import njit
 from scipy.sparse.csgraph import connected_components, shortest_path
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, InternalError
 
 #: largest sub-graph bisected with a dense eigensolver (spectral); larger ones use breadth-first levels
 SPECTRAL_MAX = 2500
+
+
+@njit(cache=True, nogil=True)
+def _scatter_add(F: np.ndarray, p: np.ndarray, val: np.ndarray) -> None:
+    """``F[np.ix_(p, p)] += val`` in place without the (k, k) temporaries (``p`` distinct indices); the same single
+    addition per entry, so the same bits."""
+    k = p.size
+    for i in range(k):
+        pi = p[i]
+        for j in range(k):
+            F[pi, p[j]] += val[i, j]
 
 
 def _bisect(W: sp.csr_matrix) -> np.ndarray:
@@ -182,7 +195,7 @@ class Frontal:
                 members[tree.left[t]] = members[tree.right[t]] = None
             else:
                 parts = members[t]
-            front = np.unique(np.concatenate([idx for idx, _ in parts]))
+            front = unique(np.concatenate([idx for idx, _ in parts]))
             elim = elim_node[front] == t
             if not np.any(elim):  # nothing to eliminate here: pass the pieces up unsummed
                 members[t] = parts
@@ -193,8 +206,7 @@ class Frontal:
             rank[np.concatenate([np.flatnonzero(elim), np.flatnonzero(~elim)])] = np.arange(front.size)
             F = np.zeros((front.size, front.size))
             for idx, val in parts:
-                p = rank[np.searchsorted(front, idx)]
-                F[np.ix_(p, p)] += val
+                _scatter_add(F, rank[np.searchsorted(front, idx)], val)
             del parts
             e = E.size
             fr = _Front(F, e, what)
@@ -208,7 +220,7 @@ class Frontal:
         for idx, val in parts:
             if np.any(idx >= n_keep):
                 raise InternalError(f"{what}: unknowns {idx[idx >= n_keep][:10]} were never eliminated")
-            self.K[np.ix_(idx, idx)] += val
+            _scatter_add(self.K, idx, val)
 
     def forward(self, b: np.ndarray) -> np.ndarray:
         """In place on b (n_star, r): eliminated rows become F_EE⁻¹ b_E, kept rows b_S − K_SF K_FF⁻¹ b_F."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..arrays import unique
 from ..case import Case
 from ..cluster import Clustering
 from ..errors import Fem2TmmError, format_ids
@@ -104,7 +105,7 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
     ed = model.element_dofs
     determined = determined_elements(model, kept) | (labels_all < 0)
     rows = np.flatnonzero(~determined)
-    used_clusters = np.unique(labels_all[rows])
+    used_clusters = unique(labels_all[rows])
     new_id = np.full(len(clustering.cluster_part), -1, np.int64)
     new_id[used_clusters] = np.arange(len(used_clusters))
     cluster_part = clustering.cluster_part[used_clusters]
@@ -251,7 +252,7 @@ def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarra
     side_owner = np.repeat(owner_face, 2)
     side = np.tile([0, 1], f.n)
     key = np.where(f.active, side_owner * 2 + side, -1)
-    uniq, inv = np.unique(key[key >= 0], return_inverse=True)
+    uniq, inv = unique(key[key >= 0], return_inverse=True)
     groups = np.full(2 * f.n, -1, np.int64)
     groups[key >= 0] = inv.ravel()
     return groups, uniq // 2

@@ -48,6 +48,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..arrays import unique
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
 from ..linalg import factorize
@@ -318,7 +319,7 @@ def split_clusters(labels: np.ndarray, split: np.ndarray, centroids: np.ndarray,
     inside = labels >= 0
     key = np.where(inside, (np.asarray(cluster_part, np.int64)[np.maximum(labels, 0)] * (k + 1) + labels) * 2 + half,
                    -1)
-    uniq, inv = np.unique(key[inside], return_inverse=True)
+    uniq, inv = unique(key[inside], return_inverse=True)
     out = np.full(n, -1, np.int64)
     out[inside] = inv.ravel()
     return out

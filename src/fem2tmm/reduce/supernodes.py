@@ -23,6 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..arrays import unique
 from ..errors import Fem2TmmError, format_ids
 from ..linalg import dependent_rows as _dependent_rows
 from .capacitance import cluster_capacitance
@@ -68,7 +69,7 @@ def _as_dofs(values, name: str, n_dof: int) -> np.ndarray:
     bad = arr[(arr < 0) | (arr >= n_dof)]
     if bad.size:
         raise Fem2TmmError(f"{name} DOFs {format_ids(bad)} are outside 0..{n_dof - 1}")
-    uniq, counts = np.unique(arr, return_counts=True)
+    uniq, counts = unique(arr, return_counts=True)
     if np.any(counts > 1):
         raise Fem2TmmError(f"{name} DOFs {format_ids(uniq[counts > 1])} are listed more than once")
     return arr
@@ -175,7 +176,7 @@ def build_supernodes(n_dof: int, cells: np.ndarray, shares: np.ndarray, labels: 
     capacity = np.concatenate([totals, np.zeros(n_one)])
 
     # distinct (node, cluster) pairs: which nodes several clusters touch
-    key = np.unique(c * nc + r)
+    key = unique(c * nc + r)
     pair_node, pair_cluster = key // nc, key % nc
     n_touch = np.bincount(pair_node, minlength=n_dof)
     is_one = np.zeros(n_dof, bool)
@@ -217,7 +218,7 @@ def _check_independent(sn: SuperNodes, pair_node, pair_cluster, is_one) -> None:
     in_suspect = np.isin(pair_cluster, suspects)
     sn_of_dof = np.full(sn.n_dof, -1)
     sn_of_dof[sn.dof[sn.one_node]] = sn.one_node
-    nodes = np.unique(pair_node[in_suspect])
+    nodes = unique(pair_node[in_suspect])
     extra = sn_of_dof[nodes]
     rows = np.concatenate([suspects, extra[extra >= 0]])
     for group in _dependent_rows(sn.A[rows]):
@@ -256,7 +257,7 @@ def _check_parts_fixed(sn: SuperNodes, cells: np.ndarray, valid: np.ndarray) -> 
     groups = _dependent_rows(sub.T.tocsr())
     if groups:
         parts = loose[groups[0]]
-        rows = np.unique(sub[:, groups[0]].tocoo().row)
+        rows = unique(sub[:, groups[0]].tocoo().row)
         sample = [int(np.flatnonzero(part == p)[0]) for p in parts[:10]]
         raise Fem2TmmError(
             f"the super nodes do not fix the mean temperature of each connected part: "

@@ -8,6 +8,7 @@ import dataclasses
 
 import numpy as np
 
+from ..arrays import unique
 from ..cache import digest
 from ..case import Case
 from ..cluster import Clustering, PartInput, cluster_parts, from_labels
@@ -108,7 +109,7 @@ def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarra
     """Refuse, before clustering, a super-node count that cannot give independent super nodes: the part's
     clusters and the one-node super nodes among its DOFs all average over the part's DOFs, so more of them than
     DOFs are linearly dependent."""
-    dofs = np.unique(element_dofs[element_dofs >= 0])
+    dofs = unique(element_dofs[element_dofs >= 0])
     free = int(np.count_nonzero(~one_node[dofs]))
     if info.super_nodes > free:
         raise Fem2TmmError(
