@@ -298,9 +298,12 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     books match the detailed ones (it moves no temperature: the node is fixed).  Returns the network and its
     solution (the design state again, to the solver's tolerance)."""
     from ..linalg import blas_threads
-    from ..reduce.radiative import effective_emission
+    from ..reduce.radiative import effective_emission, emission_floor_links
 
     T = sol.T
+    # super nodes short of heat at T* (a negative emitting area): conduction from the held edge (issue 41)
+    rm = dataclasses.replace(rm, K=np.asarray(rm.K, float) + emission_floor_links(
+        rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, rm.g_space))
     g_fixed = np.where(rm.fixed, rm.g_space, 0.0)
     if held_W is not None:
         d4 = T**4 - rm.T_sink**4
