@@ -292,8 +292,8 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
     the exact reduction distributes them (Y'q), K̃ and GR as they are, and each super node's coupling to space a
     function of its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design
-    state ``sol``; a super node that would be left with less than a share of its physical emitting area there gets the
-    heat it lacks by conduction from the held edge first (:func:`fem2tmm.reduce.radiative.emission_floor_links`).
+    state ``sol``; a super node whose balance there asks for a negative emitting area gets the heat it lacks by
+    conduction from a warmer held node first (:func:`fem2tmm.reduce.radiative.emission_floor_links`).
     ``held_W`` (n,) W or None: the heat each fixed node gives the structure in the detailed model at
     that state; what its conductors do not carry (the emission of the fin next to it, steeper than its neighbours'
     mean temperatures show) becomes its own coupling to space, at its own temperature, so that the network's heat
