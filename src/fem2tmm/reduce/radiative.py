@@ -186,6 +186,75 @@ EMISSION_SPAN = 1.25
 EMISSION_FLOOR = 0.05
 
 
+#: a super node whose design balance asks for a negative emitting area gets this fraction of its physical εA
+#: (:func:`emission_floor_links`).  The sweep below lifted *every* node under the fraction (kept: only the negative
+#: ones, 2026-12-06: 100 SN 1.55/4.00, 0.44/1.90, 3.02/17.7, 1.04/4.88; 300 SN has none).  Measured on issue 41's L-bracket (heater 0 / 5 / 40 W, sink -100 °C, RMS / max
+#: K; 100 super nodes, then 300): none (6 super nodes with a negative εA at 100): 2.40/5.79, 0.46/1.95, 2.85/17.5, no
+#: steady solution; 0.25: 2.00/4.99, 0.50/2.03, 3.02/17.7, 1.03/4.89; 0.5: 1.44/3.94, 0.42/1.89, 3.02/17.7,
+#: 1.03/4.89 and 0.96/2.22, 0.17/0.92, 0.55/3.20, 0.37/2.65; 0.75: 1.01/3.46, 0.31/1.30, 3.00/17.7, 1.01/4.55 and
+#: 0.82/2.03, 0.17/0.91, 0.55/3.15, 0.40/2.84; 1.0: 9.14/36.5 at 0 W (docs/design-notes.md)
+EMISSION_MIN_FRACTION = 0.75
+
+
+def _free_balance(K: np.ndarray, Q: np.ndarray, GR, T: np.ndarray) -> np.ndarray:
+    """(n,) W: what each node must still lose to space at ``T``: Q − K T − σ L_GR T⁴."""
+    n = len(T)
+    G = np.zeros((n, n)) if GR is None else np.array(GR.todense() if hasattr(GR, "todense") else GR, float)
+    np.fill_diagonal(G, 0.0)
+    T4 = T**4
+    return Q - K @ T - SIGMA * (G.sum(axis=1) * T4 - G @ T4)
+
+
+def emission_floor_links(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixed: np.ndarray, T_sn: np.ndarray,
+                         T_sink: float, g_space: np.ndarray, fraction: float = EMISSION_MIN_FRACTION) -> np.ndarray:
+    """Conductances that let every super node close its design balance with a non-negative emitting area.
+
+    In the network of :func:`effective_emission` a cold super node far from the loads can be left with less heat
+    than its own emission: Y'q and K̃ are dense (every super node gets a share of a distant heater and K̃ has
+    negative links), and where the cluster emits little (tens of kelvin above a deep-space sink) their balance is a
+    small difference of large terms.  Closing it with the node's coupling to space then asks for a *negative*
+    emitting area (issue 41's L-bracket at 100 super nodes: 6 super nodes at 72-86 K, εA −0.002 to −0.023 m² against
+    0.046 physical), whose emission falls as T⁴ grows: the network has no steady state once the sink is warmer.
+    Here each such node (negative εA at T*) gets the heat it lacks, up to ``fraction`` × its physical εA ``g_space``,
+    by conduction from the hottest fixed (held) node warmer than it (the structure's heat source).  Without one the
+    node is left as it is: taking the heat from its warmer neighbours instead (in proportion to what K̃'s positive
+    links bring it) made examples/smallsat (no held node) worse in 5 of its 7 verified states (docs/design-notes.md).  The design
+    state stays exact: the added flows are part of K̃ T.
+
+    Parameters
+    ----------
+    K : (n, n) W/K, K̃ (zero row sums) ; Q : (n,) W ; GR : (n, n) m² or None ; fixed : (n,) bool
+    T_sn : (n,) K design state ; T_sink : K ; g_space : (n,) m² physical εA to space
+    fraction : the least emitting area, as a fraction of ``g_space``
+
+    Returns
+    -------
+    (n, n) W/K: a Laplacian (zero row sums) to add to ``K`` (zero where no node is short).
+    """
+    T = np.asarray(T_sn, float)
+    n = len(T)
+    fixed = np.asarray(fixed, bool)
+    K = np.array(K, float)
+    dK = np.zeros((n, n))
+    d4 = T**4 - T_sink**4
+    r = _free_balance(K, np.asarray(Q, float), GR, T)
+    # only the nodes whose balance asks for a negative emitting area: lifting small positive ones as well made
+    # examples/composite worse in every verified state (heater 0 W 3.76 / 28.8 K against 2.40 / 15.7)
+    need = np.where(~fixed & (d4 > 0) & (r < 0), SIGMA * fraction * np.asarray(g_space, float) * d4 - r, 0.0)
+    held = np.flatnonzero(fixed)
+    for i in np.flatnonzero(need > 0):
+        warm = held[T[held] > T[i]]
+        if not len(warm):  # no held node to feed it: left as it is (see the docstring)
+            continue
+        js, w = warm[np.argmax(T[warm])][None], np.ones(1)
+        g = need[i] * w / (T[js] - T[i])
+        dK[i, js] -= g
+        dK[js, i] -= g
+        dK[i, i] += g.sum()
+        dK[js, js] += g
+    return dK
+
+
 def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixed: np.ndarray, T_sn: np.ndarray,
                        T_sink: float, H: np.ndarray, g_fixed: np.ndarray, g_space: np.ndarray,
                        span: float = EMISSION_SPAN) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
@@ -198,7 +267,9 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     ``σ e' (T⁴ − T_s⁴) + 4σ e T³ + 4σ GR1 T³`` equal ``H``, the linearised emission of the field it stands for
     (Y'h, :class:`RadiationAware`).  So the network is exact at the design state and exact to first order about
     it, whatever load or sink moves it; further off, e(T) is linear in T up to ``T*·span`` (down to ``T*/span``)
-    and constant beyond, where the emission grows as T⁴.
+    and constant beyond, where the emission grows as T⁴.  The slope is held at −4 e/T* or above (the emission to
+    deep space, e T⁴, does not fall as the node warms); a node short of heat at T* gets it from
+    :func:`emission_floor_links` first, so that e(T*) stays positive.
 
     Parameters
     ----------
@@ -225,6 +296,10 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     de = np.zeros(n)
     e[free] = r[free] / (SIGMA * d4[free])
     de[free] = (H[free] - 4.0 * SIGMA * (GR1[free] + e[free]) * T[free] ** 3) / (SIGMA * d4[free])
+    # the emission to deep space, e T⁴, does not fall as the node warms: a slope below −4 e/T* would make a warmer
+    # node lose less heat (no steady state, or Newton lost, once an edit moves it there)
+    pos = free & (e > 0)
+    de[pos] = np.maximum(de[pos], -4.0 * e[pos] / T[pos])
     x = T[:, None] * np.array([1.0 / span, 1.0, span])[None, :]
     y = e[:, None] + de[:, None] * (x - T[:, None])
     weak = (np.sign(y) != np.sign(e)[:, None]) | (np.abs(y) < EMISSION_FLOOR * np.abs(e)[:, None])
@@ -265,5 +340,5 @@ def parametric_weights(values_si: np.ndarray, sink: bool, samples: int = 32) -> 
     return grid, W[inverse]
 
 
-__all__ = ["RadiationAware", "effective_emission", "emission_entries", "emission_weights", "parametric_weights",
-           "split_radiative"]
+__all__ = ["RadiationAware", "effective_emission", "emission_entries", "emission_floor_links", "emission_weights",
+           "parametric_weights", "split_radiative"]

@@ -292,15 +292,20 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
     the exact reduction distributes them (Y'q), K̃ and GR as they are, and each super node's coupling to space a
     function of its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design
-    state ``sol``.  ``held_W`` (n,) W or None: the heat each fixed node gives the structure in the detailed model at
+    state ``sol``; a super node whose balance there asks for a negative emitting area gets the heat it lacks by
+    conduction from a warmer held node first (:func:`fem2tmm.reduce.radiative.emission_floor_links`).
+    ``held_W`` (n,) W or None: the heat each fixed node gives the structure in the detailed model at
     that state; what its conductors do not carry (the emission of the fin next to it, steeper than its neighbours'
     mean temperatures show) becomes its own coupling to space, at its own temperature, so that the network's heat
     books match the detailed ones (it moves no temperature: the node is fixed).  Returns the network and its
     solution (the design state again, to the solver's tolerance)."""
     from ..linalg import blas_threads
-    from ..reduce.radiative import effective_emission
+    from ..reduce.radiative import effective_emission, emission_floor_links
 
     T = sol.T
+    # super nodes short of heat at T* (a negative emitting area): conduction from the held edge (issue 41)
+    rm = dataclasses.replace(rm, K=np.asarray(rm.K, float) + emission_floor_links(
+        rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, rm.g_space))
     g_fixed = np.where(rm.fixed, rm.g_space, 0.0)
     if held_W is not None:
         d4 = T**4 - rm.T_sink**4
