@@ -101,7 +101,7 @@ def bench_robustness(n_models: int | None = None, seed: int = 31) -> list[dict]:
 
     t0 = time.perf_counter()
     one()
-    return [{"bench": "robustness", "models": sum(outcome.values()), "solved": outcome["solved"],
+    return [{"bench": "robustness", "models": outcome["solved"] + outcome["refused"] + outcome["failed"], "solved": outcome["solved"],
              "refused": outcome["refused"], "refused_by_cause": dict(refused.most_common()),
              "solved_outside_bounds_negative_conductances": outcome["outside_bounds_negative_conductances"],
              "failed": outcome["failed"], "failures": failures, "accuracy": accuracy_table(records), "seconds": round(time.perf_counter() - t0, 1)}]
