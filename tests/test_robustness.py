@@ -4,7 +4,7 @@ beside low-k CFRP, MLI with an effective emittance and stitches across; conducti
 decades, emissivity 0-1, specular and diffuse, Sun on and off, sinks 0-400 K, heaters 0-1 kW, held temperatures above
 and below the sink, steady and transient, thesis and radiation-aware reductions, 1-50 super nodes) either solve with
 closed energy balances and temperatures within their sources' bounds, or stop with a Fem2TmmError naming the cause.
-The default run tries 200 models (96 s at load 7-10 on the shared 2-core machine, 2026-12-06; the generator
+The default run tries 200 models (96-119 s at load 6-10 on the shared 2-core machine, 2026-12-06; the generator
 before the real-structure models: 155 s for its 200 at load 10); ``fem2tmm bench robustness`` tries thousands."""
 
 from __future__ import annotations
