@@ -253,6 +253,8 @@ BALANCE_COLD = 10.0
 #: 1 / (1 - MAX_DROP) (a cold start under a strong load would otherwise jump to 1e20 K on the T³-small Jacobian)
 MAX_GROWTH = 4.0
 MAX_DROP = 0.8
+#: most free nodes for which a sparse Jacobian with a zero pivot is solved densely instead (step_solve)
+DENSE_FALLBACK = 4000
 
 
 def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, tol: float = 1e-9,
@@ -298,7 +300,16 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
         if krylov:
             return _newton_krylov_step(ops, d, free, b, stats)
         # K + diag(4σT³g) is SPD; with node-to-node radiation, L diag(4σT³) makes it unsymmetric
-        lu = factorize(ops.jacobian(d, free), "spd" if ops.L is None else "general")
+        J = ops.jacobian(d, free)
+        try:
+            lu = factorize(J, "spd" if ops.L is None else "general")
+        except RuntimeError:  # SuperLU's "Factor is exactly singular": a zero pivot, not necessarily a singular J
+            # a network with zero row sums near 0 K (its emission conductance 4σεA·T³ ~1e-19 W/K beside a conduction
+            # of 1e-3 W/K): the sparse LU without pivoting meets an exact zero; the dense LU pivots through it.
+            # Too large for a dense solve: the singular-Jacobian refusal below (LinAlgError)
+            if len(free) > DENSE_FALLBACK:
+                raise np.linalg.LinAlgError("singular sparse Jacobian") from None
+            return np.linalg.solve(J.toarray(), b)
         if not ops.radiative:
             cache["lu"] = lu.solve
         return lu.solve(b)
