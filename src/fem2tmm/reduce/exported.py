@@ -445,6 +445,8 @@ class ExportedRecovery:
         if self.mode != "emission":
             lu = factors.get(c)
             if lu is None:
+                if len(factors) >= 4:  # (step sizes that vary between intervals: keep the last few, not all)
+                    factors.pop(next(iter(factors)))
                 lu = factors[c] = self._saddle(None, M)
             return lu.solve(np.concatenate([rhs, Tsn1]))[: self.n_dof], chord
         # the chord iteration on a saddle factorised once and kept while it contracts (the capacitance term C/h
