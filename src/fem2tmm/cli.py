@@ -12,6 +12,7 @@ import warnings
 from pathlib import Path
 
 from ._version import __version__
+from .case.types import TRANSIENT_METHODS
 from .errors import Fem2TmmError, InternalError
 
 
@@ -56,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
                          "change of a load)")
     rc.add_argument("--step", type=float, default=None, help="with --in-time: largest sub-step (s; default: "
                                                                "one step per interval between columns)")
-    rc.add_argument("--scheme", default="crank-nicolson", choices=["crank-nicolson", "backward-euler", "bdf2"],
+    rc.add_argument("--scheme", default="crank-nicolson", choices=TRANSIENT_METHODS,
                     help="with --in-time: the time scheme (default crank-nicolson, as ESATAN's SLCRNC)")
     _network_parser(sub)
     return p

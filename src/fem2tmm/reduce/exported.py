@@ -40,6 +40,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..case.types import TRANSIENT_METHODS
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
 from ..linalg import ROUNDOFF_ULPS, factorize, roundoff
@@ -350,8 +351,8 @@ class ExportedRecovery:
         if self.C is None:
             raise Fem2TmmError("this reduced.npz carries no capacitance (its case gives no density and specific heat): "
                                "recover in time needs it; recover() gives each time's quasi-static field")
-        if scheme not in ("crank-nicolson", "backward-euler", "bdf2"):
-            raise Fem2TmmError(f"recover_transient: scheme {scheme!r}; use crank-nicolson, backward-euler or bdf2")
+        if scheme not in TRANSIENT_METHODS:
+            raise Fem2TmmError(f"recover_transient: scheme {scheme!r}; use {', '.join(TRANSIENT_METHODS)}")
         times = np.asarray(times, float)
         T_sn = np.asarray(T_sn, float).reshape(self.n_sn, -1)
         k = len(times)
