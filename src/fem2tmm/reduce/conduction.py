@@ -99,7 +99,8 @@ class ConductiveReduction:
     ``diagnostics`` dict: ``asymmetry`` and ``rowsum_residual`` of the raw result (max abs / max diagonal),
     ``n_interface`` (interface DOFs), ``n_condensed`` (unknowns removed by Guyan condensation),
     ``factor_bytes`` (memory of the kept factorisations), ``cluster_solvers`` (local method: count per
-    :class:`~fem2tmm.reduce.recovery.ClusterSolver` kind), ``blas_threads``, ``seconds``.
+    :class:`~fem2tmm.reduce.recovery.ClusterSolver` kind), ``tasks`` (local method: the Dask tasks of the
+    per-cluster step, 0 when it ran in this process), ``blas_threads``, ``seconds``.
     """
 
     K: np.ndarray
@@ -371,13 +372,14 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
         results = [r for batch in ex.map(_condense_batch, items, shared={"dense_below": dense_below, "budget": budget,
                                                                           "blas": blas}, what="cluster batches")
                    for r in batch]
-        kept_bytes = 0
+        tasks, kept_bytes = len(items), 0
+        del items
         for cl, _, _, nbytes, blob in results:  # the serial path's budget, in cluster order
             if blob is not None and kept_bytes + nbytes <= budget:
                 cl._solver = pickle.loads(blob)
                 kept_bytes += nbytes
     else:
-        state = {"kept": 0}
+        tasks, state = 0, {"kept": 0}
 
         def keep(cl, solver):  # kept while the total stays within the budget, in cluster order
             if state["kept"] + solver.nbytes <= budget:
@@ -412,7 +414,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
     op = LocalOperator(clusters, kidx, ns, n_star, frontal)
     kinds = [cl.kind for cl in clusters]
     return frontal.K, op, {"n_interface": int(np.count_nonzero(iface)), "n_condensed": int(n_star - ns),
-                           "factor_bytes": op.factor_nbytes,
+                           "factor_bytes": op.factor_nbytes, "tasks": tasks,
                            "cluster_solvers": {k: kinds.count(k) for k in sorted(set(kinds))}}
 
 
