@@ -100,7 +100,8 @@ class ConductiveReduction:
     ``n_interface`` (interface DOFs), ``n_condensed`` (unknowns removed by Guyan condensation),
     ``factor_bytes`` (memory of the kept factorisations), ``cluster_solvers`` (local method: count per
     :class:`~fem2tmm.reduce.recovery.ClusterSolver` kind), ``tasks`` (local method: the Dask tasks of the
-    per-cluster step, 0 when it ran in this process), ``blas_threads``, ``seconds``.
+    per-cluster step, 0 when it ran in this process), ``clusters_seconds`` (its wall time), ``blas_threads``,
+    ``seconds``.
     """
 
     K: np.ndarray
@@ -362,6 +363,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
     rows_s, cols_s, vals_s = coo.rows[order], coo.cols[order], coo.vals[order]
     del order
     budget = factor_memory_mb * 2 ** 20
+    t0 = time.perf_counter()
     parts = _Parts(n, p_node, p_start, iface, kidx, sn.A, e_start, rows_s, cols_s, vals_s, floating, mu_of)
     ex = current()
     if ex.distributed and nc > 1:  # batches of clusters as Dask tasks, their results taken in cluster order
@@ -389,6 +391,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
         results = _condense_clusters(parts.part(0, nc, copy=False), dense_below, keep, report=True)
         _report(nc, nc, "clusters reduced")  # (each cluster is reported as it starts: this is the last one's end)
         del parts
+    t_clusters = time.perf_counter() - t0
     blocks, clusters, multipliers = [], [], {}
     for cl, gidx, blk, _, _ in results:
         blocks.append((gidx, blk))
@@ -415,6 +418,7 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
     kinds = [cl.kind for cl in clusters]
     return frontal.K, op, {"n_interface": int(np.count_nonzero(iface)), "n_condensed": int(n_star - ns),
                            "factor_bytes": op.factor_nbytes, "tasks": tasks,
+                           "clusters_seconds": t_clusters,
                            "cluster_solvers": {k: kinds.count(k) for k in sorted(set(kinds))}}
 
 
