@@ -25,6 +25,12 @@ factorisation (large shell-like clusters); see :class:`~fem2tmm.reduce.recovery.
 constants below.  The interface unknowns are then removed by multifrontal elimination over a tree of clusters
 (:mod:`fem2tmm.reduce.frontal`), which is the Guyan condensation done with dense BLAS-3 fronts.
 
+On a Dask executor (:mod:`fem2tmm.compute`, ``[compute] scheduler``) the per-cluster step runs as tasks, each a
+batch of contiguous clusters (:data:`BATCHES_PER_WORKER` per worker, about equal conduction entries) with only its
+slices of the model's arrays; the client takes the results in cluster order and keeps factorisations under the
+same budget as in process, so K_SN and the recovery operators are the same bits.  The multifrontal condensation
+stays on the client.
+
 The result is symmetrised and its diagonal reset to minus the off-diagonal row sum, so K_SN is exactly
 symmetric with zero row sums; the raw asymmetry and row-sum residual are kept in ``diagnostics``.
 """
