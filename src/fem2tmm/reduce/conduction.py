@@ -317,9 +317,8 @@ def _condense_clusters(part: dict, dense_below: int, keep, report: bool = False)
 
 def _condense_batch(part: dict, dense_below: int, budget: float, blas: int | None) -> list:
     """One Dask task of the local step: :func:`_condense_clusters` on ``part`` with ``blas`` BLAS threads (as on
-    the client, so the same bits), each K*ᵢ packed (:func:`_pack`), each factorisation that could fit the
-    ``budget`` (bytes) returned pickled in the last field, unpickled on the client only where the serial path would
-    keep it."""
+    the client, so the same bits), each factorisation that could fit the ``budget`` (bytes) returned pickled in
+    the last field, unpickled on the client only where the serial path would keep it."""
     blobs = {}
 
     def keep(cl, solver):
@@ -328,25 +327,7 @@ def _condense_batch(part: dict, dense_below: int, budget: float, blas: int | Non
 
     with blas_threads(blas):
         out = _condense_clusters(part, dense_below, keep)
-    return [(cl, gidx, _pack(blk), nbytes, blobs.get(cl.sn)) for cl, gidx, blk, nbytes, _ in out]
-
-
-def _pack(blk: np.ndarray) -> np.ndarray:
-    """A symmetric K*ᵢ (k, k) as its upper triangle (k(k+1)/2,) (half the bytes to send), else unchanged."""
-    if not np.array_equal(blk, blk.T):
-        return blk
-    return blk[np.triu_indices(blk.shape[0])]
-
-
-def _unpack(v: np.ndarray, k: int) -> np.ndarray:
-    """The (k, k) block that :func:`_pack` gave ``v`` for: the same bits."""
-    if v.ndim == 2:
-        return v
-    iu = np.triu_indices(k)
-    blk = np.empty((k, k))
-    blk[iu] = v
-    blk[iu[1], iu[0]] = v
-    return blk
+    return [(cl, gidx, blk, nbytes, blobs.get(cl.sn)) for cl, gidx, blk, nbytes, _ in out]
 
 
 def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, factor_memory_mb: float,
@@ -401,11 +382,10 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
                    for r in batch]
         tasks, kept_bytes = len(items), 0
         del items
-        for j, (cl, gidx, packed, nbytes, blob) in enumerate(results):  # the serial path's budget, in cluster order
+        for cl, _, _, nbytes, blob in results:  # the serial path's budget, in cluster order
             if blob is not None and kept_bytes + nbytes <= budget:
                 cl._solver = pickle.loads(blob)
                 kept_bytes += nbytes
-            results[j] = (cl, gidx, _unpack(packed, gidx.size), nbytes, None)
     else:
         tasks, state = 0, {"kept": 0}
 
