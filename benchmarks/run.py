@@ -43,6 +43,8 @@ REGISTRY: dict[str, str] = {
     "accuracy_mismatch": "benchmarks.accuracy:bench_composite_mismatch",
     "accuracy_modes": "benchmarks.accuracy:bench_composite_modes",
     "reduce": "benchmarks.reduce:bench_reduce",
+    "reduce_dask": "benchmarks.distributed:bench_reduce_dask",
+    "memory_per_element": "benchmarks.distributed:bench_memory_per_element",
     "rays": "benchmarks.radiation:bench_rays",
     "solar": "benchmarks.solar:bench_solar",
     "quadric": "benchmarks.quadric:bench_quadric",

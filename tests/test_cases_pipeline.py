@@ -90,6 +90,7 @@ def _three_cases(scheduler: str, workers: int | None = None) -> dict:
 def test_serial_and_local_clusters_are_bit_identical(mesh, capsys):
     pytest.importorskip("distributed")
     from fem2tmm.radiation.tracer import BATCH
+    from fem2tmm.reduce.conduction import BATCHES_PER_WORKER
 
     runs = {}
     for scheduler, workers in (("serial", None), ("local", 1), ("local", 2)):
@@ -100,20 +101,33 @@ def test_serial_and_local_clusters_are_bit_identical(mesh, capsys):
         runs[(scheduler, workers)] = multi
         if scheduler == "local":  # one bar over all work units, with the worker count, and its total at the end
             err = capsys.readouterr().err
-            # the ray batches of the traces each case computed (solar, REFs; not the reused ones) and one steady
-            # solve per case
+            # the ray batches of the traces each case computed (solar, REFs; not the reused ones), the batches of
+            # clusters of the local reduction each case computed and one steady solve per case
             units = sum((r.cache["solar_detailed"] == "computed") * -(-r.detailed.solar.rays // BATCH)
-                        + (r.cache["radiation"] == "computed") * -(-int(np.sum(r.reduced.radiation.rays)) // BATCH) + 1
+                        + (r.cache["radiation"] == "computed") * -(-int(np.sum(r.reduced.radiation.rays)) // BATCH)
+                        + (r.cache["reduce"] == "computed") * r.reduced.network.reduction.diagnostics["tasks"] + 1
                         for r in multi.results.values())
             s = "s" if workers > 1 else ""
             assert f"[fem2tmm] {units} work units on {workers} worker{s}\n" in err
             assert "ray batches on" not in err and "steady solves on" not in err  # no bar per map_units call
+            tasks = [r.reduced.network.reduction.diagnostics["tasks"] for r in multi.results.values()
+                     if r.cache["reduce"] == "computed"]
+            assert tasks and 0 < tasks[0] <= BATCHES_PER_WORKER * workers  # batches of the 8 clusters
     ref = runs[("serial", None)]
     for multi in runs.values():
         for name, r in multi.results.items():
             e = ref.results[name]
             assert r.cache == e.cache  # computed by the first case that needs it, reused by the others
             assert np.array_equal(r.reduced.T_recovered, e.reduced.T_recovered)
+            # the reduction (its clusters condensed on the workers) and the recovery that travels with the network
+            net, net_e = r.reduced.network, e.reduced.network
+            assert np.array_equal(net.K, net_e.K) and np.array_equal(net.C, net_e.C)
+            T_sn = np.linspace(250.0, 300.0, net.n)
+            assert np.array_equal(net.reduction.recover(T_sn), net_e.reduction.recover(T_sn))
+            rec, rec_e = r.reduced.recovery.arrays(), e.reduced.recovery.arrays()
+            assert rec.keys() == rec_e.keys()
+            for k in rec:
+                assert np.array_equal(rec[k], rec_e[k]), k
             assert np.array_equal(r.reduced.network.GR, e.reduced.network.GR) and np.array_equal(r.reduced.network.Q, e.reduced.network.Q)
             assert np.array_equal(r.detailed.solar.absorbed_side, e.detailed.solar.absorbed_side)
             assert np.array_equal(r.reduced.solution.T, e.reduced.solution.T)

@@ -244,3 +244,73 @@ def test_emitters_and_optics_travel_compactly_and_come_back_unchanged(serial_run
             assert np.array_equal(v, vars(obj)[k]) and v.dtype == vars(obj)[k].dtype, k
     assert len(pickle.dumps(em)) < 0.8 * sum(v.nbytes for v in vars(em).values())
     assert "rows" not in vars(pickle.loads(pickle.dumps(optics)))
+
+
+
+def _reduction_problem():
+    """A fixed 80 x 60 quad plate in Voronoi clusters, a floating 6 x 6 plate (one cluster) and two one-element
+    clusters (no interior node)."""
+    from fem2tmm.fem.assembly import conduction_matrices, to_coo, volume_shares
+    from fem2tmm.reduce import build_supernodes
+
+    def grid(nx, ny, x0):
+        x, y = np.meshgrid(np.linspace(x0, x0 + nx / 100, nx + 1), np.linspace(0, ny / 100, ny + 1), indexing="ij")
+        g = np.arange(x.size).reshape(nx + 1, ny + 1)
+        return (np.c_[x.ravel(), y.ravel(), np.zeros(x.size)],
+                np.stack([g[:-1, :-1], g[1:, :-1], g[1:, 1:], g[:-1, 1:]], -1).reshape(-1, 4))
+
+    p1, c1 = grid(80, 60, 0.0)
+    p2, c2 = grid(6, 6, 2.0)
+    pts, cells = np.vstack([p1, p2]), np.vstack([c1, c2 + len(p1)])
+    m = len(cells)
+    t = np.full(m, 1e-3)
+    coo = to_coo(cells, conduction_matrices(pts, cells, "quad4", np.full(m, 170.0), t), np.arange(m))
+    cen = pts[cells].mean(axis=1)
+    seeds = np.random.default_rng(0).uniform([0.0, 0.0], [0.8, 0.6], (10, 2))
+    labels = 1 + np.argmin(((cen[:, None, :2] - seeds[None]) ** 2).sum(-1), axis=1)
+    labels[len(c1):] = 0  # the floating plate
+    labels[[40 * 60 + 30, 70 * 60 + 5]] = [11, 12]  # one-element clusters
+    sn = build_supernodes(len(pts), cells, volume_shares(pts, cells, "quad4", t), labels, boundary=[len(p1) - 1])
+    return coo, sn, labels
+
+
+def _set_band_max(value):
+    from fem2tmm.reduce import recovery
+
+    recovery.BAND_MAX = value
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_the_local_reduction_on_dask_is_bit_identical(cluster2, sparse, monkeypatch):
+    """The per-cluster local step as Dask tasks (batches of clusters on two worker processes) gives the same bits
+    as in this process: K_SN, the distributed loads, the recovered field, and which factorisations are kept under
+    a memory budget (a tight one: some are recomputed at each recovery).  ``sparse``: SuperLU for every cluster
+    (on the workers too), the dense and banded paths otherwise."""
+    from fem2tmm.reduce import recovery, reduce_conduction
+
+    coo, sn, labels = _reduction_problem()
+    rng = np.random.default_rng(1)
+    q, T_sn = rng.normal(size=(sn.n_dof, 2)), rng.normal(size=sn.n_sn)
+    kw = {"dense_below": 0, "factor_memory_mb": 0.2} if sparse else {}
+    default = recovery.BAND_MAX
+    band = 0 if sparse else default
+    monkeypatch.setattr(recovery, "BAND_MAX", band)
+    cluster2.client.run(_set_band_max, band)
+    try:
+        runs = []
+        for ex in (SerialExecutor(), cluster2):
+            units = []
+            with using(ex), reporting(lambda done, total, what: units.append(what)):
+                red = reduce_conduction(coo, sn, labels, **kw)
+            kept = [cl._solver is not None for cl in red.operator.clusters if cl.P is not None]
+            runs.append((red, kept, units))
+    finally:
+        cluster2.client.run(_set_band_max, default)
+    (a, kept_a, units_a), (b, kept_b, units_b) = runs
+    assert "cluster batches on 2 workers" in units_b and not any("on 2 workers" in u for u in units_a)
+    kinds = {"banded": 7, "cholesky": 3, "lu": 1, "none": 2} if not sparse else {"sparse": 10, "sparse_lu": 1, "none": 2}
+    assert a.diagnostics["cluster_solvers"] == kinds and b.diagnostics["cluster_solvers"] == kinds
+    assert kept_a == kept_b and (0 < sum(kept_a) < len(kept_a) if sparse else all(kept_a))
+    assert np.array_equal(a.K, b.K)
+    assert np.array_equal(a.distribute(q), b.distribute(q))
+    assert np.array_equal(a.recover(T_sn, q[:, 0]), b.recover(T_sn, q[:, 0]))

@@ -113,6 +113,7 @@ class DaskExecutor:
         return len(self.client.scheduler_info().get("workers", {}))
 
     def map(self, fn: Callable, items: Sequence, shared: dict | None = None, what: str = "work units") -> list:
+        import dask
         from distributed import as_completed
 
         items = list(items)
@@ -136,7 +137,10 @@ class DaskExecutor:
                     scattered[k] = client.scatter(v, workers=targets, broadcast=True, hash=False)
             scattered_here = list(scattered.values())
             scattered.update(kept)
-            futures = client.map(fn, items, pure=False, retries=RETRIES, **scattered)
+            # the items go with the tasks, on purpose: the scheduler re-runs a unit whose worker died from them
+            # (a batch of clusters of the local reduction carries its slices of the model, ~10 MB)
+            with dask.config.set({"distributed.admin.large-graph-warning-threshold": "64 GiB"}):
+                futures = client.map(fn, items, pure=False, retries=RETRIES, **scattered)
             with self._lock:
                 self._inflight[id(call)] = futures + scattered_here
             self.check_cancelled()  # cancelled while submitting: cancel() may have missed these

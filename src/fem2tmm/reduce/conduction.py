@@ -25,12 +25,19 @@ factorisation (large shell-like clusters); see :class:`~fem2tmm.reduce.recovery.
 constants below.  The interface unknowns are then removed by multifrontal elimination over a tree of clusters
 (:mod:`fem2tmm.reduce.frontal`), which is the Guyan condensation done with dense BLAS-3 fronts.
 
+On a Dask executor (:mod:`fem2tmm.compute`, ``[compute] scheduler``) the per-cluster step runs as tasks, each a
+batch of contiguous clusters (:data:`BATCHES_PER_WORKER` per worker, about equal conduction entries) with only its
+slices of the model's arrays; the client takes the results in cluster order and keeps factorisations under the
+same budget as in process, so K_SN and the recovery operators are the same bits.  The multifrontal condensation
+stays on the client.
+
 The result is symmetrised and its diagonal reset to minus the off-diagonal row sum, so K_SN is exactly
 symmetric with zero row sums; the raw asymmetry and row-sum residual are kept in ``diagnostics``.
 """
 
 from __future__ import annotations
 
+import pickle
 import time
 from dataclasses import dataclass, field
 
@@ -39,10 +46,11 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..arrays import unique
+from ..compute import current
 from ..errors import Fem2TmmError, format_ids
 from ..fem.assembly import ElementCOO
 from ..linalg import blas_threads
-from ..progress import report
+from ..progress import report as _report
 from .frontal import ClusterTree, Frontal, elimination_nodes
 from .recovery import Factor, GlobalOperator, LocalCluster, LocalOperator
 from .supernodes import SuperNodes
@@ -58,6 +66,8 @@ SPARSE_RATIO = 0.35
 FACTOR_MEMORY_MB = 1024.0
 #: number of right-hand sides solved at once by the global method (memory n × batch doubles)
 BATCH = 256
+#: Dask tasks of the local step per worker (batches of contiguous clusters, about equal conduction entries)
+BATCHES_PER_WORKER = 4
 #: BLAS threads used inside the reduction.  One thread: the dense work is many mid-size factorisations, and
 #: OpenBLAS's threads collapse when other processes hold the cores (measurements: docs/design-notes.md,
 #: reduce/conduction.py).
@@ -95,7 +105,9 @@ class ConductiveReduction:
     ``diagnostics`` dict: ``asymmetry`` and ``rowsum_residual`` of the raw result (max abs / max diagonal),
     ``n_interface`` (interface DOFs), ``n_condensed`` (unknowns removed by Guyan condensation),
     ``factor_bytes`` (memory of the kept factorisations), ``cluster_solvers`` (local method: count per
-    :class:`~fem2tmm.reduce.recovery.ClusterSolver` kind), ``blas_threads``, ``seconds``.
+    :class:`~fem2tmm.reduce.recovery.ClusterSolver` kind), ``tasks`` (local method: the Dask tasks of the
+    per-cluster step, 0 when it ran in this process), ``clusters_seconds`` (its wall time), ``blas_threads``,
+    ``seconds``.
     """
 
     K: np.ndarray
@@ -203,7 +215,123 @@ def _floating(rows: np.ndarray, cols: np.ndarray, iface: np.ndarray, p_cl: np.nd
     return out
 
 
-def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, factor_memory_mb: float):
+class _Parts:
+    """The local reduction's inputs, sorted by cluster, cut into the contiguous cluster ranges that the loop
+    (:func:`_condense_clusters`) takes: ``p_node`` (p,) the nodes of each cluster (``p_start`` (nc+1,) offsets),
+    ``iface`` / ``kidx`` (n,) interface flag and K* index of each DOF, ``A`` (nc, n) CSR super-node weights,
+    ``rows_s`` / ``cols_s`` / ``vals_s`` (nnz,) the conduction entries by cluster (``e_start`` (nc+1,) offsets),
+    ``floating`` / ``mu_of`` (nc,) per cluster."""
+
+    def __init__(self, n, p_node, p_start, iface, kidx, A, e_start, rows_s, cols_s, vals_s, floating, mu_of):
+        self.n, self.p_node, self.p_start, self.iface, self.kidx, self.A = n, p_node, p_start, iface, kidx, A
+        self.e_start, self.rows_s, self.cols_s, self.vals_s = e_start, rows_s, cols_s, vals_s
+        self.floating, self.mu_of = floating, mu_of
+
+    def part(self, c0: int, c1: int, copy: bool = True) -> dict:
+        """Clusters ``c0 … c1-1``: their slices, with node and entry offsets from 0 (copies unless ``copy`` is
+        False: a task's data, not views of the whole model's arrays)."""
+        c0, c1 = int(c0), int(c1)
+        take = np.copy if copy else (lambda x: x)
+        p0, p1 = self.p_start[c0], self.p_start[c1]
+        e0, e1 = self.e_start[c0], self.e_start[c1]
+        a0, a1 = self.A.indptr[c0], self.A.indptr[c1]
+        nodes = take(self.p_node[p0:p1])
+        return {"first": c0, "n": self.n, "nodes": nodes, "p_start": self.p_start[c0:c1 + 1] - p0,
+                "inner": ~self.iface[nodes], "knodes": self.kidx[nodes],
+                "a_start": self.A.indptr[c0:c1 + 1] - a0, "a_idx": take(self.A.indices[a0:a1]),
+                "a_val": take(self.A.data[a0:a1]), "e_start": self.e_start[c0:c1 + 1] - e0,
+                "rows": take(self.rows_s[e0:e1]), "cols": take(self.cols_s[e0:e1]), "vals": take(self.vals_s[e0:e1]),
+                "floating": take(self.floating[c0:c1]), "mu_of": take(self.mu_of[c0:c1])}
+
+
+def _condense_clusters(part: dict, dense_below: int, keep, report: bool = False) -> list:
+    """The local step for the clusters of ``part`` (:meth:`_Parts.part`), in order: a list of ``(cl, gidx, blk,
+    nbytes, None)`` per cluster, ``cl`` its :class:`~fem2tmm.reduce.recovery.LocalCluster`, ``blk`` its K*ᵢ
+    over the K* unknowns ``gidx`` and ``nbytes`` its factorisation's memory; ``keep(cl, solver)`` decides whether
+    the cluster keeps its factorisation.  ``report``: progress per cluster."""
+    first, nc = part["first"], part["p_start"].size - 1
+    nodes_all, inner_all, knodes, p_start = part["nodes"], part["inner"], part["knodes"], part["p_start"]
+    a_start, a_idx_all, a_val_all = part["a_start"], part["a_idx"], part["a_val"]
+    e_start, rows_s, cols_s, vals_s = part["e_start"], part["rows"], part["cols"], part["vals"]
+    loc = np.full(part["n"], -1, np.int64)
+    out = []
+    for k in range(nc):
+        c = first + k
+        if report:
+            _report(c, nc, "clusters reduced")
+        ps = slice(p_start[k], p_start[k + 1])
+        nodes, inner = nodes_all[ps], inner_all[ps]
+        I, B = nodes[inner], nodes[~inner]
+        nI, nB = I.size, B.size
+        kB = knodes[ps][~inner]
+        loc[I] = np.arange(nI)
+        loc[B] = nI + np.arange(nB)
+        a_idx = a_idx_all[a_start[k]:a_start[k + 1]]
+        if np.any(loc[a_idx] < 0):
+            raise Fem2TmmError(f"cluster {c}: the super-node weights use DOFs that none of its conduction entries "
+                               "touch; build A and the conduction matrices from the same cells")
+        a = np.zeros(nI + nB)
+        a[loc[a_idx]] = a_val_all[a_start[k]:a_start[k + 1]]
+        s = slice(e_start[k], e_start[k + 1])
+        li, lj, v = loc[rows_s[s]], loc[cols_s[s]], vals_s[s]
+        loc[nodes] = -1
+        bb = (li >= nI) & (lj >= nI)
+        KBB = np.bincount((li[bb] - nI) * nB + (lj[bb] - nI), weights=v[bb], minlength=nB * nB).reshape(nB, nB)
+        nbytes = 0
+        if nI:
+            ii = (li < nI) & (lj < nI)
+            ib = (li < nI) & (lj >= nI)
+            ar = np.arange(nI)
+            P = sp.csc_matrix((np.concatenate([v[ii], a[:nI], a[:nI]]),
+                               (np.concatenate([li[ii], ar, np.full(nI, nI)]),
+                                np.concatenate([lj[ii], np.full(nI, nI), ar]))), shape=(nI + 1, nI + 1))
+            C = sp.csr_matrix((np.concatenate([v[ib], a[nI:]]),
+                               (np.concatenate([li[ib], np.full(nB, nI)]),
+                                np.concatenate([lj[ib] - nI, np.arange(nB)]))), shape=(nI + 1, nB))
+            if part["floating"][k]:
+                kind = "sparse_lu" if nI >= dense_below else "lu"
+            elif nI >= dense_below or (nI >= SPARSE_FROM and nB + 1 <= SPARSE_RATIO * nI):
+                kind = "sparse"
+            else:
+                kind = "cholesky"
+            cl = LocalCluster(sn=c, I=I, B=B, kB=kB, P=P, C=C, kind=kind)
+            solver = cl.solver()
+            blk = solver.condensed(C, KBB)
+            cl.kind = solver.kind
+            nbytes = solver.nbytes
+            keep(cl, solver)
+            del solver
+            gidx = np.concatenate([cl.kB, [c]])
+        else:
+            cl = LocalCluster(sn=c, I=I, B=B, kB=kB, P=None, C=None, kind="none", mu=int(part["mu_of"][k]))
+            blk = np.zeros((nB + 2, nB + 2))
+            blk[:nB, :nB] = 0.5 * (KBB + KBB.T)
+            blk[:nB, nB] = blk[nB, :nB] = a
+            blk[nB, nB + 1] = blk[nB + 1, nB] = -1.0
+            gidx = np.concatenate([cl.kB, [cl.mu, c]])
+        out.append((cl, gidx, blk, nbytes, None))
+        if nI >= SPARSE_FROM:
+            release_freed_memory()
+    return out
+
+
+def _condense_batch(part: dict, dense_below: int, budget: float, blas: int | None) -> list:
+    """One Dask task of the local step: :func:`_condense_clusters` on ``part`` with ``blas`` BLAS threads (as on
+    the client, so the same bits), each factorisation that could fit the ``budget`` (bytes) returned pickled in
+    the last field, unpickled on the client only where the serial path would keep it."""
+    blobs = {}
+
+    def keep(cl, solver):
+        if solver.nbytes <= budget:
+            blobs[cl.sn] = pickle.dumps(solver, protocol=pickle.HIGHEST_PROTOCOL)
+
+    with blas_threads(blas):
+        out = _condense_clusters(part, dense_below, keep)
+    return [(cl, gidx, blk, nbytes, blobs.get(cl.sn)) for cl, gidx, blk, nbytes, _ in out]
+
+
+def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, factor_memory_mb: float,
+           blas: int | None):
     n, ns, nc = sn.n_dof, sn.n_sn, sn.n_clusters
     ec = _entry_clusters(coo, labels, elements)
     if ec.size and ec.max() >= nc:
@@ -240,67 +368,43 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
     e_start = np.searchsorted(ec[order], np.arange(nc + 1))
     rows_s, cols_s, vals_s = coo.rows[order], coo.cols[order], coo.vals[order]
     del order
-    A = sn.A
-    loc = np.full(n, -1, np.int64)
-    budget, kept_bytes = factor_memory_mb * 2 ** 20, 0
-    blocks, clusters, multipliers = [], [], {}
-    for c in range(nc):
-        report(c, nc, "clusters reduced")
-        nodes = p_node[p_start[c]:p_start[c + 1]]
-        inner = ~iface[nodes]
-        I, B = nodes[inner], nodes[~inner]
-        nI, nB = I.size, B.size
-        loc[I] = np.arange(nI)
-        loc[B] = nI + np.arange(nB)
-        a_idx = A.indices[A.indptr[c]:A.indptr[c + 1]]
-        if np.any(loc[a_idx] < 0):
-            raise Fem2TmmError(f"cluster {c}: the super-node weights use DOFs that none of its conduction entries "
-                               "touch; build A and the conduction matrices from the same cells")
-        a = np.zeros(nI + nB)
-        a[loc[a_idx]] = A.data[A.indptr[c]:A.indptr[c + 1]]
-        s = slice(e_start[c], e_start[c + 1])
-        li, lj, v = loc[rows_s[s]], loc[cols_s[s]], vals_s[s]
-        loc[nodes] = -1
-        bb = (li >= nI) & (lj >= nI)
-        KBB = np.bincount((li[bb] - nI) * nB + (lj[bb] - nI), weights=v[bb], minlength=nB * nB).reshape(nB, nB)
-        if nI:
-            ii = (li < nI) & (lj < nI)
-            ib = (li < nI) & (lj >= nI)
-            ar = np.arange(nI)
-            P = sp.csc_matrix((np.concatenate([v[ii], a[:nI], a[:nI]]),
-                               (np.concatenate([li[ii], ar, np.full(nI, nI)]),
-                                np.concatenate([lj[ii], np.full(nI, nI), ar]))), shape=(nI + 1, nI + 1))
-            C = sp.csr_matrix((np.concatenate([v[ib], a[nI:]]),
-                               (np.concatenate([li[ib], np.full(nB, nI)]),
-                                np.concatenate([lj[ib] - nI, np.arange(nB)]))), shape=(nI + 1, nB))
-            if floating[c]:
-                kind = "sparse_lu" if nI >= dense_below else "lu"
-            elif nI >= dense_below or (nI >= SPARSE_FROM and nB + 1 <= SPARSE_RATIO * nI):
-                kind = "sparse"
-            else:
-                kind = "cholesky"
-            cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=P, C=C, kind=kind)
-            solver = cl.solver()
-            blk = solver.condensed(C, KBB)
-            cl.kind = solver.kind
-            if kept_bytes + solver.nbytes <= budget:
+    budget = factor_memory_mb * 2 ** 20
+    t0 = time.perf_counter()
+    parts = _Parts(n, p_node, p_start, iface, kidx, sn.A, e_start, rows_s, cols_s, vals_s, floating, mu_of)
+    ex = current()
+    if ex.distributed and nc > 1:  # batches of clusters as Dask tasks, their results taken in cluster order
+        k = min(nc, BATCHES_PER_WORKER * max(ex.workers, 1))
+        cuts = np.unique(np.concatenate([[0], np.searchsorted(e_start, np.arange(1, k) * (e_start[-1] / k)), [nc]]))
+        items = [parts.part(c0, c1) for c0, c1 in zip(cuts[:-1], cuts[1:])]
+        del parts, rows_s, cols_s, vals_s
+        results = [r for batch in ex.map(_condense_batch, items, shared={"dense_below": dense_below, "budget": budget,
+                                                                          "blas": blas}, what="cluster batches")
+                   for r in batch]
+        tasks, kept_bytes = len(items), 0
+        del items
+        for cl, _, _, nbytes, blob in results:  # the serial path's budget, in cluster order
+            if blob is not None and kept_bytes + nbytes <= budget:
+                cl._solver = pickle.loads(blob)
+                kept_bytes += nbytes
+    else:
+        tasks, state = 0, {"kept": 0}
+
+        def keep(cl, solver):  # kept while the total stays within the budget, in cluster order
+            if state["kept"] + solver.nbytes <= budget:
                 cl._solver = solver
-                kept_bytes += solver.nbytes
-            del solver
-            gidx = np.concatenate([cl.kB, [c]])
-        else:
-            cl = LocalCluster(sn=c, I=I, B=B, kB=kidx[B], P=None, C=None, kind="none", mu=int(mu_of[c]))
-            blk = np.zeros((nB + 2, nB + 2))
-            blk[:nB, :nB] = 0.5 * (KBB + KBB.T)
-            blk[:nB, nB] = blk[nB, :nB] = a
-            blk[nB, nB + 1] = blk[nB + 1, nB] = -1.0
-            gidx = np.concatenate([cl.kB, [cl.mu, c]])
-            multipliers[cl.mu] = cl.kB[cl.kB >= ns]
+                state["kept"] += solver.nbytes
+
+        results = _condense_clusters(parts.part(0, nc, copy=False), dense_below, keep, report=True)
+        _report(nc, nc, "clusters reduced")  # (each cluster is reported as it starts: this is the last one's end)
+        del parts
+    t_clusters = time.perf_counter() - t0
+    blocks, clusters, multipliers = [], [], {}
+    for cl, gidx, blk, _, _ in results:
         blocks.append((gidx, blk))
         clusters.append(cl)
-        if nI >= SPARSE_FROM:
-            release_freed_memory()
-    report(nc, nc, "clusters reduced")  # (each cluster is reported as it starts: this is the last one's end)
+        if cl.mu >= 0:
+            multipliers[cl.mu] = cl.kB[cl.kB >= ns]
+    del results
 
     # tree of clusters from the interface unknowns they share, then multifrontal condensation
     var = np.concatenate([g for g, _ in blocks]) if blocks else np.zeros(0, np.int64)
@@ -319,7 +423,8 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
     op = LocalOperator(clusters, kidx, ns, n_star, frontal)
     kinds = [cl.kind for cl in clusters]
     return frontal.K, op, {"n_interface": int(np.count_nonzero(iface)), "n_condensed": int(n_star - ns),
-                           "factor_bytes": op.factor_nbytes,
+                           "factor_bytes": op.factor_nbytes, "tasks": tasks,
+                           "clusters_seconds": t_clusters,
                            "cluster_solvers": {k: kinds.count(k) for k in sorted(set(kinds))}}
 
 
@@ -358,7 +463,7 @@ def reduce_conduction(coo: ElementCOO, supernodes: SuperNodes, labels: np.ndarra
         if method == "global":
             raw, op, info = _global(coo, supernodes, batch)
         else:
-            raw, op, info = _local(coo, supernodes, labels, elements, dense_below, factor_memory_mb)
+            raw, op, info = _local(coo, supernodes, labels, elements, dense_below, factor_memory_mb, blas)
     K, diag = _finish(raw, zero_row_sums)
     diag.update(info)
     diag["blas_threads"] = blas

@@ -202,10 +202,22 @@ class ClusterSolver:
         self.klu = spla.splu(self.P[:self.nI, :self.nI].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                              options=dict(SymmetricMode=True))
 
-    def __getstate__(self):  # SuperLU objects do not pickle (stage cache): factorised again from P when loaded
-        return {k: v for k, v in self.__dict__.items() if k != "klu"}
+    def __getstate__(self):
+        """SuperLU objects do not pickle (stage cache): factorised again from P when loaded.  A dense Cholesky
+        factor travels as its lower triangle (half the bytes: Dask results, cache files) with its memory order, so
+        that it comes back the same bits and the solves with it too."""
+        state = {k: v for k, v in self.__dict__.items() if k != "klu"}
+        L = state.get("L")
+        if L is not None and not L[np.triu_indices(L.shape[0], 1)].any():
+            state["L"] = (L[np.tril_indices(L.shape[0])], L.shape[0], bool(L.flags.f_contiguous))
+        return state
 
     def __setstate__(self, state):
+        if isinstance(state.get("L"), tuple):
+            packed, n, fortran = state["L"]
+            L = np.zeros((n, n), order="F" if fortran else "C")
+            L[np.tril_indices(n)] = packed
+            state = {**state, "L": L}
         self.__dict__.update(state)
         if self.kind in ("sparse", "sparse_solves"):
             self._factor_kii()
