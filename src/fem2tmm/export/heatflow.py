@@ -96,7 +96,11 @@ def by_correction(rm) -> float | None:
     sum of its Q (the correction load and the distribution with K' = K + diag(h) take it out); None for other
     networks."""
     known = getattr(rm.radiative, "known_load_W", None) if rm.radiative is not None else None
-    return None if known is None else float(known - np.sum(rm.Q))
+    if known is None:
+        return None
+    left = float(known - np.sum(rm.Q) - rm.hot_spot_W)
+    # the network's hot-spot nodes apply and radiate what its distribution leaves: nothing left but round-off
+    return None if rm.hot_spots is not None and abs(left) <= 1e-9 * max(abs(known), 1e-300) else left
 
 
 def correction_label(rm) -> str:
@@ -125,11 +129,11 @@ def steady_books(result) -> dict:
     if red is not None:
         rm, rs = red.network, red.solution
         rows, basis = _steady_inputs(result, "reduced")
-        outs = [("radiated to space", float(rs.to_space.sum()))]
+        outs = [("radiated to space", float(rs.to_space.sum()) + rm.hot_spot_W)]
         applied = float(rs.balance["applied_W"])
         by_correction = _by_correction(result)
         if by_correction is not None:  # the radiation-aware network radiates part of its heat outside its couplings
-            outs = [("radiated to space", float(rs.to_space.sum())), (correction_label(rm), by_correction)]
+            outs.append((correction_label(rm), by_correction))
             applied += by_correction
         outs += [(f"into fixed boundary '{rm.names[i]}'", -float(rs.heat_fixed[i])) for i in np.flatnonzero(rm.fixed)]
         out["reduced"] = dict(_book(rows, outs, applied, INPUT_NOT_NAMED, "W"), basis=basis)
@@ -255,6 +259,9 @@ def part_exchange(result) -> tuple[list[str], np.ndarray]:
     G[np.arange(len(T)), grp] = 1.0
     F = G.T @ flow @ G
     F[:, n_p + 1] = G.T @ (SIGMA * rm.g_space * (T**4 - rm.T_sink**4))
+    hs = rm.hot_spots
+    if hs is not None:  # the loads' hot-spot nodes radiate their share to space from their part
+        F[:, n_p + 1] += np.bincount(np.where(hs.part >= 0, hs.part, n_p), weights=hs.Q, minlength=n_p + 2)
     F[n_p + 1, :] = -F[:, n_p + 1]
     np.fill_diagonal(F, 0.0)
     return parts + ["held nodes", "space"], F
@@ -269,6 +276,9 @@ def part_books(result) -> list[dict]:
     names, F = part_exchange(result)
     n_p = len(names) - 2
     Q = np.bincount(np.where(rm.part >= 0, rm.part, n_p)[~rm.fixed], weights=rm.Q[~rm.fixed], minlength=n_p + 1)
+    if rm.hot_spots is not None:  # the share of the loads their hot-spot nodes take (applied as applied)
+        hs = rm.hot_spots
+        Q = Q + np.bincount(np.where(hs.part >= 0, hs.part, n_p), weights=hs.Q, minlength=n_p + 1)
     rows = []
     for p in range(n_p):
         others = float(F[p, :n_p].sum())
