@@ -140,6 +140,23 @@ def steady_books(result) -> dict:
     return out
 
 
+def hot_spot_energy(rm, tabled: dict, duration: float) -> float:
+    """J the loads' hot-spot nodes of ``rm`` (:class:`fem2tmm.reduce.radiative.HotSpots`) apply and radiate over
+    ``duration`` s: each its share of its load's energy, ``tabled`` {name: (W per unit value, J of the load)} for the
+    loads that follow a time table, its design power times the duration for the others."""
+    hs = rm.hot_spots
+    if hs is None:
+        return 0.0
+    out = 0.0
+    for name, unit, Q in zip(hs.load, hs.unit, hs.Q):
+        if str(name) in tabled and tabled[str(name)][0]:
+            per_unit, energy = tabled[str(name)]
+            out += float(unit) / per_unit * energy
+        else:
+            out += float(Q) * duration
+    return out
+
+
 def _integral(f, a: float, b: float, breaks: np.ndarray) -> float:
     """∫_a^b f dt of a piecewise-linear f with its breakpoints ``breaks``: exact trapezoid over them."""
     t = np.unique(np.concatenate([[a, b], breaks[(breaks > a) & (breaks < b)]]))
@@ -161,7 +178,7 @@ def transient_books(result) -> dict:
             continue
         a = float(sol.steps["t"][0] - sol.steps["h"][0])
         b = float(sol.steps["t"][-1])
-        rows = []
+        rows, per_unit_of = [], {}
         tabled = {bd.name: bd for bd in case.boundaries if bd.kind != "temperature" and bd.table is not None}
         for name, w in result.model.loads.items():  # every named load (deck loads too): constant, or its table
             bd = tabled.get(name)
@@ -171,6 +188,7 @@ def transient_books(result) -> dict:
             per_unit = float(boundary_load(result.model, case, dataclasses.replace(bd, value=1.0)).sum())
             tab = bd.table.periodic(start, period) if run.settings.periodic else bd.table
             rows.append((f"applied '{name}'", per_unit * _integral(tab, a, b, np.asarray(tab.breakpoints(a, b), float))))
+            per_unit_of[name] = (per_unit, rows[-1][1])
         sol_sun = result.reduced.solar if model == "reduced" and result.reduced is not None else None
         sol_sun = sol_sun if sol_sun is not None else result.detailed.solar
         if sol_sun is not None:
@@ -185,11 +203,12 @@ def transient_books(result) -> dict:
                 rows.append((f"{KIND_LABEL.get(kind, kind)}", energy))
         e = sol.energy
         applied = float(e["applied_J"])
-        outs = [("radiated to space", float(e["to_space_J"]))]
+        hot = hot_spot_energy(result.reduced.network, per_unit_of, b - a) if model == "reduced" else 0.0
+        applied += hot  # the loads' hot-spot nodes: applied and radiated as their loads (no capacitance)
+        outs = [("radiated to space", float(e["to_space_J"]) + hot)]
         by_correction = _by_correction(result) if model == "reduced" else None
         if by_correction is not None:  # the correction load, constant in time, carries part of the radiation
-            outs = [("radiated to space", float(e["to_space_J"])),
-                    (correction_label(result.reduced.network), by_correction * (b - a))]
+            outs.append((correction_label(result.reduced.network), by_correction * (b - a)))
             applied += by_correction * (b - a)
         outs += [("into fixed boundaries", float(e["into_fixed_J"]))]
         outs += [("stored (heat capacity)", float(e["stored_J"]))]
