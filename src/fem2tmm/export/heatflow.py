@@ -93,12 +93,13 @@ def _steady_inputs(result, model: str) -> tuple[list, str]:
 
 def by_correction(rm) -> float | None:
     """Heat (W) a radiation-aware network ``rm`` radiates outside its couplings to space: its known loads minus the
-    sum of its Q (the correction load and the distribution with K' = K + diag(h) take it out); None for other
-    networks."""
+    sum of its free nodes' Q and its loads' hot-spot nodes' (the correction load and the distribution with
+    K' = K + diag(h) take it out); None for other networks, and for a network whose hot-spot nodes leave nothing."""
     known = getattr(rm.radiative, "known_load_W", None) if rm.radiative is not None else None
     if known is None:
         return None
-    left = float(known - np.sum(rm.Q) - rm.hot_spot_W)
+    # (the loads' share on fixed nodes is no input of the network: their Q moves nothing)
+    left = float(known - np.sum(np.asarray(rm.Q)[~np.asarray(rm.fixed, bool)]) - rm.hot_spot_W)
     # the network's hot-spot nodes apply and radiate what its distribution leaves: nothing left but round-off
     return None if rm.hot_spots is not None and abs(left) <= 1e-9 * max(abs(known), 1e-300) else left
 
