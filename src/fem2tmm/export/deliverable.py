@@ -103,11 +103,12 @@ def _with_hot_spots(deck: Deck, rm, rec) -> Deck:
     GR[:n, :n] = deck.GR
     named = [str(x) for x in rec.load_names] if rec is not None else []
     load_terms = []
-    for name, v, frac in deck.load_terms:
+    fixed = np.asarray(rm.fixed, bool)
+    for name, v, frac in deck.load_terms:  # (a load's share on a fixed node: its hot spot applies it)
         j = [k for k in range(r) if constant_name(str(hs.load[k])) == name]
         extra = np.zeros(r)
         extra[j] = hs.unit[j]
-        load_terms.append((name, v, np.r_[np.asarray(frac, float), extra]))
+        load_terms.append((name, v, np.r_[np.where(fixed, 0.0, np.asarray(frac, float)), extra]))
     tables = deck.space_tables
     if tables is not None:  # a constant row: written as a plain GR
         x, y = tables

@@ -358,7 +358,13 @@ def with_hot_spots(model: FEModel, case: Case, rm: ReducedModel, sol: SteadySolu
                    names, T, rm.radiative.e, rm.T_sink)
     if hs is None:
         return rm, sol
-    rm = dataclasses.replace(rm, hot_spots=hs)
+    # the loads' share on a fixed node moves nothing: the hot spots apply it (their share is the load less what
+    # the free nodes get), so it leaves the fixed nodes' Q and their books hold only their conductors' flows
+    rm = dataclasses.replace(rm, hot_spots=hs, Q=np.where(rm.fixed, 0.0, rm.Q))
+    from ..linalg import blas_threads
+
+    with blas_threads(1):
+        sol = solve_steady(reduced_problem(rm), T0=sol.T, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
     b = dict(sol.balance)
     b["applied_W"] = b.get("applied_W", 0.0) + rm.hot_spot_W
     b["space_W"] = b.get("space_W", 0.0) + rm.hot_spot_W
