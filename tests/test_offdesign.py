@@ -57,17 +57,25 @@ def test_the_edited_deck_beats_the_thesis_network_and_its_books_add_up(decks, he
     for k in ("applied", "from_held", "to_space"):
         assert ind[k] == pytest.approx(detailed[k], rel=0.01 if design else 0.02, abs=1e-9), (k, ind, detailed)
     assert ind["from_held"] == pytest.approx(books["from_held"], rel=1e-6)  # the two readers agree
+    if sink == -270.0:  # the SINDA deck's books, its HEATER register edited, equal the ESATAN deck's
+        sinda = independent_books(decks / "default", heater, sink, sinda=True)
+        for k in ("applied", "from_held", "to_space"):
+            assert sinda[k] == pytest.approx(ind[k], rel=1e-6, abs=1e-9), (k, sinda, ind)
 
 
-def independent_books(folder, heater: float, sink: float) -> dict:
+def independent_books(folder, heater: float, sink: float, sinda: bool = False) -> dict:
     """Heat books (W) of the design deck of ``folder`` edited to (heater W, sink °C), read and solved by
     tests/deck_solver.py: applied (Σ QI of the diffusion nodes), from the held nodes (their net outflow through
-    every GL and GR of the deck, to space included) and to space (every GR to the boundary node labelled SPACE)."""
-    from deck_solver import Network, _steady, read_esatan
+    every GL and GR of the deck, to space included) and to space (every GR to the boundary node labelled SPACE).
+    ``sinda``: the SINDA deck, its HEATER register edited (the sink as written)."""
+    from deck_solver import Network, _steady, read_esatan, read_sinda
 
-    path = folder / "edited_independent.esatan"
-    path.write_text(edit_deck((folder / "model.esatan").read_text(), heater, sink))
-    net = Network(read_esatan(path))
+    if sinda:
+        net = Network(read_sinda(folder / "model.sinda"), {"HEATER": heater})
+    else:
+        path = folder / "edited_independent.esatan"
+        path.write_text(edit_deck((folder / "model.esatan").read_text(), heater, sink))
+        net = Network(read_esatan(path))
     t0 = net.c.get("TIMEO", 0.0)
     T = _steady(net, t0, net.T_start)
     Q, _, GL, GR = net.evaluate(t0, T)
