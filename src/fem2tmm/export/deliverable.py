@@ -57,6 +57,10 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
     out = dict(names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR, Q=rm.Q, T=rs.T - KELVIN,
                kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN),
                positions=network_positions(result))
+    if rm.hot_spots is not None:  # the loads' hot-spot nodes (arithmetic, GR to space only), after the n nodes
+        hs = rm.hot_spots
+        out.update(hot_spot_labels=np.array(hs.labels(), dtype=str), hot_spot_part=hs.part, hot_spot_Q=hs.Q,
+                   hot_spot_GR=hs.g, hot_spot_T=hs.T - KELVIN)
     if rm.g_space_table is not None:  # GR to space (the last column of GR) as a function of each node's own T
         out["GR_space_table_T"], out["GR_space_table"] = (np.asarray(v, float) for v in rm.g_space_table)
     if result.reduced.recovery is not None:
