@@ -104,6 +104,12 @@ def by_correction(rm) -> float | None:
     return None if rm.hot_spots is not None and abs(left) <= 1e-9 * max(abs(known), 1e-300) else left
 
 
+def network_radiated_W(rm, sol) -> float:
+    """W the network ``rm`` radiates in all at its solution ``sol``: through its couplings to space, its loads'
+    hot-spot nodes and (a radiation-aware network with a correction load) outside its couplings."""
+    return float(np.sum(sol.to_space)) + rm.hot_spot_W + (by_correction(rm) or 0.0)
+
+
 def correction_label(rm) -> str:
     """The book row of :func:`by_correction`: a network with a correction load radiates that share through it; one
     whose couplings to space follow its temperatures (``g_space_table``, no correction load) loses it in the

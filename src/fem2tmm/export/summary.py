@@ -10,7 +10,7 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
-from .heatflow import by_correction as _by_correction, heat_flow_rows, heat_flow_summary
+from .heatflow import by_correction as _by_correction, heat_flow_rows, heat_flow_summary, network_radiated_W
 from .orbit import orbit_summary
 
 
@@ -91,8 +91,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 # the heat radiated outside the couplings to space (by the correction load and the distribution
                 # with K' = K + diag(h): the known loads minus the network's Q), and the total heat radiated
                 "radiated_by_correction_W": by_correction,
-                "radiated_W": None if by_correction is None and rm.hot_spots is None
-                else float(rs.to_space.sum()) + rm.hot_spot_W + (by_correction or 0.0),
+                "radiated_W": None if by_correction is None and rm.hot_spots is None else network_radiated_W(rm, rs),
                 # the loads' hot-spot nodes (fem2tmm.reduce.radiative.HotSpots): W each applies and radiates
                 "hot_spots_W": None if rm.hot_spots is None else dict(zip(rm.hot_spots.labels(),
                                                                           map(float, rm.hot_spots.Q))),

@@ -346,7 +346,7 @@ class HotSpots:
 
     def labels(self) -> list[str]:
         """The nodes' labels in a deck."""
-        return [f"{nm or 'loads'} hot spot" for nm in self.load]
+        return [f"{nm or 'other loads'} hot spot" for nm in self.load]
 
 
 def hot_spots(distribute, free: np.ndarray, part: np.ndarray, patterns: np.ndarray, values: np.ndarray,
@@ -355,8 +355,8 @@ def hot_spots(distribute, free: np.ndarray, part: np.ndarray, patterns: np.ndarr
     """The :class:`HotSpots` of the loads ``patterns`` (r, n_dof) W per unit value, ``values`` (r,), on a network whose
     load distribution is ``distribute`` ((n_dof,) W -> (n,) W, Y'), ``free`` (n,) bool its free nodes, ``part`` (n,)
     their parts; ``T_field`` (n_dof,) K the design field, ``e`` (n_dof,) m² each DOF's emitting εA, ``T_sink`` K.
-    A load whose share is not positive (Y' passes all of it, or more: no emission to give it) gets no node; None
-    when none does."""
+    A load whose share is not positive (Y' passes all of it, or more: no emission to give it), or that is negative
+    at the design state, gets no node; None when none does."""
     rows = []
     for pat, v, nm in zip(np.atleast_2d(patterns), values, names):
         pat = np.asarray(pat, float)
@@ -371,6 +371,8 @@ def hot_spots(distribute, free: np.ndarray, part: np.ndarray, patterns: np.ndarr
         if not d4 > 0:
             continue
         Q = unit * float(v)
+        if Q < 0:  # a load taken out (a cooler): no emission to give it a node of its own
+            continue
         g = Q / (SIGMA * d4) if Q > 0 else float(np.sum(np.asarray(e, float)[pat != 0]))
         if not g > 0:
             continue
