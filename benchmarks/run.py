@@ -67,6 +67,7 @@ REGISTRY: dict[str, str] = {
     "choice": "benchmarks.choice:bench_choice",
     "offdesign": "benchmarks.offdesign:bench_offdesign",
     "offdesign_curve": "benchmarks.offdesign:bench_offdesign_curve",
+    "offdesign_books": "benchmarks.offdesign:bench_offdesign_books",
     "offdesign_transient": "benchmarks.offdesign_transient:bench_offdesign_transient",
 }
 

@@ -612,7 +612,7 @@ def read_sinda(path: str | Path) -> Model:
     """Read the SINDA/FLUINT subset fem2tmm writes into the same :class:`Model`.
 
     ``HEADER REGISTER DATA`` (``NAME = expr``: the named constants), ``CONTROL DATA`` (SIGMA, ABSZRO, TIMEO, TIMEND,
-    DTIMEI, OUTPUT), ``NODE DATA`` (``id, T, C``; negative id: boundary; ``$ label``), ``CONDUCTOR DATA``
+    DTIMEI, OUTPUT), ``NODE DATA`` (``id, T, C``; negative id: boundary; negative C: arithmetic; ``$ label``), ``CONDUCTOR DATA``
     (``id, a, b, G``; negative id: radiation), ``SOURCE DATA`` (``node, expr``), ``ARRAY DATA`` (``id = x1, y1,
     ...`` continued, ``END``), ``VARIABLES 1`` (Fortran ``Q12 = expr`` / ``T12 = expr`` / ``G7 = expr`` (conductor 7's value), ``&`` in column 6
     continues; ``D1DEG1(x, An)`` is linear interpolation of array n at x) and ``OPERATIONS DATA`` (``CALL STEADY``,
@@ -650,8 +650,9 @@ def read_sinda(path: str | Path) -> Model:
             if len(f) != 3:
                 raise DeckError(f"{where}: node data 'id, T, C' expected, got {body.strip()!r}")
             nid = int(f[0])
+            # (a negative capacitance is SINDA/FLUINT's arithmetic node: C = 0 here)
             nodes.append(("B" if nid < 0 else "D", abs(nid), comment.strip(),
-                          {"T": expr(f[1], where), "C": expr(f[2], where)}))
+                          {"T": expr(f[1], where), "C": expr(f"MAX({f[2]}, 0.0)", where)}))
         elif block == "CONDUCTOR":
             f = _split_top(body.strip())
             cid = int(f[0])

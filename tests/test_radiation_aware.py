@@ -377,3 +377,29 @@ def test_a_set_linearised_about_a_cold_case_converges_on_a_hot_one():
     assert hot.reduced.shared_network["linearised_at"] == "cold"
     assert hot.summary["accuracy"]["rms_K"] < 1e-3
     assert hot.reduced.outer_iterations[-1]["max_dT_K"] < 1e-3
+
+
+def test_a_loads_hot_spot_share_is_the_emission_of_its_within_cluster_field():
+    # reduce.radiative.hot_spots: the share of a load the exact distribution does not pass to the free super nodes,
+    # Σq − Σ_free Y'q, is hᵀX'q (the linearised emission of the within-cluster field X'q the load raises, from
+    # K'X' + AᵀY' = I) plus Y'q's share on the fixed nodes; its node radiates it at the footprint's mean temperature
+    from fem2tmm.reduce.radiative import hot_spots
+
+    mesh = meshes.plate(0.3, 0.1, 30, 10)
+    case = strip_case(6, sink=-100.0, power=2.0)
+    model = build_model(mesh, case)
+    T_star = solve_steady(detailed_problem(model), tol=1e-12).T
+    rm = build_reduced(model, cluster_model(model, case), case, T_ref=T_star)
+    ra = rm.radiative
+    q = np.zeros(model.n_dof)
+    q[np.argsort(T_star)[:5]] = 0.4  # a load on the five coldest DOFs (the free tip): a hot spot inside its cluster
+    hs = hot_spots(ra.reduction.distribute, ~rm.fixed, rm.part, q[None, :], np.array([1.0]), ["spot"], T_star,
+                   ra.e, rm.T_sink)
+    d = ra.reduction.distribute(q)
+    within = ra.reduction.recover(np.zeros(rm.n), q)  # X'q: the field with every super node at 0 K
+    expected = float(ra.h @ within) + float(d[rm.fixed].sum())
+    assert expected == pytest.approx(q.sum() - d[~rm.fixed].sum(), rel=1e-9)  # the identity itself (round-off)
+    # measured: Σq 2 W, Σ_free Y'q 1.99158 W, hᵀX'q 0.00229 W, Y'q on the fixed node 0.00613 W
+    assert hs is not None and hs.Q[0] == pytest.approx(expected, rel=1e-9) and expected > 0
+    T_fp = float(q @ T_star / q.sum())
+    assert SIGMA * hs.g[0] * (T_fp**4 - rm.T_sink**4) == pytest.approx(hs.Q[0], rel=1e-12)

@@ -48,7 +48,9 @@ def _check(result: Result, recover: bool) -> dict:
     with tempfile.TemporaryDirectory(prefix="fem2tmm-deliverable-") as tmp:
         folder = Path(tmp)
         write_network(folder, result, sinda=False)  # (what is read back: reduced.npz and the ESATAN deck)
-        T_npz = solve_network(read_network(folder / "reduced.npz"), T0=np.r_[rs.T, result.reduced.network.T_sink]).T[:n]
+        rm = result.reduced.network
+        hot_T = rm.hot_spots.T if rm.hot_spots is not None else np.zeros(0)  # (its hot-spot nodes follow the n nodes)
+        T_npz = solve_network(read_network(folder / "reduced.npz"), T0=np.r_[rs.T, hot_T, rm.T_sink]).T[:n]
         tr = result.transient
         if tr is not None and tr.reduced is not None:  # a transient deck: its transient, integrated as written
             T_deck = deck_transient(folder / "model.esatan", result)

@@ -24,7 +24,7 @@ from .cache import digest
 from .compute import map_units
 from .constants import KELVIN
 from .export.output import check_output_place, write_cases_outputs, write_outputs
-from .export.summary import _by_correction, build_cases_summary, build_summary
+from .export.summary import build_cases_summary, build_summary, network_radiated_W
 from .fem.model import build_model
 from .fem.plausibility import warn_implausible, warn_once_per_run
 from .mesh import Mesh
@@ -684,7 +684,7 @@ def _emission_check(run: _RunState, net: _Network, reduced: Reduced, red: Reduce
     """One emission for every method: the network's radiation to space against its field's (issue 42)."""
     ir_sides = red.ir is not None and red.ir.to_space is not None
     reduced.emission_check = emission_check(
-        run.model, float(reduced.solution.to_space.sum()) + (_by_correction(reduced.network) or 0.0),
+        run.model, network_radiated_W(reduced.network, reduced.solution),
         reduced.T_recovered, red.ir.to_space if ir_sides else net.inputs.to_space, res.blocked, res.eps_area,
         net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware")
 

@@ -57,6 +57,10 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
     out = dict(names=rm.names.astype(str), is_boundary=rm.fixed, C=C, K=rm.K, GR=GR, Q=rm.Q, T=rs.T - KELVIN,
                kind=rm.kind.astype(str), part=rm.part, T_sink=np.float64(rm.T_sink - KELVIN),
                positions=network_positions(result))
+    if rm.hot_spots is not None:  # the loads' hot-spot nodes (arithmetic, GR to space only), after the n nodes
+        hs = rm.hot_spots
+        out.update(hot_spot_labels=np.array(hs.labels(), dtype=str), hot_spot_part=hs.part, hot_spot_Q=hs.Q,
+                   hot_spot_GR=hs.g, hot_spot_T=hs.T - KELVIN)
     if rm.g_space_table is not None:  # GR to space (the last column of GR) as a function of each node's own T
         out["GR_space_table_T"], out["GR_space_table"] = (np.asarray(v, float) for v in rm.g_space_table)
     if result.reduced.recovery is not None:
@@ -73,16 +77,80 @@ def network_arrays(result: Result) -> dict[str, np.ndarray]:
 def deck_node_numbers(result: Result) -> np.ndarray:
     """(n,) the deck number of each node of the reduced network (as in ``model.esatan`` and ``model.sinda``: D1001 …,
     :func:`fem2tmm.export.esatan.node_numbers` shifted by ``[export] node_offset``)."""
-    return node_numbers(result.reduced.network.part, len(result.model.parts))[0] + result.case.export.node_offset
+    return node_numbers(deck_parts(result.reduced.network), len(result.model.parts))[0][:result.reduced.network.n] \
+        + result.case.export.node_offset
+
+
+def deck_parts(rm) -> np.ndarray:
+    """(n + r,) the part of each deck node: the network's nodes, then its loads' hot-spot nodes (``rm.hot_spots``)."""
+    hs = rm.hot_spots
+    return np.asarray(rm.part, np.int64) if hs is None else np.r_[np.asarray(rm.part, np.int64), hs.part]
+
+
+def _with_hot_spots(deck: Deck, rm, rec) -> Deck:
+    """``deck`` with the loads' hot-spot nodes of ``rm`` appended (after the network's n nodes): diffusion nodes
+    without capacitance (arithmetic), their share of each named load (its constant) as QI, a GR to space only."""
+    import dataclasses
+
+    hs = rm.hot_spots
+    if hs is None:
+        return deck
+    n, r = rm.n, hs.n
+    m = n + r
+
+    def pad(a, fill=0.0):
+        return np.r_[np.asarray(a, float), np.full(r, fill)]
+
+    GL = np.zeros((m, m))
+    GL[:n, :n] = deck.GL
+    GR = np.zeros((m, m))
+    GR[:n, :n] = deck.GR
+    named = [str(x) for x in rec.load_names] if rec is not None else []
+    load_terms = []
+    fixed = np.asarray(rm.fixed, bool)
+    for name, v, frac in deck.load_terms:  # (a load's share on a fixed node: its hot spot applies it)
+        j = [k for k in range(r) if constant_name(str(hs.load[k])) == name]
+        extra = np.zeros(r)
+        extra[j] = hs.unit[j]
+        load_terms.append((name, v, np.r_[np.where(fixed, 0.0, np.asarray(frac, float)), extra]))
+    tables = deck.space_tables
+    if tables is not None:  # a constant row: written as a plain GR
+        x, y = tables
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        xs = hs.T[:, None] * np.geomspace(0.8, 1.25, x.shape[1])[None, :]
+        tables = (np.r_[x, xs], np.r_[y, np.repeat(hs.g[:, None], y.shape[1], 1)])
+    tr = deck.transient
+    if tr is not None:  # a named load's table carries its hot spot's share too
+        loads = []
+        for (pat, t, v), nm in zip(tr.loads, tr.load_names):
+            extra = np.zeros(r)
+            for k in range(r):
+                if nm and constant_name(str(hs.load[k])) == nm and hs.load[k] in named:
+                    b = rec.load_q[named.index(str(hs.load[k]))].toarray().ravel()
+                    unit = float(np.sum(rm.reduction.distribute(b)[~np.asarray(rm.fixed, bool)]))
+                    scale = float(np.sum(np.asarray(pat, float)[~np.asarray(rm.fixed, bool)])) / unit if unit else 0.0
+                    extra[k] = hs.unit[k] * scale
+            loads.append((np.r_[np.asarray(pat, float), extra], t, v))
+        tabled = {nm for nm in tr.load_names if nm}
+        base = None if tr.base is None else np.r_[np.asarray(tr.base, float),
+                                                  np.where([constant_name(str(x)) in tabled for x in hs.load], 0.0, hs.Q)]
+        tr = dataclasses.replace(tr, loads=tuple(loads), base=base)
+    return dataclasses.replace(
+        deck, labels=np.r_[np.asarray(deck.labels).astype(str), hs.labels()],
+        boundary=np.r_[deck.boundary, np.zeros(r, bool)],
+        T=np.r_[np.asarray(deck.T, float), hs.T], C=pad(deck.C), A=pad(deck.A),
+        alp=pad(deck.alp), eps=pad(deck.eps), GL=GL, GR=GR, GR_space=np.r_[np.asarray(deck.GR_space, float), hs.g],
+        Q=np.r_[np.asarray(deck.Q, float), hs.Q], load_terms=tuple(load_terms), space_tables=tables, transient=tr)
 
 
 def network_deck(result: Result) -> Deck:
     """The ESATAN / SINDA deck of the reduced network."""
     rm, rs = result.reduced.network, result.reduced.solution
     n = rm.n
-    numbers, space = node_numbers(rm.part, len(result.model.parts))
+    numbers, space = node_numbers(deck_parts(rm), len(result.model.parts))
     ex = result.case.export
     numbers, space = numbers + ex.node_offset, space + ex.node_offset
+    hot_numbers, numbers = numbers[n:], numbers[:n]
     load_terms = ()
     rec = result.reduced.recovery
     if rec is not None and len(rec.load_names):  # each named power / flux: its distribution Y'q per unit value
@@ -118,7 +186,7 @@ def network_deck(result: Result) -> Deck:
     area = rm.area if rm.area is not None else np.zeros(n)
     eps = np.divide(rm.g_space, area, out=np.zeros(n), where=area > 0)
     C = rm.C if rm.C is not None else np.zeros(n)
-    return Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
+    deck = Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
                 alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
                 GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
                 transient=transient,
@@ -126,6 +194,11 @@ def network_deck(result: Result) -> Deck:
                 temperature_terms=temperature_terms, parametric_terms=parametric_terms,
                 validity=tuple(validity_lines(result.reduced.verified)),
                 space_tables=rm.g_space_table)
+    if rm.hot_spots is None:
+        return deck
+    import dataclasses
+
+    return dataclasses.replace(_with_hot_spots(deck, rm, rec), numbers=np.r_[numbers, hot_numbers])
 
 
 def write_network(folder: Path, result: Result, sinda: bool = True) -> None:
@@ -134,7 +207,8 @@ def write_network(folder: Path, result: Result, sinda: bool = True) -> None:
     arrays = network_arrays(result)
     np.savez(folder / "reduced.npz", **arrays)
     deck = network_deck(result)
-    write_positions(folder / "nodes.csv", deck.numbers, arrays["positions"])
+    # (the network's nodes: the loads' hot-spot nodes that follow them have no place of their own)
+    write_positions(folder / "nodes.csv", deck.numbers[:len(arrays["positions"])], arrays["positions"])
     stem = Path(result.case.source).stem
     write_esatan(folder / "model.esatan", deck, title=stem)
     if sinda:

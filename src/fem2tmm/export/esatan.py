@@ -113,7 +113,10 @@ def space_table_rows(deck: "Deck") -> list[int]:
     space."""
     if deck.space_tables is None:
         return []
-    return [i for i in range(len(deck.numbers)) if not deck.boundary[i] and deck.GR_space[i] != 0]
+    y = np.asarray(deck.space_tables[1], float)
+    # (a constant table, as a load's hot-spot node has, is its plain GR)
+    return [i for i in range(len(deck.numbers)) if not deck.boundary[i] and deck.GR_space[i] != 0
+            and np.ptp(y[i]) > 0]
 
 
 def space_table_name(number: int) -> str:
@@ -382,8 +385,14 @@ def write_esatan(path: str | Path, deck: Deck, title: str = "fem2tmm reduced mod
     lines.append("$LOCALS")
     lines.append("$NODES")
     init = None if tr is None else tr.initial
+    hot = [i for i in range(n) if str(deck.labels[i]).endswith(" hot spot") and deck.C[i] == 0]
     for i in range(n):
         kind = "B" if deck.boundary[i] else "D"
+        if hot and i == hot[0]:
+            lines += comment_lines("hot spots: the share of each load that its footprint radiates inside its own super "
+                                   "nodes (the exact reduction does not pass it to them); arithmetic nodes coupled "
+                                   "only to space, so that the loads are applied and radiated as applied; their "
+                                   "temperatures are not the structure's")
         if i in deck.temperature_terms:
             T = deck.temperature_terms[i]
         elif init is not None and not deck.boundary[i]:

@@ -93,10 +93,21 @@ def _steady_inputs(result, model: str) -> tuple[list, str]:
 
 def by_correction(rm) -> float | None:
     """Heat (W) a radiation-aware network ``rm`` radiates outside its couplings to space: its known loads minus the
-    sum of its Q (the correction load and the distribution with K' = K + diag(h) take it out); None for other
-    networks."""
+    sum of its free nodes' Q and its loads' hot-spot nodes' (the correction load and the distribution with
+    K' = K + diag(h) take it out); None for other networks, and for a network whose hot-spot nodes leave nothing."""
     known = getattr(rm.radiative, "known_load_W", None) if rm.radiative is not None else None
-    return None if known is None else float(known - np.sum(rm.Q))
+    if known is None:
+        return None
+    # (the loads' share on fixed nodes is no input of the network: their Q moves nothing)
+    left = float(known - np.sum(np.asarray(rm.Q)[~np.asarray(rm.fixed, bool)]) - rm.hot_spot_W)
+    # the network's hot-spot nodes apply and radiate what its distribution leaves: nothing left but round-off
+    return None if rm.hot_spots is not None and abs(left) <= 1e-9 * max(abs(known), 1e-300) else left
+
+
+def network_radiated_W(rm, sol) -> float:
+    """W the network ``rm`` radiates in all at its solution ``sol``: through its couplings to space, its loads'
+    hot-spot nodes and (a radiation-aware network with a correction load) outside its couplings."""
+    return float(np.sum(sol.to_space)) + rm.hot_spot_W + (by_correction(rm) or 0.0)
 
 
 def correction_label(rm) -> str:
@@ -125,14 +136,31 @@ def steady_books(result) -> dict:
     if red is not None:
         rm, rs = red.network, red.solution
         rows, basis = _steady_inputs(result, "reduced")
-        outs = [("radiated to space", float(rs.to_space.sum()))]
+        outs = [("radiated to space", float(rs.to_space.sum()) + rm.hot_spot_W)]
         applied = float(rs.balance["applied_W"])
         by_correction = _by_correction(result)
         if by_correction is not None:  # the radiation-aware network radiates part of its heat outside its couplings
-            outs = [("radiated to space", float(rs.to_space.sum())), (correction_label(rm), by_correction)]
+            outs.append((correction_label(rm), by_correction))
             applied += by_correction
         outs += [(f"into fixed boundary '{rm.names[i]}'", -float(rs.heat_fixed[i])) for i in np.flatnonzero(rm.fixed)]
         out["reduced"] = dict(_book(rows, outs, applied, INPUT_NOT_NAMED, "W"), basis=basis)
+    return out
+
+
+def hot_spot_energy(rm, tabled: dict, duration: float) -> float:
+    """J the loads' hot-spot nodes of ``rm`` (:class:`fem2tmm.reduce.radiative.HotSpots`) apply and radiate over
+    ``duration`` s: each its share of its load's energy, ``tabled`` {name: (W per unit value, J of the load)} for the
+    loads that follow a time table, its design power times the duration for the others."""
+    hs = rm.hot_spots
+    if hs is None:
+        return 0.0
+    out = 0.0
+    for name, unit, Q in zip(hs.load, hs.unit, hs.Q):
+        if str(name) in tabled and tabled[str(name)][0]:
+            per_unit, energy = tabled[str(name)]
+            out += float(unit) / per_unit * energy
+        else:
+            out += float(Q) * duration
     return out
 
 
@@ -157,7 +185,7 @@ def transient_books(result) -> dict:
             continue
         a = float(sol.steps["t"][0] - sol.steps["h"][0])
         b = float(sol.steps["t"][-1])
-        rows = []
+        rows, per_unit_of = [], {}
         tabled = {bd.name: bd for bd in case.boundaries if bd.kind != "temperature" and bd.table is not None}
         for name, w in result.model.loads.items():  # every named load (deck loads too): constant, or its table
             bd = tabled.get(name)
@@ -167,6 +195,7 @@ def transient_books(result) -> dict:
             per_unit = float(boundary_load(result.model, case, dataclasses.replace(bd, value=1.0)).sum())
             tab = bd.table.periodic(start, period) if run.settings.periodic else bd.table
             rows.append((f"applied '{name}'", per_unit * _integral(tab, a, b, np.asarray(tab.breakpoints(a, b), float))))
+            per_unit_of[name] = (per_unit, rows[-1][1])
         sol_sun = result.reduced.solar if model == "reduced" and result.reduced is not None else None
         sol_sun = sol_sun if sol_sun is not None else result.detailed.solar
         if sol_sun is not None:
@@ -181,11 +210,12 @@ def transient_books(result) -> dict:
                 rows.append((f"{KIND_LABEL.get(kind, kind)}", energy))
         e = sol.energy
         applied = float(e["applied_J"])
-        outs = [("radiated to space", float(e["to_space_J"]))]
+        hot = hot_spot_energy(result.reduced.network, per_unit_of, b - a) if model == "reduced" else 0.0
+        applied += hot  # the loads' hot-spot nodes: applied and radiated as their loads (no capacitance)
+        outs = [("radiated to space", float(e["to_space_J"]) + hot)]
         by_correction = _by_correction(result) if model == "reduced" else None
         if by_correction is not None:  # the correction load, constant in time, carries part of the radiation
-            outs = [("radiated to space", float(e["to_space_J"])),
-                    (correction_label(result.reduced.network), by_correction * (b - a))]
+            outs.append((correction_label(result.reduced.network), by_correction * (b - a)))
             applied += by_correction * (b - a)
         outs += [("into fixed boundaries", float(e["into_fixed_J"]))]
         outs += [("stored (heat capacity)", float(e["stored_J"]))]
@@ -255,6 +285,9 @@ def part_exchange(result) -> tuple[list[str], np.ndarray]:
     G[np.arange(len(T)), grp] = 1.0
     F = G.T @ flow @ G
     F[:, n_p + 1] = G.T @ (SIGMA * rm.g_space * (T**4 - rm.T_sink**4))
+    hs = rm.hot_spots
+    if hs is not None:  # the loads' hot-spot nodes radiate their share to space from their part
+        F[:, n_p + 1] += np.bincount(np.where(hs.part >= 0, hs.part, n_p), weights=hs.Q, minlength=n_p + 2)
     F[n_p + 1, :] = -F[:, n_p + 1]
     np.fill_diagonal(F, 0.0)
     return parts + ["held nodes", "space"], F
@@ -269,6 +302,9 @@ def part_books(result) -> list[dict]:
     names, F = part_exchange(result)
     n_p = len(names) - 2
     Q = np.bincount(np.where(rm.part >= 0, rm.part, n_p)[~rm.fixed], weights=rm.Q[~rm.fixed], minlength=n_p + 1)
+    if rm.hot_spots is not None:  # the share of the loads their hot-spot nodes take (applied as applied)
+        hs = rm.hot_spots
+        Q = Q + np.bincount(np.where(hs.part >= 0, hs.part, n_p), weights=hs.Q, minlength=n_p + 1)
     rows = []
     for p in range(n_p):
         others = float(F[p, :n_p].sum())

@@ -360,11 +360,13 @@ def _heat_flows_html(hf: dict) -> str:
         rows = [(p["part"], _fmt(p["in_W"], " W"), _fmt(p["to_space_W"], " W"), _fmt(p["to_held_W"], " W"),
                  _fmt(p["to_other_parts_W"], " W"), _fmt(p["imbalance_W"], " W")) for p in parts]
         out.append("<h3>Balance of each part (reduced network, steady) [W]</h3>"
-                   + _table(rows, ("part", "into its super nodes (Q)", "radiated to space", "to fixed boundaries",
+                   + _table(rows, ("part", "into its nodes (Q)", "radiated to space", "to fixed boundaries",
                                    "to other parts (GL and GR, net)", "imbalance"))
-                   + "<p>Q is the load the network puts on the part's super nodes (applied, absorbed and, for a "
-                     "radiation-aware network, its correction load); the exchanges are the network's conductors "
-                     "at its solved temperatures.</p>")
+                   + "<p>Q is the load the network puts on the part's nodes (applied, absorbed and, for a "
+                     "radiation-aware network with a correction load, that load); a radiation-aware network's "
+                     "hot-spot nodes take the share of each load that its footprint radiates inside its own super "
+                     "nodes and radiate it to space. The exchanges are the network's conductors at its solved "
+                     "temperatures.</p>")
     absorbed = hf.get("part_absorbed")
     if absorbed:
         rows = [(p, *(flow_text(v, "W") for v in row)) for p, row in zip(absorbed["parts"], absorbed["W"])]

@@ -98,7 +98,8 @@ def write_sinda(path: str | Path, deck: Deck, submodel: str = "FEM2TMM") -> dict
             T = deck.temperature_terms[i]
         else:
             T = repr(float((init if init is not None and not deck.boundary[i] else deck.T[i]) - KELVIN))
-        out.append(f"      {nid}, {T}, {float(deck.C[i])!r}    $ {deck.labels[i]}")
+        C = float(deck.C[i]) if deck.C[i] != 0 or deck.boundary[i] else -1.0  # negative C: an arithmetic node
+        out.append(f"      {nid}, {T}, {C!r}    $ {deck.labels[i]}")
     space_T = "SINK" if sink_named else repr(float(deck.T_space - KELVIN))
     out.append(f"      -{deck.space}, {space_T}, 0.0    $ SPACE")
     out.append(f"HEADER CONDUCTOR DATA, {sub}")

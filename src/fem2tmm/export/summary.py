@@ -10,7 +10,7 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
-from .heatflow import by_correction as _by_correction, heat_flow_rows, heat_flow_summary
+from .heatflow import by_correction as _by_correction, heat_flow_rows, heat_flow_summary, network_radiated_W
 from .orbit import orbit_summary
 
 
@@ -80,7 +80,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             "clustering": result.reduced.clustering.report if result.reduced.clustering is not None else None,
             "iterations": rs.iterations,
             "heat_into_fixed_W": {str(rm.names[i]): -float(rs.heat_fixed[i]) for i in np.flatnonzero(rm.fixed)},
-            "to_space_W": float(rs.to_space.sum()),
+            "to_space_W": float(rs.to_space.sum()) + rm.hot_spot_W,
             # the network's radiation to space (couplings and correction) against the traced emission to space of
             # its recovered field (relative difference), and each part's emission share stopped by inactive sides
             "emission_check": result.reduced.emission_check,
@@ -91,7 +91,10 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
                 # the heat radiated outside the couplings to space (by the correction load and the distribution
                 # with K' = K + diag(h): the known loads minus the network's Q), and the total heat radiated
                 "radiated_by_correction_W": by_correction,
-                "radiated_W": None if by_correction is None else float(rs.to_space.sum()) + by_correction,
+                "radiated_W": None if by_correction is None and rm.hot_spots is None else network_radiated_W(rm, rs),
+                # the loads' hot-spot nodes (fem2tmm.reduce.radiative.HotSpots): W each applies and radiates
+                "hot_spots_W": None if rm.hot_spots is None else dict(zip(rm.hot_spots.labels(),
+                                                                          map(float, rm.hot_spots.Q))),
                 "biot": (result.reduced.outer_iterations or [{}])[-1].get("biot"),
                 # load-case sets: the cases whose decks share GL, GR and C (emission linearised once, about the
                 # converged field of case `linearised_at`); None: this case's own network

@@ -42,6 +42,17 @@ def read_reduced_npz(path: str | Path) -> Network:
     n = len(names)
     if K.shape != (n, n) or GRs.shape != (n + 1, n + 1):
         raise Fem2TmmError(f"{path}: K {K.shape} / GR {GRs.shape} do not match {n} nodes (+ space)")
+    if "hot_spot_Q" in z.files:  # the loads' hot-spot nodes: arithmetic, their GR to space only
+        r = len(z["hot_spot_Q"])
+        K = np.pad(np.asarray(K, float), (0, r))
+        G = np.zeros((n + r + 1, n + r + 1))
+        G[:n, :n], G[:n, -1], G[-1, :n] = GRs[:n, :n], GRs[:n, n], GRs[n, :n]
+        G[n:n + r, -1] = G[-1, n:n + r] = z["hot_spot_GR"]
+        GRs, n = G, n + r
+        names, fixed = np.r_[names.astype(str), z["hot_spot_labels"].astype(str)], np.r_[fixed, np.zeros(r, bool)]
+        C, Q, T = np.r_[C, np.zeros(r)], np.r_[Q, z["hot_spot_Q"]], np.r_[T, z["hot_spot_T"]]
+        part = np.r_[part, z["hot_spot_part"]]
+        X = None if X is None else np.r_[X, np.full((r, 3), np.nan)]
     n_parts = int(part.max(initial=-1)) + 1
     numbers, space = node_numbers(part, n_parts)
     GL = -np.array(K, float)

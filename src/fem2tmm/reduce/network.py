@@ -56,10 +56,18 @@ class ReducedModel:
     #: temperature (the radiation-aware network's effective emission, :func:`fem2tmm.reduce.radiative.effective_emission`);
     #: ``g_space`` then holds its value at the design state
     g_space_table: tuple | None = None
+    #: :class:`fem2tmm.reduce.radiative.HotSpots` or None: the radiator nodes of the heat each load's footprint
+    #: radiates inside its own super nodes (the deck's extra nodes; coupled to no super node)
+    hot_spots: object | None = None
 
     @property
     def n(self) -> int:
         return len(self.names)
+
+    @property
+    def hot_spot_W(self) -> float:
+        """W applied to and radiated to space by the :attr:`hot_spots` nodes at the design state (0 without)."""
+        return 0.0 if self.hot_spots is None else float(np.sum(self.hot_spots.Q))
 
 
 def determined_elements(model: FEModel, kept: np.ndarray | None = None) -> np.ndarray:

@@ -308,6 +308,82 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     return e, (x, y)
 
 
+@dataclass(frozen=True)
+class HotSpots:
+    """The heat each load's footprint radiates inside its own super nodes: one radiator node per load.
+
+    The exact reduction passes a load q to the network as Y'q, which sums to less than q: from ``K'X' + AᵀY' = I``,
+    ``1ᵀY' q = 1ᵀq − hᵀX' q``, and ``hᵀX' q`` is the linearised emission of the within-cluster field X'q that the
+    load raises above its super nodes' mean (a heater's hot spot; zero for a load spread like A, ``X'Aᵀ = 0``).  In
+    the network that heat is neither applied nor radiated, so its books read the applied power and the emission to
+    space short by it (issue 41: 17 % of the L-bracket's heater at 100 super nodes).  Here it is applied as applied
+    and radiated to space by a node of its own: its load the unpassed share of the load (``unit`` × the load's value,
+    so it follows the deck's constant like the load), its only coupling a GR to space.  It is coupled to no super
+    node, as X'q is to no T_SN in the reduction (``T = X'q' + Y'ᵀT_SN``), so no super-node temperature moves: the
+    network's temperatures are those without it, and its books are the detailed model's to the linearisation (the
+    share is exact at the design state and linear in the load, as the condensation makes it).  Its GR to space
+    puts it at the load footprint's mean design temperature at the design state (at the footprint's physical εA
+    where the load is 0 there); its temperature off the design state follows σ GR T⁴ = share, not the footprint.
+
+    Attributes
+    ----------
+    load : (r,) str the ``[[boundary]]`` name of each load ("" for the loads without a name)
+    part : (r,) int the part of the super node that receives most of the load (-1: none)
+    unit : (r,) W per unit of the load's value (W for a power, W/m² for a flux): the share radiated inside
+    Q : (r,) W the share at the design state ; g : (r,) m² GR to space ; T : (r,) K design temperature
+    """
+
+    load: np.ndarray
+    part: np.ndarray
+    unit: np.ndarray
+    Q: np.ndarray
+    g: np.ndarray
+    T: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.Q)
+
+    def labels(self) -> list[str]:
+        """The nodes' labels in a deck."""
+        return [f"{nm or 'other loads'} hot spot" for nm in self.load]
+
+
+def hot_spots(distribute, free: np.ndarray, part: np.ndarray, patterns: np.ndarray, values: np.ndarray,
+              names: list[str], T_field: np.ndarray, e: np.ndarray, T_sink: float,
+              rel_tol: float = 1e-6) -> HotSpots | None:
+    """The :class:`HotSpots` of the loads ``patterns`` (r, n_dof) W per unit value, ``values`` (r,), on a network whose
+    load distribution is ``distribute`` ((n_dof,) W -> (n,) W, Y'), ``free`` (n,) bool its free nodes, ``part`` (n,)
+    their parts; ``T_field`` (n_dof,) K the design field, ``e`` (n_dof,) m² each DOF's emitting εA, ``T_sink`` K.
+    A load whose share is not positive (Y' passes all of it, or more: no emission to give it), or that is negative
+    at the design state, gets no node; None when none does."""
+    rows = []
+    for pat, v, nm in zip(np.atleast_2d(patterns), values, names):
+        pat = np.asarray(pat, float)
+        total = float(np.sum(pat))
+        d = np.asarray(distribute(pat), float)
+        unit = total - float(np.sum(d[free]))
+        if not unit > rel_tol * max(float(np.sum(np.abs(pat))), 1e-300):
+            continue
+        w = np.abs(pat)
+        T = float(w @ T_field / w.sum())
+        d4 = T**4 - T_sink**4
+        if not d4 > 0:
+            continue
+        Q = unit * float(v)
+        if Q < 0:  # a load taken out (a cooler): no emission to give it a node of its own
+            continue
+        g = Q / (SIGMA * d4) if Q > 0 else float(np.sum(np.asarray(e, float)[pat != 0]))
+        if not g > 0:
+            continue
+        rows.append((nm, int(part[int(np.argmax(np.where(free, d, -np.inf)))]), unit, Q, g, T))
+    if not rows:
+        return None
+    cols = list(zip(*rows))
+    unit, Q, g, T = (np.array(c, float) for c in cols[2:])
+    return HotSpots(load=np.array(cols[0], dtype=str), part=np.array(cols[1], np.int64), unit=unit, Q=Q, g=g, T=T)
+
+
 def parametric_weights(values_si: np.ndarray, sink: bool, samples: int = 32) -> tuple[np.ndarray, np.ndarray]:
     """Interpolation weights of the parametric states as functions of the parameter, sampled for a deck table.
 
@@ -340,5 +416,5 @@ def parametric_weights(values_si: np.ndarray, sink: bool, samples: int = 32) -> 
     return grid, W[inverse]
 
 
-__all__ = ["RadiationAware", "effective_emission", "emission_entries", "emission_floor_links", "emission_weights",
-           "parametric_weights", "split_radiative"]
+__all__ = ["HotSpots", "RadiationAware", "effective_emission", "emission_entries", "emission_floor_links",
+           "emission_weights", "hot_spots", "parametric_weights", "split_radiative"]

@@ -276,6 +276,8 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
     if not shared and not case.reduction.parametric:
         held = held_reactions(model, ra_rm, T, q_detailed, None if ir is None else q_rec - q_detailed)
         ra_rm, sol = effective_network(ra_rm, sol, ra.reduction.distribute(q_detailed) + q_lumped, case, held)
+        if ra_rm.g_space_table is not None:  # the heat the loads radiate inside their super nodes: nodes of its own
+            ra_rm, sol = with_hot_spots(model, case, ra_rm, sol, q_detailed, T)
     ra.history = history
     ra.shared = shared
     ra.T_lin, ra.q_tally = lin_T, lin_q
@@ -327,6 +329,46 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
                       f"design state ({exc}); the network with the correction load is written instead", stacklevel=2)
         return rm, sol
     return net, new
+
+
+def with_hot_spots(model: FEModel, case: Case, rm: ReducedModel, sol: SteadySolution, q_detailed: np.ndarray,
+                   T: np.ndarray) -> tuple[ReducedModel, SteadySolution]:
+    """The network ``rm`` with the radiator nodes of :func:`fem2tmm.reduce.radiative.hot_spots` (one per power or
+    flux ``[[boundary]]``, and one for the rest of ``q_detailed`` (n_dof,) W) at the design field ``T`` (n_dof,) K,
+    and its solution's energy balance with their load applied and radiated to space (no temperature moves)."""
+    from ..fem.model import boundary_load
+    from ..reduce.radiative import hot_spots
+
+    names, pats, vals = [], [], []
+    rest = np.array(q_detailed, float)
+    for b in case.boundaries:
+        if b.kind in ("power", "flux"):
+            pat = boundary_load(model, case, dataclasses.replace(b, value=1.0))
+            names.append(b.name)
+            pats.append(pat)
+            vals.append(float(b.value))
+            rest = rest - b.value * pat
+    if np.abs(rest).sum() > 1e-9 * max(np.abs(q_detailed).sum(), 1e-300):
+        names.append("")
+        pats.append(rest)
+        vals.append(1.0)
+    if not pats:
+        return rm, sol
+    hs = hot_spots(rm.reduction.distribute, ~np.asarray(rm.fixed, bool), rm.part, np.array(pats), np.array(vals),
+                   names, T, rm.radiative.e, rm.T_sink)
+    if hs is None:
+        return rm, sol
+    # the loads' share on a fixed node moves nothing: the hot spots apply it (their share is the load less what
+    # the free nodes get), so it leaves the fixed nodes' Q and their books hold only their conductors' flows
+    rm = dataclasses.replace(rm, hot_spots=hs, Q=np.where(rm.fixed, 0.0, rm.Q))
+    from ..linalg import blas_threads
+
+    with blas_threads(1):
+        sol = solve_steady(reduced_problem(rm), T0=sol.T, tol=case.solver.tolerance, max_iter=case.solver.max_iterations)
+    b = dict(sol.balance)
+    b["applied_W"] = b.get("applied_W", 0.0) + rm.hot_spot_W
+    b["space_W"] = b.get("space_W", 0.0) + rm.hot_spot_W
+    return rm, dataclasses.replace(sol, balance=b)
 
 
 def held_reactions(model: FEModel, rm: ReducedModel, T: np.ndarray, q: np.ndarray, q_abs: np.ndarray | None
