@@ -120,7 +120,7 @@ def local_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, dof_cluster
 
 def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: np.ndarray, weight: np.ndarray,
                     dof_owner: np.ndarray, n_clusters: int, source: tuple | None = None,
-                    feedback: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    feedback: tuple | None = None, shares: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """``(δT, share)``: the error of every free DOF from one detailed linear solve, and each cluster's share of it.
 
     ``K'_FF δT_F = r_F`` with ``r = residual + Bᵀ dp`` (only the fixed DOFs held): like :func:`local_error` with
@@ -146,6 +146,7 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
         each other give back part of what K' lets a hotter face emit; without it the step under-estimates),
         solved by the fixed point ``δT ← K'⁻¹(r + G δT)`` (contracting: a face re-absorbs less than all of any
         emission) to :data:`FEEDBACK_TOL`, the adjoint likewise with ``Gᵀ``
+    shares : False skips the adjoint solve (δT only; share is then zeros)
 
     Returns
     -------
@@ -164,12 +165,16 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     lu = factorize((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx], "spd")
     if feedback is None:
         dT[idx] = lu.solve(r[idx])
+        if not shares:
+            return dT, share
         z[idx] = lu.solve((np.asarray(weight, float) * dT)[idx])  # K' symmetric: its own adjoint
     else:
         Bf, g, E = feedback
         G = lambda x: np.asarray(Bf.T @ (g * np.asarray(E @ x).ravel())).ravel()  # noqa: E731
         Gt = lambda x: np.asarray(E.T @ (g * np.asarray(Bf @ x).ravel())).ravel()  # noqa: E731
         dT[idx] = _fixed_point(lu, r, G, idx, n)
+        if not shares:
+            return dT, share
         z[idx] = _fixed_point(lu, np.asarray(weight, float) * dT, Gt, idx, n)
     own = np.asarray(dof_owner)
     sel = own >= 0

@@ -55,6 +55,32 @@ def _element_links(model: FEModel, clustering: Clustering) -> tuple[np.ndarray, 
     return cat(la), cat(lb)
 
 
+def side_tally(model: FEModel, case: Case, surface: Surface, scene=None, rays_per_face: int | None = None,
+               role: str = "refine") -> tuple:
+    """The estimator's FE side-to-side IR tally (:attr:`Refinement.side_absorption`): ``(C (g, 2f) csr, side (g,),
+    eps_area (g,) m², B (g, n_dof), E (g, n_dof))``, every active side emitting ``rays_per_face`` rays (default
+    ``[reduction] refine_rays_per_face``) from the random stream ``role`` (:data:`~fem2tmm.stages.radiation.SEED_ROLES`).
+    """
+    f = model.faces
+    active = f.active.ravel()
+    groups = np.full(2 * f.n, -1, np.int64)
+    groups[active] = np.arange(int(active.sum()))
+    C, _, eps = trace_absorption(surface, groups, scene=scene,
+                                 rays_per_group=rays_per_face or case.reduction.refine_rays_per_face,
+                                 **tracer_settings(case, exchange=False, role=role))
+    side = np.flatnonzero(active)
+    to_face = sp.csr_matrix((np.ones(2 * f.n), (np.arange(2 * f.n), np.arange(2 * f.n) // 2)), shape=(2 * f.n, f.n))
+    emit = sp.csr_matrix((np.ones(len(side)), (np.arange(len(side)), side // 2)), shape=(len(side), f.n))
+    return C, side, eps, (C @ to_face @ f.W).tocsr(), (emit @ f.W).tocsr()
+
+
+def uses_side_tally(model: FEModel, case: Case, ir: IRAbsorption | None, surface: Surface | None) -> bool:
+    """Whether :func:`refinement_residual` reads the side-to-side tally for a network with IR absorption ``ir``
+    (radiation traced, and the model's absorbed IR not already per FE side)."""
+    return (surface is not None and case.radiation.enabled and bool(model.faces.active.any())
+            and not (ir is not None and ir.face is not None))
+
+
 def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: ReducedModel, T_sn: np.ndarray,
                         T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
                         state: Refinement,
@@ -77,20 +103,9 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
         T4_face = None if ir.face is None else np.asarray(f.W @ T**4).ravel()  # "faces": FE sides emit at T
         q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink, T4_face)).ravel()
     # ``ir_on = "faces"``: the model's absorbed IR already follows the recovered field, nothing is misplaced
-    per_face = ir is not None and ir.face is not None
-    if surface is not None and case.radiation.enabled and f.active.any() and not per_face:
+    if uses_side_tally(model, case, ir, surface):
         if state.side_absorption is None:
-            active = f.active.ravel()
-            groups = np.full(2 * f.n, -1, np.int64)
-            groups[active] = np.arange(int(active.sum()))
-            C, _, eps = trace_absorption(surface, groups, scene=scene,
-                                         rays_per_group=case.reduction.refine_rays_per_face,
-                                         **tracer_settings(case, exchange=False, role="refine"))
-            side = np.flatnonzero(active)
-            to_face = sp.csr_matrix((np.ones(2 * f.n), (np.arange(2 * f.n), np.arange(2 * f.n) // 2)),
-                                    shape=(2 * f.n, f.n))
-            emit = sp.csr_matrix((np.ones(len(side)), (np.arange(len(side)), side // 2)), shape=(len(side), f.n))
-            state.side_absorption = (C, side, eps, (C @ to_face @ f.W).tocsr(), (emit @ f.W).tocsr())
+            state.side_absorption = side_tally(model, case, surface, scene)
         C, side, eps, B, E = state.side_absorption
         face = side // 2
         s4 = model.T_sink**4
@@ -132,6 +147,22 @@ def error_estimate(model: FEModel, clustering: Clustering, case: Case, rm: Reduc
         dT, e2 = global_estimate(model.K, h, r, ~model.fixed_mask, weight, owner, k, source, feedback)
         rms = float(np.sqrt((weight * dT**2).sum() / weight.sum()))
     return float(rms), e2
+
+
+def error_field(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
+                T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
+                state: Refinement, surface: Surface | None = None, scene=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(δT (n_dof,) K, weight (n_dof,))``: the global estimator's error field of the recovered field ``T`` (one
+    detailed linear solve, no cluster shares: :func:`~fem2tmm.reduce.refine.global_estimate`) and the RMS weights
+    (mesh nodes per DOF).  Arguments as for :func:`error_estimate`."""
+    from ..reduce.refine import global_estimate
+
+    r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
+                                                 surface, scene)
+    weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
+    dT, _ = global_estimate(model.K, h, r, ~model.fixed_mask, weight, np.full(model.n_dof, -1), 0, source, feedback,
+                            shares=False)
+    return dT, weight
 
 
 def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,

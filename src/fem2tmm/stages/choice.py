@@ -1,0 +1,150 @@
+"""The measured choice of ``[reduction] radiation_aware = "auto"`` (issue 42, item 2): the method with the smaller
+estimated error on this model, without a detailed reference.
+
+The estimate is the ``target_rms`` global estimator (:func:`fem2tmm.stages.refine.error_field`: one Newton step of
+the detailed problem from the recovered field, under the true loads and the FE sides' traced IR), applied to each
+candidate's recovered field.  Its own ray noise is measured, as the reference's is: the side-to-side IR tally is
+traced as two independent halves (``[reduction] refine_rays_per_face`` / 2 rays per FE side each, random streams
+``estimate_a`` / ``estimate_b``); the estimate is the RMS of the mean of the two error fields, its noise
+``N = RMS(δT_a − δT_b) / 2`` (the noise of that mean).  Noise adds in quadrature to the error it rides on, so the
+error the estimate sees beyond its noise is ``E = √max(RMS² − N², 0)``.
+
+The rule (:func:`measured_choice`), in the order it costs:
+
+1. estimate the thesis' network (solved anyway).  If ``E_thesis ≤ N_thesis`` its error cannot be told from the
+   estimate's noise: keep it (the same accuracy as far as anything here can tell, no outer iterations, a
+   state-independent network).  No radiation-aware network is built;
+2. otherwise build the radiation-aware network (:class:`~fem2tmm.reductors.radiation_aware.RadiationAwareReductor`)
+   and estimate it; it is kept when ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise
+   of the comparison.  Otherwise (a tie, or no physical solution of the radiation-aware network) the thesis' stays.
+
+Step 1's shortcut never changes the outcome of step 2 (``E_aware ≥ 0``).  Without a traced tally (space-only
+radiation, or ``ir_on = "faces"`` where the network's absorbed IR already follows the FE sides) an estimate has no
+ray noise of its own and ``N = 0``.  The estimate covers the design state: the off-design range of ``[reduction]
+verify`` is checked afterwards against the detailed reference (:mod:`fem2tmm.verify`), not estimated here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from ..case import Case
+from ..errors import Fem2TmmError
+from ..reductors import REDUCTORS, Reduced, ReductionInputs
+from .refine import Refinement, error_field, side_tally, uses_side_tally
+
+#: what the estimate covers (summary.json ``reduced.choice.estimate_covers``)
+COVERS = ("the design state; the [reduction] verify range is checked against the detailed reference afterwards, "
+          "not estimated")
+
+
+def resolved(case: Case, aware: bool) -> Case:
+    """``case`` with ``radiation_aware`` set to ``aware`` and ``ir_on = "auto"`` resolved as
+    :func:`fem2tmm.reductors.choose_reduction` does ("faces" with the radiation-aware reduction, else
+    "super_faces")."""
+    rad = case.radiation
+    ir_on = rad.ir_on if rad.ir_on != "auto" else ("faces" if aware and rad.enabled else "super_faces")
+    return dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=aware),
+                               radiation=dataclasses.replace(rad, ir_on=ir_on))
+
+
+def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
+             tallies: dict | None = None) -> dict:
+    """The a-posteriori estimate of one candidate's recovered-field error, with its own ray noise.
+
+    Parameters
+    ----------
+    inputs : the reduction's inputs (model, clustering, case, loads ``q_recover`` (n_dof,) W, ``q_lumped`` (n,) W)
+    red : the candidate (its network, ``solution.T`` (n,) K, ``T_recovered`` (n_dof,) K, ``ir``)
+    surface, scene : the radiation surface and ray scene, or None (no radiation traced)
+    tallies : ``{"a", "b"}`` the two half tallies, traced on first use and shared by the candidates
+
+    Returns
+    -------
+    ``{"rms_K", "noise_K", "beyond_noise_K"}``: the RMS of the estimated error field over the mesh nodes (K), its
+    ray noise N (K, 0 without a tally) and √max(rms² − N², 0) (K).
+    """
+    case = red.case
+    model = inputs.model.with_unblocked(red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None
+                                        else inputs.unblocked)
+    args = (model, inputs.clustering, case, red.network, red.solution.T, red.T_recovered, inputs.q_recover,
+            inputs.q_lumped, red.ir)
+    if uses_side_tally(model, case, red.ir, surface):
+        tallies = {} if tallies is None else tallies
+        half = max(1, int(np.ceil(case.reduction.refine_rays_per_face / 2)))
+        fields = []
+        for h in ("a", "b"):
+            if h not in tallies:
+                tallies[h] = side_tally(model, case, surface, scene, rays_per_face=half, role=f"estimate_{h}")
+            fields.append(error_field(*args, Refinement(side_absorption=tallies[h]), surface, scene))
+        (da, w), (db, _) = fields
+        dT, noise = 0.5 * (da + db), float(np.sqrt((w * (da - db) ** 2).sum() / w.sum()) / 2.0)
+    else:
+        dT, w = error_field(*args, Refinement(), None, None)
+        noise = 0.0
+    rms = float(np.sqrt((w * dT**2).sum() / w.sum()))
+    return {"rms_K": rms, "noise_K": noise, "beyond_noise_K": float(np.sqrt(max(rms**2 - noise**2, 0.0)))}
+
+
+def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog, surface=None,
+                    scene=None) -> tuple[Reduced, dict, Reduced | None]:
+    """Resolve ``radiation_aware = "auto"`` by the estimated errors (the module's rule).
+
+    Parameters
+    ----------
+    inputs : the reduction's inputs, ``inputs.case`` with ``radiation_aware = "auto"``
+    thesis : the thesis' reduction of those inputs (solved, recovered)
+    choice : :func:`fem2tmm.reductors.choose_reduction`'s record (its Biot number is kept as information)
+    prog : :class:`~fem2tmm.progress.Progress` (stages "estimate", and the radiation-aware reduction's own)
+    surface, scene : the radiation surface and ray scene, or None (no radiation traced)
+
+    Returns
+    -------
+    ``(red, choice, thesis_or_None)``: the kept reduction (its ``case`` resolved), the record for summary.json
+    ``reduced.choice`` (``estimated_rms_K``, ``estimate_noise_K`` per candidate, None for one not built,
+    ``chosen_by``, ``estimate_seconds``, ``estimate_covers``), and the thesis' reduction when the other was kept.
+    """
+    tallies, seconds = {}, 0.0
+
+    def timed(red: Reduced) -> dict:
+        nonlocal seconds
+        with prog.stage("estimate", f"estimating the {red.method.replace('_', '-')} reduction's error "
+                                    "(a-posteriori)"):
+            t0 = time.perf_counter()
+            out = estimate(inputs, red, surface, scene, tallies)
+            seconds += time.perf_counter() - t0
+        return out
+
+    thesis = dataclasses.replace(thesis, case=resolved(inputs.case, False))
+    est = {"thesis": timed(thesis), "radiation_aware": None}
+    et = est["thesis"]
+    kept, why = thesis, None
+    if et["beyond_noise_K"] <= et["noise_K"]:
+        why = (f"auto: the thesis' estimated error {et['rms_K']:.3g} K is at its estimate's noise "
+               f"{et['noise_K']:.2g} K: the thesis' network (the radiation-aware one not built)")
+    else:
+        aware_inputs = dataclasses.replace(inputs, case=resolved(inputs.case, True))
+        try:
+            aware = REDUCTORS["radiation_aware"]().reduce(aware_inputs, prog, start=thesis)
+        except Fem2TmmError as exc:  # no physical solution: the thesis' network has one
+            why = f"auto: the radiation-aware network has no physical steady solution ({exc}): the thesis' network"
+        else:
+            ea = est["radiation_aware"] = timed(aware)
+            margin = float(np.hypot(et["noise_K"], ea["noise_K"]))
+            gain = et["beyond_noise_K"] - ea["beyond_noise_K"]
+            pair = (f"estimated error thesis {et['rms_K']:.3g} K, radiation-aware {ea['rms_K']:.3g} K "
+                    f"(their noise {margin:.2g} K)")
+            if gain > margin:
+                kept, why = aware, f"auto: {pair}: the radiation-aware network, smaller by more than the noise"
+                if aware.notes:
+                    why = "; ".join([why, *aware.notes])
+            else:
+                why = f"auto: {pair}: a tie within the noise, the thesis' network"
+    choice = {**choice, "radiation_aware": kept is not thesis, "ir_on": kept.case.radiation.ir_on, "chosen_by": why,
+              "estimated_rms_K": {k: None if v is None else v["rms_K"] for k, v in est.items()},
+              "estimate_noise_K": {k: None if v is None else v["noise_K"] for k, v in est.items()},
+              "estimate_seconds": seconds, "estimate_covers": COVERS}
+    return kept, choice, None if kept is thesis else thesis
