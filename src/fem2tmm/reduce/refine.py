@@ -120,7 +120,8 @@ def local_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, dof_cluster
 
 def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: np.ndarray, weight: np.ndarray,
                     dof_owner: np.ndarray, n_clusters: int, source: tuple | None = None,
-                    feedback: tuple | None = None, shares: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                    feedback: tuple | None = None, shares: bool = True,
+                    cache: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(δT, share)``: the error of every free DOF from one detailed linear solve, and each cluster's share of it.
 
     ``K'_FF δT_F = r_F`` with ``r = residual + Bᵀ dp`` (only the fixed DOFs held): like :func:`local_error` with
@@ -147,6 +148,8 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
         solved by the fixed point ``δT ← K'⁻¹(r + G δT)`` (contracting: a face re-absorbs less than all of any
         emission) to :data:`FEEDBACK_TOL`, the adjoint likewise with ``Gᵀ``
     shares : False skips the adjoint solve (δT only; share is then zeros)
+    cache : a dict keeping the factorisation of ``K + diag(h)`` on the free DOFs for another call with the same
+        ``K``, ``h`` and ``free`` (another residual at the same field), or None
 
     Returns
     -------
@@ -162,7 +165,10 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     share = np.zeros(n_clusters)
     if not idx.size:
         return dT, share
-    lu = factorize((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx], "spd")
+    cache = {} if cache is None else cache
+    if "lu" not in cache:
+        cache["lu"] = factorize((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx], "spd")
+    lu = cache["lu"]
     if feedback is None:
         dT[idx] = lu.solve(r[idx])
         if not shares:

@@ -14,8 +14,8 @@ The rule (:func:`measured_choice`), in the order it costs:
 1. estimate the thesis' network (solved anyway).  If ``E_thesis ≤ N_thesis`` its error cannot be told from the
    estimate's noise: keep it (the same accuracy as far as anything here can tell, no outer iterations, a
    state-independent network).  No radiation-aware network is built;
-2. otherwise build the radiation-aware network (:class:`~fem2tmm.reductors.radiation_aware.RadiationAwareReductor`)
-   and estimate it; it is kept when ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise
+2. otherwise build the radiation-aware network
+   (:class:`~fem2tmm.reductors.radiation_aware.RadiationAwareReductor`) and estimate it; it is kept when ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise
    of the comparison.  Otherwise (a tie, or no physical solution of the radiation-aware network) the thesis' stays.
 
 Step 1's shortcut never changes the outcome of step 2 (``E_aware ≥ 0``).  Without a traced tally (space-only
@@ -74,12 +74,12 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
             inputs.q_lumped, red.ir)
     if uses_side_tally(model, case, red.ir, surface):
         tallies = {} if tallies is None else tallies
-        half = max(1, int(np.ceil(case.reduction.refine_rays_per_face / 2)))
-        fields = []
+        half = max(1, int(np.ceil(case.reduction.refine_rays_per_face / 2)))  # two halves: the budget of one tally
+        fields, lu = [], {}  # one factorisation of K + diag(h) at this field for both halves
         for h in ("a", "b"):
             if h not in tallies:
                 tallies[h] = side_tally(model, case, surface, scene, rays_per_face=half, role=f"estimate_{h}")
-            fields.append(error_field(*args, Refinement(side_absorption=tallies[h]), surface, scene))
+            fields.append(error_field(*args, Refinement(side_absorption=tallies[h]), surface, scene, cache=lu))
         (da, w), (db, _) = fields
         dT, noise = 0.5 * (da + db), float(np.sqrt((w * (da - db) ** 2).sum() / w.sum()) / 2.0)
     else:
@@ -105,7 +105,8 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     -------
     ``(red, choice, thesis_or_None)``: the kept reduction (its ``case`` resolved), the record for summary.json
     ``reduced.choice`` (``estimated_rms_K``, ``estimate_noise_K`` per candidate, None for one not built,
-    ``chosen_by``, ``estimate_seconds``, ``estimate_covers``), and the thesis' reduction when the other was kept.
+    ``chosen_by``, ``estimate_seconds``, ``estimate_covers``, ``estimate_rays`` the rays of each half tally traced,
+    [] without one), and the thesis' reduction when the other was kept.
     """
     tallies, seconds = {}, 0.0
 
@@ -118,6 +119,7 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
             seconds += time.perf_counter() - t0
         return out
 
+    rays_per_half = max(1, int(np.ceil(inputs.case.reduction.refine_rays_per_face / 2)))
     thesis = dataclasses.replace(thesis, case=resolved(inputs.case, False))
     est = {"thesis": timed(thesis), "radiation_aware": None}
     et = est["thesis"]
@@ -146,5 +148,7 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     choice = {**choice, "radiation_aware": kept is not thesis, "ir_on": kept.case.radiation.ir_on, "chosen_by": why,
               "estimated_rms_K": {k: None if v is None else v["rms_K"] for k, v in est.items()},
               "estimate_noise_K": {k: None if v is None else v["noise_K"] for k, v in est.items()},
-              "estimate_seconds": seconds, "estimate_covers": COVERS}
+              "estimate_seconds": seconds, "estimate_covers": COVERS,
+              "estimate_rays": [int(rays_per_half * (t[2] > 0).sum()) for t in (tallies.get("a"), tallies.get("b"))
+                                if t is not None]}
     return kept, choice, None if kept is thesis else thesis

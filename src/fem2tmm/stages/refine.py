@@ -59,8 +59,8 @@ def side_tally(model: FEModel, case: Case, surface: Surface, scene=None, rays_pe
                role: str = "refine") -> tuple:
     """The estimator's FE side-to-side IR tally (:attr:`Refinement.side_absorption`): ``(C (g, 2f) csr, side (g,),
     eps_area (g,) m², B (g, n_dof), E (g, n_dof))``, every active side emitting ``rays_per_face`` rays (default
-    ``[reduction] refine_rays_per_face``) from the random stream ``role`` (:data:`~fem2tmm.stages.radiation.SEED_ROLES`).
-    """
+    ``[reduction] refine_rays_per_face``) from the random stream ``role``
+    (:data:`~fem2tmm.stages.radiation.SEED_ROLES`)."""
     f = model.faces
     active = f.active.ravel()
     groups = np.full(2 * f.n, -1, np.int64)
@@ -151,17 +151,19 @@ def error_estimate(model: FEModel, clustering: Clustering, case: Case, rm: Reduc
 
 def error_field(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
                 T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
-                state: Refinement, surface: Surface | None = None, scene=None) -> tuple[np.ndarray, np.ndarray]:
+                state: Refinement, surface: Surface | None = None, scene=None,
+                cache: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(δT (n_dof,) K, weight (n_dof,))``: the global estimator's error field of the recovered field ``T`` (one
     detailed linear solve, no cluster shares: :func:`~fem2tmm.reduce.refine.global_estimate`) and the RMS weights
-    (mesh nodes per DOF).  Arguments as for :func:`error_estimate`."""
+    (mesh nodes per DOF).  Arguments as for :func:`error_estimate`; ``cache`` a dict that keeps the factorised
+    ``K + diag(h)`` for another call at the same field ``T`` (another tally), or None."""
     from ..reduce.refine import global_estimate
 
     r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
                                                  surface, scene)
     weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
     dT, _ = global_estimate(model.K, h, r, ~model.fixed_mask, weight, np.full(model.n_dof, -1), 0, source, feedback,
-                            shares=False)
+                            shares=False, cache=cache)
     return dT, weight
 
 
