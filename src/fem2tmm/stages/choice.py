@@ -128,7 +128,7 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
         why = (f"auto: the thesis' estimated error {et['rms_K']:.3g} K is at its estimate's noise "
                f"{et['noise_K']:.2g} K: the thesis' network (the radiation-aware one not built)")
     else:
-        aware_inputs = dataclasses.replace(inputs, case=resolved(inputs.case, True))
+        aware_inputs = dataclasses.replace(inputs, case=resolved(inputs.case, True), advise=False)
         try:
             aware = REDUCTORS["radiation_aware"]().reduce(aware_inputs, prog, start=thesis)
         except Fem2TmmError as exc:  # no physical solution: the thesis' network has one
