@@ -56,10 +56,6 @@ def orbit_case():
                      boundary=[{"name": "heater", "kind": "power", "groups": ["plate"], "value": 5.0}],
                      environment={"sink_temperature": -270.0}, radiation={"enabled": False},
                      reference={"detailed": False},
-                     # the thesis' network (as before issue 42's measured choice, which takes the radiation-aware
-                     # one here): that network's periodic orbit deck integrates 4.4e-4 K off the in-process transient
-                     # (2026-12-06, open: reported to the lead), beyond this file's 1e-9 K
-                     reduction={"radiation_aware": False},
                      orbit={"altitude": 700e3, "beta": 30.0, "positions": 4, "rays_per_face": 4},
                      transient={"periodic": True, "step": 300.0, "output_every": 600.0, "tolerance": 0.5})
 
@@ -213,6 +209,9 @@ def test_the_transient_deck_integrates_to_the_in_process_transient(kind, tmp_pat
     assert d["esatan_compared"] == "transient" and d["esatan_vs_in_process_K"] < 1e-9
     if kind == "orbit":  # the tables matter: the deck's loads at the start are not its orbit-average QI
         assert np.abs(T[0] - T[len(T) // 2]).max() > 1.0
+        # "auto" takes the radiation-aware network here: its GR to space follow each super node's temperature
+        # (INTRP1 tables); read as their values at TIMEO instead, the deck integrated 4.4e-4 K off (2026-12-06)
+        assert res.reduced.method == "radiation_aware" and "= INTRP1(T1001, GRS1001);" in (tmp_path / "out" / "model.esatan").read_text()
 
 
 # ------------------------------------------------------------------------------------------------ issue 41 items 4-5
