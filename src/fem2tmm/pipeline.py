@@ -47,7 +47,7 @@ from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_posi
 from .stages.quadrics import fit_quadrics, quadric_regions
 from .stages.radiation import (detailed_radiation, emission_check, ir_absorption, mean_faced, radiation_surface,
                                reduced_radiation, reference_noise, tracer_settings)
-from .stages.choice import measured_choice
+from .stages.choice import measured_choice, reduce_aware
 from .stages.refine import Refinement, refinement_step
 from .stages.solar import absorbed_solar_maps, detailed_solar, solar_prepass, super_face_solar
 from .stages.transient import check_transient, run_transient
@@ -667,7 +667,7 @@ def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, 
         if thesis_failed is None:
             extra["thesis_T_recovered"] = red.T_recovered
         reductor = reductor_for(case)
-        red = reductor.reduce(inputs, prog, start=red)
+        red = reduce_aware(inputs, prog, red, thesis_failed)  # (the only other method: radiation-aware)
         if red.network.radiative is not None and not red.network.radiative.shared:
             extra.pop("shared_network", None)  # left the set's network (no solution there): its own
         if red.notes:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 
 import numpy as np
 
@@ -108,7 +109,7 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     ``chosen_by``, ``estimate_seconds``, ``estimate_covers``, ``estimate_rays`` the rays of each half tally traced,
     [] without one), and the thesis' reduction when the other was kept.
     """
-    tallies, seconds = {}, 0.0
+    tallies, seconds, refused = {}, 0.0, None
 
     def timed(red: Reduced) -> dict:
         nonlocal seconds
@@ -131,8 +132,13 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
         aware_inputs = dataclasses.replace(inputs, case=resolved(inputs.case, True), advise=False)
         try:
             aware = REDUCTORS["radiation_aware"]().reduce(aware_inputs, prog, start=thesis)
-        except Fem2TmmError as exc:  # no physical solution: the thesis' network has one
-            why = f"auto: the radiation-aware network has no physical steady solution ({exc}): the thesis' network"
+        except Fem2TmmError as exc:  # a candidate without a physical steady solution loses: the thesis' has one
+            refused = str(exc)
+            why = ("auto: the radiation-aware network has no physical steady solution: the thesis' network "
+                   f"(estimated error {et['rms_K']:.3g} K, noise {et['noise_K']:.2g} K)")
+            warnings.warn(f"{inputs.case.source}: [reduction] radiation_aware = \"auto\": the radiation-aware network "
+                          f"has no physical steady solution here ({refused}); the run hands over the thesis' network "
+                          f"(its estimated error {et['rms_K']:.3g} K, summary.json reduced.choice)", stacklevel=2)
         else:
             ea = est["radiation_aware"] = timed(aware)
             margin = float(np.hypot(et["noise_K"], ea["noise_K"]))
@@ -148,7 +154,30 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     choice = {**choice, "radiation_aware": kept is not thesis, "ir_on": kept.case.radiation.ir_on, "chosen_by": why,
               "estimated_rms_K": {k: None if v is None else v["rms_K"] for k, v in est.items()},
               "estimate_noise_K": {k: None if v is None else v["noise_K"] for k, v in est.items()},
-              "estimate_seconds": seconds, "estimate_covers": COVERS,
+              "estimate_seconds": seconds, "estimate_covers": COVERS, "aware_refused": refused,
               "estimate_rays": [int(rays_per_half * (t[2] > 0).sum()) for t in (tallies.get("a"), tallies.get("b"))
                                 if t is not None]}
     return kept, choice, None if kept is thesis else thesis
+
+
+def reduce_aware(inputs: ReductionInputs, prog, start: Reduced, thesis_refused: str | None) -> Reduced:
+    """The radiation-aware reduction the case resolved to (``radiation_aware = true``, or ``"auto"`` where the
+    thesis' network has no physical solution: ``thesis_refused`` its refusal), started from ``start``.
+
+    Where the thesis' network was refused and the radiation-aware one has no physical steady solution either, no
+    method here has one: one :class:`Fem2TmmError` says so for both, and advises neither ``radiation_aware`` setting
+    (both were tried).  Otherwise the radiation-aware reduction's own error stands."""
+    try:
+        return REDUCTORS["radiation_aware"]().reduce(inputs, prog, start=start)
+    except Fem2TmmError as exc:
+        if thesis_refused is None:
+            raise
+        src = f"{inputs.case.source}: "
+        cause = lambda msg: msg.removeprefix(src).split("; use ")[0]  # noqa: E731  (their advice: tried here)
+        advice = ("" if inputs.case.reduction.network == "positive" else
+                  "[reduction] network = \"positive\" (the thesis' reduction with positive conductances) or ")
+        raise Fem2TmmError(
+            f"{inputs.case.source}: neither reduction method has a physical steady solution for this model at these "
+            f"super-node counts: the thesis' network: {cause(thesis_refused)}; the radiation-aware network: "
+            f"{cause(str(exc))}; use {advice}more super nodes (in the parts where the load or the held temperatures "
+            "are)") from None
