@@ -52,8 +52,49 @@ def resolved(case: Case, aware: bool) -> Case:
                                radiation=dataclasses.replace(rad, ir_on=ir_on))
 
 
+#: the two half tallies of the estimate together trace at most this share of the run's own exchange rays (the super
+#: faces' REFs, ``[radiation]`` budget), or :data:`ESTIMATE_RAYS_FLOOR` per half if that is more: the estimate's
+#: tracing then costs about that share of the radiation stage, whatever the mesh (at 266 832 quads, 10 + 10 rays
+#: per FE side were 1.07e7 rays against the run's 1e7, most of the estimate's 76 % of the reduction stages)
+ESTIMATE_RAY_SHARE = 0.05
+#: rays per half tally always allowed (up to the full tally): below ~10⁴ FE sides the full tally costs a few per
+#: cent of the reduction stages (examples/satellite 7.8 %, its 1.07e5 rays per half), and its noise decides there
+ESTIMATE_RAYS_FLOOR = 200_000
+#: relative tolerance of the estimate's re-absorption solve (GMRES): its error in the estimate is of that order,
+#: far below the estimate's own accuracy (0.66-0.99 of the measured RMS on examples/composite) and its ray noise
+ESTIMATE_TOL = 1e-3
+
+
+def tally_budget(inputs: ReductionInputs, exchange=None) -> tuple[int, float]:
+    """``(rays per emitting FE side, share of the active sides that emit)`` of each of the two half tallies.
+
+    ``[reduction] refine_rays_per_face`` / 2 rays per side each, capped so that both halves together trace at most
+    :data:`ESTIMATE_RAY_SHARE` of ``exchange.rays`` (the run's own REF rays; None: no cap), or
+    :data:`ESTIMATE_RAYS_FLOOR` per half, by letting only a random
+    share of the sides emit, each its full rays (:func:`~fem2tmm.stages.refine.side_tally`, unbiased), not by fewer
+    rays per side: the tally's self-normalised rows are biased at a few rays per side, a bias the two halves share
+    and so cannot measure (a 30 cm box at 2000 W/(m K) whose thesis' network is 1.3e-4 K off: estimated 0.0036 K
+    beyond a noise of 0.0038 K at 2 rays per side and half, 0.001 K beyond 0.0016 K at 10, none at 50 and 200).
+    The estimate's noise, measured from the two halves, grows as the share shrinks; a thesis' estimate within that
+    noise keeps the thesis' network (module docstring)."""
+    n = int(np.count_nonzero(inputs.model.faces.active))
+    per = max(1, int(np.ceil(inputs.case.reduction.refine_rays_per_face / 2)))
+    if exchange is None or not n:
+        return per, 1.0
+    cap = max(ESTIMATE_RAY_SHARE * float(np.sum(exchange.rays)) / 2.0, ESTIMATE_RAYS_FLOOR)
+    return per, min(1.0, max(cap / per, 1.0) / n)
+
+
+def super_face_of_sides(model, clustering) -> np.ndarray:
+    """(2f,) int: each FE side's super face, as the cluster of its element and which side (2 c + 0 front, + 1
+    back); -1 for faces of no cluster.  The strata of the estimate's sampled tally."""
+    f = model.faces
+    lab = np.asarray(clustering.labels, np.int64)[f.element]
+    return np.where(np.repeat(lab, 2) >= 0, 2 * np.repeat(lab, 2) + np.tile([0, 1], f.n), -1)
+
+
 def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
-             tallies: dict | None = None) -> dict:
+             tallies: dict | None = None, budget: tuple[int, float] | None = None) -> dict:
     """The a-posteriori estimate of one candidate's recovered-field error, with its own ray noise.
 
     Parameters
@@ -62,6 +103,8 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
     red : the candidate (its network, ``solution.T`` (n,) K, ``T_recovered`` (n_dof,) K, ``ir``)
     surface, scene : the radiation surface and ray scene, or None (no radiation traced)
     tallies : ``{"a", "b"}`` the two half tallies, traced on first use and shared by the candidates
+    budget : ``(rays per side, share of the sides)`` of each half tally (:func:`tally_budget`; None: its uncapped
+        value)
 
     Returns
     -------
@@ -75,12 +118,14 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
             inputs.q_lumped, red.ir)
     if uses_side_tally(model, case, red.ir, surface):
         tallies = {} if tallies is None else tallies
-        half = max(1, int(np.ceil(case.reduction.refine_rays_per_face / 2)))  # two halves: the budget of one tally
+        per, share = tally_budget(inputs) if budget is None else budget
         fields, lu = [], {}  # one factorisation of K + diag(h) at this field for both halves
         for h in ("a", "b"):
             if h not in tallies:
-                tallies[h] = side_tally(model, case, surface, scene, rays_per_face=half, role=f"estimate_{h}")
-            fields.append(error_field(*args, Refinement(side_absorption=tallies[h]), surface, scene, cache=lu))
+                tallies[h] = side_tally(model, case, surface, scene, rays_per_face=per, role=f"estimate_{h}",
+                                        share=share, strata=super_face_of_sides(model, inputs.clustering))
+            fields.append(error_field(*args, Refinement(side_absorption=tallies[h]), surface, scene, cache=lu,
+                                      tol=ESTIMATE_TOL))
         (da, w), (db, _) = fields
         dT, noise = 0.5 * (da + db), float(np.sqrt((w * (da - db) ** 2).sum() / w.sum()) / 2.0)
     else:
@@ -91,7 +136,7 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
 
 
 def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog, surface=None,
-                    scene=None) -> tuple[Reduced, dict, Reduced | None]:
+                    scene=None, exchange=None) -> tuple[Reduced, dict, Reduced | None]:
     """Resolve ``radiation_aware = "auto"`` by the estimated errors (the module's rule).
 
     Parameters
@@ -101,6 +146,8 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     choice : :func:`fem2tmm.reductors.choose_reduction`'s record (its Biot number is kept as information)
     prog : :class:`~fem2tmm.progress.Progress` (stages "estimate", and the radiation-aware reduction's own)
     surface, scene : the radiation surface and ray scene, or None (no radiation traced)
+    exchange : the run's super-face :class:`~fem2tmm.radiation.ExchangeResult` (its rays cap the estimate's,
+        :func:`tally_budget`), or None
 
     Returns
     -------
@@ -116,11 +163,11 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
         with prog.stage("estimate", f"estimating the {red.method.replace('_', '-')} reduction's error "
                                     "(a-posteriori)"):
             t0 = time.perf_counter()
-            out = estimate(inputs, red, surface, scene, tallies)
+            out = estimate(inputs, red, surface, scene, tallies, budget)
             seconds += time.perf_counter() - t0
         return out
 
-    rays_per_half = max(1, int(np.ceil(inputs.case.reduction.refine_rays_per_face / 2)))
+    budget = tally_budget(inputs, exchange)
     thesis = dataclasses.replace(thesis, case=resolved(inputs.case, False))
     est = {"thesis": timed(thesis), "radiation_aware": None}
     et = est["thesis"]
@@ -155,8 +202,8 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
               "estimated_rms_K": {k: None if v is None else v["rms_K"] for k, v in est.items()},
               "estimate_noise_K": {k: None if v is None else v["noise_K"] for k, v in est.items()},
               "estimate_seconds": seconds, "estimate_covers": COVERS, "aware_refused": refused,
-              "estimate_rays": [int(rays_per_half * (t[2] > 0).sum()) for t in (tallies.get("a"), tallies.get("b"))
-                                if t is not None]}
+              "estimate_rays": [int(budget[0] * (t[2] > 0).sum()) for t in (tallies.get("a"), tallies.get("b"))
+                                if t is not None], "estimate_sides_share": budget[1]}
     return kept, choice, None if kept is thesis else thesis
 
 
