@@ -4,10 +4,17 @@ estimated error on this model, without a detailed reference.
 The estimate is the ``target_rms`` global estimator (:func:`fem2tmm.stages.refine.error_field`: one Newton step of
 the detailed problem from the recovered field, under the true loads and the FE sides' traced IR), applied to each
 candidate's recovered field.  Its own ray noise is measured, as the reference's is: the side-to-side IR tally is
-traced as two independent halves (``[reduction] refine_rays_per_face`` / 2 rays per FE side each, random streams
-``estimate_a`` / ``estimate_b``); the estimate is the RMS of the mean of the two error fields, its noise
+traced as two independent halves (``[reduction] refine_rays_per_face`` / 2 rays per emitting FE side each, random
+streams ``estimate_a`` / ``estimate_b``); the estimate is the RMS of the mean of the two error fields, its noise
 ``N = RMS(δT_a − δT_b) / 2`` (the noise of that mean).  Noise adds in quadrature to the error it rides on, so the
 error the estimate sees beyond its noise is ``E = √max(RMS² − N², 0)``.
+
+Its cost is bounded (:func:`tally_budget`): the two halves together trace at most :data:`ESTIMATE_RAY_SHARE` of the
+run's own REF rays (or :data:`ESTIMATE_RAYS_FLOOR` per half), a stratified random share of the FE sides emitting
+(every super face its share, Horvitz-Thompson weights), so the tally costs a bounded share of the radiation stage
+at any mesh size; a smaller share shows as a larger measured noise, and a thesis' estimate within it keeps the
+thesis' network.  The re-absorption solve is GMRES at :data:`ESTIMATE_TOL` on the one factorisation of
+``K + diag(h)`` both halves share.
 
 The rule (:func:`measured_choice`), in the order it costs:
 
@@ -15,13 +22,20 @@ The rule (:func:`measured_choice`), in the order it costs:
    estimate's noise: keep it (the same accuracy as far as anything here can tell, no outer iterations, a
    state-independent network).  No radiation-aware network is built;
 2. otherwise build the radiation-aware network
-   (:class:`~fem2tmm.reductors.radiation_aware.RadiationAwareReductor`) and estimate it; it is kept when ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise
-   of the comparison.  Otherwise (a tie, or no physical solution of the radiation-aware network) the thesis' stays.
+   (:class:`~fem2tmm.reductors.radiation_aware.RadiationAwareReductor`) and estimate it; it is kept when
+   ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise of the comparison.  Otherwise
+   (a tie) the thesis' stays.  A radiation-aware network without a physical steady solution loses: the thesis' is
+   handed over, with a warning and ``reduced.choice.aware_refused``.  Only where the thesis' network was refused
+   too does the run stop (:func:`reduce_aware`: one message for both, advising neither setting).
 
 Step 1's shortcut never changes the outcome of step 2 (``E_aware ≥ 0``).  Without a traced tally (space-only
 radiation, or ``ir_on = "faces"`` where the network's absorbed IR already follows the FE sides) an estimate has no
 ray noise of its own and ``N = 0``.  The estimate covers the design state: the off-design range of ``[reduction]
-verify`` is checked afterwards against the detailed reference (:mod:`fem2tmm.verify`), not estimated here.
+verify`` is checked afterwards against the detailed reference (:mod:`fem2tmm.verify`), not estimated here.  Its
+2m + 2 states (m named constants) would each need every candidate's network solved and recovered there (the
+radiation-aware one by its nonlinear emission-mode recovery) and a detailed Newton step at that state's field: about
+2m + 2 times the design estimate (10x on examples/satellite, whose design estimate is already 4.6-7.8 % of the
+reduction stages), beyond the 20 % the estimate may cost.
 """
 
 from __future__ import annotations
@@ -39,7 +53,7 @@ from .refine import Refinement, error_field, side_tally, uses_side_tally
 
 #: what the estimate covers (summary.json ``reduced.choice.estimate_covers``)
 COVERS = ("the design state; the [reduction] verify range is checked against the detailed reference afterwards, "
-          "not estimated")
+          "not estimated (its 2m + 2 states would cost about 2m + 2 design estimates)")
 
 
 def resolved(case: Case, aware: bool) -> Case:
