@@ -174,19 +174,21 @@ def error_estimate(model: FEModel, clustering: Clustering, case: Case, rm: Reduc
 def error_field(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
                 T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
                 state: Refinement, surface: Surface | None = None, scene=None,
-                cache: dict | None = None, tol: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                cache: dict | None = None, tol: float | None = None,
+                reabsorb: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """``(δT (n_dof,) K, weight (n_dof,))``: the global estimator's error field of the recovered field ``T`` (one
     detailed linear solve, no cluster shares: :func:`~fem2tmm.reduce.refine.global_estimate`) and the RMS weights
     (mesh nodes per DOF).  Arguments as for :func:`error_estimate`; ``cache`` a dict that keeps the factorised
     ``K + diag(h)`` for another call at the same field ``T`` (another tally), or None; ``tol`` the re-absorption
-    solve's relative tolerance (:func:`~fem2tmm.reduce.refine.global_estimate`)."""
+    solve's relative tolerance (:func:`~fem2tmm.reduce.refine.global_estimate`); ``reabsorb`` False leaves the
+    linearised re-absorption G out of the Newton step (``K'⁻¹ r``: linear in the tally)."""
     from ..reduce.refine import global_estimate
 
     r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
                                                  surface, scene)
     weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
-    dT, _ = global_estimate(model.K, h, r, ~model.fixed_mask, weight, np.full(model.n_dof, -1), 0, source, feedback,
-                            shares=False, cache=cache, tol=tol)
+    dT, _ = global_estimate(model.K, h, r, ~model.fixed_mask, weight, np.full(model.n_dof, -1), 0, source,
+                            feedback if reabsorb else None, shares=False, cache=cache, tol=tol)
     return dT, weight
 
 
