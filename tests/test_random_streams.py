@@ -29,7 +29,7 @@ from fem2tmm.pipeline import run
 #: stage functions that trace rays, and whose model they serve
 REDUCED = {"reduced_radiation", "super_face_solar", "super_face_orbit", "ir_absorption"}
 REFERENCE = {"detailed_radiation", "detailed_solar", "detailed_orbit"}
-OTHER = {"solar_prepass", "refinement_residual"}  # the clustering's coarse solar map; the error estimate's side tally
+OTHER = {"solar_prepass", "side_tally"}  # the clustering's coarse solar map; the error estimate's side tally
 #: the root of the generator's spawn key inside each tracer (radiation/tracer.py, solar.py, planet.py): exchange
 #: rays (stream 0), solar rays (7), per-side absorption (7, an exchange tracer on stream 7), orbit (its own
 #: per-position seeds: seed + [position])
@@ -97,10 +97,12 @@ def test_every_tracing_of_a_run_has_its_own_stream(spy):
     seen = _assert_streams_distinct(spy)
     # the reduced REFs and Sun, two half-budget reference REFs and two reference solar maps, the solar pre-pass,
     # and (the default radiation_aware = "auto" takes the radiation-aware reduction on these thin black plates,
-    # with ir_on = "faces") the FE sides' IR exchange factors, and (issue 42: "auto" estimates both candidates'
-    # error, reduced.choice.estimated_rms_K) the estimator's side-to-side tally on its own "refine" stream
+    # with ir_on = "faces") the FE sides' IR exchange factors, and (issue 42: "auto" chooses by both candidates'
+    # estimated error, reduced.choice.estimated_rms_K) the estimator's side-to-side tally, two halves on their own
+    # streams "estimate_a" and "estimate_b"
     assert seen == {"reduced_radiation", "super_face_solar", "detailed_radiation", "detailed_solar", "solar_prepass",
-                    "ir_absorption", "refinement_residual"}
+                    "ir_absorption", "side_tally"}
+    assert sum(c[0] == "side_tally" for c in spy) == 2
     assert sum(c[0] == "detailed_radiation" for c in spy) == 2 and sum(c[0] == "detailed_solar" for c in spy) == 2
 
 

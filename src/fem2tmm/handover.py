@@ -81,6 +81,8 @@ def deck_transient(deck: Path, result: Result) -> np.ndarray | None:
     same way.
     """
     from .lpm.esatan import read_esatan_in_time
+    from .lpm.network import LoadCase
+    from .lpm.solve import steady_problem
     from .solve.transient import TransientProblem, solve_transient
     from .timefunc import Series, Table
 
@@ -89,9 +91,17 @@ def deck_transient(deck: Path, result: Result) -> np.ndarray | None:
     period = {"period": st.end - st.start, "start": st.start} if st.periodic else {}
     hats = tuple(Table(bps, np.eye(len(bps))[j], **period) for j in range(len(bps)))
     zero = np.zeros(net.n)
+    # the deck's GR to the space node that follow each node's temperature (INTRP1 tables in $VARIABLES1) are read
+    # as ESATAN integrates them, at every state (lpm.solve.steady_problem's g_table); read as their values at TIMEO
+    # the periodic orbit plate's radiation-aware deck integrated 4.4e-4 K off the in-process transient
+    at0 = steady_problem(net, LoadCase("TIMEO", zero, T_t[0]))
+    sink = Table.constant(3.0)
+    if at0.g_table is not None:  # the space node's temperature in time (its $VARIABLES1 table, if any)
+        j = int(np.asarray(net.gr_tables[0][1]))
+        sink = Table(bps, np.asarray(T_t)[:, j], **period)
     prob = TransientProblem(K=net.K(), C=net.C, Q=Series(zero, tuple(Q_t), hats), fixed=net.boundary,
-                            T_fixed=Series(zero, tuple(T_t), hats), g_space=zero, T_sink=Table.constant(3.0),
-                            GR=net.GR if net.GR.nnz else None)
+                            T_fixed=Series(zero, tuple(T_t), hats), g_space=at0.g_space, T_sink=sink,
+                            GR=at0.GR, faced=at0.faced, g_table=at0.g_table)
     init = result.case.transient.initial_temperature
     sol = solve_transient(prob, st, net.T if init == "steady" else init)
     out = _by_label(net, sol.T.T, result.reduced.network.names)

@@ -47,7 +47,8 @@ from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_posi
 from .stages.quadrics import fit_quadrics, quadric_regions
 from .stages.radiation import (detailed_radiation, emission_check, ir_absorption, mean_faced, radiation_surface,
                                reduced_radiation, reference_noise, tracer_settings)
-from .stages.refine import Refinement, error_estimate, refinement_step
+from .stages.choice import measured_choice, reduce_aware
+from .stages.refine import Refinement, refinement_step
 from .stages.solar import absorbed_solar_maps, detailed_solar, solar_prepass, super_face_solar
 from .stages.transient import check_transient, run_transient
 
@@ -382,6 +383,10 @@ class _RunState:
     def status(self) -> dict:
         return self.result.cache
 
+    def tracing(self) -> tuple:
+        """``(surface, scene)`` of the estimators' IR tallies, ``(None, None)`` when no exchange is traced."""
+        return (self.surface, self.scenes.main()) if self.trace else (None, None)
+
     def cached(self, stage: str, label: str, key, compute):
         return _cached(self.prog, self.store, self.status, stage, label, key, compute)
 
@@ -426,11 +431,9 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     if case.reduction.enabled:
         net = _reduced_network(run, clustering, ckey, q_solar, q_orbit, extra)
         q_sn_orbit = net.q_sn_orbit
-        reduced, reductor, red, thesis_red = _reduce(run, net, clustering, linearised, extra)
+        reduced, reductor, red = _reduce(run, net, clustering, linearised, extra)
         if run.trace:
             _emission_check(run, net, reduced, red, extra["radiation"])
-        if thesis_red is not None and case.reduction.radiation_aware == "auto":
-            _estimate(run, net, clustering, reduced, red, thesis_red)
         if run.case.reduction.target_rms is not None:  # error-driven refinement: split, then the next round
             refine = Refinement() if refine is None else refine
             nxt = _refinement_step(run, net, clustering, reduced, red, refine)
@@ -623,11 +626,10 @@ def _reduced_network(run: _RunState, clustering, ckey: str, q_solar: np.ndarray 
 def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, extra: dict):
     """The thesis' reduction first (the network when nothing else is chosen, else the next method's start), the
     choice, the chosen method and its delivery.  Sets ``run.case`` to the case the chosen method ran and
-    ``run.result.reduced``; returns ``(reduced, reductor, red, thesis_red)`` (``red`` the method's delivered output,
-    ``thesis_red`` the thesis' when another method followed it)."""
+    ``run.result.reduced``; returns ``(reduced, reductor, red)`` (``red`` the method's delivered output)."""
     model, case, prog, inputs = run.model, run.case, run.prog, net.inputs
     reductor = first_reductor(case)
-    thesis_failed = thesis_red = None
+    thesis_failed = None
     try:
         red = reductor.reduce(inputs, prog)
     except Fem2TmmError as exc:
@@ -657,12 +659,15 @@ def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, 
     if group is not None and case.reduction.radiation_aware:
         extra["shared_network"] = {"linearised_at": group["case"], "cases": list(group["cases"])}
     inputs = net.inputs = dataclasses.replace(inputs, case=case, linearised_at=None if group is None else group["T"])
-    if reductor_for(case).name != reductor.name:
+    if case.reduction.radiation_aware == "auto":  # the estimated errors decide (issue 42)
+        red, choice, thesis = measured_choice(inputs, red, choice, prog, *run.tracing(), extra.get("radiation"))
+        case, reductor = red.case, reductor_for(red.case)
+        extra.update({} if thesis is None else {"thesis_T_recovered": thesis.T_recovered})
+    elif reductor_for(case).name != reductor.name:
         if thesis_failed is None:
             extra["thesis_T_recovered"] = red.T_recovered
-            thesis_red = red
         reductor = reductor_for(case)
-        red = reductor.reduce(inputs, prog, start=red)
+        red = reduce_aware(inputs, prog, red, thesis_failed)  # (the only other method: radiation-aware)
         if red.network.radiative is not None and not red.network.radiative.shared:
             extra.pop("shared_network", None)  # left the set's network (no solution there): its own
         if red.notes:
@@ -672,7 +677,7 @@ def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, 
     run.case = case
     red = reductor.deliver(dataclasses.replace(inputs, case=case), red, prog)
     reduced = run.result.reduced = dataclasses.replace(red, clustering=clustering, choice=choice, **extra)
-    return reduced, reductor, red, thesis_red
+    return reduced, reductor, red
 
 
 def _unblocked(net: _Network, red: Reduced) -> np.ndarray | None:
@@ -689,29 +694,13 @@ def _emission_check(run: _RunState, net: _Network, reduced: Reduced, red: Reduce
         net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware")
 
 
-def _estimate(run: _RunState, net: _Network, clustering, reduced: Reduced, red: Reduced,
-              thesis_red: Reduced) -> None:
-    """The a-posteriori estimate of both candidates' error (no detailed reference), beside the choice."""
-    with run.prog.stage("estimate", "estimating both reductions' errors (a-posteriori)"):
-        t0 = time.perf_counter()
-        m_est = run.model.with_unblocked(_unblocked(net, red))
-        st, sc = Refinement(), (run.surface if run.trace else None, run.scenes.main() if run.trace else None)
-        q = (net.q_recover, net.q_lumped)
-        est = {"thesis": error_estimate(m_est, clustering, run.case, thesis_red.network, thesis_red.solution.T,
-                                        thesis_red.T_recovered, *q, None, st, *sc)[0],
-               reduced.method: error_estimate(m_est, clustering, run.case, reduced.network, reduced.solution.T,
-                                              reduced.T_recovered, *q, reduced.ir, st, *sc)[0]}
-        reduced.choice = {**reduced.choice, "estimated_rms_K": est, "estimate_seconds": time.perf_counter() - t0}
-
-
 def _refinement_step(run: _RunState, net: _Network, clustering, reduced: Reduced, red: Reduced,
                      refine: Refinement) -> np.ndarray | None:
     """The error-driven refinement's estimate: the next round's labels, or None when the target is met."""
     with run.prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
         return refinement_step(run.model.with_unblocked(_unblocked(net, red)), clustering, run.case,
                                reduced.network, reduced.solution.T, reduced.T_recovered, net.q_recover,
-                               net.q_lumped, reduced.ir, refine, run.surface if run.trace else None,
-                               run.scenes.main() if run.trace else None)
+                               net.q_lumped, reduced.ir, refine, *run.tracing())
 
 
 def _parametric(run: _RunState, mesh: Mesh, reduced: Reduced) -> None:

@@ -142,7 +142,7 @@ class ReductionSettings:
     filter: float = 0.0  # relative threshold of the TMRT link filter (0 = off)
     keep_nodes: tuple[int, ...] = ()  # original node ids kept as one-node super nodes
     # radiation-aware reduction (fem2tmm.reduce.radiative): reduce K + diag(4σεA T_ref³) about a pre-solve; "auto":
-    # when some cluster's Biot number at the thesis' field reaches fem2tmm.reductors.AUTO_BIOT (reductors.choose_reduction)
+    # the method with the smaller estimated error (reductors.choose_reduction, stages.choice.measured_choice)
     radiation_aware: bool | str = "auto"
     outer_iterations: int = 20  # most re-linearisations about T_ref (each: reduction, network solve, recovery)
     network: ReducedNetwork = "exact"  # exact (dense K_SN) | positive (sparse, positive GL between touching super nodes)

@@ -8,7 +8,8 @@ recovers (pyMOR's reductor pattern, ``reduce()`` / ``reconstruct()``).
 ===================  =================================================================================
 
 The pipeline runs :func:`first_reductor` (the thesis' or its positive network), resolves ``"auto"`` with
-:func:`choose_reduction` on that result, and, when another method is chosen, runs it from there
+:func:`choose_reduction` on that result (where only the estimated errors can decide, with
+:func:`fem2tmm.stages.choice.measured_choice`), and, when another method is chosen, runs it from there
 (:func:`reductor_for`).  A new method: a module with a :class:`~fem2tmm.reductors.base.Reductor` subclass, its
 name in :data:`REDUCTORS`, and the rule that chooses it in :func:`reductor_for`.
 """
@@ -30,7 +31,7 @@ from .positive import PositiveReductor
 from .radiation_aware import RadiationAwareReductor
 from .thesis import ThesisReductor
 
-__all__ = ["AUTO_BIOT", "REDUCTORS", "Reduced", "ReductionInputs", "Reductor", "choose_reduction",
+__all__ = ["REDUCTORS", "Reduced", "ReductionInputs", "Reductor", "choose_reduction",
            "exported_arrays", "first_reductor", "reductor_for"]
 
 #: every reduction method by name (``Reduced.method``, ``summary.json reduced.reductor``)
@@ -50,26 +51,18 @@ def reductor_for(case: Case) -> Reductor:
 
 
 
-#: ``[reduction] radiation_aware = "auto"`` chooses the radiation-aware reduction when the largest cluster Biot number
-#: h_rad A/(k t) at the thesis' recovered field reaches this: a cluster as wide as the panel's fin length
-#: √(k t / h_rad), beyond which the thesis' uniform-load shape functions no longer hold (its error grows like Bi,
-#: docs/design-notes.md "Which reduction by default").  Measured on the committed studies (2026-12-04, the README
-#: table): the composite box (Bi 2-60: thesis 20 K RMS, radiation-aware 0.2 K) and the satellite (Bi > 1) above it;
-#: fin, cylinders, baffle (Bi ≤ 0.2: thesis within 0.1 K) below, where the radiation-aware reduction would cost its
-#: outer iterations (2-3x the run) for hundredths of a kelvin.
-AUTO_BIOT = 1.0
-
-
 def choose_reduction(model: FEModel, case: Case, rm: ReducedModel, T: np.ndarray) -> tuple[Case, dict]:
     """Resolve ``[reduction] radiation_aware`` and ``[radiation] ir_on`` when they are ``"auto"``.
 
     ``rm`` the thesis' reduced model, ``T`` (n_dof,) K its recovered field.  ``radiation_aware = "auto"`` becomes
     true when ``ir_on`` asks for the FE faces ("faces", "detailed"), false with ``network = "positive"`` (not
-    defined for it) or without emission, and otherwise true when the largest cluster Biot number
-    (:func:`biot_numbers`, h = 4σ εA T³ of every active side at ``T``, as :func:`biot_weights`) is at least
-    :data:`AUTO_BIOT`.  ``ir_on = "auto"`` becomes "faces" with the radiation-aware reduction and face-to-face
+    defined for it) or without emission or radiating shell clusters; otherwise it stays ``"auto"``: the estimated
+    errors of both candidates decide (:func:`fem2tmm.stages.choice.measured_choice`, issue 42), and ``ir_on``
+    stays as asked.  ``ir_on = "auto"`` becomes "faces" with the radiation-aware reduction and face-to-face
     radiation, else "super_faces".  Returns the case with both set and ``{"radiation_aware", "ir_on", "chosen_by",
-    "biot_cluster_max"}`` for the summary (the Biot number whenever something radiates, None without shells).
+    "biot_cluster_max"}`` for the summary: the largest cluster Biot number (:func:`biot_numbers`, h = 4σ εA T³ of
+    every active side at ``T``, as :func:`biot_weights`) whenever something radiates, None without shells; it is
+    information (how far the thesis' uniform-load assumption is from holding), not the rule.
     """
     red, rad = case.reduction, case.radiation
     g = model.space_coupling()
@@ -85,10 +78,11 @@ def choose_reduction(model: FEModel, case: Case, rm: ReducedModel, T: np.ndarray
         aware, why = True, f"auto: [radiation] ir_on = \"{rad.ir_on}\" needs it"
     elif not np.any(g > 0):
         aware, why = False, "auto: nothing radiates"
-    else:
-        aware = bi is not None and bi >= AUTO_BIOT
-        why = (f"auto: largest cluster Biot number {bi:.3g} {'>=' if aware else '<'} {AUTO_BIOT:g}" if bi is not None
-               else "auto: no radiating shell clusters")
+    elif bi is None:
+        aware, why = False, "auto: no radiating shell clusters"
+    else:  # measured: fem2tmm.stages.choice
+        return case, {"radiation_aware": "auto", "ir_on": rad.ir_on, "chosen_by": "auto: the estimated errors",
+                      "biot_cluster_max": float(bi)}
     ir_on = rad.ir_on if rad.ir_on != "auto" else ("faces" if aware and rad.enabled else "super_faces")
     resolved = dataclasses.replace(case, reduction=dataclasses.replace(red, radiation_aware=aware),
                                    radiation=dataclasses.replace(rad, ir_on=ir_on))

@@ -50,6 +50,8 @@ class ReductionInputs:
         fraction that leaves to space, from the super faces' tracing (:func:`fem2tmm.radiation.tracer.side_fractions`),
         or None without face-to-face radiation: a method that emits from the FE sides emits εA·unblocked
         (:meth:`fem2tmm.fem.model.FEModel.with_unblocked`), as the traced REFs close on it
+    advise : False where ``"auto"``'s estimates chose the method (:mod:`fem2tmm.stages.choice`): no advice to set
+        ``radiation_aware`` otherwise (the radiation-aware reduction's low-Biot warning)
     """
 
     model: FEModel
@@ -64,6 +66,7 @@ class ReductionInputs:
     ir_on_asked: str = "auto"
     unblocked: np.ndarray | None = None
     to_space: np.ndarray | None = None
+    advise: bool = True
 
 
 class Reductor:

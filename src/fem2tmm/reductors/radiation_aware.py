@@ -75,7 +75,7 @@ class RadiationAwareReductor(Reductor):
                     start.T_recovered)
             lin, out, failed = inputs.linearised_at, None, None
             try:
-                out = radiation_aware_network(*args, ir, linearised_at=lin)
+                out = radiation_aware_network(*args, ir, linearised_at=lin, advise=inputs.advise)
             except Fem2TmmError as exc:
                 failed = exc
             if out is None and lin is not None:
@@ -86,7 +86,7 @@ class RadiationAwareReductor(Reductor):
                 notes.append("the set's shared network had no solution for this case: a network of its own")
                 lin = None
                 try:
-                    out = radiation_aware_network(*args, ir)
+                    out = radiation_aware_network(*args, ir, advise=inputs.advise)
                 except Fem2TmmError as exc:
                     failed = exc
             if out is not None:
@@ -104,7 +104,8 @@ class RadiationAwareReductor(Reductor):
                 case = dataclasses.replace(case, radiation=dataclasses.replace(case.radiation, ir_on="super_faces"))
                 notes.append("ir_on = \"faces\" had no network solution: \"super_faces\"")
                 ir = None
-                rm, sol, T, history = radiation_aware_network(*args[:2], case, *args[3:], None, linearised_at=lin)
+                rm, sol, T, history = radiation_aware_network(*args[:2], case, *args[3:], None, linearised_at=lin,
+                                                             advise=inputs.advise)
         return Reduced(method=self.name, network=rm, solution=sol, T_recovered=T, q_recover=inputs.q_recover,
                        case=case, method_report=history, ir=ir, notes=notes)
 
@@ -126,8 +127,8 @@ class RadiationAwareReductor(Reductor):
 
 def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel,
                             q_detailed: np.ndarray, q_lumped: np.ndarray, T_ref: np.ndarray,
-                            ir: IRAbsorption | None = None, linearised_at: np.ndarray | None = None
-                            ) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
+                            ir: IRAbsorption | None = None, linearised_at: np.ndarray | None = None,
+                            advise: bool = True) -> tuple[ReducedModel, SteadySolution, np.ndarray, list[dict]]:
     """The radiation-aware reduced network and its outer iterations (:mod:`fem2tmm.reduce.radiative`).
 
     Parameters
@@ -151,6 +152,8 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         of the 30 W case: 2 to 26 iterations to 1 mK for heater 0 / 60 W, sink −100 °C, deck 0 °C), to the same
         fixed point as re-linearising: the identity behind the correction holds for any h.  At most
         :data:`SHARED_OUTER_FACTOR` × ``[reduction] outer_iterations`` iterations
+    advise : False skips the warning that the method is not needed below :data:`LOW_BIOT` (the method was chosen
+        by ``"auto"``'s estimated errors, not asked for)
 
     Returns
     -------
@@ -259,7 +262,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 
     biot = biot_numbers(model, ra_rm, ra.h)
     history[-1]["biot"] = biot
-    if biot["cluster_max"] is not None and biot["cluster_max"] < LOW_BIOT:
+    if advise and biot["cluster_max"] is not None and biot["cluster_max"] < LOW_BIOT:
         warnings.warn(f"every cluster has a Biot number h_rad A/(k t) below {LOW_BIOT} (max "
                       f"{biot['cluster_max']:.3g}): the thesis' uniform-load assumption already holds, and "
                       "the radiation-aware reduction adds outer iterations for little gain here (and with "

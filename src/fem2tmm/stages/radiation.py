@@ -31,7 +31,7 @@ def radiation_surface(model: FEModel) -> Surface:
 #: never draws the reduced model's random numbers (issue 21: otherwise their ray noise is correlated and the
 #: error metric does not see it).
 SEED_ROLES = {"reduced": None, "reference": 1, "reference_b": 2, "prepass": 3, "absorption": 4,
-              "refine": 5}
+              "refine": 5, "estimate_a": 6, "estimate_b": 7}
 
 
 def role_seed(seed: int, role: str):

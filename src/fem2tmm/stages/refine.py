@@ -17,7 +17,7 @@ from ..radiation import Surface
 from ..radiation.ir_absorption import IRAbsorption
 from ..radiation.tracer import trace_absorption
 from ..reduce.network import ReducedModel, face_owner
-from .radiation import tracer_settings
+from .radiation import role_seed, tracer_settings
 
 
 @dataclass
@@ -55,6 +55,54 @@ def _element_links(model: FEModel, clustering: Clustering) -> tuple[np.ndarray, 
     return cat(la), cat(lb)
 
 
+def side_tally(model: FEModel, case: Case, surface: Surface, scene=None, rays_per_face: int | None = None,
+               role: str = "refine", share: float = 1.0, strata: np.ndarray | None = None) -> tuple:
+    """The estimator's FE side-to-side IR tally (:attr:`Refinement.side_absorption`): ``(C (g, 2f) csr, side (g,),
+    eps_area (g,) m², B (g, n_dof), E (g, n_dof))``, every active side emitting ``rays_per_face`` rays (default
+    ``[reduction] refine_rays_per_face``) from the random stream ``role``
+    (:data:`~fem2tmm.stages.radiation.SEED_ROLES`).
+
+    ``share`` < 1: only a random sample of that share of the active sides emits, drawn from the same role's seed
+    without replacement in each stratum (``strata`` (2f,) int, e.g. the super face of each side; None: one
+    stratum), at least one side per stratum; each emitting side's row of C is weighted by its stratum's
+    sides / emitting sides (Horvitz-Thompson: each stratum's absorbed power ``Cᵀ p`` stays unbiased, so the
+    stratum totals, which carry the field's global modes, keep the full tally's accuracy; all sides still
+    absorb).  ``side`` lists the emitting sides only."""
+    f = model.faces
+    active = f.active.ravel()
+    side = np.flatnonzero(active)
+    weight = None
+    if share < 1.0 and side.size:
+        rng = np.random.default_rng(np.random.SeedSequence(role_seed(case.radiation.seed, role), spawn_key=(1,)))
+        st = np.zeros(side.size, np.int64) if strata is None else np.asarray(strata, np.int64)[side]
+        st = np.unique(st, return_inverse=True)[1].ravel()
+        order = np.lexsort((rng.random(side.size), st))  # each stratum's sides in a random order
+        n_s = np.bincount(st)
+        m_s = np.maximum(1, np.round(share * n_s)).astype(np.int64)
+        start = np.concatenate([[0], np.cumsum(n_s)[:-1]])
+        rank = np.arange(side.size) - start[st[order]]  # position of each side in its stratum's random order
+        keep = order[rank < m_s[st[order]]]
+        keep.sort()
+        weight, side = (n_s / m_s)[st[keep]], side[keep]
+    groups = np.full(2 * f.n, -1, np.int64)
+    groups[side] = np.arange(side.size)
+    C, _, eps = trace_absorption(surface, groups, scene=scene,
+                                 rays_per_group=rays_per_face or case.reduction.refine_rays_per_face,
+                                 **tracer_settings(case, exchange=False, role=role))
+    if weight is not None:
+        C = (sp.diags(weight) @ C).tocsr()
+    to_face = sp.csr_matrix((np.ones(2 * f.n), (np.arange(2 * f.n), np.arange(2 * f.n) // 2)), shape=(2 * f.n, f.n))
+    emit = sp.csr_matrix((np.ones(len(side)), (np.arange(len(side)), side // 2)), shape=(len(side), f.n))
+    return C, side, eps, (C @ to_face @ f.W).tocsr(), (emit @ f.W).tocsr()
+
+
+def uses_side_tally(model: FEModel, case: Case, ir: IRAbsorption | None, surface: Surface | None) -> bool:
+    """Whether :func:`refinement_residual` reads the side-to-side tally for a network with IR absorption ``ir``
+    (radiation traced, and the model's absorbed IR not already per FE side)."""
+    return (surface is not None and case.radiation.enabled and bool(model.faces.active.any())
+            and not (ir is not None and ir.face is not None))
+
+
 def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: ReducedModel, T_sn: np.ndarray,
                         T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
                         state: Refinement,
@@ -77,20 +125,9 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
         T4_face = None if ir.face is None else np.asarray(f.W @ T**4).ravel()  # "faces": FE sides emit at T
         q += np.asarray(f.W.T @ ir.face_power(T_sn_full, model.T_sink, T4_face)).ravel()
     # ``ir_on = "faces"``: the model's absorbed IR already follows the recovered field, nothing is misplaced
-    per_face = ir is not None and ir.face is not None
-    if surface is not None and case.radiation.enabled and f.active.any() and not per_face:
+    if uses_side_tally(model, case, ir, surface):
         if state.side_absorption is None:
-            active = f.active.ravel()
-            groups = np.full(2 * f.n, -1, np.int64)
-            groups[active] = np.arange(int(active.sum()))
-            C, _, eps = trace_absorption(surface, groups, scene=scene,
-                                         rays_per_group=case.reduction.refine_rays_per_face,
-                                         **tracer_settings(case, exchange=False, role="refine"))
-            side = np.flatnonzero(active)
-            to_face = sp.csr_matrix((np.ones(2 * f.n), (np.arange(2 * f.n), np.arange(2 * f.n) // 2)),
-                                    shape=(2 * f.n, f.n))
-            emit = sp.csr_matrix((np.ones(len(side)), (np.arange(len(side)), side // 2)), shape=(len(side), f.n))
-            state.side_absorption = (C, side, eps, (C @ to_face @ f.W).tocsr(), (emit @ f.W).tocsr())
+            state.side_absorption = side_tally(model, case, surface, scene)
         C, side, eps, B, E = state.side_absorption
         face = side // 2
         s4 = model.T_sink**4
@@ -132,6 +169,27 @@ def error_estimate(model: FEModel, clustering: Clustering, case: Case, rm: Reduc
         dT, e2 = global_estimate(model.K, h, r, ~model.fixed_mask, weight, owner, k, source, feedback)
         rms = float(np.sqrt((weight * dT**2).sum() / weight.sum()))
     return float(rms), e2
+
+
+def error_field(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
+                T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
+                state: Refinement, surface: Surface | None = None, scene=None,
+                cache: dict | None = None, tol: float | None = None,
+                reabsorb: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """``(δT (n_dof,) K, weight (n_dof,))``: the global estimator's error field of the recovered field ``T`` (one
+    detailed linear solve, no cluster shares: :func:`~fem2tmm.reduce.refine.global_estimate`) and the RMS weights
+    (mesh nodes per DOF).  Arguments as for :func:`error_estimate`; ``cache`` a dict that keeps the factorised
+    ``K + diag(h)`` for another call at the same field ``T`` (another tally), or None; ``tol`` the re-absorption
+    solve's relative tolerance (:func:`~fem2tmm.reduce.refine.global_estimate`); ``reabsorb`` False leaves the
+    linearised re-absorption G out of the Newton step (``K'⁻¹ r``: linear in the tally)."""
+    from ..reduce.refine import global_estimate
+
+    r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
+                                                 surface, scene)
+    weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
+    dT, _ = global_estimate(model.K, h, r, ~model.fixed_mask, weight, np.full(model.n_dof, -1), 0, source,
+                            feedback if reabsorb else None, shares=False, cache=cache, tol=tol)
+    return dT, weight
 
 
 def refinement_step(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,

@@ -1,0 +1,247 @@
+"""The measured choice of ``[reduction] radiation_aware = "auto"`` (issue 42, item 2): the method with the smaller
+estimated error on this model, without a detailed reference.
+
+The estimate is the ``target_rms`` global estimator (:func:`fem2tmm.stages.refine.error_field`: one Newton step of
+the detailed problem from the recovered field, under the true loads and the FE sides' traced IR), applied to each
+candidate's recovered field.  Its own ray noise is measured, as the reference's is: the side-to-side IR tally is
+traced as two independent halves (``[reduction] refine_rays_per_face`` / 2 rays per emitting FE side each, random
+streams ``estimate_a`` / ``estimate_b``); the estimate is the RMS of the mean of the two error fields, its noise
+``N = RMS(δT_a − δT_b) / 2`` (the noise of that mean).  Noise adds in quadrature to the error it rides on, so the
+error the estimate sees beyond its noise is ``E = √max(RMS² − N², 0)``.
+
+Its cost is bounded (:func:`tally_budget`): the two halves together trace at most :data:`ESTIMATE_RAY_SHARE` of the
+run's own REF rays (or :data:`ESTIMATE_RAYS_FLOOR` per half), a stratified random share of the FE sides emitting
+(every super face its share, Horvitz-Thompson weights), so the tally costs a bounded share of the radiation stage
+at any mesh size; a smaller share shows as a larger measured noise, and a thesis' estimate within it keeps the
+thesis' network.  The re-absorption solve is GMRES at :data:`ESTIMATE_TOL` on the one factorisation of
+``K + diag(h)`` both halves share; with a sampled share it is left out (``K'⁻¹ r``, linear in the tally: the
+sampled sides' re-absorption, weighted by their stratum, made a spiky operator whose inverse is biased; at 266 832
+quads, radiation seed 2, the thesis' 0.32 K at a noise of 0.22 K then built the radiation-aware network and its
+``ir_on = "faces"`` tracing, a 461 s run; without it 0.28 K at 0.20 K, the thesis kept, 19 % of the reduction).
+
+The rule (:func:`measured_choice`), in the order it costs:
+
+1. estimate the thesis' network (solved anyway).  If ``E_thesis ≤ N_thesis`` its error cannot be told from the
+   estimate's noise: keep it (the same accuracy as far as anything here can tell, no outer iterations, a
+   state-independent network).  No radiation-aware network is built;
+2. otherwise build the radiation-aware network
+   (:class:`~fem2tmm.reductors.radiation_aware.RadiationAwareReductor`) and estimate it; it is kept when
+   ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise of the comparison.  Otherwise
+   (a tie) the thesis' stays.  A radiation-aware network without a physical steady solution loses: the thesis' is
+   handed over, with a warning and ``reduced.choice.aware_refused``.  Only where the thesis' network was refused
+   too does the run stop (:func:`reduce_aware`: one message for both, advising neither setting).
+
+Step 1's shortcut never changes the outcome of step 2 (``E_aware ≥ 0``).  Without a traced tally (space-only
+radiation, or ``ir_on = "faces"`` where the network's absorbed IR already follows the FE sides) an estimate has no
+ray noise of its own and ``N = 0``.  The estimate covers the design state: the off-design range of ``[reduction]
+verify`` is checked afterwards against the detailed reference (:mod:`fem2tmm.verify`), not estimated here.  Its
+2m + 2 states (m named constants) would each need every candidate's network solved and recovered there (the
+radiation-aware one by its nonlinear emission-mode recovery) and a detailed Newton step at that state's field: about
+2m + 2 times the design estimate (10x on examples/satellite, whose design estimate is already 4.6-7.8 % of the
+reduction stages), beyond the 20 % the estimate may cost.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import warnings
+
+import numpy as np
+
+from ..case import Case
+from ..errors import Fem2TmmError
+from ..reductors import REDUCTORS, Reduced, ReductionInputs
+from .refine import Refinement, error_field, side_tally, uses_side_tally
+
+#: what the estimate covers (summary.json ``reduced.choice.estimate_covers``)
+COVERS = ("the design state; the [reduction] verify range is checked against the detailed reference afterwards, "
+          "not estimated (its 2m + 2 states would cost about 2m + 2 design estimates)")
+
+
+def resolved(case: Case, aware: bool) -> Case:
+    """``case`` with ``radiation_aware`` set to ``aware`` and ``ir_on = "auto"`` resolved as
+    :func:`fem2tmm.reductors.choose_reduction` does ("faces" with the radiation-aware reduction, else
+    "super_faces")."""
+    rad = case.radiation
+    ir_on = rad.ir_on if rad.ir_on != "auto" else ("faces" if aware and rad.enabled else "super_faces")
+    return dataclasses.replace(case, reduction=dataclasses.replace(case.reduction, radiation_aware=aware),
+                               radiation=dataclasses.replace(rad, ir_on=ir_on))
+
+
+#: the two half tallies of the estimate together trace at most this share of the run's own exchange rays (the super
+#: faces' REFs, ``[radiation]`` budget), or :data:`ESTIMATE_RAYS_FLOOR` per half if that is more: the estimate's
+#: tracing then costs about that share of the radiation stage, whatever the mesh (at 266 832 quads, 10 + 10 rays
+#: per FE side were 1.07e7 rays against the run's 1e7, most of the estimate's 76 % of the reduction stages)
+ESTIMATE_RAY_SHARE = 0.05
+#: rays per half tally always allowed (up to the full tally): below ~10⁴ FE sides the full tally costs a few per
+#: cent of the reduction stages (examples/satellite 7.8 %, its 1.07e5 rays per half), and its noise decides there
+ESTIMATE_RAYS_FLOOR = 200_000
+#: relative tolerance of the estimate's re-absorption solve (GMRES): its error in the estimate is of that order,
+#: far below the estimate's own accuracy (0.66-0.99 of the measured RMS on examples/composite) and its ray noise
+ESTIMATE_TOL = 1e-3
+
+
+def tally_budget(inputs: ReductionInputs, exchange=None) -> tuple[int, float]:
+    """``(rays per emitting FE side, share of the active sides that emit)`` of each of the two half tallies.
+
+    ``[reduction] refine_rays_per_face`` / 2 rays per side each, capped so that both halves together trace at most
+    :data:`ESTIMATE_RAY_SHARE` of ``exchange.rays`` (the run's own REF rays; None: no cap), or
+    :data:`ESTIMATE_RAYS_FLOOR` per half, by letting only a random
+    share of the sides emit, each its full rays (:func:`~fem2tmm.stages.refine.side_tally`, unbiased), not by fewer
+    rays per side: the tally's self-normalised rows are biased at a few rays per side, a bias the two halves share
+    and so cannot measure (a 30 cm box at 2000 W/(m K) whose thesis' network is 1.3e-4 K off: estimated 0.0036 K
+    beyond a noise of 0.0038 K at 2 rays per side and half, 0.001 K beyond 0.0016 K at 10, none at 50 and 200).
+    The estimate's noise, measured from the two halves, grows as the share shrinks; a thesis' estimate within that
+    noise keeps the thesis' network (module docstring)."""
+    n = int(np.count_nonzero(inputs.model.faces.active))
+    per = max(1, int(np.ceil(inputs.case.reduction.refine_rays_per_face / 2)))
+    if exchange is None or not n:
+        return per, 1.0
+    cap = max(ESTIMATE_RAY_SHARE * float(np.sum(exchange.rays)) / 2.0, ESTIMATE_RAYS_FLOOR)
+    return per, min(1.0, max(cap / per, 1.0) / n)
+
+
+def super_face_of_sides(model, clustering) -> np.ndarray:
+    """(2f,) int: each FE side's super face, as the cluster of its element and which side (2 c + 0 front, + 1
+    back); -1 for faces of no cluster.  The strata of the estimate's sampled tally."""
+    f = model.faces
+    lab = np.asarray(clustering.labels, np.int64)[f.element]
+    return np.where(np.repeat(lab, 2) >= 0, 2 * np.repeat(lab, 2) + np.tile([0, 1], f.n), -1)
+
+
+def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
+             tallies: dict | None = None, budget: tuple[int, float] | None = None) -> dict:
+    """The a-posteriori estimate of one candidate's recovered-field error, with its own ray noise.
+
+    Parameters
+    ----------
+    inputs : the reduction's inputs (model, clustering, case, loads ``q_recover`` (n_dof,) W, ``q_lumped`` (n,) W)
+    red : the candidate (its network, ``solution.T`` (n,) K, ``T_recovered`` (n_dof,) K, ``ir``)
+    surface, scene : the radiation surface and ray scene, or None (no radiation traced)
+    tallies : ``{"a", "b"}`` the two half tallies, traced on first use and shared by the candidates
+    budget : ``(rays per side, share of the sides)`` of each half tally (:func:`tally_budget`; None: its uncapped
+        value)
+
+    Returns
+    -------
+    ``{"rms_K", "noise_K", "beyond_noise_K"}``: the RMS of the estimated error field over the mesh nodes (K), its
+    ray noise N (K, 0 without a tally) and √max(rms² − N², 0) (K).
+    """
+    case = red.case
+    model = inputs.model.with_unblocked(red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None
+                                        else inputs.unblocked)
+    args = (model, inputs.clustering, case, red.network, red.solution.T, red.T_recovered, inputs.q_recover,
+            inputs.q_lumped, red.ir)
+    if uses_side_tally(model, case, red.ir, surface):
+        tallies = {} if tallies is None else tallies
+        per, share = tally_budget(inputs) if budget is None else budget
+        fields, lu = [], {}  # one factorisation of K + diag(h) at this field for both halves
+        for h in ("a", "b"):
+            if h not in tallies:
+                tallies[h] = side_tally(model, case, surface, scene, rays_per_face=per, role=f"estimate_{h}",
+                                        share=share, strata=super_face_of_sides(model, inputs.clustering))
+            fields.append(error_field(*args, Refinement(side_absorption=tallies[h]), surface, scene, cache=lu,
+                                      tol=ESTIMATE_TOL, reabsorb=share >= 1.0))
+        (da, w), (db, _) = fields
+        dT, noise = 0.5 * (da + db), float(np.sqrt((w * (da - db) ** 2).sum() / w.sum()) / 2.0)
+    else:
+        dT, w = error_field(*args, Refinement(), None, None)
+        noise = 0.0
+    rms = float(np.sqrt((w * dT**2).sum() / w.sum()))
+    return {"rms_K": rms, "noise_K": noise, "beyond_noise_K": float(np.sqrt(max(rms**2 - noise**2, 0.0)))}
+
+
+def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog, surface=None,
+                    scene=None, exchange=None) -> tuple[Reduced, dict, Reduced | None]:
+    """Resolve ``radiation_aware = "auto"`` by the estimated errors (the module's rule).
+
+    Parameters
+    ----------
+    inputs : the reduction's inputs, ``inputs.case`` with ``radiation_aware = "auto"``
+    thesis : the thesis' reduction of those inputs (solved, recovered)
+    choice : :func:`fem2tmm.reductors.choose_reduction`'s record (its Biot number is kept as information)
+    prog : :class:`~fem2tmm.progress.Progress` (stages "estimate", and the radiation-aware reduction's own)
+    surface, scene : the radiation surface and ray scene, or None (no radiation traced)
+    exchange : the run's super-face :class:`~fem2tmm.radiation.ExchangeResult` (its rays cap the estimate's,
+        :func:`tally_budget`), or None
+
+    Returns
+    -------
+    ``(red, choice, thesis_or_None)``: the kept reduction (its ``case`` resolved), the record for summary.json
+    ``reduced.choice`` (``estimated_rms_K``, ``estimate_noise_K`` per candidate, None for one not built,
+    ``chosen_by``, ``estimate_seconds``, ``estimate_covers``, ``estimate_rays`` the rays of each half tally traced,
+    [] without one), and the thesis' reduction when the other was kept.
+    """
+    tallies, seconds, refused = {}, 0.0, None
+
+    def timed(red: Reduced) -> dict:
+        nonlocal seconds
+        with prog.stage("estimate", f"estimating the {red.method.replace('_', '-')} reduction's error "
+                                    "(a-posteriori)"):
+            t0 = time.perf_counter()
+            out = estimate(inputs, red, surface, scene, tallies, budget)
+            seconds += time.perf_counter() - t0
+        return out
+
+    budget = tally_budget(inputs, exchange)
+    thesis = dataclasses.replace(thesis, case=resolved(inputs.case, False))
+    est = {"thesis": timed(thesis), "radiation_aware": None}
+    et = est["thesis"]
+    kept, why = thesis, None
+    if et["beyond_noise_K"] <= et["noise_K"]:
+        why = (f"auto: the thesis' estimated error {et['rms_K']:.3g} K is at its estimate's noise "
+               f"{et['noise_K']:.2g} K: the thesis' network (the radiation-aware one not built)")
+    else:
+        aware_inputs = dataclasses.replace(inputs, case=resolved(inputs.case, True), advise=False)
+        try:
+            aware = REDUCTORS["radiation_aware"]().reduce(aware_inputs, prog, start=thesis)
+        except Fem2TmmError as exc:  # a candidate without a physical steady solution loses: the thesis' has one
+            refused = str(exc)
+            why = ("auto: the radiation-aware network has no physical steady solution: the thesis' network "
+                   f"(estimated error {et['rms_K']:.3g} K, noise {et['noise_K']:.2g} K)")
+            warnings.warn(f"{inputs.case.source}: [reduction] radiation_aware = \"auto\": the radiation-aware network "
+                          f"has no physical steady solution here ({refused}); the run hands over the thesis' network "
+                          f"(its estimated error {et['rms_K']:.3g} K, summary.json reduced.choice)", stacklevel=2)
+        else:
+            ea = est["radiation_aware"] = timed(aware)
+            margin = float(np.hypot(et["noise_K"], ea["noise_K"]))
+            gain = et["beyond_noise_K"] - ea["beyond_noise_K"]
+            pair = (f"estimated error thesis {et['rms_K']:.3g} K, radiation-aware {ea['rms_K']:.3g} K "
+                    f"(their noise {margin:.2g} K)")
+            if gain > margin:
+                kept, why = aware, f"auto: {pair}: the radiation-aware network, smaller by more than the noise"
+                if aware.notes:
+                    why = "; ".join([why, *aware.notes])
+            else:
+                why = f"auto: {pair}: a tie within the noise, the thesis' network"
+    choice = {**choice, "radiation_aware": kept is not thesis, "ir_on": kept.case.radiation.ir_on, "chosen_by": why,
+              "estimated_rms_K": {k: None if v is None else v["rms_K"] for k, v in est.items()},
+              "estimate_noise_K": {k: None if v is None else v["noise_K"] for k, v in est.items()},
+              "estimate_seconds": seconds, "estimate_covers": COVERS, "aware_refused": refused,
+              "estimate_rays": [int(budget[0] * (t[2] > 0).sum()) for t in (tallies.get("a"), tallies.get("b"))
+                                if t is not None], "estimate_sides_share": budget[1]}
+    return kept, choice, None if kept is thesis else thesis
+
+
+def reduce_aware(inputs: ReductionInputs, prog, start: Reduced, thesis_refused: str | None) -> Reduced:
+    """The radiation-aware reduction the case resolved to (``radiation_aware = true``, or ``"auto"`` where the
+    thesis' network has no physical solution: ``thesis_refused`` its refusal), started from ``start``.
+
+    Where the thesis' network was refused and the radiation-aware one has no physical steady solution either, no
+    method here has one: one :class:`Fem2TmmError` says so for both, and advises neither ``radiation_aware`` setting
+    (both were tried).  Otherwise the radiation-aware reduction's own error stands."""
+    try:
+        return REDUCTORS["radiation_aware"]().reduce(inputs, prog, start=start)
+    except Fem2TmmError as exc:
+        if thesis_refused is None:
+            raise
+        src = f"{inputs.case.source}: "
+        cause = lambda msg: msg.removeprefix(src).split("; use ")[0]  # noqa: E731  (their advice: tried here)
+        advice = ("" if inputs.case.reduction.network == "positive" else
+                  "[reduction] network = \"positive\" (the thesis' reduction with positive conductances) or ")
+        raise Fem2TmmError(
+            f"{inputs.case.source}: neither reduction method has a physical steady solution for this model at these "
+            f"super-node counts: the thesis' network: {cause(thesis_refused)}; the radiation-aware network: "
+            f"{cause(str(exc))}; use {advice}more super nodes (in the parts where the load or the held temperatures "
+            "are)") from None
