@@ -104,13 +104,17 @@ def test_serial_and_local_clusters_are_bit_identical(mesh, capsys):
             # the ray batches of the traces each case computed (solar, REFs; not the reused ones; the two half
             # tallies of "auto"'s error estimate and, where it chose the radiation-aware reduction (every case here:
             # thesis estimated 0.055-0.105 K, its noise 0.002-0.005 K), its FE sides' IR REFs, ir_rays_per_face per
-            # emitting side), the batches of clusters of the local reduction each case computed and one steady
-            # solve per case
+            # emitting side), the batches of clusters of each local reduction a case computed and one steady solve
+            # per case
+            # (the radiation-aware reduction reduces once per outer iteration, on the same clusters, in every case)
+            reductions = lambda r: len((r.summary["reduced"].get("radiation_aware") or {}).get(  # noqa: E731
+                "outer_iterations") or [])
             ir = lambda r: (r.reduced.ir is not None and r.reduced.ir.face is not None) * -(  # noqa: E731
                 -r.case.radiation.ir_rays_per_face * len(r.reduced.ir.eps_area) // BATCH)
             units = sum((r.cache["solar_detailed"] == "computed") * -(-r.detailed.solar.rays // BATCH)
                         + (r.cache["radiation"] == "computed") * -(-int(np.sum(r.reduced.radiation.rays)) // BATCH)
-                        + (r.cache["reduce"] == "computed") * r.reduced.network.reduction.diagnostics["tasks"] + 1
+                        + r.reduced.network.reduction.diagnostics["tasks"] * ((r.cache["reduce"] == "computed")
+                                                                               + reductions(r)) + 1
                         + sum(-(-n // BATCH) for n in r.reduced.choice["estimate_rays"]) + ir(r)
                         for r in multi.results.values())
             s = "s" if workers > 1 else ""
