@@ -99,23 +99,25 @@ PARAMETRIC_TEST = [("heater 7.5 W", 7.5, 20.0, -270.0), ("heater 52.5 W", 52.5, 
                    ("20 W, deck 10 °C, sink -200 °C", 20.0, 10.0, -200.0), ("sink -150 °C", 30.0, 20.0, -150.0)]
 
 
-def _deck_state_error(out: Path, state, reference) -> tuple[float, float]:
-    """RMS / max error (K) of the deck in ``out`` with HEATER, DECK and the sink edited to ``state`` (name, W, °C,
-    °C), read back by fem2tmm.lpm, solved and recovered with the recovery of ``out/reduced.npz``, against the detailed
-    field of ``reference`` (a run of that state): what a user who edits the deck receives."""
+def edited_deck_error(out: Path, constants: dict, sink: float, reference) -> tuple[float, float]:
+    """RMS / max error (K) of the deck in ``out`` with its named constants edited (``constants``: boundary name ->
+    value in the case file's units; the ESATAN constant is the name in capitals) and the sink at ``sink`` °C, read
+    back by fem2tmm.lpm, solved and recovered with the recovery of ``out/reduced.npz`` (each named load at its edited
+    value, the others at the deck's), against the detailed field of ``reference`` (a run of that state): what a user
+    who edits the deck receives."""
     import re
 
     from fem2tmm.lpm import read_esatan
     from fem2tmm.lpm.solve import solve_network
     from fem2tmm.reduce.exported import load
 
-    _, heater, deck, sink = state
     text = (out / "model.esatan").read_text()
-    for name, v in (("HEATER", heater), ("DECK", deck)) + ((("SINK", sink),) if "SINK = " in text else ()):
-        text, n = re.subn(rf"(?m)^(\s*{name} = )[^;]+;", rf"\g<1>{v!r};", text)
+    edits = dict(constants) | ({"sink": sink} if "SINK = " in text else {})
+    for name, v in edits.items():
+        text, n = re.subn(rf"(?m)^(\s*{name.upper()} = )[^;]+;", rf"\g<1>{float(v)!r};", text)
         assert n == 1, name
     if "SINK = " not in text:  # a deck without the parametric sink: the space node's temperature
-        text, n = re.subn(r"(?m)^(\s*B\d+ = 'SPACE', T = )[^;]+;", rf"\g<1>{sink!r};", text)
+        text, n = re.subn(r"(?m)^(\s*B\d+ = 'SPACE', T = )[^;]+;", rf"\g<1>{float(sink)!r};", text)
         assert n == 1
     path = out / "edited.esatan"
     path.write_text(text)
@@ -124,8 +126,15 @@ def _deck_state_error(out: Path, state, reference) -> tuple[float, float]:
     rec = load(out / "reduced.npz")
     labels = [str(n).upper() for n in net.labels]
     T_sn = np.array([T[labels.index(str(n).upper())] for n in rec.names])
-    field = rec.recover(T_sn, loads={"heater": heater}, T_sink=sink + 273.15, T0=reference.reduced.T_recovered)
+    loads = {n: float(constants.get(n, v)) for n, v in zip(rec.load_names, rec.load_values)}
+    field = rec.recover(T_sn, loads=loads, T_sink=sink + 273.15, T0=reference.reduced.T_recovered)
     return _err(reference.model, field, reference.detailed.solution.T)
+
+
+def _deck_state_error(out: Path, state, reference) -> tuple[float, float]:
+    """:func:`edited_deck_error` of a composite state (name, heater W, deck °C, sink °C)."""
+    _, heater, deck, sink = state
+    return edited_deck_error(out, {"heater": heater, "deck": deck}, sink, reference)
 
 
 def bench_envelope_parametric(n_sn=(100, 300)) -> list[dict]:
@@ -169,6 +178,74 @@ def bench_envelope_parametric(n_sn=(100, 300)) -> list[dict]:
                        "reference_noise_rms_K": ref.summary["accuracy"].get("reference_noise_rms_K")}
                 for tag in ("frozen", "parametric"):
                     row[f"{tag}_deck_rms_K"], row[f"{tag}_deck_max_K"] = _deck_state_error(tmp / tag, state, ref)
+                row.update(design_run_s=walls, reference_runs_s=round(seconds, 1))
+                rows.append(row)
+    return rows
+
+
+#: ``fem2tmm bench envelope_deck``: per example, its case file and the states a user edits its single-case deck to
+#: (name, named constants in the case file's units, sink °C): each named load off, at 2x and 4x its value, a warm sink
+#: and a colder held deck where the example has them
+DECK_STATES = {
+    "composite": ("case.toml", [("nominal", {"heater": 30.0, "deck": 20.0}, -270.0),
+                                ("heater 0 W", {"heater": 0.0}, -270.0), ("heater 60 W", {"heater": 60.0}, -270.0),
+                                ("heater 120 W", {"heater": 120.0}, -270.0), ("sink -100 °C", {}, -100.0),
+                                ("deck 0 °C", {"deck": 0.0}, -270.0)]),
+    "smallsat": ("case.toml", [("nominal", {}, -270.15), ("instrument 0 W", {"instrument_power": 0.0}, -270.15),
+                               ("instrument 40 W", {"instrument_power": 40.0}, -270.15),
+                               ("electronics 0 W", {"electronics_on_deck": 0.0}, -270.15),
+                               ("electronics 60 W", {"electronics_on_deck": 60.0}, -270.15)]),
+}
+
+
+def bench_envelope_deck(examples=("composite", "smallsat")) -> list[dict]:
+    """``fem2tmm bench envelope_deck``: each example as committed (one case, default settings, its super-node
+    counts) and with the thesis' reduction, each deck edited to its :data:`DECK_STATES` as a user would (named
+    constants, the space node's temperature), read back by fem2tmm.lpm, solved and recovered with its reduced.npz,
+    against each state's own detailed reference (one run of the states as ``[[cases]]``, thesis' reduction, orbit
+    average only: the same detailed model).  One JSON line per (example, state): ``default_rms_K``/``max_K``,
+    ``thesis_rms_K``/``max_K``, ``default_better``, the reference noise."""
+    import tempfile
+
+    from fem2tmm.case import Case
+    from fem2tmm.errors import Fem2TmmError
+    from fem2tmm.pipeline import run
+
+    rows = []
+    for example in examples:
+        folder = REPO / "examples" / example
+        file, states = DECK_STATES[example]
+        with tempfile.TemporaryDirectory() as tmp:
+            tmp = Path(tmp)
+            walls = {}
+            for tag, aware in (("default", True), ("thesis", False)):
+                raw = tomllib.loads((folder / file).read_text())
+                raw = raw if aware else as_thesis(raw)
+                t0 = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    run(Case.from_dict(raw, base_dir=folder), out=tmp / tag)
+                walls[tag] = round(time.perf_counter() - t0, 1)
+            raw = as_thesis(tomllib.loads((folder / file).read_text()))
+            if "orbit" in raw:
+                raw["orbit"]["steady"] = "average"
+            raw["cases"] = [{"name": f"s{i}", "boundary": {k: {"value": v} for k, v in c.items()},
+                             "environment": {"sink_temperature": sink}} for i, (_, c, sink) in enumerate(states)]
+            multi, seconds = timed_run(Case.from_dict(raw, base_dir=folder))
+            for i, (name, constants, sink) in enumerate(states):
+                ref = multi.results[f"s{i}"]
+                row = {"bench": "envelope_deck", "example": example, "state": name,
+                       "super_nodes": int(ref.summary["reduced"]["super_nodes"]) if "super_nodes" in ref.summary[
+                           "reduced"] else None,
+                       "reference_noise_rms_K": ref.summary["accuracy"].get("reference_noise_rms_K")}
+                for tag in ("default", "thesis"):
+                    try:
+                        row[f"{tag}_rms_K"], row[f"{tag}_max_K"] = edited_deck_error(tmp / tag, constants, sink, ref)
+                    except Fem2TmmError as e:  # what `fem2tmm recover` would tell the user: a row, not a crash
+                        row[f"{tag}_rms_K"] = row[f"{tag}_max_K"] = None
+                        row[f"{tag}_failed"] = str(e)
+                row["default_better"] = (row["default_rms_K"] is not None and (
+                    row["thesis_rms_K"] is None or row["default_rms_K"] < row["thesis_rms_K"]))
                 row.update(design_run_s=walls, reference_runs_s=round(seconds, 1))
                 rows.append(row)
     return rows

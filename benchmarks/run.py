@@ -60,6 +60,7 @@ REGISTRY: dict[str, str] = {
     "envelope": "benchmarks.envelope:bench_envelope",
     "envelope_orbit": "benchmarks.envelope:bench_envelope_orbit",
     "envelope_parametric": "benchmarks.envelope:bench_envelope_parametric",
+    "envelope_deck": "benchmarks.envelope:bench_envelope_deck",
     "robustness": "benchmarks.robustness:bench_robustness",
     "rom": "benchmarks.rom:bench_rom_all",
     "satellite": "benchmarks.satellite:bench_satellite",

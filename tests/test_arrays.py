@@ -44,3 +44,25 @@ def test_unique_rows_is_np_unique_axis0(m, k, high):
     for inverse, counts in itertools.product([False, True], repeat=2):
         _same(unique_rows(a, return_inverse=inverse, return_counts=counts),
               np.unique(a, axis=0, return_inverse=inverse, return_counts=counts))
+
+
+@pytest.mark.parametrize("m, k, levels", [(1, 3, 4), (5000, 6, 3), (5000, 2, 50), (2000, 4, 2000)])
+def test_unique_rows_of_floats_is_np_unique_axis0(m, k, levels):
+    """Float rows (the model's element attributes: part, k, ρc, t, area, tensor): ranked column by column, then
+    the integer path; values, inverse and counts exactly np.unique(axis=0)'s, -0.0 equal to 0.0 as numpy has it."""
+    rng = np.random.default_rng(m * k + levels)
+    values = np.concatenate([rng.normal(size=levels - 1) * 10.0 ** rng.integers(-8, 8, levels - 1), [0.0]])
+    a = values[rng.integers(0, levels, (m, k))]
+    a[rng.random((m, k)) < 0.05] = -0.0
+    for inverse, counts in itertools.product([False, True], repeat=2):
+        got = unique_rows(a, return_inverse=inverse, return_counts=counts)
+        want = np.unique(a, axis=0, return_inverse=inverse, return_counts=counts)
+        got = got if isinstance(got, tuple) else (got,)
+        want = want if isinstance(want, tuple) else (want,)
+        assert len(got) == len(want)
+        for g, w in zip(got, want):  # -0.0 == 0.0: the rows compare equal (np.array_equal), as in numpy's own test
+            assert g.dtype == w.dtype and g.shape == w.shape and np.array_equal(g, w)
+    nan = a.copy()
+    nan[0, 0] = np.nan  # NaN goes to numpy as it is
+    for g, w in zip(unique_rows(nan, return_inverse=True), np.unique(nan, axis=0, return_inverse=True)):
+        assert g.shape == w.shape and np.array_equal(g, w, equal_nan=True)

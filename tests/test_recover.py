@@ -10,6 +10,7 @@ import re
 
 import meshio
 import numpy as np
+import scipy.sparse as sp
 import pytest
 
 from conftest import composite_box_case, make_case
@@ -309,3 +310,25 @@ def test_per_position_temperatures_fed_back_with_their_positions_reproduce_the_r
         bad = write_csv(tmp_path / "bad.csv", rec.names, cols, header=[f"p{j + 1}" for j in range(k)], extra=[row])
         assert main(["recover", str(tmp_path / "out"), "--temperatures", str(bad), "--out", str(tmp_path / "x")]) == 2
         assert message in capsys.readouterr().err and not (tmp_path / "x").exists()
+
+
+def test_means_no_positive_field_has_are_refused_naming_the_node_and_super_node():
+    # A chain of 20 nodes (G = 1 W/K between neighbours), each emitting 1e-3 m² to a 3 K sink, cut into two super
+    # nodes of 10.  The recovery holds each half's mean by a uniform heat per half.  Asked for means 400 K and 5 K,
+    # the cold half must average 5 K beside a 400 K half: the uniform sink that holds its mean pulls its field below
+    # 0 K, so these equations have no physical solution.  The refusal names the GRID and the super node instead of
+    # "did not converge".
+    from fem2tmm.errors import Fem2TmmError
+    from fem2tmm.reduce.exported import ExportedRecovery
+
+    n = 20
+    K = sp.diags([np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsr()
+    A = sp.csr_matrix((np.full(n, 0.1), (np.repeat([0, 1], 10), np.arange(n))), shape=(2, n))
+    rec = ExportedRecovery(K=K, A=A, names=np.array(["hot", "cold"]), q0=np.zeros(n), load_names=np.array([], str),
+                           load_q=sp.csr_matrix((0, n)), load_values=np.zeros(0), node_dof=np.arange(n),
+                           node_ids=np.arange(101, 101 + n), midside=np.zeros((0, 3), np.int64), mode="emission",
+                           e=np.full(n, 1e-3), T_sink=3.0)
+    assert rec.recover(np.array([400.0, 300.0])).min() > 0.0  # physical means: a field
+    with pytest.raises(Fem2TmmError, match=r"these super-node temperatures have no physical recovered field: .* "
+                                           r"drives GRID 1\d\d \(super node cold\) to 0 K"):
+        rec.recover(np.array([400.0, 5.0]))

@@ -570,7 +570,7 @@ def _build_model(mesh: Mesh, case: Case) -> FEModel:
             )
     key = np.column_stack([epart, props["k"][elements], props["rho"][elements] * props["cp"][elements],
                            props["t"][elements], props["area"][elements], props["tensor"][elements]])
-    _, attribute = np.unique(np.nan_to_num(key, nan=-1.0), axis=0, return_inverse=True)
+    _, attribute = unique_rows(np.nan_to_num(key, nan=-1.0), return_inverse=True)
     return FEModel(mesh=mesh, parts=tuple(parts), node_dof=node_dof, n_dof=n_dof, elements=elements,
                    element_part=epart, element_dofs=element_dofs, element_cells=cells, element_types=types,
                    element_attribute=attribute.ravel().astype(np.int64), volume_shares=vshares, capacity_shares=cshares,

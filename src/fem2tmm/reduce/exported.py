@@ -477,6 +477,20 @@ class ExportedRecovery:
                 raise
             return self._newton(T_sn, q, T_sink, np.maximum(np.asarray(linear, float), 1.0), M)
 
+    def _no_positive_field(self, T: np.ndarray, dT: np.ndarray) -> str:
+        """The refusal where Newton is held back from 0 K at every step: the node it drives below 0 K (its GRID id)
+        and the super node whose mean holds it there."""
+        dof = int(np.argmin(T + dT))
+        nodes = np.flatnonzero(self.node_dof == dof)
+        grid = f"GRID {int(self.node_ids[nodes[0]])}" if len(nodes) else f"DOF {dof}"
+        col = self.A[:, dof].tocoo()
+        owner = str(self.names[int(col.row[np.argmax(col.data)])]) if col.nnz else "?"
+        return (f"these super-node temperatures have no physical recovered field: the recovery (the detailed "
+                f"equations holding each super node's mean) drives {grid} (super node {owner}) to 0 K.  The network's "
+                "temperatures at this state are not those of the structure there, which happens far from the state "
+                "fem2tmm reduced at (the deck's validity range says how far it was checked).  Run fem2tmm at this "
+                "state (its loads in the case file, or a [[cases]] entry), or give that part more super nodes")
+
     def _chord(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
                M: sp.spmatrix | None = None, lu=None) -> np.ndarray | None:
         """One factorisation, at the start: iterations on the whole residual (emission and absorbed IR at the
@@ -546,6 +560,8 @@ class ExportedRecovery:
                     break
                 prev = size
             else:
+                if step < 1.0:  # held back from 0 K at every step: no field of these means is positive
+                    raise Fem2TmmError(self._no_positive_field(T, dT))
                 raise Fem2TmmError(f"the recovery's Newton did not converge in {RECOVERY_MAX_NEWTON} steps (last "
                                    f"step {np.abs(step * dT).max():.3g} K): are the super-node temperatures in K and "
                                    "physical?")
