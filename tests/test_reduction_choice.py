@@ -187,3 +187,21 @@ def test_the_estimate_of_a_large_model_traces_a_bounded_stratified_share_of_the_
     # ([0.6, 1.4] of the measured RMS, the test above)
     th = acc["thesis_method"]["rms_K"]
     assert 0.6 * th - 3 * noise < est < 1.4 * th + 3 * noise, (choice, acc)
+
+
+def test_above_the_estimates_size_the_cluster_biot_number_decides(monkeypatch):
+    # The estimate's detailed factorisation grows faster than the reduction (37.5 % of the reduction stages at
+    # 1.07e6 quads, reductors.ESTIMATE_MAX_UNKNOWNS): above that size the Biot rule decides, without an estimate.
+    # The same boxes as above with the size lowered below theirs: k = 5 (Bi 8.4) takes the radiation-aware
+    # network, k = 170 (Bi 0.51 < AUTO_BIOT) the thesis'.
+    import fem2tmm.reductors as reductors
+
+    monkeypatch.setattr(reductors, "ESTIMATE_MAX_UNKNOWNS", 1000)
+    mesh = box()
+    for k, aware in ((5.0, True), (170.0, False)):
+        r = run(composite_box_case(40, k, {"outer_iterations": 20}, detailed=False), mesh=mesh)
+        choice = r.summary["reduced"]["choice"]
+        assert choice["radiation_aware"] is aware, choice
+        assert "unknowns, above the 1000 the error estimate runs for" in choice["chosen_by"], choice
+        assert ("estimated_rms_K" not in choice) and r.summary["timings_s"].get("estimate") is None, choice
+        assert r.reduced.method == ("radiation_aware" if aware else "thesis")

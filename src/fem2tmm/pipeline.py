@@ -659,7 +659,7 @@ def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, 
     if group is not None and case.reduction.radiation_aware:
         extra["shared_network"] = {"linearised_at": group["case"], "cases": list(group["cases"])}
     inputs = net.inputs = dataclasses.replace(inputs, case=case, linearised_at=None if group is None else group["T"])
-    if case.reduction.radiation_aware == "auto":  # the estimated errors decide (issue 42)
+    if case.reduction.radiation_aware == "auto":  # the estimated errors decide
         red, choice, thesis = measured_choice(inputs, red, choice, prog, *run.tracing(), extra.get("radiation"))
         case, reductor = red.case, reductor_for(red.case)
         extra.update({} if thesis is None else {"thesis_T_recovered": thesis.T_recovered})

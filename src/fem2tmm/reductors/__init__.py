@@ -31,12 +31,24 @@ from .positive import PositiveReductor
 from .radiation_aware import RadiationAwareReductor
 from .thesis import ThesisReductor
 
-__all__ = ["REDUCTORS", "Reduced", "ReductionInputs", "Reductor", "choose_reduction",
+__all__ = ["AUTO_BIOT", "ESTIMATE_MAX_UNKNOWNS", "REDUCTORS", "Reduced", "ReductionInputs", "Reductor", "choose_reduction",
            "exported_arrays", "first_reductor", "reductor_for"]
 
 #: every reduction method by name (``Reduced.method``, ``summary.json reduced.reductor``)
 REDUCTORS: dict[str, type[Reductor]] = {r.name: r for r in (ThesisReductor, PositiveReductor,
                                                             RadiationAwareReductor)}
+
+
+#: ``"auto"`` estimates both candidates' errors on models of at most this many unknowns.  The estimate's cost is
+#: one factorisation of the detailed Newton matrix, which grows faster than the reduction: measured with the
+#: pipeline_1m case (2026-12-06, shared 2-core machine, scipy): 14.8-19.2 % of the reduction stages at 266 832 quads
+#: (6.0-9.3 s), 37.5 % at 1 067 328 quads (23.7 s of 63.3 s, the whole run +24 %), against the 20 % the estimate may
+#: cost.  Above it :data:`AUTO_BIOT` decides (docs/design-notes.md, "Which reduction by default")
+ESTIMATE_MAX_UNKNOWNS = 300_000
+#: above :data:`ESTIMATE_MAX_UNKNOWNS`, ``"auto"`` takes the radiation-aware reduction where the largest cluster Biot
+#: number reaches this (a cluster as wide as the fin length √(k t / h_rad); every committed study with a thesis error
+#: above 0.1 K RMS has Bi ≥ 9.5, every one below 1 has Bi ≤ 0.19 and a thesis error ≤ 0.1 K)
+AUTO_BIOT = 1.0
 
 
 def first_reductor(case: Case) -> Reductor:
@@ -56,9 +68,10 @@ def choose_reduction(model: FEModel, case: Case, rm: ReducedModel, T: np.ndarray
 
     ``rm`` the thesis' reduced model, ``T`` (n_dof,) K its recovered field.  ``radiation_aware = "auto"`` becomes
     true when ``ir_on`` asks for the FE faces ("faces", "detailed"), false with ``network = "positive"`` (not
-    defined for it) or without emission or radiating shell clusters; otherwise it stays ``"auto"``: the estimated
-    errors of both candidates decide (:func:`fem2tmm.stages.choice.measured_choice`, issue 42), and ``ir_on``
-    stays as asked.  ``ir_on = "auto"`` becomes "faces" with the radiation-aware reduction and face-to-face
+    defined for it) or without emission or radiating shell clusters; on a model of more than
+    :data:`ESTIMATE_MAX_UNKNOWNS` unknowns, true when the largest cluster Biot number reaches :data:`AUTO_BIOT`;
+    otherwise it stays ``"auto"``: the estimated errors of both candidates decide
+    (:func:`fem2tmm.stages.choice.measured_choice`), and ``ir_on`` stays as asked.  ``ir_on = "auto"`` becomes "faces" with the radiation-aware reduction and face-to-face
     radiation, else "super_faces".  Returns the case with both set and ``{"radiation_aware", "ir_on", "chosen_by",
     "biot_cluster_max"}`` for the summary: the largest cluster Biot number (:func:`biot_numbers`, h = 4σ εA T³ of
     every active side at ``T``, as :func:`biot_weights`) whenever something radiates, None without shells; it is
@@ -80,6 +93,11 @@ def choose_reduction(model: FEModel, case: Case, rm: ReducedModel, T: np.ndarray
         aware, why = False, "auto: nothing radiates"
     elif bi is None:
         aware, why = False, "auto: no radiating shell clusters"
+    elif model.n_dof > ESTIMATE_MAX_UNKNOWNS:  # the estimate would cost more than the reduction allows
+        aware = bi >= AUTO_BIOT
+        why = (f"auto: {model.n_dof} unknowns, above the {ESTIMATE_MAX_UNKNOWNS} the error estimate runs for (its "
+               f"detailed factorisation would cost over 20 % of the reduction): the largest cluster Biot number "
+               f"{bi:.3g} {'>=' if aware else '<'} {AUTO_BIOT:g}")
     else:  # measured: fem2tmm.stages.choice
         return case, {"radiation_aware": "auto", "ir_on": rad.ir_on, "chosen_by": "auto: the estimated errors",
                       "biot_cluster_max": float(bi)}

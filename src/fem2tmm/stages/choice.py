@@ -1,4 +1,4 @@
-"""The measured choice of ``[reduction] radiation_aware = "auto"`` (issue 42, item 2): the method with the smaller
+"""The measured choice of ``[reduction] radiation_aware = "auto"``: the method with the smaller
 estimated error on this model, without a detailed reference.
 
 The estimate is the ``target_rms`` global estimator (:func:`fem2tmm.stages.refine.error_field`: one Newton step of
