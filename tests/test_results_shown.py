@@ -64,7 +64,13 @@ def test_case_written_as_toml_reads_back_the_same():
     from fem2tmm.demo import DEMO_CASE
     from fem2tmm.export.output import to_toml
 
-    data = {**DEMO_CASE, "odd keys": {"a.b": [1, 2.5, "x"], "t": {"u": True, "v": {"w": -1e-300}}}}
+    import datetime
+
+    # (an [orbit] date as tomllib reads it from a case file: a Python case dict of examples/smallsat carries one)
+    data = {**DEMO_CASE, "odd keys": {"a.b": [1, 2.5, "x"], "t": {"u": True, "v": {"w": -1e-300}}},
+            "orbit": {"date": datetime.datetime(2026, 6, 21, 12, 0), "day": datetime.date(2026, 6, 21),
+                      "utc": datetime.datetime(2026, 6, 21, 12, 0, 30, 5000, tzinfo=datetime.timezone.utc),
+                      "at": datetime.time(7, 32)}}
     text = to_toml(data)
     assert tomllib.loads(text) == data
     assert "[[parts]]" in text and "[environment]" in text and not text.startswith("{")

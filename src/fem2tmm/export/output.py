@@ -13,6 +13,7 @@ can be written, before any computation.
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
 import re
@@ -275,11 +276,13 @@ def _toml_value(v) -> str:
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if isinstance(v, dict):
         return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, (datetime.datetime, datetime.date, datetime.time)):  # TOML's own date-times (RFC 3339)
+        return v.isoformat()
     raise TypeError(f"cannot write {type(v).__name__} as TOML")
 
 
 def to_toml(data: dict, prefix: str = "") -> str:
-    """``data`` (JSON-like: str keys; str, int, float, bool, lists, dicts) as TOML text: scalars first, then
+    """``data`` (JSON-like: str keys; str, int, float, bool, dates and times, lists, dicts) as TOML text: scalars first, then
     ``[tables]`` and ``[[arrays of tables]]``, so that ``tomllib.loads(to_toml(d)) == d``."""
     lines, later = [], []
     for k, v in data.items():
