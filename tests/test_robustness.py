@@ -251,11 +251,10 @@ def test_shrunk_failures_now_solve(name):
 
 def test_mli_corners_network_books_match_its_field():
     """The MLI model of ``mli_corners_emit_by_themselves``: half of its 252 W heater falls on the held edge's nodes.
-    The radiation-aware network's held node took that load as a negative emitting area (-0.21 m²: the network
-    "radiated" -1.4 W to space where its recovered field emits 125 W by the traced exchange factors).  Now the
-    network's radiation to space and the traced emission of its recovered field agree to 1 % (the issue's
-    acceptance; measured 4e-7), and the heat into the held edge to 0.1 % of the detailed model's (measured 2.6e-4:
-    the two tracings' ray noise)."""
+    The radiation-aware network's radiation to space and the traced emission of its recovered field agree to 1 % (the
+    issue's acceptance; measured 4e-7), and the heat into the held edge to 0.1 % of the detailed model's (measured
+    2.6e-4: the two tracings' ray noise).  Before the hot-spot books, the held node took that load as a negative
+    emitting area (-0.21 m²: the network "radiated" -1.4 W to space where its field emits 125 W)."""
     import warnings
 
     from fem2tmm.case import Case

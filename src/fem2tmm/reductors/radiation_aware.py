@@ -345,7 +345,7 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     iterations' :func:`one_node_emission`).  Returns the network and its solution (the design state again, to
     the solver's tolerance); where the network without correction has no solution, ``rm`` and ``sol`` as given."""
     from ..linalg import blas_threads
-    from ..reduce.radiative import _free_balance, effective_emission, emission_floor_links
+    from ..reduce.radiative import effective_emission, emission_floor_links
 
     T = sol.T
     given = rm
@@ -356,14 +356,10 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     g_fixed = np.where(rm.fixed, g_space, 0.0)
     if held_W is not None:
         d4 = T**4 - rm.T_sink**4
-        exchange = _free_balance(np.zeros_like(np.asarray(rm.K, float)), np.zeros(rm.n), rm.GR, T)  # -σ L_GR T⁴
         for i in np.flatnonzero(rm.fixed):
             row = -np.array(rm.K[i], float)
             row[i] = 0.0
-            # W the conductors and the exchange with the other super nodes do not carry; the node's own load Y'q
-            # flows into it in the network as in the detailed model (a heater on the held edge: without it, 126 W
-            # of a 252 W heater became a negative emitting area, the network "radiating" -126 W there)
-            left = float(held_W[i] - row @ (T[i] - T) + exchange[i] + Q_applied[i])
+            left = float(held_W[i] - row @ (T[i] - T))  # W the conductors do not carry
             if np.isfinite(left) and abs(d4[i]) > 1e-12 * T[i] ** 4:
                 g_fixed[i] = left / (SIGMA * d4[i])
     e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, rm.radiative.H, g_fixed,
