@@ -554,8 +554,9 @@ class ExportedRecovery:
                 # floating-point floor of an ill-conditioned model
                 # (the emission and the loads count too: a 0 K start heated by 330 W, tests/test_robustness.py)
                 floor = roundoff(self.K, T) + (0.0 if M is None else roundoff(M, T))
+                # and the constraint forces A^T mu (a super node's multiplier carries the heat its cluster passes on)
                 floor += ROUNDOFF_ULPS * float(np.finfo(float).eps) * float(
-                    np.abs(SIGMA * self.e * (T**4 + s4)).sum() + np.abs(qa).sum())
+                    np.abs(SIGMA * self.e * (T**4 + s4)).sum() + np.abs(qa).sum() + np.abs(self.A.T @ mu).sum())
                 if prev is not None and size > 0.5 * prev and np.abs(r1).sum() <= floor:
                     break
                 prev = size

@@ -130,9 +130,12 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
         elem_row[model.elements] = np.arange(len(model.elements))
         f = model.faces
         face_row = elem_row[f.element]  # conduction entries are numbered by model element row
-        emis = emission_entries(f.W, face_row, f.eps_area, T_ref, keep_face=~determined[face_row])
+        emis = emission_entries(f.W, face_row, f.eps_area, T_ref)
+        # h counts every face: a fully determined element's faces emit from one-node super nodes (joint ends, kept
+        # nodes), whose H_SN = Y'h must hold that emission (the network gives it them, radiation_aware_network);
+        # only the clustered elements' entries enter the local condensation
         h = np.bincount(emis.rows, emis.vals, minlength=model.n_dof)
-        coo = type(coo).concatenate([coo, emis])
+        coo = type(coo).concatenate([coo, emis.select(~determined[emis.elem])])
     red = reduce_conduction(coo, sn, labels, elements=rows, method=case.reduction.method,
                             zero_row_sums=T_ref is None)
     K = red.K.copy()
