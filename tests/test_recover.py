@@ -312,7 +312,7 @@ def test_per_position_temperatures_fed_back_with_their_positions_reproduce_the_r
         assert message in capsys.readouterr().err and not (tmp_path / "x").exists()
 
 
-def test_means_no_positive_field_has_are_refused_naming_the_node_and_super_node():
+def test_means_without_a_positive_field_are_refused_naming_the_node_and_super_node():
     # A chain of 20 nodes (G = 1 W/K between neighbours), each emitting 1e-3 m² to a 3 K sink, cut into two super
     # nodes of 10.  The recovery holds each half's mean by a uniform heat per half.  Asked for means 400 K and 5 K,
     # the cold half must average 5 K beside a 400 K half: the uniform sink that holds its mean pulls its field below
@@ -329,6 +329,38 @@ def test_means_no_positive_field_has_are_refused_naming_the_node_and_super_node(
                            node_ids=np.arange(101, 101 + n), midside=np.zeros((0, 3), np.int64), mode="emission",
                            e=np.full(n, 1e-3), T_sink=3.0)
     assert rec.recover(np.array([400.0, 300.0])).min() > 0.0  # physical means: a field
-    with pytest.raises(Fem2TmmError, match=r"these super-node temperatures have no physical recovered field: .* "
-                                           r"drives GRID 1\d\d \(super node cold\) to 0 K"):
+    with pytest.raises(Fem2TmmError, match=r"the recovery found no field above 0 K for these super-node "
+                                           r"temperatures: its Newton is held at 0 K at GRID 1\d\d \(super node cold\)"):
         rec.recover(np.array([400.0, 5.0]))
+
+
+def test_a_named_load_far_from_design_recovers_from_the_design_loads_start():
+    # The same chain (G = 0.05 W/K, 1e-2 m² emitting per node), a named heater on its first node, designed at 1 W.
+    # With space-only emission the recovery's equations are the detailed model's, so given the detailed field's own
+    # means it returns that field (lambda = 0) whatever the load: an independent check of the nonlinear recovery.
+    # At 20 and 40 W the default start used to be the linear field with the state's loads and no emission (hundreds
+    # of K below 0 at the far end): Newton stalled at 0 K and refused exact means.  It now starts from the means
+    # with the loads held at design.
+    from scipy.sparse.linalg import spsolve
+
+    from fem2tmm.constants import SIGMA
+    from fem2tmm.reduce.exported import ExportedRecovery
+
+    n, e, sink = 20, 1e-2, 3.0
+    K = 0.05 * sp.diags([np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsr()
+    A = sp.csr_matrix((np.full(n, 0.1), (np.repeat([0, 1], 10), np.arange(n))), shape=(2, n))
+    pattern = sp.csr_matrix(([1.0], ([0], [0])), shape=(1, n))
+    rec = ExportedRecovery(K=K, A=A, names=np.array(["a", "b"]), q0=np.zeros(n), load_names=np.array(["heater"]),
+                           load_q=pattern, load_values=np.array([1.0]), node_dof=np.arange(n),
+                           node_ids=np.arange(101, 101 + n), midside=np.zeros((0, 3), np.int64), mode="emission",
+                           e=np.full(n, e), T_sink=sink)
+    for power in (1.0, 20.0, 40.0):
+        T = np.full(n, 300.0)
+        for _ in range(60):  # the detailed model, Newton to 1e-10 K
+            r = K @ T + SIGMA * e * (T**4 - sink**4) - power * pattern.toarray()[0]
+            d = spsolve((K + sp.diags(4.0 * SIGMA * e * T**3)).tocsc(), -r)
+            T += d
+            if np.abs(d).max() < 1e-10:
+                break
+        field = rec.recover(A @ T, loads={"heater": power})
+        assert np.abs(field - T).max() < 1e-8  # the Newton tolerances (1e-10 K steps); measured 4e-14 - 3e-12 K

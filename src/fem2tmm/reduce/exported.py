@@ -293,7 +293,15 @@ class ExportedRecovery:
         lu = self._saddle()
         T = lu.solve(np.vstack([q, Ts]))[: self.n_dof]
         if self.mode == "emission":
-            starts = None if T0 is None else np.asarray(T0, float).reshape(self.n_dof, -1)
+            if T0 is None and loads:
+                # the default start: these means with the loads held at design, as the run's validity check starts
+                # (without the emission, a named load's change alone moves the linear field by hundreds of K: the
+                # composite example's deck edited to its heater at 4x drove Newton into 0 K from there); that
+                # linear field with the state's loads stays the second start
+                qd = self.loads()
+                starts = lu.solve(np.vstack([np.repeat(qd[:, None], k, axis=1), Ts]))[: self.n_dof]
+            else:
+                starts = None if T0 is None else np.asarray(T0, float).reshape(self.n_dof, -1)
             for j in range(k):
                 start = T[:, j] if starts is None else starts[:, min(j, starts.shape[1] - 1)]
                 T[:, j] = self._nonlinear(Ts[:, j], q[:, j], float(sinks[j]), start,
@@ -485,11 +493,11 @@ class ExportedRecovery:
         grid = f"GRID {int(self.node_ids[nodes[0]])}" if len(nodes) else f"DOF {dof}"
         col = self.A[:, dof].tocoo()
         owner = str(self.names[int(col.row[np.argmax(col.data)])]) if col.nnz else "?"
-        return (f"these super-node temperatures have no physical recovered field: the recovery (the detailed "
-                f"equations holding each super node's mean) drives {grid} (super node {owner}) to 0 K.  The network's "
-                "temperatures at this state are not those of the structure there, which happens far from the state "
-                "fem2tmm reduced at (the deck's validity range says how far it was checked).  Run fem2tmm at this "
-                "state (its loads in the case file, or a [[cases]] entry), or give that part more super nodes")
+        return (f"the recovery found no field above 0 K for these super-node temperatures: its Newton is held at "
+                f"0 K at {grid} (super node {owner}).  The network's temperatures at this state may not be those "
+                "of a physical field there, which happens far from the state fem2tmm reduced at (the deck's "
+                "validity range says how far it was checked).  Run fem2tmm at this state (its loads in the case "
+                "file, or a [[cases]] entry), or give that part more super nodes")
 
     def _chord(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
                M: sp.spmatrix | None = None, lu=None) -> np.ndarray | None:
@@ -561,7 +569,7 @@ class ExportedRecovery:
                     break
                 prev = size
             else:
-                if step < 1.0:  # held back from 0 K at every step: no field of these means is positive
+                if step < 1.0:  # held back from 0 K at every step
                     raise Fem2TmmError(self._no_positive_field(T, dT))
                 raise Fem2TmmError(f"the recovery's Newton did not converge in {RECOVERY_MAX_NEWTON} steps (last "
                                    f"step {np.abs(step * dT).max():.3g} K): are the super-node temperatures in K and "
