@@ -127,7 +127,7 @@ def edited_deck_error(out: Path, constants: dict, sink: float, reference) -> tup
     labels = [str(n).upper() for n in net.labels]
     T_sn = np.array([T[labels.index(str(n).upper())] for n in rec.names])
     loads = {n: float(constants.get(n, v)) for n, v in zip(rec.load_names, rec.load_values)}
-    field = rec.recover(T_sn, loads=loads, T_sink=sink + 273.15, T0=reference.reduced.T_recovered)
+    field = rec.recover(T_sn, loads=loads, T_sink=sink + 273.15)  # its default start, as `fem2tmm recover`
     return _err(reference.model, field, reference.detailed.solution.T)
 
 
