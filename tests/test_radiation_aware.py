@@ -403,3 +403,39 @@ def test_a_loads_hot_spot_share_is_the_emission_of_its_within_cluster_field():
     assert hs is not None and hs.Q[0] == pytest.approx(expected, rel=1e-9) and expected > 0
     T_fp = float(q @ T_star / q.sum())
     assert SIGMA * hs.g[0] * (T_fp**4 - rm.T_sink**4) == pytest.approx(hs.Q[0], rel=1e-12)
+
+
+def test_a_cluster_short_of_its_emission_share_emits_it_where_the_network_conduction_is_indefinite():
+    """one_node_emission on a 3-node network: held node 0, free clusters 1 (its super faces emit more than its share
+    H_1) and 2 (no face of its own, H_2 = 0.107 W/K of its neighbours' linearised emission, as the ε = 0 radiator's
+    cluster of tests/test_robustness.py "mli_emissionless_radiator_negative_share").  A negative link 1-2 of 0.6 W/K
+    between links of 1 W/K to the held node makes K̃'s free block indefinite (0.6 > 1·1/(1+1)): cluster 2 then emits its
+    share, its emission slope 4σ dg T³ equal to H_2 (to round-off, 1e-12 relative); with a positive link (K̃ a
+    conduction network, positive definite) the clusters keep their super faces' couplings."""
+    import types
+
+    import scipy.sparse as sp
+
+    from fem2tmm.reduce.radiative import INDEFINITE_TOLERANCE, RadiationAware, conduction_indefinite
+    from fem2tmm.reductors.radiation_aware import one_node_emission
+
+    T = np.array([225.0, 600.0, 900.0])
+    e_sn = np.array([0.0, 0.02, 0.0])  # m²: cluster 1's slope 4σ e T³ = 0.98 W/K, above its H_1
+    H = np.array([0.0, 0.5, 0.107])
+
+    def network(c):  # W/K: links 0-1 and 0-2 of 1, and -c between 1 and 2 (c > 0: a negative conductance)
+        K = np.array([[2.0, -1.0, -1.0], [-1.0, 1.0 - c, c], [-1.0, c, 1.0 - c]])
+        A = sp.csr_matrix(np.array([[1.0, 0, 0, 0, 0], [0, 0.5, 0.5, 0, 0], [0, 0, 0, 0.5, 0.5]]))
+        rad = RadiationAware(reduction=None, K=K, H=H, e=np.zeros(5), h=np.zeros(5), T_sink=3.0)
+        return types.SimpleNamespace(n=3, K=K, fixed=np.array([True, False, False]), radiative=rad,
+                                     supernodes=types.SimpleNamespace(A=A))
+
+    indefinite, conduction = network(0.6), network(-0.6)
+    assert conduction_indefinite(indefinite.K, indefinite.fixed)
+    assert not conduction_indefinite(conduction.K, conduction.fixed)
+    # a network without a held node has the exact zero of its uniform mode: not negative (INDEFINITE_TOLERANCE)
+    assert not conduction_indefinite(conduction.K, np.zeros(3, bool)) and INDEFINITE_TOLERANCE > 0
+    dg = one_node_emission(indefinite, T, e_sn, e_sn)
+    assert dg[0] == 0.0 and dg[1] == 0.0  # fixed; its own emission already covers its share
+    assert 4.0 * SIGMA * dg[2] * T[2] ** 3 == pytest.approx(H[2], rel=1e-12)
+    assert not np.any(one_node_emission(conduction, T, e_sn, e_sn))

@@ -196,6 +196,39 @@ EMISSION_FLOOR = 0.05
 EMISSION_MIN_FRACTION = 0.75
 
 
+#: relative to max |K̃|: a least eigenvalue of K̃ on the free nodes below −this counts as negative.  Far above a
+#: Cholesky factorisation's round-off (~n ε max|K̃|, 1e-13 at 300 super nodes), so the exact zero of a network without
+#: a held node (its uniform mode) is not taken for one; far below the −3e-4 to −2.2e-3 of the MLI model it guards,
+#: over its outer iterations (tests/test_robustness.py, "mli_emissionless_radiator_negative_share")
+INDEFINITE_TOLERANCE = 1e-9
+
+
+def conduction_indefinite(K: np.ndarray, fixed: np.ndarray) -> bool:
+    """Whether the network's conduction ``K`` (n, n) W/K (K̃, symmetric, zero row sums) has a negative eigenvalue on
+    its free nodes (``fixed`` (n,) bool).
+
+    A conduction network with its held nodes fixed is positive semi-definite: heat flows down the temperature
+    differences.  K̃ = K'_SN − diag(H_SN) need not be (:class:`RadiationAware`): where the exact shape functions give
+    a super node a large positive share H_SN of its neighbours' linearised emission (an emissionless radiator's
+    clusters beside an emitting panel's shared edge, weights ±4 on a 2 × 2 mesh), taking it off the diagonal leaves a
+    mode along which the network's conduction alone would drive heat uphill.  Its Jacobian is then positive definite
+    only while the emission slopes make up for it: a network whose emitting nodes cool has no steady state there.
+    """
+    free = ~np.asarray(fixed, bool)
+    if not free.any():
+        return False
+    Kf = np.asarray(K.toarray() if hasattr(K, "toarray") else K, float)[np.ix_(free, free)]
+    Kf = 0.5 * (Kf + Kf.T)
+    scale = float(np.abs(Kf).max(initial=0.0))
+    if not scale > 0:
+        return False
+    try:  # positive definite once shifted by the tolerance: no eigenvalue below −INDEFINITE_TOLERANCE × scale
+        np.linalg.cholesky(Kf + INDEFINITE_TOLERANCE * scale * np.eye(len(Kf)))
+    except np.linalg.LinAlgError:
+        return True
+    return False
+
+
 def _free_balance(K: np.ndarray, Q: np.ndarray, GR, T: np.ndarray) -> np.ndarray:
     """(n,) W: what each node must still lose to space at ``T``: Q − K T − σ L_GR T⁴."""
     n = len(T)
@@ -416,5 +449,5 @@ def parametric_weights(values_si: np.ndarray, sink: bool, samples: int = 32) -> 
     return grid, W[inverse]
 
 
-__all__ = ["HotSpots", "RadiationAware", "effective_emission", "emission_entries", "emission_floor_links",
-           "emission_weights", "hot_spots", "parametric_weights", "split_radiative"]
+__all__ = ["HotSpots", "RadiationAware", "conduction_indefinite", "effective_emission", "emission_entries",
+           "emission_floor_links", "emission_weights", "hot_spots", "parametric_weights", "split_radiative"]

@@ -202,6 +202,9 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         # a super node of one DOF emits what its DOF does (it owns few or no super faces: that emission would be a
         # constant load of the correction)
         dg = one_node_emission(ra_rm, T_sn_ref, e_sn, rm.g_space)
+        # clusters given their H_SN as their own emission (K̃ not positive definite: one_node_emission)
+        emitting_h = [str(ra_rm.names[i])
+                      for i in np.flatnonzero((dg != 0) & (np.diff(ra_rm.supernodes.A.indptr) > 1))]
         ra_rm = dataclasses.replace(ra_rm, GR=rm.GR, g_space=rm.g_space + dg)
         corr = ra.correction(T_ref, T_sn_ref, e_sn + dg)
         q_rec = q_detailed
@@ -240,6 +243,8 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         history.append({"iteration": it + 1, "max_dT_K": float(np.abs(d).max(initial=0.0)),
                         "rms_dT_K": float(np.sqrt(np.mean(d**2))) if d.size else 0.0,
                         "correction_W": float(np.abs(corr).sum())})
+        if emitting_h:
+            history[-1]["clusters_emitting_H"] = emitting_h
         if restarted:
             history[-1]["restarted"] = ("the network linearised about the thesis' field had no physical solution: "
                                         "restarted from the detailed field radiating to space")
@@ -300,7 +305,9 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 def one_node_emission(rm: ReducedModel, T_sn: np.ndarray, e_sn: np.ndarray, g_space: np.ndarray) -> np.ndarray:
     """(n,) m²: the change of the coupling to space of each free super node that stands for one DOF (a joint's end, a
     kept node, a part an isothermal RBE2 ties into one node) that makes the network's emission there follow the
-    DOF's own: ``H_SN / (4σ T_SN³) − e_SN``, held so that ``g_space + change`` stays ≥ 0; zero elsewhere.
+    DOF's own: ``H_SN / (4σ T_SN³) − e_SN``, held so that ``g_space + change`` stays ≥ 0; where the network's
+    conduction K̃ is not positive definite on its free nodes, the same for every free cluster whose own emission
+    slope 4σ e_SN T_SN³ falls short of its H_SN; zero elsewhere.
 
     The network's radiation R_SN emits through the super faces a super node owns (``e_SN``: its coupling to space,
     its exchange GR, its self-absorbed share); what it does not emit there reaches the network only through the
@@ -315,17 +322,37 @@ def one_node_emission(rm: ReducedModel, T_sn: np.ndarray, e_sn: np.ndarray, g_sp
     H_SN instead, the bars of examples/satellite (no face of their own, H_SN from the panel nodes they share) slowed
     its outer iterations to a 0.83 contraction (0.058 K RMS after 20, against 0.031 K in 10).
 
+    Unless K̃ = K'_SN − diag(H_SN) is not positive definite on the free nodes
+    (:func:`fem2tmm.reduce.radiative.conduction_indefinite`; the satellite's is, 0.0026 W/K its least eigenvalue):
+    taking a cluster's positive H_SN off the diagonal without an emission of its own to carry it then leaves the
+    network's Jacobian positive definite only while other nodes' emission makes up for it, and the cluster's share
+    of that emission a constant sink.  A 2 × 2 radiator of ε = 0 beside an MLI-covered panel (41.8 W, 3 super nodes;
+    tests/test_robustness.py "mli_emissionless_radiator_negative_share") got, through shape-function weights ±4 at
+    the shared edge, H_SN = +0.107 W/K at one radiator cluster (a 28 W constant sink, no face of its own) and
+    −0.107 W/K at another: K̃'s least eigenvalue on the free nodes −0.0027 W/K, and the network had no steady
+    solution (Newton steps of 1e6 K).  With the cluster's share its own T⁴ emission, its emission slope at the
+    reference is H_SN again, as in the exact reduced operator K'_SN = K̃ + diag(H_SN), the sink falls as the
+    cluster cools, and the outer iterations converge (15, to 19.1 K RMS against the thesis' 418 K, reference
+    noise 8.4 K).
+
     ``rm`` the radiation-aware reduced model (``radiative.H`` W/K, ``supernodes.A``), ``T_sn`` (n,) K its super
     nodes at the reference, ``e_sn`` (n,) m² the εA of the super faces each owns, ``g_space`` (n,) m² the network's
     couplings to space.
     """
+    from ..reduce.radiative import conduction_indefinite
+
     T = np.asarray(T_sn, float)
+    e_sn = np.asarray(e_sn, float)
     A = rm.supernodes.A
     dofs = np.diff(A.tocsr().indptr) if hasattr(A, "tocsr") else np.count_nonzero(np.asarray(A), axis=1)
-    sel = ~np.asarray(rm.fixed, bool) & (T > 0) & (dofs == 1)
+    free = ~np.asarray(rm.fixed, bool) & (T > 0)
+    slope = np.zeros(rm.n)
+    slope[free] = rm.radiative.H[free] / (4.0 * SIGMA * T[free] ** 3)
+    sel = free & (dofs == 1)
+    if conduction_indefinite(rm.K, rm.fixed):  # clusters short of their H_SN too (see the docstring)
+        sel |= free & (slope > e_sn)
     out = np.zeros(rm.n)
-    slope = rm.radiative.H[sel] / (4.0 * SIGMA * T[sel] ** 3)
-    out[sel] = np.maximum(slope - np.asarray(e_sn, float)[sel], -np.asarray(g_space, float)[sel])
+    out[sel] = np.maximum(slope[sel] - e_sn[sel], -np.asarray(g_space, float)[sel])
     return out
 
 
