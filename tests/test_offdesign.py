@@ -88,6 +88,28 @@ def independent_books(folder, heater: float, sink: float, sinda: bool = False) -
             "to_space": float(out_of[~space][:, space].sum())}
 
 
+def test_a_network_that_emits_nothing_gets_no_coupling_to_space_from_round_off():
+    """effective_emission where nothing emits (ε = 0: H = 0, no applied load, every node at the held temperature):
+    each node's balance Q − K̃ T is the round-off of K̃ T (zero row sums only to the last bit), and a coupling to
+    space made of it (1e-14 m²) gave a transient's books spurious watts (7.7e-9 relative, tests/test_robustness.py
+    ``radiation_aware_transient_round_off``).  The coupling must be exactly 0."""
+    import numpy as np
+
+    from fem2tmm.reduce.radiative import effective_emission
+
+    rng = np.random.default_rng(3)
+    W = rng.uniform(0.01, 1.0, (6, 6))
+    K = -(W + W.T)
+    K[np.diag_indices(6)] = 0.0
+    K[np.diag_indices(6)] = -K.sum(axis=1)
+    T = np.full(6, 273.15 + 1e-3 * 7)  # uniform: K̃ T is 0 up to round-off
+    assert np.any(K @ T != 0.0)  # the round-off the rule is for
+    fixed = np.zeros(6, bool)
+    fixed[0] = True
+    e, (x, y) = effective_emission(K, np.zeros(6), None, fixed, T, 356.95, np.zeros(6), np.zeros(6), np.zeros(6))
+    assert np.all(e == 0.0) and np.all(y == 0.0)
+
+
 def test_a_super_node_short_of_heat_is_fed_from_the_held_edge_and_the_design_state_stays_exact():
     """emission_floor_links on a 4-node chain: held node 0 (293 K), node 3 pulled below its own emission by a
     negative K̃ link (what the dense reduction gives a cold cluster far from the heater, issue 41)."""

@@ -322,6 +322,10 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     GR1 = G.sum(axis=1)
     T4 = T**4
     r = Q - K @ T - SIGMA * (GR1 * T4 - G @ T4)  # heat each node must still lose to space at T*
+    # a balance at the round-off of its own terms is no emission: where nothing emits (ε = 0) r is that round-off,
+    # and an e(T*) made of it (1e-14 m²) gave the transient books spurious watts to space (7.7e-9 relative)
+    scale = np.abs(Q) + np.abs(K) @ np.abs(T) + SIGMA * (GR1 * T4 + G @ T4)
+    r = np.where(np.abs(r) <= 64.0 * np.finfo(float).eps * scale, 0.0, r)
     d4 = T4 - T_sink**4
     free = ~np.asarray(fixed, bool) & (np.abs(d4) > 1e-12 * np.maximum(T4, 1e-300))
     # a node at the sink's temperature has no balance to close: it keeps its physical coupling
