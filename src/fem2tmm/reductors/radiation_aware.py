@@ -23,6 +23,7 @@ from ..errors import Fem2TmmError, InternalError
 from ..fem.model import FEModel
 from ..reduce.exported import ExportedRecovery
 from ..reduce.network import ReducedModel, build_reduced
+from ..reduce.radiative import conduction_indefinite
 from ..solve.steady import SteadySolution, solve_steady
 from ..keys import network_group
 from ..radiation.ir_absorption import IRAbsorption
@@ -339,8 +340,6 @@ def one_node_emission(rm: ReducedModel, T_sn: np.ndarray, e_sn: np.ndarray, g_sp
     nodes at the reference, ``e_sn`` (n,) m² the εA of the super faces each owns, ``g_space`` (n,) m² the network's
     couplings to space.
     """
-    from ..reduce.radiative import conduction_indefinite
-
     T = np.asarray(T_sn, float)
     e_sn = np.asarray(e_sn, float)
     A = rm.supernodes.A
