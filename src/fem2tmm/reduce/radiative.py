@@ -322,17 +322,22 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     GR1 = G.sum(axis=1)
     T4 = T**4
     r = Q - K @ T - SIGMA * (GR1 * T4 - G @ T4)  # heat each node must still lose to space at T*
-    # a balance at the round-off of its own terms is no emission: where nothing emits (ε = 0) r is that round-off,
-    # and an e(T*) made of it (1e-14 m²) gave the transient books spurious watts to space (7.7e-9 relative)
-    scale = np.abs(Q) + np.abs(K) @ np.abs(T) + SIGMA * (GR1 * T4 + G @ T4)
-    r = np.where(np.abs(r) <= 64.0 * np.finfo(float).eps * scale, 0.0, r)
     d4 = T4 - T_sink**4
     free = ~np.asarray(fixed, bool) & (np.abs(d4) > 1e-12 * np.maximum(T4, 1e-300))
     # a node at the sink's temperature has no balance to close: it keeps its physical coupling
     e = np.where(np.asarray(fixed, bool), g_fixed, g_space)
     de = np.zeros(n)
-    e[free] = r[free] / (SIGMA * d4[free])
-    de[free] = (H[free] - 4.0 * SIGMA * (GR1[free] + e[free]) * T[free] ** 3) / (SIGMA * d4[free])
+    # a balance at the round-off of its own terms says nothing of the node's emission (r / d4 would be round-off over
+    # a small difference): where nothing emits (ε = 0) such an e(T*) was 1e-14 m² and gave a transient's books
+    # spurious watts to space (7.7e-9 relative); such a node emits what its linearised emission H says (0 where
+    # nothing emits; a node a round-off above the sink keeps its coupling to space, else a network of floating
+    # nodes at the sink's temperature lost it and settled 17 K below the sink)
+    scale = np.abs(Q) + np.abs(K) @ np.abs(T) + SIGMA * (GR1 * T4 + G @ T4)
+    noise = free & (np.abs(r) <= 64.0 * np.finfo(float).eps * scale)
+    bal = free & ~noise
+    e[bal] = r[bal] / (SIGMA * d4[bal])
+    de[bal] = (H[bal] - 4.0 * SIGMA * (GR1[bal] + e[bal]) * T[bal] ** 3) / (SIGMA * d4[bal])
+    e[noise] = np.maximum(H[noise] / (4.0 * SIGMA * np.maximum(T[noise], 1e-300) ** 3) - GR1[noise], 0.0)
     # the emission to deep space, e T⁴, does not fall as the node warms: a slope below −4 e/T* would make a warmer
     # node lose less heat (no steady state, or Newton lost, once an edit moves it there)
     pos = free & (e > 0)
@@ -386,14 +391,22 @@ class HotSpots:
         return [f"{nm or 'other loads'} hot spot" for nm in self.load]
 
 
+#: m²: the smallest coupling to space a hot-spot node gets (a square micrometre: at 300 K it carries 5e-10 W).  Below
+#: it the node (no capacitance, that coupling its only one) makes a transient's matrix singular in floating point: a
+#: generated model whose heater was 2.2e-309 W gave its node 1e-300 m² and the deck's integration stopped ("Factor is
+#: exactly singular", `fem2tmm bench robustness` 2026-12-06); the load it would carry is negligible
+HOT_SPOT_MIN_M2 = 1e-12
+
+
 def hot_spots(distribute, free: np.ndarray, part: np.ndarray, patterns: np.ndarray, values: np.ndarray,
               names: list[str], T_field: np.ndarray, e: np.ndarray, T_sink: float,
               rel_tol: float = 1e-6) -> HotSpots | None:
     """The :class:`HotSpots` of the loads ``patterns`` (r, n_dof) W per unit value, ``values`` (r,), on a network whose
     load distribution is ``distribute`` ((n_dof,) W -> (n,) W, Y'), ``free`` (n,) bool its free nodes, ``part`` (n,)
     their parts; ``T_field`` (n_dof,) K the design field, ``e`` (n_dof,) m² each DOF's emitting εA, ``T_sink`` K.
-    A load whose share is not positive (Y' passes all of it, or more: no emission to give it), or that is negative
-    at the design state, gets no node; None when none does."""
+    A load whose share is not positive (Y' passes all of it, or more: no emission to give it), that is negative at
+    the design state, or whose node's coupling would be below :data:`HOT_SPOT_MIN_M2`, gets no node; None when none
+    does."""
     rows = []
     for pat, v, nm in zip(np.atleast_2d(patterns), values, names):
         pat = np.asarray(pat, float)
@@ -411,7 +424,7 @@ def hot_spots(distribute, free: np.ndarray, part: np.ndarray, patterns: np.ndarr
         if Q < 0:  # a load taken out (a cooler): no emission to give it a node of its own
             continue
         g = Q / (SIGMA * d4) if Q > 0 else float(np.sum(np.asarray(e, float)[pat != 0]))
-        if not g > 0:
+        if not g >= HOT_SPOT_MIN_M2:
             continue
         rows.append((nm, int(part[int(np.argmax(np.where(free, d, -np.inf)))]), unit, Q, g, T))
     if not rows:
