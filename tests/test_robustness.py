@@ -238,8 +238,10 @@ REGRESSIONS["mli_emissionless_radiator_negative_share"] = (
 # found by `fem2tmm bench robustness` (2026-12-06 09:47-09:56 UTC, 2000 models): no held node, no load, space-only
 # radiation, a 27.4 K sink, radiation-aware.  The design state is the sink's temperature to round-off, so each super
 # node's balance r (Q − K̃T − …) was round-off; the rule that takes such a balance for "no emission" (for ε = 0) gave
-# these emitting nodes no coupling to space, and the floating network settled at 10.4 K, 17 K below the sink.  They
-# now emit what their linearised emission H says (reduce.radiative.effective_emission)
+# these emitting nodes no coupling to space, and the floating network settled at 10.4 K, 17 K below the sink.  A node
+# at the sink's temperature to that round-off now keeps what its linearised emission H says
+# (reduce.radiative.effective_emission); one that is not keeps e = 0 (a bar of examples/satellite: the design state
+# exact, tests/test_satellite.py)
 REGRESSIONS['floating_at_the_sink_keeps_its_emission'] = (
     "nodes_at(merge(plate(0.2, 0.2, 6, 6), transform(box(0.13333333333333333, 0.13333333333333333, 0.0633994628082869, "
     "4, 4, 2, kind='solid', element='hex8', name='block'), translation=(0.06666666666666667, 0.06666666666666667, "

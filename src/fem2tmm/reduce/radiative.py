@@ -327,17 +327,20 @@ def effective_emission(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixe
     # a node at the sink's temperature has no balance to close: it keeps its physical coupling
     e = np.where(np.asarray(fixed, bool), g_fixed, g_space)
     de = np.zeros(n)
-    # a balance at the round-off of its own terms says nothing of the node's emission (r / d4 would be round-off over
-    # a small difference): where nothing emits (ε = 0) such an e(T*) was 1e-14 m² and gave a transient's books
-    # spurious watts to space (7.7e-9 relative); such a node emits what its linearised emission H says (0 where
-    # nothing emits; a node a round-off above the sink keeps its coupling to space, else a network of floating
-    # nodes at the sink's temperature lost it and settled 17 K below the sink)
-    scale = np.abs(Q) + np.abs(K) @ np.abs(T) + SIGMA * (GR1 * T4 + G @ T4)
-    noise = free & (np.abs(r) <= 64.0 * np.finfo(float).eps * scale)
-    bal = free & ~noise
+    # a balance at the round-off of its own terms is no emission: where nothing emits (ε = 0) r is that round-off,
+    # and an e(T*) made of it (1e-14 m²) gave a transient's books spurious watts to space (7.7e-9 relative).  Unless
+    # the node also sits at the sink's temperature to within that round-off (σ e_H |T*⁴ − T_s⁴| inside it, e_H what
+    # its linearised emission H says): then any e closes its balance, and it keeps e_H, the design state exact either
+    # way (a floating network at its sink's temperature that lost its coupling to space settled 17 K below the sink)
+    tol = 64.0 * np.finfo(float).eps * (np.abs(Q) + np.abs(K) @ np.abs(T) + SIGMA * (GR1 * T4 + G @ T4))
+    noise = free & (np.abs(r) <= tol)
+    e_H = np.maximum(H / (4.0 * SIGMA * np.maximum(T, 1e-300) ** 3) - GR1, 0.0)
+    at_sink = noise & (SIGMA * e_H * np.abs(d4) <= tol)
+    bal = free & ~at_sink
+    r = np.where(noise, 0.0, r)
     e[bal] = r[bal] / (SIGMA * d4[bal])
     de[bal] = (H[bal] - 4.0 * SIGMA * (GR1[bal] + e[bal]) * T[bal] ** 3) / (SIGMA * d4[bal])
-    e[noise] = np.maximum(H[noise] / (4.0 * SIGMA * np.maximum(T[noise], 1e-300) ** 3) - GR1[noise], 0.0)
+    e[at_sink] = e_H[at_sink]
     # the emission to deep space, e T⁴, does not fall as the node warms: a slope below −4 e/T* would make a warmer
     # node lose less heat (no steady state, or Newton lost, once an edit moves it there)
     pos = free & (e > 0)
