@@ -22,12 +22,17 @@ quads, radiation seed 2, the thesis' 0.32 K at a noise of 0.22 K then built the 
 The rule (:func:`measured_choice`), in the order it costs:
 
 1. estimate the thesis' network (solved anyway).  If ``E_thesis ≤ N_thesis`` its error cannot be told from the
-   estimate's noise: keep it (the same accuracy as far as anything here can tell, no outer iterations, a
+   estimate's noise, and if the largest cluster Biot number is below :data:`~fem2tmm.reductors.AUTO_BIOT` (or
+   there is none: no shells) nothing else speaks against it either: keep it (no outer iterations, a
    state-independent network).  No radiation-aware network is built;
 2. otherwise build the radiation-aware network
    (:class:`~fem2tmm.reductors.radiation_aware.RadiationAwareReductor`) and estimate it; it is kept when
-   ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise of the comparison.  Otherwise
-   (a tie) the thesis' stays.  A radiation-aware network without a physical steady solution loses: the thesis' is
+   ``E_thesis − E_aware > √(N_thesis² + N_aware²)``: smaller by more than the noise of the comparison.  Where the
+   estimates cannot tell them apart (a tie within that noise), the Biot number decides as it does above
+   :data:`~fem2tmm.reductors.ESTIMATE_MAX_UNKNOWNS`: clusters wider than their fin length (Bi ≥ AUTO_BIOT) take the
+   radiation-aware network, others the thesis'.  A small generated MLI model whose thesis' estimate (498 K) was
+   within its noise (2 271 K, a 120-ray tally) kept a thesis network 418 K off where the radiation-aware one is
+   19 K off (tests/test_robustness.py ``mli_emissionless_radiator_negative_share``).  A radiation-aware network without a physical steady solution loses: the thesis' is
    handed over, with a warning and ``reduced.choice.aware_refused``.  Only where the thesis' network was refused
    too does the run stop (:func:`reduce_aware`: one message for both, advising neither setting).
 
@@ -51,7 +56,7 @@ import numpy as np
 
 from ..case import Case
 from ..errors import Fem2TmmError
-from ..reductors import REDUCTORS, Reduced, ReductionInputs
+from ..reductors import AUTO_BIOT, REDUCTORS, Reduced, ReductionInputs
 from .refine import Refinement, error_field, side_tally, uses_side_tally
 
 #: what the estimate covers (summary.json ``reduced.choice.estimate_covers``)
@@ -189,9 +194,12 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     est = {"thesis": timed(thesis), "radiation_aware": None}
     et = est["thesis"]
     kept, why = thesis, None
-    if et["beyond_noise_K"] <= et["noise_K"]:
+    bi = choice.get("biot_cluster_max")
+    wide = bi is not None and bi >= AUTO_BIOT  # clusters wider than their fin length: the tie-break (module rule)
+    if et["beyond_noise_K"] <= et["noise_K"] and not wide:
         why = (f"auto: the thesis' estimated error {et['rms_K']:.3g} K is at its estimate's noise "
-               f"{et['noise_K']:.2g} K: the thesis' network (the radiation-aware one not built)")
+               f"{et['noise_K']:.2g} K and the largest cluster Biot number {'—' if bi is None else f'{bi:.3g}'} is "
+               f"below {AUTO_BIOT:g}: the thesis' network (the radiation-aware one not built)")
     else:
         aware_inputs = dataclasses.replace(inputs, case=resolved(inputs.case, True), advise=False)
         try:
@@ -211,10 +219,15 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
                     f"(their noise {margin:.2g} K)")
             if gain > margin:
                 kept, why = aware, f"auto: {pair}: the radiation-aware network, smaller by more than the noise"
-                if aware.notes:
-                    why = "; ".join([why, *aware.notes])
-            else:
+            elif gain >= -margin and wide:
+                kept, why = aware, (f"auto: {pair}: a tie within the noise, and the largest cluster Biot number "
+                                    f"{bi:.3g} >= {AUTO_BIOT:g}: the radiation-aware network")
+            elif gain >= -margin:
                 why = f"auto: {pair}: a tie within the noise, the thesis' network"
+            else:
+                why = f"auto: {pair}: the thesis' network, smaller by more than the noise"
+            if kept is aware and aware.notes:
+                why = "; ".join([why, *aware.notes])
     choice = {**choice, "radiation_aware": kept is not thesis, "ir_on": kept.case.radiation.ir_on, "chosen_by": why,
               "estimated_rms_K": {k: None if v is None else v["rms_K"] for k, v in est.items()},
               "estimate_noise_K": {k: None if v is None else v["noise_K"] for k, v in est.items()},
