@@ -80,3 +80,25 @@ def test_small_matrices_stay_with_scipy(monkeypatch):
     monkeypatch.setattr(linalg, "SOLVER", "auto")
     assert linalg.backend(linalg.FAST_MIN - 1, "spd") == "scipy"
     assert linalg.backend(10**6, "general") == "scipy"  # unsymmetric: SuperLU on the symmetric ordering
+
+
+def test_a_pinned_blas_count_holds_against_nested_limits():
+    """linalg.pinned_blas: while a load-case set holds BLAS at one thread, a nested blas_threads(n) of one case must
+    not change the count another case's factorisation runs with (threadpoolctl limits are process-wide; OpenBLAS'
+    Cholesky gives other bits on 1 and 2 threads, so a change in the middle made the sets' networks depend on timing)."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    from fem2tmm.linalg import blas_threads, pinned_blas
+
+    def blas_now():
+        return {i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"}
+
+    before = blas_now()
+    with pinned_blas(1):
+        assert blas_now() == {1}
+        with blas_threads(2):
+            assert blas_now() == {1}  # inert inside the pin
+        assert blas_now() == {1}
+    assert blas_now() == before
+    with blas_threads(1):  # outside a pin it limits as before
+        assert blas_now() == {1}
+    assert blas_now() == before

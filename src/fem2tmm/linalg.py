@@ -183,9 +183,41 @@ def dependent_rows(S: sp.csr_matrix) -> list[np.ndarray]:
     return groups
 
 
-def blas_threads(n: int | None):
-    """Context manager limiting BLAS to ``n`` threads (no-op for None or without threadpoolctl)."""
+#: BLAS threads pinned for the whole process by :func:`pinned_blas` (None: not pinned)
+_PINNED: list = [None]
+
+
+@contextlib.contextmanager
+def pinned_blas(n: int | None):
+    """Hold BLAS at ``n`` threads for the whole process while the block runs (no-op for None), with every
+    :func:`blas_threads` inside it inert.
+
+    threadpoolctl's limits are process-wide, not per thread: where a load-case set runs its cases in client threads
+    at once (on Dask), one case's ``blas_threads(1)`` around a small dense Newton set the count for another case's
+    multifrontal Cholesky in the middle of it, and OpenBLAS' Cholesky, triangular solves and products give other
+    bits on 1 thread than on 2 (fronts of 150 unknowns and up): the set's networks then differed from a serial run's
+    in the last bits, depending on timing (tests/test_cases_pipeline.py, about one run in three).  A set pinned at
+    one count computes every case the same way whatever the scheduling."""
     if n is None:
+        yield
+        return
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # without threadpoolctl nothing here changes BLAS threads
+        yield
+        return
+    with threadpool_limits(limits=n, user_api="blas"):
+        _PINNED[0] = n
+        try:
+            yield
+        finally:
+            _PINNED[0] = None
+
+
+def blas_threads(n: int | None):
+    """Context manager limiting BLAS to ``n`` threads (no-op for None, without threadpoolctl or while
+    :func:`pinned_blas` holds the count)."""
+    if n is None or _PINNED[0] is not None:
         return contextlib.nullcontext()
     try:
         from threadpoolctl import threadpool_limits

@@ -27,6 +27,7 @@ from .export.output import check_output_place, write_cases_outputs, write_output
 from .export.summary import build_cases_summary, build_summary, network_radiated_W
 from .fem.model import build_model
 from .fem.plausibility import warn_implausible, warn_once_per_run
+from .linalg import pinned_blas
 from .mesh import Mesh
 from .progress import Progress, report, reporting
 from .radiation.compiled import compile_estimate
@@ -133,13 +134,16 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
                 with prog.stage("read", "reading the mesh"):
                     meshes[key] = load_mesh(c)
             jobs.append((c, prog, mesh if mesh is not None else meshes[key]))
-        linearised = _shared_linearisations(cases, jobs, store, labels, shelf)
-        if not ex.distributed:  # in this process: one case after the other
-            for c, prog, m in jobs:
-                with reporting(prog.callback()):
-                    results.append(_run(c, prog, m, reference, store, labels, shelf=shelf, linearised=linearised))
-        else:
-            results = _run_concurrently(ex, jobs, reference, store, labels, quiet, shelf, linearised)
+        # a set's cases with BLAS on one thread, serial or concurrent: the same bits on every scheduler
+        with pinned_blas(1 if len(jobs) > 1 else None):
+            linearised = _shared_linearisations(cases, jobs, store, labels, shelf)
+            if not ex.distributed:  # in this process: one case after the other
+                for c, prog, m in jobs:
+                    with reporting(prog.callback()):
+                        results.append(_run(c, prog, m, reference, store, labels, shelf=shelf,
+                                            linearised=linearised))
+            else:
+                results = _run_concurrently(ex, jobs, reference, store, labels, quiet, shelf, linearised)
     if len(cases) == 1 and not cases[0][0]:
         result = results[0]
         if out is not None:
