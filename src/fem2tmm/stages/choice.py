@@ -32,9 +32,10 @@ The rule (:func:`measured_choice`), in the order it costs:
    :data:`~fem2tmm.reductors.ESTIMATE_MAX_UNKNOWNS`: clusters wider than their fin length (Bi ≥ AUTO_BIOT) take the
    radiation-aware network, others the thesis'.  A small generated MLI model whose thesis' estimate (498 K) was
    within its noise (2 271 K, a 120-ray tally) kept a thesis network 418 K off where the radiation-aware one is
-   19 K off (tests/test_robustness.py ``mli_emissionless_radiator_negative_share``).  A radiation-aware network without a physical steady solution loses: the thesis' is
-   handed over, with a warning and ``reduced.choice.aware_refused``.  Only where the thesis' network was refused
-   too does the run stop (:func:`reduce_aware`: one message for both, advising neither setting).
+   19 K off (tests/test_robustness.py ``mli_emissionless_radiator_negative_share``).  A radiation-aware network
+   without a physical steady solution loses: the thesis' is handed over, with a warning and
+   ``reduced.choice.aware_refused``.  Only where the thesis' network was refused too does the run stop
+   (:func:`reduce_aware`: one message for both, advising neither setting).
 
 Step 1's shortcut never changes the outcome of step 2 (``E_aware ≥ 0``).  Without a traced tally (space-only
 radiation, or ``ir_on = "faces"`` where the network's absorbed IR already follows the FE sides) an estimate has no
@@ -197,9 +198,10 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     bi = choice.get("biot_cluster_max")
     wide = bi is not None and bi >= AUTO_BIOT  # clusters wider than their fin length: the tie-break (module rule)
     if et["beyond_noise_K"] <= et["noise_K"] and not wide:
+        biot = ("there is no shell Biot number" if bi is None else
+                f"the largest cluster Biot number {bi:.3g} is below {AUTO_BIOT:g}")
         why = (f"auto: the thesis' estimated error {et['rms_K']:.3g} K is at its estimate's noise "
-               f"{et['noise_K']:.2g} K and the largest cluster Biot number {'—' if bi is None else f'{bi:.3g}'} is "
-               f"below {AUTO_BIOT:g}: the thesis' network (the radiation-aware one not built)")
+               f"{et['noise_K']:.2g} K and {biot}: the thesis' network (the radiation-aware one not built)")
     else:
         aware_inputs = dataclasses.replace(inputs, case=resolved(inputs.case, True), advise=False)
         try:
