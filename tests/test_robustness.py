@@ -242,55 +242,36 @@ REGRESSIONS["mli_emissionless_radiator_negative_share"] = (
 # at the sink's temperature to that round-off now keeps what its linearised emission H says
 # (reduce.radiative.effective_emission); one that is not keeps e = 0 (a bar of examples/satellite: the design state
 # exact, tests/test_satellite.py)
-REGRESSIONS['floating_at_the_sink_keeps_its_emission'] = (
+REGRESSIONS["floating_at_the_sink_keeps_its_emission"] = (
     "nodes_at(merge(plate(0.2, 0.2, 6, 6), transform(box(0.13333333333333333, 0.13333333333333333, 0.0633994628082869, "
     "4, 4, 2, kind='solid', element='hex8', name='block'), translation=(0.06666666666666667, 0.06666666666666667, "
-    "0.0))), 'root', x=0.0, z=0.0)",
-    {   'materials': {'al': {'conductivity': 160.0, 'density': 2700.0, 'specific_heat': 900.0}},
-        'optics': {'paint': {'emissivity': 0.5, 'absorptivity': 0.13550263250369457, 'specular': 0.0}},
-        'parts': [   {   'name': 'p',
-                         'groups': ['plate'],
-                         'material': 'al',
-                         'front': 'paint',
-                         'super_nodes': 1,
-                         'thickness': 0.003,
-                         'back': 'paint'},
-                     {'name': 'block', 'groups': ['block'], 'material': 'al', 'front': 'none', 'super_nodes': 2}],
-        'joints': [],
-        'boundary': [{'name': 'heater', 'kind': 'power', 'groups': ['plate'], 'value': 0.0}],
-        'environment': {'sink_temperature': -245.72965166734198},
-        'radiation': {'enabled': False, 'rays_per_face': 50},
-        'reduction': {'radiation_aware': True, 'outer_iterations': 20},
-        'reference': {'detailed': True, 'rays_per_face': 10, 'noise': False}})
+    "0.0))), 'root', x=0.0, z=0.0)", {
+        "materials": {"al": {"conductivity": 160.0, "density": 2700.0, "specific_heat": 900.0}},
+        "optics": {"paint": {"emissivity": 0.5, "absorptivity": 0.13550263250369457, "specular": 0.0}},
+        "parts": [{"name": "p", "groups": ["plate"], "material": "al", "front": "paint", "super_nodes": 1,
+                   "thickness": 0.003, "back": "paint"},
+                  {"name": "block", "groups": ["block"], "material": "al", "front": "none", "super_nodes": 2}],
+        "joints": [], "boundary": [{**HEATER, "value": 0.0}], "environment": {"sink_temperature": -245.72965166734198},
+        "radiation": {"enabled": False, "rays_per_face": 50},
+        "reduction": {"radiation_aware": True, "outer_iterations": 20},
+        "reference": {"detailed": True, "rays_per_face": 10, "noise": False}})
 # found by the same run: a 2.2e-309 W heater (ε = 0, a held edge): its hot-spot node (the share of the load the
 # held node takes, no capacitance) got a 1e-300 m² coupling to space, its only one, and the deliverable check's
 # transient integration of the deck stopped ("Factor is exactly singular").  Hot-spot nodes below 1e-12 m² are not
 # written (reduce.radiative.HOT_SPOT_MIN_M2)
-REGRESSIONS['denormal_heater_hot_spot'] = (
-    'merge(plate(0.3, 0.2, 1, 5), frame(0.3, 0.2, 1, 5))',
-    {   'materials': {   'm': {'conductivity': 79.47482469289852, 'density': 2000.0, 'specific_heat': 900.0},
-                         'cfrp': {'conductivity': 6.4703961264825125, 'density': 1600.0, 'specific_heat': 1000.0}},
-        'optics': {'paint': {'emissivity': 0.0, 'absorptivity': 0.46837211548522106, 'specular': 0.5}},
-        'parts': [   {   'name': 'p',
-                         'groups': ['plate'],
-                         'material': 'm',
-                         'front': 'paint',
-                         'super_nodes': 2,
-                         'thickness': 0.0009163387322262587,
-                         'back': 'none'},
-                     {   'name': 'bars',
-                         'groups': ['bars'],
-                         'material': 'cfrp',
-                         'area': 0.00019861288262605726,
-                         'super_nodes': 2}],
-        'joints': [],
-        'boundary': [   {'name': 'held', 'kind': 'temperature', 'groups': ['xmin'], 'value': -0.03227579007755271},
-                        {'name': 'heater', 'kind': 'power', 'groups': ['plate'], 'value': 2.225073858507203e-309}],
-        'environment': {'sink_temperature': -241.0541547985189},
-        'radiation': {'enabled': True, 'rays_per_face': 50},
-        'reduction': {'radiation_aware': True, 'outer_iterations': 20},
-        'reference': {'detailed': True, 'rays_per_face': 10, 'noise': True},
-        'transient': {'end': 600.0, 'step': 60.0, 'initial_temperature': -74.82641651591376}})
+REGRESSIONS["denormal_heater_hot_spot"] = ("merge(plate(0.3, 0.2, 1, 5), frame(0.3, 0.2, 1, 5))", {
+    "materials": {"m": {"conductivity": 79.47482469289852, "density": 2000.0, "specific_heat": 900.0},
+                  "cfrp": {"conductivity": 6.4703961264825125, "density": 1600.0, "specific_heat": 1000.0}},
+    "optics": {"paint": {"emissivity": 0.0, "absorptivity": 0.46837211548522106, "specular": 0.5}},
+    "parts": [{"name": "p", "groups": ["plate"], "material": "m", "front": "paint", "super_nodes": 2,
+               "thickness": 0.0009163387322262587, "back": "none"},
+              {"name": "bars", "groups": ["bars"], "material": "cfrp", "area": 0.00019861288262605726,
+               "super_nodes": 2}],
+    "joints": [], "boundary": [{**HELD, "value": -0.03227579007755271}, {**HEATER, "value": 2.225073858507203e-309}],
+    "environment": {"sink_temperature": -241.0541547985189}, "radiation": {"enabled": True, "rays_per_face": 50},
+    "reduction": {"radiation_aware": True, "outer_iterations": 20},
+    "reference": {"detailed": True, "rays_per_face": 10, "noise": True},
+    "transient": {"end": 600.0, "step": 60.0, "initial_temperature": -74.82641651591376}})
 
 #: generated models that still fail (strict xfail: a fix turns them into failures to move into REGRESSIONS)
 KNOWN_FAILURES: dict = {}
