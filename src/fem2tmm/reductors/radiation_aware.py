@@ -205,7 +205,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         dg = one_node_emission(ra_rm, T_sn_ref, e_sn, rm.g_space)
         # clusters given their H_SN as their own emission (K̃ not positive definite: one_node_emission)
         emitting_h = [str(ra_rm.names[i])
-                      for i in np.flatnonzero((dg != 0) & (np.diff(ra_rm.supernodes.A.indptr) > 1))]
+                      for i in np.flatnonzero((dg != 0) & (dofs_per_super_node(ra_rm.supernodes.A) > 1))]
         ra_rm = dataclasses.replace(ra_rm, GR=rm.GR, g_space=rm.g_space + dg)
         corr = ra.correction(T_ref, T_sn_ref, e_sn + dg)
         q_rec = q_detailed
@@ -303,6 +303,12 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
 
 
 
+def dofs_per_super_node(A) -> np.ndarray:
+    """(n,) int: the DOFs each super node's mean is taken over (the non-zeros of its row of ``A`` (n, n_dof), sparse
+    or dense); 1 for a joint's end, a kept node or a unit an isothermal RBE2 ties into one node."""
+    return np.diff(A.tocsr().indptr) if hasattr(A, "tocsr") else np.count_nonzero(np.asarray(A), axis=1)
+
+
 def one_node_emission(rm: ReducedModel, T_sn: np.ndarray, e_sn: np.ndarray, g_space: np.ndarray) -> np.ndarray:
     """(n,) m²: the change of the coupling to space of each free super node that stands for one DOF (a joint's end, a
     kept node, a part an isothermal RBE2 ties into one node) that makes the network's emission there follow the
@@ -342,8 +348,7 @@ def one_node_emission(rm: ReducedModel, T_sn: np.ndarray, e_sn: np.ndarray, g_sp
     """
     T = np.asarray(T_sn, float)
     e_sn = np.asarray(e_sn, float)
-    A = rm.supernodes.A
-    dofs = np.diff(A.tocsr().indptr) if hasattr(A, "tocsr") else np.count_nonzero(np.asarray(A), axis=1)
+    dofs = dofs_per_super_node(rm.supernodes.A)
     free = ~np.asarray(rm.fixed, bool) & (T > 0)
     slope = np.zeros(rm.n)
     slope[free] = rm.radiative.H[free] / (4.0 * SIGMA * T[free] ** 3)
