@@ -80,9 +80,11 @@ def resolved(case: Case, aware: bool) -> Case:
 #: tracing then costs about that share of the radiation stage, whatever the mesh (at 266 832 quads, 10 + 10 rays
 #: per FE side were 1.07e7 rays against the run's 1e7, most of the estimate's 76 % of the reduction stages)
 ESTIMATE_RAY_SHARE = 0.05
-#: rays per half tally always allowed (up to the full tally): below ~10⁴ FE sides the full tally costs a few per
-#: cent of the reduction stages (examples/satellite 7.8 %, its 1.07e5 rays per half), and its noise decides there
-ESTIMATE_RAYS_FLOOR = 200_000
+#: rays per half tally always allowed (up to the full tally): a small model's estimate keeps a few 10⁴ rays per half
+#: whatever its REF budget.  At 2·10⁵ the baffle's case_100 (100 super nodes, specular, thesis kept) spent 2.85 s of
+#: its 2.96 s estimate in the two half tallies, 40-65 % of its 7.5 s of reduction stages; 5·10⁴ bounds that to about
+#: a quarter (docs/studies.md, "Which reduction runs by default", measures every study with it)
+ESTIMATE_RAYS_FLOOR = 50_000
 #: relative tolerance of the estimate's re-absorption solve (GMRES): its error in the estimate is of that order,
 #: far below the estimate's own accuracy (0.66-0.99 of the measured RMS on examples/composite) and its ray noise
 ESTIMATE_TOL = 1e-3
