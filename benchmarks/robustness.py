@@ -16,7 +16,9 @@ ray noise (``accuracy.reference_noise_rms_K``, two half-budget tracings; without
 no rays and the margin is the floor ``MARGIN_FLOOR_K``), and by more than 3x that noise.
 
 One JSON line: ``models``, ``solved``, ``refused`` (cause -> count), ``failures`` (list of {what, error}),
-``accuracy`` (above), ``seconds``.  ``FEM2TMM_ROBUSTNESS_MODELS`` sets the number of models (default 2000).
+``accuracy`` (above), ``seconds``.  ``FEM2TMM_ROBUSTNESS_MODELS`` sets the number of models (default 2000);
+``FEM2TMM_ROBUSTNESS_RECORDS`` names a file for every ``"auto"`` model's record (one JSON line each: both methods'
+errors, the reference noise, the choice's estimates and their noise).
 """
 
 from __future__ import annotations
@@ -101,6 +103,10 @@ def bench_robustness(n_models: int | None = None, seed: int = 31) -> list[dict]:
 
     t0 = time.perf_counter()
     one()
+    if os.environ.get("FEM2TMM_ROBUSTNESS_RECORDS"):  # every "auto" model's record, one JSON line each
+        import json
+        with open(os.environ["FEM2TMM_ROBUSTNESS_RECORDS"], "w") as fh:
+            fh.writelines(json.dumps(r) + "\n" for r in records)
     return [{"bench": "robustness", "models": outcome["solved"] + outcome["refused"] + outcome["failed"], "solved": outcome["solved"],
              "refused": outcome["refused"], "refused_by_cause": dict(refused.most_common()),
              "solved_outside_bounds_negative_conductances": outcome["outside_bounds_negative_conductances"],

@@ -325,4 +325,6 @@ def accuracy_record(s: dict) -> dict:
     thesis = th["rms_K"] if th else (acc["rms_K"] if chosen == "thesis" else None)
     return {"chosen": chosen, "default_rms_K": acc["rms_K"], "thesis_rms_K": thesis,
             "noise_K": acc.get("reference_noise_rms_K") or 0.0, "thesis_refused": bool(choice.get("thesis_refused")),
-            "biot_cluster_max": choice.get("biot_cluster_max")}
+            "biot_cluster_max": choice.get("biot_cluster_max"),
+            "estimated_rms_K": choice.get("estimated_rms_K"), "estimate_noise_K": choice.get("estimate_noise_K"),
+            "estimate_cost_fraction": choice.get("estimate_cost_fraction")}
