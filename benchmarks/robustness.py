@@ -18,7 +18,7 @@ no rays and the margin is the floor ``MARGIN_FLOOR_K``), and by more than 3x tha
 One JSON line: ``models``, ``solved``, ``refused`` (cause -> count), ``failures`` (list of {what, error}),
 ``accuracy`` (above), ``seconds``.  ``FEM2TMM_ROBUSTNESS_MODELS`` sets the number of models (default 2000);
 ``FEM2TMM_ROBUSTNESS_RECORDS`` names a file for every ``"auto"`` model's record (one JSON line each: both methods'
-errors, the reference noise, the choice's estimates and their noise).
+errors, the reference noise, the choice's estimates and their noise, the mesh call ``what`` and the case ``data``).
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ def bench_robustness(n_models: int | None = None, seed: int = 31) -> list[dict]:
                              "where": traceback.format_exc().strip().splitlines()[-3][:200], "data": repr(data)[:2000]})
             return
         if rec:
-            records.append({**rec, "what": what[:300]})
+            records.append({**rec, "what": what[:300], "data": data})  # data: the case, to reproduce the model
         if res.startswith("solved"):
             outcome["solved"] += 1
             if res != "solved":

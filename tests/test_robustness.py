@@ -418,3 +418,52 @@ def test_a_thesis_network_driven_below_0_k_in_a_transient_is_refused_by_cause():
         warnings.simplefilter("ignore")
         run(Case.from_dict(data), mesh=make_mesh("box(0.2, 0.15, 0.1, 5, 4, 3)"))
 
+
+
+#: the campaign's models where the default was worse than the thesis method by more than the reference noise before
+#: the choice's relative margin (``fem2tmm.stages.choice.ESTIMATE_RELATIVE_MARGIN``; campaign of 2026-12-06 17:40 UTC):
+#: the radiation-aware network was kept on estimates 1-13 % apart, which the estimator's own accuracy cannot rank
+#: (the thesis' estimate over its measured error: quartiles 0.92 and 1.23 over the campaign)
+_M = {"m": {"conductivity": 67.80607228651324, "density": 2000.0, "specific_heat": 900.0}}
+CHOICE_REGRESSIONS = {
+    # a plate under a 1 cm inactive lid in the Sun: estimates thesis 0.620 K, radiation-aware 0.613 K; measured
+    # 0.133 K and 0.541 K (reference noise 0.40 K)
+    "lid_in_the_sun": ("merge(plate(0.2, 0.2, 4, 4), plate(0.2, 0.2, 4, 4, origin=(0.0, 0.0, 0.01), name='lid'))", {
+        "materials": _M,
+        "optics": {"paint": {"emissivity": 0.403262035456965, "absorptivity": 0.9178013127295421, "specular": 0.5}},
+        "parts": [{"name": "p", "groups": ["plate"], "material": "m", "front": "paint", "super_nodes": 4,
+                   "thickness": 0.003381998176456992, "back": "none"},
+                  {"name": "lid", "groups": ["lid"], "material": "m", "thickness": 0.003381998176456992,
+                   "front": "none", "back": "none", "super_nodes": 1}],
+        "joints": [], "boundary": [{**HELD, "value": -94.31290285141483}, {**HEATER, "value": 150.25321955336705}],
+        "environment": {"sink_temperature": 103.16278968312292, "sun_direction": [0.3, 0.2, 1.0], "solar_flux": 1361.0},
+        "radiation": {"enabled": True, "rays_per_face": 50}, "reduction": {"radiation_aware": "auto", "outer_iterations": 20},
+        "reference": {"detailed": True, "rays_per_face": 10, "noise": True}}),
+    # an inactive aluminium block on a 3 x 3 plate, no load, a 0 K sink (cluster Bi 1.8e-13): estimates thesis
+    # 0.0140 K, radiation-aware 0.0121 K; measured 0.086 K and 0.096 K (reference noise 6e-6 K: the 1 mK floor)
+    "block_on_a_cold_plate": (
+        "nodes_at(merge(plate(0.2, 0.2, 3, 3), transform(box(0.06666666666666667, 0.06666666666666667, "
+        "0.09364398201407037, 1, 1, 2, kind='solid', element='hex8', name='block'), translation=(0.0, 0.0, 0.0))), "
+        "'root', x=0.0, z=0.0)", {
+            "materials": {"al": {"conductivity": 160.0, "density": 2700.0, "specific_heat": 900.0}},
+            "optics": {"paint": {"emissivity": 0.0885229954047326, "absorptivity": 0.6180339887498949, "specular": 0.5}},
+            "parts": [{"name": "p", "groups": ["plate"], "material": "al", "front": "paint", "super_nodes": 1,
+                       "thickness": 0.0014272435793405017, "back": "none"},
+                      {"name": "block", "groups": ["block"], "material": "al", "front": "none", "super_nodes": 1}],
+            "joints": [], "boundary": [{**HEATER, "value": 1.1125369292536007e-308}],
+            "environment": {"sink_temperature": -273.15}, "radiation": {"enabled": True, "rays_per_face": 50},
+            "reduction": {"radiation_aware": "auto", "outer_iterations": 20},
+            "reference": {"detailed": True, "rays_per_face": 10, "noise": True}}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CHOICE_REGRESSIONS))
+def test_the_default_is_not_worse_than_the_thesis_method_beyond_the_noise(name):
+    """The campaign's accuracy target on its two former misses: the default's error is not above the thesis method's
+    by more than the reference noise (floor 1 mK, ``benchmarks.robustness.MARGIN_FLOOR_K``); the estimates were a tie
+    within the relative margin, and the clusters' Biot number (below 1) gave the thesis' network."""
+    call, data = CHOICE_REGRESSIONS[name]
+    rec: dict = {}
+    assert check(data, make_mesh(call), rec).startswith("solved")
+    assert rec["default_rms_K"] <= rec["thesis_rms_K"] + max(rec["noise_K"], 1e-3), rec
+    assert rec["chosen"] == "thesis", rec
