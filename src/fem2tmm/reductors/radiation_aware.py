@@ -287,9 +287,13 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                       "small; fewer super nodes need more)", stacklevel=2)
     if not shared and not case.reduction.parametric:
         held = held_reactions(model, ra_rm, T, q_detailed, None if ir is None else q_rec - q_detailed)
+        # a concave super node's self-exchange (its emission that returns to it, e_SN − g_space − GR 1, as in the
+        # loop above): the share of its linearised emission H that never leaves it
+        own = (np.zeros(rm.n) if rm.GR is None else
+               np.maximum(e_sn - rm.g_space - np.asarray(rm.GR.sum(axis=1)).ravel(), 0.0))
         # the physical couplings to space: the super faces', and a one-DOF super node's own emission
         ra_rm, sol = effective_network(ra_rm, sol, ra.reduction.distribute(q_detailed) + q_lumped, case, held,
-                                       rm.g_space + np.maximum(dg, 0.0))
+                                       rm.g_space + np.maximum(dg, 0.0), self_exchange=own)
         if ra_rm.g_space_table is not None:  # the heat the loads radiate inside their super nodes: nodes of its own
             ra_rm, sol = with_hot_spots(model, case, ra_rm, sol, q_detailed, T)
     ra.history = history
@@ -361,8 +365,8 @@ def one_node_emission(rm: ReducedModel, T_sn: np.ndarray, e_sn: np.ndarray, g_sp
 
 
 def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case,
-                      held_W: np.ndarray | None = None, g_space: np.ndarray | None = None
-                      ) -> tuple[ReducedModel, SteadySolution]:
+                      held_W: np.ndarray | None = None, g_space: np.ndarray | None = None,
+                      self_exchange: np.ndarray | None = None) -> tuple[ReducedModel, SteadySolution]:
     """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
     the exact reduction distributes them (Y'q), K̃ and GR as they are, and each super node's coupling to space a
     function of its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design
@@ -373,7 +377,13 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     mean temperatures show) becomes its own coupling to space, at its own temperature, so that the network's heat
     books match the detailed ones (it moves no temperature: the node is fixed).  ``g_space`` (n,) m² or None: each
     node's physical coupling to space (default ``rm.g_space``; the network handed in may carry another, the outer
-    iterations' :func:`one_node_emission`).  Returns the network and its solution (the design state again, to
+    iterations' :func:`one_node_emission`).  ``self_exchange`` (n,) m² or None: each super node's coupling to
+    itself (a concave cluster's emission that it re-absorbs); the emission's slope at T* matches H less its
+    linearisation 4σ GR_self T*³, which neither GR (no diagonal) nor K̃ carries: the heat a super node loses as it
+    warms.  Matching the gross H made a concave super node's effective emission rise faster than T⁴, and the deck
+    drifted off its design state (examples/baffle, the screws held 50 K warmer: 0.50 K RMS against 0.007 K;
+    examples/smallsat, all constants high: 1.11 against 0.44 K; docs/design-notes.md).  Returns the network and its
+    solution (the design state again, to
     the solver's tolerance); where the network without correction has no solution, ``rm`` and ``sol`` as given."""
     from ..linalg import blas_threads
     from ..reduce.radiative import effective_emission, emission_floor_links
@@ -393,8 +403,12 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
             left = float(held_W[i] - row @ (T[i] - T))  # W the conductors do not carry
             if np.isfinite(left) and abs(d4[i]) > 1e-12 * T[i] ** 4:
                 g_fixed[i] = left / (SIGMA * d4[i])
-    e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, rm.radiative.H, g_fixed,
-                                  g_space)
+    # the emission slope to match: H less what a concave super node re-absorbs of its own emission (4σ GR_self T³),
+    # which neither GR (no diagonal) nor K̃ carries
+    H = np.asarray(rm.radiative.H, float)
+    if self_exchange is not None:
+        H = np.maximum(H - 4.0 * SIGMA * np.asarray(self_exchange, float) * T**3, 0.0)
+    e, table = effective_emission(rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, H, g_fixed, g_space)
     net = dataclasses.replace(rm, Q=np.asarray(Q_applied, float), g_space=e, g_space_table=table)
     try:
         with blas_threads(1):
