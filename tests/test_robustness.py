@@ -419,7 +419,6 @@ def test_a_thesis_network_driven_below_0_k_in_a_transient_is_refused_by_cause():
         run(Case.from_dict(data), mesh=make_mesh("box(0.2, 0.15, 0.1, 5, 4, 3)"))
 
 
-
 #: the campaign's models where the default was worse than the thesis method by more than the reference noise before
 #: the choice's relative margin (``fem2tmm.stages.choice.ESTIMATE_RELATIVE_MARGIN``; campaign of 2026-12-06 17:40 UTC):
 #: the radiation-aware network was kept on estimates 1-13 % apart, which the estimator's own accuracy cannot rank

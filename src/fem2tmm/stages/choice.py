@@ -84,8 +84,8 @@ def resolved(case: Case, aware: bool) -> Case:
 ESTIMATE_RAY_SHARE = 0.05
 #: rays per half tally always allowed (up to the full tally): a small model's estimate keeps a few 10⁴ rays per half
 #: whatever its REF budget.  At 2·10⁵ the baffle's case_100 (100 super nodes, specular, thesis kept) spent 2.85 s of
-#: its 2.96 s estimate in the two half tallies, 40-65 % of its 7.5 s of reduction stages; 5·10⁴ bounds that to about
-#: a quarter (docs/studies.md, "Which reduction runs by default", measures every study with it)
+#: its 2.96 s estimate in the two half tallies, 40-65 % of its 7.5 s of reduction stages; at 5·10⁴ its estimate is
+#: 15 % (docs/studies.md, "Which reduction runs by default", measures every study with it)
 ESTIMATE_RAYS_FLOOR = 50_000
 #: the radiation-aware network replaces the thesis' only when its estimate is smaller by more than this share of the
 #: thesis' estimate (or by more than their ray noise, if that is more): the estimator's own accuracy.  Over the
