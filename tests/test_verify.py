@@ -244,9 +244,10 @@ def test_the_small_satellite_default_deck_beats_the_thesis_network_at_every_veri
     """Issue 41's acceptance on ``examples/smallsat`` at its committed count (31 super nodes): every state its
     ``[reduction] verify`` checks (each named power 0 and 4x, the sink at the warmest design temperature, all low, all
     high) is closer to that state's detailed reference with the default (radiation-aware) deck than with the thesis'
-    deck.  Measured 2026-12-06 18:30 UTC: default 0.086-0.44 K RMS, thesis 0.41-0.60 K.  Before the effective
-    emission's slope left out a concave super node's self-exchange (radiation_aware.effective_network), the sink-high
-    and all-high states were 0.89 and 1.11 K, above the thesis' 0.41 and 0.60 K (docs/design-notes.md)."""
+    deck, to within the reference's own ray noise (0.063 K RMS at the design state: the closest state, sink high, is
+    0.36 against 0.41 K).  Measured 2026-12-06 18:30 UTC: default 0.086-0.44 K RMS, thesis 0.41-0.60 K.  Before the
+    effective emission's slope left out a concave super node's self-exchange (radiation_aware.effective_network), the
+    sink-high and all-high states were 0.89 and 1.11 K, above the thesis' 0.41 and 0.60 K (docs/design-notes.md)."""
     from benchmarks.choice import _case
 
     out = {}
@@ -257,7 +258,11 @@ def test_the_small_satellite_default_deck_beats_the_thesis_network_at_every_veri
         v = r.summary["reduced"]["verified"]
         assert v["status"] == "verified", v
         out[method] = {s["label"]: s["rms_K"] for s in v["states"]}
+        noise = v["reference_noise"]["rms_K"]
     assert r.summary["reduced"]["choice"]["radiation_aware"] is False  # (the thesis run)
     assert set(out["default"]) == set(out["thesis"]) and len(out["default"]) == 7, out
-    worse = {k: (out["default"][k], out["thesis"][k]) for k in out["default"] if out["default"][k] >= out["thesis"][k]}
-    assert not worse, worse
+    worse = {k: (out["default"][k], out["thesis"][k]) for k in out["default"]
+             if out["default"][k] >= out["thesis"][k] + noise}
+    assert not worse, (worse, noise)
+    # and better by more than that noise at most states (measured: 6 of 7)
+    assert sum(out["default"][k] + noise < out["thesis"][k] for k in out["default"]) >= 5, out
