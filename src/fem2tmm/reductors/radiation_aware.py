@@ -219,8 +219,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
             # leaves the difference of two independent tracings (and, with FE-face emitters, the super faces'
             # lumping: measured in examples/composite/README.md)
             d4 = T_sn_ref**4 - model.T_sink**4
-            GR1 = np.asarray(rm.GR.sum(axis=1)).ravel()
-            own = np.maximum(e_sn - rm.g_space - GR1, 0.0)
+            own = self_exchange(e_sn, rm)
             absorbed = SIGMA * (np.asarray(rm.GR @ d4).ravel() + own * d4)
             corr = corr + ra.reduction.distribute(q_abs) - absorbed
             q_rec = q_detailed + q_abs
@@ -287,10 +286,8 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
                       "small; fewer super nodes need more)", stacklevel=2)
     if not shared and not case.reduction.parametric:
         held = held_reactions(model, ra_rm, T, q_detailed, None if ir is None else q_rec - q_detailed)
-        # a concave super node's self-exchange (its emission that returns to it, e_SN − g_space − GR 1, as in the
-        # loop above): the share of its linearised emission H that never leaves it
-        own = (np.zeros(rm.n) if rm.GR is None else
-               np.maximum(e_sn - rm.g_space - np.asarray(rm.GR.sum(axis=1)).ravel(), 0.0))
+        # a concave super node's self-exchange: the share of its linearised emission H that never leaves it
+        own = self_exchange(e_sn, rm)
         # the physical couplings to space: the super faces', and a one-DOF super node's own emission
         ra_rm, sol = effective_network(ra_rm, sol, ra.reduction.distribute(q_detailed) + q_lumped, case, held,
                                        rm.g_space + np.maximum(dg, 0.0), self_exchange=own)
@@ -362,6 +359,15 @@ def one_node_emission(rm: ReducedModel, T_sn: np.ndarray, e_sn: np.ndarray, g_sp
     out = np.zeros(rm.n)
     out[sel] = np.maximum(slope[sel] - e_sn[sel], -np.asarray(g_space, float)[sel])
     return out
+
+
+def self_exchange(e_sn: np.ndarray, rm: ReducedModel) -> np.ndarray:
+    """(n,) m²: each super node's coupling to itself, the emission of a concave super node that returns to it:
+    its super faces' full εA ``e_sn`` (n,) m² less its traced couplings to space (``rm.g_space``) and to the other
+    super nodes (``rm.GR`` row sums), at least 0; zeros without exchange factors (``rm.GR`` None)."""
+    if rm.GR is None:
+        return np.zeros(rm.n)
+    return np.maximum(np.asarray(e_sn, float) - rm.g_space - np.asarray(rm.GR.sum(axis=1)).ravel(), 0.0)
 
 
 def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case,
