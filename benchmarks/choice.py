@@ -14,9 +14,11 @@ field, and for ``default`` the a-posteriori estimate of each candidate with its 
 the reduction stages' time: fem2tmm.stages.choice), the exported network's FE-level RMS / max error (``accuracy``),
 the reference noise, the whole run's wall time, and ``verified``: the validity range's states (each named constant
 at either end, all low, all high; :mod:`fem2tmm.verify`), each state's RMS / max K against its own detailed
-reference.  The claim the table shows (issue 42): on every study the default's error is never above the thesis' by
-more than the reference noise, at the design state and over the verified states.  One JSON line per (study,
-method).
+reference, and ``verified_range``: where the estimate kept the radiation-aware network, that network's and the
+thesis' worst RMS over the same verified states, and whether the thesis' replaced it (``reduced.choice.verified_range``,
+:func:`fem2tmm.verify.range_choice`).  The claim the table shows (issue 42): on every study the default's error is
+never above the thesis' by more than the reference noise, at the design state and over the verified states.  One
+JSON line per (study, method).
 """
 
 from __future__ import annotations
@@ -57,6 +59,15 @@ def _verified(v: dict | None) -> dict | None:
             "worst": None if v["worst"] is None else [v["worst"]["label"], v["worst"]["rms_K"], v["worst"]["max_K"]]}
 
 
+def _range(rc: dict | None) -> dict | None:
+    """The choice over the validity range (``reduced.choice.verified_range``) in brief: whether the thesis' network
+    replaced the radiation-aware one, each network's worst RMS and state, the tolerance and the check's seconds."""
+    if not rc:
+        return None
+    return {"thesis": rc["thesis"], "worst_K": rc["worst_K"], "worst_state": rc["worst_state"],
+            "tolerance_K": rc["tolerance_K"], "seconds": rc.get("seconds")}
+
+
 def bench_choice() -> list[dict]:
     rows = []
     for file in STUDIES:
@@ -73,6 +84,7 @@ def bench_choice() -> list[dict]:
                          "estimate_cost_fraction": ch.get("estimate_cost_fraction"),
                          "rms_K": acc["rms_K"], "max_K": acc["max_K"],
                          "reference_noise_rms_K": acc.get("reference_noise_rms_K"), "seconds": round(seconds, 1),
-                         "verified": _verified(red.get("verified"))})
+                         "verified": _verified(red.get("verified")),
+                         "verified_range": _range(ch.get("verified_range"))})
             print(rows[-1], flush=True)
     return rows

@@ -382,6 +382,9 @@ class _RunState:
     dpart: Detailed
     opart: Orbit | None
     skey: str | None = None  # the scene's key (the quadric fit)
+    # ``radiation_aware = "auto"`` kept the radiation-aware network by its design-state estimate: the thesis' reduction
+    # (not delivered) and the inputs it ran with, checked over the same validity range after the reference
+    alternative: tuple | None = None
 
     @property
     def status(self) -> dict:
@@ -454,7 +457,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     if run.case.transient is not None:
         _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
     if reduced is not None:
-        _deliver_and_verify(run, reduced, problem)
+        _deliver_and_verify(run, reduced, problem, net, q_orbit)
     result.summary = build_summary(result, prog.timings)
     return result
 
@@ -667,6 +670,7 @@ def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, 
         red, choice, thesis = measured_choice(inputs, red, choice, prog, *run.tracing(), extra.get("radiation"))
         case, reductor = red.case, reductor_for(red.case)
         extra.update({} if thesis is None else {"thesis_T_recovered": thesis.T_recovered})
+        run.alternative = None if thesis is None else (thesis, inputs)
     elif reductor_for(case).name != reductor.name:
         if thesis_failed is None:
             extra["thesis_T_recovered"] = red.T_recovered
@@ -695,7 +699,7 @@ def _emission_check(run: _RunState, net: _Network, reduced: Reduced, red: Reduce
     reduced.emission_check = emission_check(
         run.model, network_radiated_W(reduced.network, reduced.solution),
         reduced.T_recovered, red.ir.to_space if ir_sides else net.inputs.to_space, res.blocked, res.eps_area,
-        net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware")
+        net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware" and run.alternative is None)
 
 
 def _refinement_step(run: _RunState, net: _Network, clustering, reduced: Reduced, red: Reduced,
@@ -866,15 +870,75 @@ def _transient(run: _RunState, reduced: Reduced | None, reductor, problem, q_orb
                                              orbit=orbit_loads, exported=exported)
 
 
-def _deliver_and_verify(run: _RunState, reduced: Reduced, problem) -> None:
-    """What the user receives (the network written, read back, solved, recovered), then its validity range."""
+def _deliver_and_verify(run: _RunState, reduced: Reduced, problem, net: _Network | None = None,
+                        q_orbit: np.ndarray | None = None) -> None:
+    """What the user receives (the network written, read back, solved, recovered), then its validity range; where
+    ``radiation_aware = "auto"`` kept the radiation-aware network by its design-state estimate, the thesis' network
+    is verified over the same range and replaces it when it holds that range better (:func:`_range_choice`)."""
     from .handover import check_deliverable
 
     with run.prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
         reduced.delivered = check_deliverable(run.result, recover=run.dpart.solution is not None)
-    from .verify import verify_network, why_unverified
+    from .stages.radiation import warn_emission
+    from .verify import verify_network, warn_off_range, why_unverified
 
     reduced.verified = why_unverified(run.result)  # the validity range: checked against the detailed model, or not
     if reduced.verified is None:
+        references = {}  # the detailed solutions at the verified states, shared with the thesis' check
+        other = run.alternative is not None and net is not None
         with run.prog.stage("verify", "verifying the network over its validity range (edited decks vs detailed)"):
-            reduced.verified = verify_network(run.result, problem)
+            reduced.verified = verify_network(run.result, problem, references, warn=not other)
+        if other:
+            _range_choice(run, net, reduced, problem, references, q_orbit)
+            warn_off_range(run.case.source, run.result.reduced.verified)  # for the network handed over
+    if run.alternative is not None and run.result.reduced is reduced:  # its warning, held back until it was kept
+        warn_emission(reduced.emission_check)
+    run.alternative = None
+
+
+def _range_choice(run: _RunState, net: _Network, reduced: Reduced, problem, references: dict,
+                  q_orbit: np.ndarray | None) -> None:
+    """The measured choice over the validity range (issue 42): the thesis' network, delivered and verified on the
+    same states and detailed solutions (:func:`fem2tmm.verify.range_choice`), replaces the radiation-aware one the
+    design-state estimate kept when its worst verified RMS is smaller by more than the reference noise.  Recorded in
+    ``reduced.choice.verified_range`` either way; the orbit positions of ``steady = "positions"`` are solved again on
+    the network handed over.  Not where the deck carries what the thesis' network cannot (the parametric correction,
+    a load-case set's shared network)."""
+    from .handover import check_deliverable
+    from .verify import range_choice, verify_network
+
+    thesis, inputs = run.alternative
+    if (reduced.verified.get("status") not in ("verified", "partly verified") or reduced.parametric is not None
+            or reduced.shared_network is not None):
+        return
+    t0 = time.perf_counter()
+    with run.prog.stage("verify_thesis", "verifying the thesis' network over the same range"):
+        alt = reductor_for(thesis.case).deliver(dataclasses.replace(inputs, case=thesis.case), thesis, run.prog)
+        alt = dataclasses.replace(alt, clustering=reduced.clustering, radiation=reduced.radiation,
+                                  super_faces_count=reduced.super_faces_count, solar=reduced.solar,
+                                  solar_on=reduced.solar_on, refinement=reduced.refinement)
+        alt.verified = verify_network(dataclasses.replace(run.result, reduced=alt), problem, references, warn=False)
+    rc = range_choice(reduced.verified, alt.verified)
+    rc["seconds"] = time.perf_counter() - t0
+    wk, wt = rc["worst_K"]["kept"], rc["worst_K"]["thesis"]
+    figures = (f"over the verified range the radiation-aware network's worst RMS is "
+               f"{'no solution' if wk is None else f'{wk:.3g} K'} ({rc['worst_state']['kept']}), the thesis' "
+               f"{'no solution' if wt is None else f'{wt:.3g} K'} ({rc['worst_state']['thesis']}), reference noise "
+               f"{rc['tolerance_K']:.2g} K")
+    if not rc["thesis"]:
+        reduced.choice = {**reduced.choice, "verified_range": rc,
+                          "chosen_by": f"{reduced.choice['chosen_by']}; {figures}: kept"}
+        return
+    rc["replaced"] = {"method": reduced.method, "verified": reduced.verified}
+    alt.choice = {**reduced.choice, "radiation_aware": False, "ir_on": thesis.case.radiation.ir_on,
+                  "verified_range": rc,
+                  "chosen_by": (f"{reduced.choice['chosen_by']}; {figures}: the thesis' network holds the range "
+                                "better and is handed over")}
+    run.case = thesis.case
+    run.result.reduced = alt
+    with run.prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
+        alt.delivered = check_deliverable(run.result, recover=run.dpart.solution is not None)
+    if run.trace:
+        _emission_check(run, net, alt, alt, alt.radiation)
+    if net.q_sn_orbit is not None and run.orbit.steady == "positions":
+        _orbit_positions_reduced(run, net, alt, q_orbit)

@@ -332,7 +332,7 @@ def why_unverified(result) -> dict | None:
     return None
 
 
-def verify_network(result, problem) -> dict:
+def verify_network(result, problem, references: dict | None = None, warn: bool = True) -> dict:
     """Verify the network a run hands over over its validity range (module docstring).
 
     Parameters
@@ -341,6 +341,12 @@ def verify_network(result, problem) -> dict:
         The run (its reduced network, recovery, detailed design solution and noise, case and model).
     problem : SteadyProblem
         The detailed problem at the design state (the one ``result.detailed.solution`` solves).
+    references : dict, optional
+        The detailed solutions at the verified states, {state values: (n_dof,) K}, filled here and reused by
+        another call on the same run (another candidate network over the same range: :func:`range_choice`).
+    warn : bool
+        Warn when states are flagged or have no solution (:func:`warn_off_range`); False where the caller may hand
+        over another network and warns for the one it keeps.
 
     Returns
     -------
@@ -448,12 +454,18 @@ def verify_network(result, problem) -> dict:
                 t1 = time.perf_counter()
                 # the detailed model at that state, its Newton from the recovered field (it converges to the
                 # solver's tolerance from any start: the start only saves iterations, 7 -> 4 on examples/composite)
-                p_state = state_problem(problem, model, case, st.values, patterns)
-                settings = {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
-                try:
-                    ref = solve_steady(p_state, T0=T_rec, **settings)
-                except Fem2TmmError:
-                    ref = solve_steady(p_state, T0=det.T, **settings)
+                key = tuple(sorted(st.values.items()))
+                if references is not None and key in references:
+                    ref = references[key]
+                else:
+                    p_state = state_problem(problem, model, case, st.values, patterns)
+                    settings = {"tol": case.solver.tolerance, "max_iter": case.solver.max_iterations}
+                    try:
+                        ref = solve_steady(p_state, T0=T_rec, **settings)
+                    except Fem2TmmError:
+                        ref = solve_steady(p_state, T0=det.T, **settings)
+                    if references is not None:
+                        references[key] = ref
                 t2 = time.perf_counter()
             except Fem2TmmError as exc:
                 row["error"] = str(exc)
@@ -466,21 +478,9 @@ def verify_network(result, problem) -> dict:
                        detailed_iterations=ref.iterations, flagged=worse_than_design(rms, mx, d_rms, d_max))
             row["seconds"] = row["network_s"] + row["detailed_s"]
     done = [r for r in rows if r["rms_K"] is not None]
-    flagged = [r for r in rows if r["flagged"]]
-    if rows and (flagged or len(done) < len(rows)):
-        import warnings
-
-        bad = ", ".join(f"{r['label']} (RMS {r['rms_K']:.3g} K, max {r['max_K']:.3g} K)" for r in flagged)
-        failed = ", ".join(r["label"] for r in rows if r["error"] is not None)
-        warnings.warn(f"{case.source}: the network handed over is off the detailed model beyond its design state (RMS "
-                      f"{d_rms:.3g} K, max {d_max:.3g} K there): " + "; ".join(
-                          x for x in (bad and f"worse than {WARN_FACTOR:g} x that at {bad}",
-                                      failed and f"no solution at {failed}") if x)
-                      + ". The decks and summary.json reduced.verified give the range checked; an edited constant "
-                      "beyond a state flagged here is outside what the network holds", stacklevel=2)
     worst = max(done, key=lambda r: (r["rms_K"], r["max_K"]), default=None)
     noise = result.detailed.noise
-    return {
+    out = {
         "status": "verified" if len(done) == len(rows) else "partly verified",
         "range": [{"name": c.name, "deck": deck_name[c.name], "kind": c.kind, "unit": c.unit,
                    "nominal": c.to_case(c.nominal), "low": c.to_case(c.low), "high": c.to_case(c.high),
@@ -495,8 +495,74 @@ def verify_network(result, problem) -> dict:
         "threshold": {"factor": WARN_FACTOR, "rms_K": WARN_RMS_K, "max_K": WARN_MAX_K},
         "seconds": time.perf_counter() - t_start,
     }
+    if warn:
+        warn_off_range(case.source, out)
+    return out
 
 
-__all__ = ["Constant", "State", "edit_deck", "state_problem", "superseded", "unverified", "verify_network", "why_unverified",
-           "verify_range", "verify_states", "worse_than_design", "COLDEST_SINK_K", "POWER_FACTOR",
-           "TEMPERATURE_SWING_K"]
+def warn_off_range(source, verified: dict) -> None:
+    """Warn when a verified record (:func:`verify_network`) has states flagged against its design state or without a
+    solution: the network handed over does not hold them."""
+    rows = verified["states"]
+    flagged = [r for r in rows if r["flagged"]]
+    if not (rows and (flagged or verified["failed"])):
+        return
+    import warnings
+
+    d_rms, d_max = verified["design"]["rms_K"], verified["design"]["max_K"]
+    bad = ", ".join(f"{r['label']} (RMS {r['rms_K']:.3g} K, max {r['max_K']:.3g} K)" for r in flagged)
+    failed = ", ".join(verified["failed"])
+    warnings.warn(f"{source}: the network handed over is off the detailed model beyond its design state (RMS "
+                  f"{d_rms:.3g} K, max {d_max:.3g} K there): " + "; ".join(
+                      x for x in (bad and f"worse than {WARN_FACTOR:g} x that at {bad}",
+                                  failed and f"no solution at {failed}") if x)
+                  + ". The decks and summary.json reduced.verified give the range checked; an edited constant "
+                  "beyond a state flagged here is outside what the network holds", stacklevel=3)
+
+
+def range_worst(verified: dict) -> tuple[float, str]:
+    """``(RMS K, label)``: the largest RMS of a verified record over the design state and every verified state; a
+    state without a solution counts as infinite."""
+    rows = [("design", verified["design"]["rms_K"])] + [
+        (r["label"], np.inf if r["rms_K"] is None else r["rms_K"]) for r in verified["states"]]
+    label, rms = max(rows, key=lambda x: x[1])
+    return float(rms), label
+
+
+def range_choice(kept: dict, thesis: dict) -> dict:
+    """Whether the thesis' network replaces the one a run chose by its design-state estimate, measured over the
+    validity range both were verified on (:func:`verify_network` of each, the same states and detailed solutions).
+
+    The network an engineer edits must hold over the range it states; one exact at the design state and off beyond
+    it is worse for them than one a little off everywhere.  So the comparison is each network's worst RMS over the
+    design state and every verified state: the thesis' network replaces the other when that worst is smaller by more
+    than the detailed reference's own noise (its RMS at the design state, 0 without one), the bound the default is held
+    to against the thesis method.
+
+    Parameters
+    ----------
+    kept, thesis : dict
+        ``reduced.verified`` of the network chosen and of the thesis' network (status "verified" or "partly verified").
+
+    Returns
+    -------
+    dict
+        ``{"thesis": bool, "worst_K": {"kept", "thesis"}, "worst_state": {"kept", "thesis"}, "tolerance_K",
+        "states_K": {label: [kept RMS, thesis RMS]}}`` (``states_K`` includes "design"; None for a state without a
+        solution).
+    """
+    wk, lk = range_worst(kept)
+    wt, lt = range_worst(thesis)
+    noise = kept.get("reference_noise")
+    tol = 0.0 if noise is None else float(noise["rms_K"])
+    by = {r["label"]: r["rms_K"] for r in thesis["states"]}
+    states = {"design": [kept["design"]["rms_K"], thesis["design"]["rms_K"]]}
+    states.update({r["label"]: [r["rms_K"], by.get(r["label"])] for r in kept["states"]})
+    finite = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731  (JSON: no solution is None)
+    return {"thesis": bool(wk > wt + tol), "worst_K": {"kept": finite(wk), "thesis": finite(wt)},
+            "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states}
+
+
+__all__ = ["Constant", "State", "edit_deck", "range_choice", "range_worst", "state_problem", "superseded", "unverified",
+           "verify_network", "verify_range", "verify_states", "warn_off_range", "why_unverified", "worse_than_design",
+           "COLDEST_SINK_K", "POWER_FACTOR", "TEMPERATURE_SWING_K"]

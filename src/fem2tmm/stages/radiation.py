@@ -208,12 +208,19 @@ def emission_check(model: FEModel, network_W: float, T: np.ndarray, to_space: np
         blk = np.bincount(p[ok], ea[ok] * np.asarray(blocked, float)[ok], minlength=len(model.parts))
         out["blocked_by_part"] = {model.parts[i].name: float(blk[i] / tot[i]) for i in range(len(model.parts))
                                   if tot[i] > 0}
-    if warn and rel > EMISSION_MISMATCH:
-        import warnings
-
-        warnings.warn(f"the network radiates {network_W:.4g} W to space at its solution, but its recovered field "
-                      f"emits {traced:.4g} W to space by the traced exchange factors ({100 * rel:.2g} % apart, above "
-                      f"{100 * EMISSION_MISMATCH:g} %): the network and the field it recovers disagree on the heat "
-                      "lost to space (summary.json reduced.emission_check); more super nodes reduce it",
-                      stacklevel=2)
+    if warn:
+        warn_emission(out)
     return out
+
+
+def warn_emission(check: dict | None) -> None:
+    """Warn when an :func:`emission_check` record's ``relative`` exceeds :data:`EMISSION_MISMATCH`."""
+    if check is None or check["relative"] <= EMISSION_MISMATCH:
+        return
+    import warnings
+
+    warnings.warn(f"the network radiates {check['network_W']:.4g} W to space at its solution, but its recovered field "
+                  f"emits {check['traced_W']:.4g} W to space by the traced exchange factors "
+                  f"({100 * check['relative']:.2g} % apart, above {100 * EMISSION_MISMATCH:g} %): the network and the "
+                  "field it recovers disagree on the heat lost to space (summary.json reduced.emission_check); more "
+                  "super nodes reduce it", stacklevel=3)
