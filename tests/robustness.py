@@ -327,4 +327,6 @@ def accuracy_record(s: dict) -> dict:
             "noise_K": acc.get("reference_noise_rms_K") or 0.0, "thesis_refused": bool(choice.get("thesis_refused")),
             "biot_cluster_max": choice.get("biot_cluster_max"),
             "estimated_rms_K": choice.get("estimated_rms_K"), "estimate_noise_K": choice.get("estimate_noise_K"),
-            "estimate_cost_fraction": choice.get("estimate_cost_fraction")}
+            "estimate_cost_fraction": choice.get("estimate_cost_fraction"),
+            "verified_range": None if not choice.get("verified_range") else {
+                k: choice["verified_range"][k] for k in ("thesis", "worst_K", "worst_state", "tolerance_K", "failed")}}

@@ -281,9 +281,10 @@ def _record(design, states, noise=0.01):
 
 def test_the_range_choice_compares_each_networks_worst_state_beyond_the_reference_noise():
     """:func:`fem2tmm.verify.range_choice`: the thesis' network replaces the other when its worst RMS over the design
-    state and the verified states is smaller by more than the reference noise; a state without a solution is
-    infinitely off; a difference within the noise keeps the network chosen."""
-    from fem2tmm.verify import range_choice
+    state and the verified states both solve is smaller by more than the reference noise (at least
+    ``RANGE_FLOOR_K``); a difference within it keeps the network chosen; a state without a solution is named, not
+    counted (a solver that fails is loud, a network far off everywhere is not)."""
+    from fem2tmm.verify import RANGE_FLOOR_K, range_choice
 
     aware = _record(0.03, {"sink high": 12.8, "adapter low": 8.8})
     thesis = _record(3.5, {"sink high": 3.4, "adapter low": 3.5})
@@ -294,10 +295,15 @@ def test_the_range_choice_compares_each_networks_worst_state_beyond_the_referenc
     # worse at one state, but its worst within the noise of the thesis' worst: kept
     assert not range_choice(_record(0.03, {"a": 0.505}, noise=0.01), _record(0.5, {"a": 0.2}))["thesis"]
     assert range_choice(_record(0.03, {"a": 0.515}, noise=0.01), _record(0.5, {"a": 0.2}))["thesis"]
-    # a state without a solution: infinitely off, and None in the record (JSON)
-    rc = range_choice(_record(0.03, {"a": None}), _record(0.5, {"a": 0.6}))
-    assert rc["thesis"] and rc["worst_K"]["kept"] is None and rc["states_K"]["a"] == [None, 0.6]
-    assert not range_choice(_record(0.03, {"a": 0.1}), _record(0.5, {"a": None}))["thesis"]
+    # without ray noise, round-off apart is a tie: at least RANGE_FLOOR_K
+    tie = range_choice(_record(1e-12, {"a": 3e-10}, noise=0.0), _record(1e-12, {"a": 1e-12}, noise=0.0))
+    assert not tie["thesis"] and tie["tolerance_K"] == RANGE_FLOOR_K
+    # a state without a solution: named, left out of both worsts
+    rc = range_choice(_record(0.03, {"a": None, "b": 0.1}), _record(583.0, {"a": 600.0, "b": 590.0}))
+    assert not rc["thesis"] and rc["worst_K"] == {"kept": 0.1, "thesis": 590.0}, rc
+    assert rc["failed"] == {"kept": ["a"], "thesis": []} and rc["states_K"]["a"] == [None, 600.0]
+    rc = range_choice(_record(0.03, {"a": 5.0, "b": 0.1}), _record(0.5, {"a": None, "b": 0.6}))
+    assert rc["worst_K"] == {"kept": 0.1, "thesis": 0.6} and not rc["thesis"]
 
 
 def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_range_better():

@@ -905,7 +905,7 @@ def _range_choice(run: _RunState, net: _Network, reduced: Reduced, problem, refe
     the network handed over.  Not where the deck carries what the thesis' network cannot (the parametric correction,
     a load-case set's shared network)."""
     from .handover import check_deliverable
-    from .verify import range_choice, verify_network
+    from .verify import RANGE_FLOOR_K, range_choice, verify_network
 
     thesis, inputs = run.alternative
     if (reduced.verified.get("status") not in ("verified", "partly verified") or reduced.parametric is not None
@@ -921,10 +921,11 @@ def _range_choice(run: _RunState, net: _Network, reduced: Reduced, problem, refe
     rc = range_choice(reduced.verified, alt.verified)
     rc["seconds"] = time.perf_counter() - t0
     wk, wt = rc["worst_K"]["kept"], rc["worst_K"]["thesis"]
-    figures = (f"over the verified range the radiation-aware network's worst RMS is "
-               f"{'no solution' if wk is None else f'{wk:.3g} K'} ({rc['worst_state']['kept']}), the thesis' "
-               f"{'no solution' if wt is None else f'{wt:.3g} K'} ({rc['worst_state']['thesis']}), reference noise "
-               f"{rc['tolerance_K']:.2g} K")
+    failed = "".join(f"; the {who} network has no solution at {', '.join(rc['failed'][k])}"
+                     for k, who in (("kept", "radiation-aware"), ("thesis", "thesis'")) if rc["failed"][k])
+    figures = (f"over the verified range the radiation-aware network's worst RMS is {wk:.3g} K "
+               f"({rc['worst_state']['kept']}), the thesis' {wt:.3g} K ({rc['worst_state']['thesis']}), the "
+               f"tolerance {rc['tolerance_K']:.2g} K (the reference noise, at least {RANGE_FLOOR_K:g} K){failed}")
     if not rc["thesis"]:
         reduced.choice = {**reduced.choice, "verified_range": rc,
                           "chosen_by": f"{reduced.choice['chosen_by']}; {figures}: kept"}

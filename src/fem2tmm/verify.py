@@ -520,11 +520,18 @@ def warn_off_range(source, verified: dict) -> None:
                   "beyond a state flagged here is outside what the network holds", stacklevel=3)
 
 
-def range_worst(verified: dict) -> tuple[float, str]:
-    """``(RMS K, label)``: the largest RMS of a verified record over the design state and every verified state; a
-    state without a solution counts as infinite."""
+#: the least difference between two networks' worst verified RMS that :func:`range_choice` acts on (K), where the
+#: reference has no ray noise (nothing traced) or less: below it the two differ by round-off (the robustness
+#: campaign's models whose networks are both exact to 1e-10 K), as the campaign's own margin (benchmarks/robustness.py)
+RANGE_FLOOR_K = 1e-3
+
+
+def range_worst(verified: dict, labels=None) -> tuple[float, str]:
+    """``(RMS K, label)``: the largest RMS of a verified record over the design state and its verified states with a
+    solution (only those in ``labels`` when given)."""
     rows = [("design", verified["design"]["rms_K"])] + [
-        (r["label"], np.inf if r["rms_K"] is None else r["rms_K"]) for r in verified["states"]]
+        (r["label"], r["rms_K"]) for r in verified["states"]
+        if r["rms_K"] is not None and (labels is None or r["label"] in labels)]
     label, rms = max(rows, key=lambda x: x[1])
     return float(rms), label
 
@@ -533,11 +540,13 @@ def range_choice(kept: dict, thesis: dict) -> dict:
     """Whether the thesis' network replaces the one a run chose by its design-state estimate, measured over the
     validity range both were verified on (:func:`verify_network` of each, the same states and detailed solutions).
 
-    The network an engineer edits must hold over the range it states; one exact at the design state and off beyond
-    it is worse for them than one a little off everywhere.  So the comparison is each network's worst RMS over the
-    design state and every verified state: the thesis' network replaces the other when that worst is smaller by more
-    than the detailed reference's own noise (its RMS at the design state, 0 without one), the bound the default is held
-    to against the thesis method.
+    The network an engineer edits must hold over the range it states; one exact at the design state and far off
+    beyond it is worse for them than one a little off everywhere.  So the comparison is each network's worst RMS
+    over the design state and the verified states where both have a solution: the thesis' network replaces the other
+    when that worst is smaller by more than the detailed reference's own noise (its RMS at the design state), or
+    :data:`RANGE_FLOOR_K` if that is more: the bound the default is held to against the thesis method.  A state
+    where a deck has no solution is not counted against it: its solver says so where the user edits it, and the
+    record and the run's warning name it, where a network far off everywhere is silently wrong.
 
     Parameters
     ----------
@@ -548,21 +557,23 @@ def range_choice(kept: dict, thesis: dict) -> dict:
     -------
     dict
         ``{"thesis": bool, "worst_K": {"kept", "thesis"}, "worst_state": {"kept", "thesis"}, "tolerance_K",
-        "states_K": {label: [kept RMS, thesis RMS]}}`` (``states_K`` includes "design"; None for a state without a
-        solution).
+        "states_K": {label: [kept RMS, thesis RMS]}, "failed": {"kept", "thesis"}}`` (``states_K`` includes "design",
+        None for a state without a solution; ``failed`` the states each has no solution at).
     """
-    wk, lk = range_worst(kept)
-    wt, lt = range_worst(thesis)
+    solved = lambda v: {r["label"] for r in v["states"] if r["rms_K"] is not None}  # noqa: E731
+    both = solved(kept) & solved(thesis)
+    wk, lk = range_worst(kept, both)
+    wt, lt = range_worst(thesis, both)
     noise = kept.get("reference_noise")
-    tol = 0.0 if noise is None else float(noise["rms_K"])
+    tol = max(0.0 if noise is None else float(noise["rms_K"]), RANGE_FLOOR_K)
     by = {r["label"]: r["rms_K"] for r in thesis["states"]}
     states = {"design": [kept["design"]["rms_K"], thesis["design"]["rms_K"]]}
     states.update({r["label"]: [r["rms_K"], by.get(r["label"])] for r in kept["states"]})
-    finite = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731  (JSON: no solution is None)
-    return {"thesis": bool(wk > wt + tol), "worst_K": {"kept": finite(wk), "thesis": finite(wt)},
-            "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states}
+    failed = {k: [r["label"] for r in v["states"] if r["rms_K"] is None] for k, v in (("kept", kept), ("thesis", thesis))}
+    return {"thesis": bool(wk > wt + tol), "worst_K": {"kept": wk, "thesis": wt},
+            "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states, "failed": failed}
 
 
 __all__ = ["Constant", "State", "edit_deck", "range_choice", "range_worst", "state_problem", "superseded", "unverified",
            "verify_network", "verify_range", "verify_states", "warn_off_range", "why_unverified", "worse_than_design",
-           "COLDEST_SINK_K", "POWER_FACTOR", "TEMPERATURE_SWING_K"]
+           "COLDEST_SINK_K", "POWER_FACTOR", "RANGE_FLOOR_K", "TEMPERATURE_SWING_K"]
