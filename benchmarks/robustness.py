@@ -13,7 +13,9 @@ draws ``radiation_aware`` from true / false / "auto".  Every solved model with t
 default's error and the thesis method's against the detailed reference (``tests/robustness.accuracy_record``):
 ``accuracy`` counts the models where the default is worse than the thesis method by more than the reference's own
 ray noise (``accuracy.reference_noise_rms_K``, two half-budget tracings; without face-to-face radiation there are
-no rays and the margin is the floor ``MARGIN_FLOOR_K``), and by more than 3x that noise.
+no rays and the margin is the floor ``MARGIN_FLOOR_K``), and by more than 3x that noise, at the design state; and
+``accuracy.verified_range`` (:func:`range_table`) how often the verified range handed the thesis' network over
+instead of the radiation-aware one the design-state estimate kept.
 
 One JSON line: ``models``, ``solved``, ``refused`` (cause -> count), ``failures`` (list of {what, error}),
 ``accuracy`` (above), ``seconds``.  ``FEM2TMM_ROBUSTNESS_MODELS`` sets the number of models (default 2000);
@@ -63,6 +65,23 @@ def accuracy_table(records: list[dict]) -> dict:
         out["worse"] += [r for r, w in zip(rs, d - t > margin) if w]
     out["default_worse_by_more_than_noise"] = len(out["worse"])
     out["worse"] = sorted(out["worse"], key=lambda r: r["thesis_rms_K"] - r["default_rms_K"])[:20]
+    out["verified_range"] = range_table(rows)
+    return out
+
+
+def range_table(rows: list[dict]) -> dict:
+    """Over the ``"auto"`` models whose radiation-aware network the estimate kept and whose range was verified
+    (``verified_range`` of the record, :func:`fem2tmm.verify.range_choice`): how many the thesis' network replaced,
+    and each network's worst verified RMS (medians, K) on either side of that choice."""
+    import numpy as np
+
+    vr = [r for r in rows if r.get("verified_range")]
+    out = {"checked": len(vr)}
+    for name, sel in (("thesis_handed_over", True), ("radiation_aware_kept", False)):
+        rs = [r["verified_range"] for r in vr if r["verified_range"]["thesis"] is sel]
+        out[name] = {"models": len(rs), "with_states_without_solution": sum(1 for r in rs if r["failed"]["kept"]),
+                     **{f"worst_K_median_{k}": float(np.median([r["worst_K"][k] for r in rs])) if rs else None
+                        for k in ("kept", "thesis")}}
     return out
 
 
