@@ -93,10 +93,9 @@ def resolved(case: Case, aware: bool) -> Case:
 ESTIMATE_RAY_SHARE = 0.05
 #: rays per half tally always allowed (up to the full tally): a small model's estimate keeps a few 10⁴ rays per half
 #: whatever its REF budget.  At 2·10⁵ the baffle's case_100 (100 super nodes, specular, thesis kept) spent 2.85 s of
-#: its 2.96 s estimate in the two half tallies, 40-65 % of its 7.5 s of reduction stages; at 5·10⁴ 15 %, until the
-#: linear recovery kept its factorisation (2026-12-06 20:09 UTC) and its reduction stages fell to 4.0-5.0 s: 19-25 %
-#: on a quiet machine; at 3·10⁴ 16-17 %, its noise 0.0094 -> 0.0113 K (docs/studies.md, "Which reduction runs by
-#: default", measures every study with it)
+#: its 2.96 s estimate in the two half tallies, 40-65 % of its 7.5 s of reduction stages; at 5·10⁴ 15 % under load
+#: 2-3 (6.5 s of reduction stages) but 19-25 % on a quiet machine (4.0-5.0 s, 2026-12-06 20:27 UTC); at 3·10⁴ 16-17 %
+#: there, its noise 0.0094 -> 0.0113 K (docs/studies.md, "Which reduction runs by default", measures every study)
 ESTIMATE_RAYS_FLOOR = 30_000
 #: the radiation-aware network replaces the thesis' only when its estimate is smaller by more than this share of the
 #: thesis' estimate (or by more than their ray noise, if that is more): the estimator's own accuracy.  Over the
