@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextvars
 import logging
 import os
+import sys
 import threading
 from contextlib import contextmanager
 from typing import Any, Callable, Sequence
@@ -239,3 +240,83 @@ def executing(scheduler: str = "serial", workers: int | None = None):
             yield ex
     finally:
         ex.close()
+
+
+#: load cases in flight at once on a Dask executor, per worker (each holds its FE model in this process)
+CASES_PER_WORKER = 2
+
+
+class CaseStore:
+    """One case's view of the shared :class:`~fem2tmm.cache.StageCache`: records the ``(stage, key, how)`` the
+    case used, in order, and stops (``check``, e.g. :meth:`~fem2tmm.compute.DaskExecutor.check_cancelled`) before
+    computing a stage once the run is cancelled."""
+
+    def __init__(self, store, check):
+        self.store, self.check, self.uses = store, check, []
+
+    def get_or_compute(self, stage: str, key: str, compute):
+        def checked():
+            self.check()
+            return compute()
+
+        value, how = self.store.get_or_compute(stage, key, checked)
+        self.uses.append((stage, key, how))
+        return value, how
+
+
+def run_concurrently(ex, jobs: list, run_one: Callable, store, quiet: bool) -> list:
+    """``[run_one(case, progress, mesh, store_view) for (case, progress, mesh) in jobs]`` (the pipeline's run of one
+    case; ``store_view`` its :class:`CaseStore` of the stage cache ``store``, or None) with up to :data:`CASES_PER_WORKER` x workers cases in client threads
+    at once, so that the work units of several cases are in flight on the Dask executor ``ex``; results in case
+    order, each the same as in a sequential run (units are seeded by their identity; a shared stage is computed
+    once, by whichever case gets there first, and each case's ``cache`` status is then set as a sequential run
+    sets it: "computed" for the first case in case order that used an entry computed in this run).  One progress
+    bar over every work unit.  The first case that fails cancels the others' units, which stop at their next
+    unit or stage; its exception is raised (so is Ctrl-C, after cancelling the units)."""
+    import contextvars
+    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
+
+    from .progress import UnitsBar, reporting, reporting_units
+
+    n = ex.workers
+    bar = UnitsBar(f"work units on {n} worker{'s' if n != 1 else ''}", quiet=quiet)
+    views = [None if store is None else CaseStore(store, ex.check_cancelled) for _ in jobs]
+
+    def one(c, prog, m, view):
+        with reporting(prog.callback()), reporting_units(bar):
+            return run_one(c, prog, m, view)
+
+    pool = ThreadPoolExecutor(max_workers=max(1, min(len(jobs), CASES_PER_WORKER * max(n, 1))),
+                              thread_name_prefix="fem2tmm-case")
+    futures = [pool.submit(contextvars.copy_context().run, one, c, prog, m, view)  # sees using(ex), reporting
+               for (c, prog, m), view in zip(jobs, views)]
+    error = None
+    try:
+        pending = set(futures)
+        while pending and error is None:
+            done, pending = wait(pending, timeout=0.25, return_when=FIRST_EXCEPTION)
+            failed = [f for f in futures if f in done and f.exception() is not None]
+            error = failed[0].exception() if failed else None
+    except BaseException as exc:  # Ctrl-C while waiting
+        error = exc
+    finally:
+        if error is not None:
+            ex.cancel()
+            for f in futures:
+                f.cancel()
+        pool.shutdown(wait=True)  # the running cases stop at their next unit (Cancelled)
+        bar.close()
+    if error is not None:
+        raise error  # the first case's own exception (Fem2TmmError, KeyboardInterrupt ...), not a Cancelled
+    results = [f.result() for f in futures]
+    if not quiet:
+        print(f"[fem2tmm] {bar.done} work units on {n} worker{'s' if n != 1 else ''}", file=sys.stderr, flush=True)
+    if store is not None:  # the status a sequential run reports: the first case (in order) to use it computed it
+        computed = {(st, k) for v in views for st, k, how in v.uses if how == "computed"}
+        seen = set()
+        for v, r in zip(views, results):
+            for st, k, _ in v.uses:
+                if (st, k) in computed:
+                    r.cache[st] = "reused" if (st, k) in seen else "computed"
+                    seen.add((st, k))
+    return results

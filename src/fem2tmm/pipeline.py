@@ -11,7 +11,6 @@ write_outputs` writes a temporary folder next to it and renames it at the end).
 from __future__ import annotations
 
 import dataclasses
-import sys
 import threading
 import time
 from pathlib import Path
@@ -21,7 +20,7 @@ import numpy as np
 from .case import Case
 from .errors import Fem2TmmError, InternalError
 from .cache import digest
-from .compute import map_units
+from .compute import map_units, run_concurrently
 from .constants import KELVIN
 from .export.output import check_output_place, write_cases_outputs, write_outputs
 from .export.summary import build_cases_summary, build_summary, network_radiated_W
@@ -143,7 +142,10 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
                         results.append(_run(c, prog, m, reference, store, labels, shelf=shelf,
                                             linearised=linearised))
             else:
-                results = _run_concurrently(ex, jobs, reference, store, labels, quiet, shelf, linearised)
+                def one(c, prog, m, view):
+                    return _run(c, prog, m, reference, view, labels, shelf=shelf, linearised=linearised)
+
+                results = run_concurrently(ex, jobs, one, store, quiet)
     if len(cases) == 1 and not cases[0][0]:
         result = results[0]
         if out is not None:
@@ -175,28 +177,6 @@ def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, qui
     return multi
 
 
-#: load cases in flight at once on a Dask executor, per worker (each holds its FE model in this process)
-CASES_PER_WORKER = 2
-
-
-class _CaseStore:
-    """One case's view of the shared :class:`~fem2tmm.cache.StageCache`: records the ``(stage, key, how)`` the
-    case used, in order, and stops (``check``, e.g. :meth:`~fem2tmm.compute.DaskExecutor.check_cancelled`) before
-    computing a stage once the run is cancelled."""
-
-    def __init__(self, store, check):
-        self.store, self.check, self.uses = store, check, []
-
-    def get_or_compute(self, stage: str, key: str, compute):
-        def checked():
-            self.check()
-            return compute()
-
-        value, how = self.store.get_or_compute(stage, key, checked)
-        self.uses.append((stage, key, how))
-        return value, how
-
-
 def _shared_linearisations(cases: list, jobs: list, store, labels, shelf) -> dict | None:
     """One network per group of load cases (:func:`~fem2tmm.keys.network_group`) for the radiation-aware
     reduction: ``{group: {"T": (n_dof,) K or None, "aware": bool, "case": name, "cases": [names]}}`` for the groups
@@ -225,64 +205,6 @@ def _shared_linearisations(cases: list, jobs: list, store, labels, shelf) -> dic
         groups[g] = {"T": first.reduced.T_recovered if chosen else None, "aware": chosen, "case": n,
                      "cases": [x[0] for x in cs]}
     return groups or None
-
-
-def _run_concurrently(ex, jobs: list, reference, store, labels, quiet: bool,
-                      shelf: SceneShelf | None = None, linearised: dict | None = None) -> list[Result]:
-    """``[_run(case, ...) for case in jobs]`` with up to :data:`CASES_PER_WORKER` x workers cases in client threads
-    at once, so that the work units of several cases are in flight on the Dask executor ``ex``; results in case
-    order, each the same as in a sequential run (units are seeded by their identity; a shared stage is computed
-    once, by whichever case gets there first, and each case's ``cache`` status is then set as a sequential run
-    sets it: "computed" for the first case in case order that used an entry computed in this run).  One progress
-    bar over every work unit.  The first case that fails cancels the others' units, which stop at their next
-    unit or stage; its exception is raised (so is Ctrl-C, after cancelling the units)."""
-    import contextvars
-    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
-
-    from .progress import UnitsBar, reporting_units
-
-    n = ex.workers
-    bar = UnitsBar(f"work units on {n} worker{'s' if n != 1 else ''}", quiet=quiet)
-    views = [None if store is None else _CaseStore(store, ex.check_cancelled) for _ in jobs]
-
-    def one(c, prog, m, view):
-        with reporting(prog.callback()), reporting_units(bar):
-            return _run(c, prog, m, reference, view, labels, shelf=shelf, linearised=linearised)
-
-    pool = ThreadPoolExecutor(max_workers=max(1, min(len(jobs), CASES_PER_WORKER * max(n, 1))),
-                              thread_name_prefix="fem2tmm-case")
-    futures = [pool.submit(contextvars.copy_context().run, one, c, prog, m, view)  # sees using(ex), reporting
-               for (c, prog, m), view in zip(jobs, views)]
-    error = None
-    try:
-        pending = set(futures)
-        while pending and error is None:
-            done, pending = wait(pending, timeout=0.25, return_when=FIRST_EXCEPTION)
-            failed = [f for f in futures if f in done and f.exception() is not None]
-            error = failed[0].exception() if failed else None
-    except BaseException as exc:  # Ctrl-C while waiting
-        error = exc
-    finally:
-        if error is not None:
-            ex.cancel()
-            for f in futures:
-                f.cancel()
-        pool.shutdown(wait=True)  # the running cases stop at their next unit (Cancelled)
-        bar.close()
-    if error is not None:
-        raise error  # the first case's own exception (Fem2TmmError, KeyboardInterrupt ...), not a Cancelled
-    results = [f.result() for f in futures]
-    if not quiet:
-        print(f"[fem2tmm] {bar.done} work units on {n} worker{'s' if n != 1 else ''}", file=sys.stderr, flush=True)
-    if store is not None:  # the status a sequential run reports: the first case (in order) to use it computed it
-        computed = {(st, k) for v in views for st, k, how in v.uses if how == "computed"}
-        seen = set()
-        for v, r in zip(views, results):
-            for st, k, _ in v.uses:
-                if (st, k) in computed:
-                    r.cache[st] = "reused" if (st, k) in seen else "computed"
-                    seen.add((st, k))
-    return results
 
 
 def _cached(prog: Progress, store, status: dict, stage: str, label: str, key, compute):
