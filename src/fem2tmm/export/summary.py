@@ -421,6 +421,12 @@ def verified_rows(red: dict | None) -> list[tuple[str, str]]:
         rows.append(("", "WARNING: " + "; ".join(x for x in (
             v["flagged"] and f"above {v['threshold']['factor']:g} x the design error at {', '.join(v['flagged'])}",
             v["failed"] and f"no solution at {', '.join(v['failed'])}") if x)))
+    rc = (red.get("choice") or {}).get("verified_range")
+    if rc:  # both networks over the same range (fem2tmm.verify.range_choice): the figures the choice rests on
+        fmt = lambda x: "no solution" if x is None else f"{x:.3g}"  # noqa: E731
+        pairs = "; ".join(f"{k} {fmt(a)} / {fmt(b)}" for k, (a, b) in rc["states_K"].items())
+        rows.append(("range, both networks", f"RMS K radiation-aware / thesis: {pairs}; handed over: "
+                     + ("the thesis' network" if rc["thesis"] else "the radiation-aware network")))
     return rows
 
 
