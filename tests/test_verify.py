@@ -326,6 +326,8 @@ def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_r
     assert rc["replaced"]["method"] == "radiation_aware"
     assert rc["replaced"]["verified"]["worst"]["rms_K"] == pytest.approx(rc["worst_K"]["kept"], rel=1e-12)
     assert "holds the range better" in ch["chosen_by"]
+    shown = summary_table(default.summary)  # the figures the choice rests on, for the engineer: both networks
+    assert "range, both networks" in shown and f"all high {rc['states_K']['all high'][0]:.3g} / " in shown, shown
     vd, vt = default.summary["reduced"]["verified"], thesis.summary["reduced"]["verified"]
     assert default.summary["accuracy"]["rms_K"] == pytest.approx(thesis.summary["accuracy"]["rms_K"], rel=1e-9)
     assert [s["label"] for s in vd["states"]] == [s["label"] for s in vt["states"]]
