@@ -848,11 +848,15 @@ def _range_choice(run: _RunState, net: _Network, reduced: Reduced, problem, refe
     figures = (f"over the verified range the radiation-aware network's worst RMS is {wk:.3g} K "
                f"({rc['worst_state']['kept']}), the thesis' {wt:.3g} K ({rc['worst_state']['thesis']}), the "
                f"tolerance {rc['tolerance_K']:.2g} K (the reference noise, at least {RANGE_FLOOR_K:g} K){failed}")
+    # the validity range's cost in the run is both checks' (summary: verified.seconds, cost_fraction)
+    both = reduced.verified["seconds"] + rc["seconds"]
     if not rc["thesis"]:
         reduced.choice = {**reduced.choice, "verified_range": rc,
                           "chosen_by": f"{reduced.choice['chosen_by']}; {figures}: kept"}
+        reduced.verified = {**reduced.verified, "seconds": both}
         return
     rc["replaced"] = {"method": reduced.method, "verified": reduced.verified}
+    alt.verified = {**alt.verified, "seconds": both}
     alt.choice = {**reduced.choice, "radiation_aware": False, "ir_on": thesis.case.radiation.ir_on,
                   "verified_range": rc,
                   "chosen_by": (f"{reduced.choice['chosen_by']}; {figures}: the thesis' network holds the range "
