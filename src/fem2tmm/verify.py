@@ -21,7 +21,9 @@ checks the network over a range of each named constant:
 
 The error is the recovered field's against the detailed one over the mesh nodes (as ``summary.json accuracy``),
 beside the design state's through the same path and the reference's own noise (two half references, at the design
-state only).  A state is flagged (:func:`worse_than_design`) when its RMS exceeds both :data:`WARN_FACTOR` x the
+state only).  Where ``radiation_aware = "auto"`` kept the radiation-aware network by its design-state estimate,
+the thesis' network is verified too, on the same detailed solutions, and :func:`range_choice` says which one is
+handed over.  A state is flagged (:func:`worse_than_design`) when its RMS exceeds both :data:`WARN_FACTOR` x the
 design's RMS and :data:`WARN_RMS_K`, or its maximum both :data:`WARN_FACTOR` x the design's maximum and
 :data:`WARN_MAX_K`.
 """
@@ -342,8 +344,9 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     problem : SteadyProblem
         The detailed problem at the design state (the one ``result.detailed.solution`` solves).
     references : dict, optional
-        The detailed solutions at the verified states, {state values: (n_dof,) K}, filled here and reused by
-        another call on the same run (another candidate network over the same range: :func:`range_choice`).
+        The detailed steady solutions at the verified states, {sorted state values: SteadySolution}, filled here
+        and reused by another call on the same run (another candidate network over the same range:
+        :func:`range_choice`).
     warn : bool
         Warn when states are flagged or have no solution (:func:`warn_off_range`); False where the caller may hand
         over another network and warns for the one it keeps.
