@@ -266,8 +266,8 @@ class CaseStore:
 
 def run_concurrently(ex, jobs: list, run_one: Callable, store, quiet: bool) -> list:
     """``[run_one(case, progress, mesh, store_view) for (case, progress, mesh) in jobs]`` (the pipeline's run of one
-    case; ``store_view`` its :class:`CaseStore` of the stage cache ``store``, or None) with up to :data:`CASES_PER_WORKER` x workers cases in client threads
-    at once, so that the work units of several cases are in flight on the Dask executor ``ex``; results in case
+    case; ``store_view`` its :class:`CaseStore` of the stage cache ``store``, or None) with up to
+    :data:`CASES_PER_WORKER` x workers cases in client threads at once, so that the work units of several cases are in flight on the Dask executor ``ex``; results in case
     order, each the same as in a sequential run (units are seeded by their identity; a shared stage is computed
     once, by whichever case gets there first, and each case's ``cache`` status is then set as a sequential run
     sets it: "computed" for the first case in case order that used an entry computed in this run).  One progress

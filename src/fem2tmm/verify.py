@@ -572,7 +572,8 @@ def range_choice(kept: dict, thesis: dict) -> dict:
     by = {r["label"]: r["rms_K"] for r in thesis["states"]}
     states = {"design": [kept["design"]["rms_K"], thesis["design"]["rms_K"]]}
     states.update({r["label"]: [r["rms_K"], by.get(r["label"])] for r in kept["states"]})
-    failed = {k: [r["label"] for r in v["states"] if r["rms_K"] is None] for k, v in (("kept", kept), ("thesis", thesis))}
+    failed = {k: [r["label"] for r in v["states"] if r["rms_K"] is None]
+              for k, v in (("kept", kept), ("thesis", thesis))}
     return {"thesis": bool(wk > wt + tol), "worst_K": {"kept": wk, "thesis": wt},
             "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states, "failed": failed}
 

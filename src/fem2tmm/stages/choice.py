@@ -52,8 +52,8 @@ state but 12.8 K with the sink at its warmest design temperature, the thesis' 3.
 run).  An estimate of those 2m + 2 states (m named constants) without a reference would need every candidate's
 network solved and recovered there (the radiation-aware one by its nonlinear emission-mode recovery) and a detailed
 Newton step at each state's field: about 2m + 2 times the design estimate (9 states on examples/satellite, whose
-design estimate is already 2.9 % of the reduction stages), beyond the 20 % the estimate may cost; without a reference the
-choice rests on the design state alone and ``reduced.verified`` says the range is unverified.
+design estimate is already 2.9 % of the reduction stages), beyond the 20 % the estimate may cost; without a
+reference the choice rests on the design state alone and ``reduced.verified`` says the range is unverified.
 """
 
 from __future__ import annotations
