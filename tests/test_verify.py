@@ -306,7 +306,7 @@ def test_the_range_choice_compares_each_networks_worst_state_beyond_the_referenc
     assert rc["worst_K"] == {"kept": 0.1, "thesis": 0.6} and not rc["thesis"]
 
 
-def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_range_better():
+def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_range_better(tmp_path):
     """Issue 42, the choice over the verified range, on ``examples/cylinders`` (32 super nodes): the design-state
     estimate keeps the radiation-aware network (0.80 against 1.04 K estimated, 0.073 against 0.095 K measured at the
     design state), but over the verified range its worst state is all high, 0.51 K RMS, where the thesis' network is
@@ -317,7 +317,9 @@ def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_r
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        default, thesis = (run(_case("cylinders/case.toml", m)) for m in ("default", "thesis"))
+        out = tmp_path / "out"
+        default = run(_case("cylinders/case.toml", "default"), out=out)
+        thesis = run(_case("cylinders/case.toml", "thesis"))
     ch = default.summary["reduced"]["choice"]
     rc = ch["verified_range"]
     assert default.reduced.method == "thesis" and ch["radiation_aware"] is False, ch["chosen_by"]
@@ -326,6 +328,8 @@ def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_r
     assert rc["replaced"]["method"] == "radiation_aware"
     assert rc["replaced"]["verified"]["worst"]["rms_K"] == pytest.approx(rc["worst_K"]["kept"], rel=1e-12)
     assert "holds the range better" in ch["chosen_by"]
+    deck = (out / "model.esatan").read_text()  # the deck says which network the range chose, and both worsts
+    assert f"chosen over the range: the thesis' network (worst RMS {rc['worst_K']['thesis']:.3g} K)" in deck
     shown = summary_table(default.summary)  # the figures the choice rests on, for the engineer: both networks
     assert "range, both networks" in shown and f"all high {rc['states_K']['all high'][0]:.3g} / " in shown, shown
     vd, vt = default.summary["reduced"]["verified"], thesis.summary["reduced"]["verified"]

@@ -192,7 +192,7 @@ def network_deck(result: Result) -> Deck:
                 transient=transient,
                 model_name=ex.model_name or Path(result.case.source).stem, load_terms=load_terms,
                 temperature_terms=temperature_terms, parametric_terms=parametric_terms,
-                validity=tuple(validity_lines(result.reduced.verified)),
+                validity=tuple(validity_lines(result.reduced.verified, result.reduced.choice)),
                 space_tables=rm.g_space_table)
     if rm.hot_spots is None:
         return deck

@@ -20,9 +20,10 @@ def _status(verified: dict | None) -> dict:
     return verified or {"status": "UNVERIFIED", "reason": "the run did not verify it"}
 
 
-def validity_lines(verified: dict | None) -> list[str]:
+def validity_lines(verified: dict | None, choice: dict | None = None) -> list[str]:
     """The deck's validity statement from ``reduced.verified`` (:func:`fem2tmm.verify.verify_network`, or
-    ``{"status": "UNVERIFIED", "reason"}``; None: unverified).
+    ``{"status": "UNVERIFIED", "reason"}``; None: unverified), and from ``reduced.choice`` (or None) which network
+    the range chose where both were verified (``verified_range``, :func:`fem2tmm.verify.range_choice`).
 
     Returns
     -------
@@ -55,6 +56,14 @@ def validity_lines(verified: dict | None) -> list[str]:
     if v["flagged"]:
         out += textwrap.wrap(f"WARNING: error above {v['threshold']['factor']:g} x the design state's: "
                              f"{', '.join(v['flagged'])}", WIDTH, initial_indent="  ", subsequent_indent="    ")
+    rc = (choice or {}).get("verified_range")
+    if rc and rc["worst_K"]["kept"] is not None:
+        wk, wt = rc["worst_K"]["kept"], rc["worst_K"]["thesis"]
+        which = (f"the thesis' network (worst RMS {wt:.3g} K) rather than the radiation-aware one ({wk:.3g} K)"
+                 if rc["thesis"] else f"the radiation-aware network (worst RMS {wk:.3g} K) rather than the thesis' "
+                 f"({wt:.3g} K)")
+        out += textwrap.wrap(f"This network was chosen over the range: {which}.", WIDTH, initial_indent="  ",
+                             subsequent_indent="    ")
     out.append("Outside these ranges the network is UNVERIFIED.")
     return [line[:WIDTH] for line in out]
 
