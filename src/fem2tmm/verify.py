@@ -446,7 +446,7 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         # (examples/composite: 2.6 -> 0.8 s for the sink at 82 degC, 3.4 -> 0.75 s for the heater at 120 W)
         t0 = time.perf_counter()
         if solved:
-            lin = dataclasses.replace(recovery, mode="linear").recover(
+            lin = recovery.linear().recover(
                 np.column_stack([T_sn0] + [x[2] for x in solved]))
             shift = lin[:, 1:] - lin[:, :1]
         share = (time.perf_counter() - t0) / max(len(solved), 1)

@@ -34,7 +34,7 @@ solves, 5-10 rounds); linear in the nonzeros of K and A, never a dense n_dof mat
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -143,8 +143,18 @@ class ExportedRecovery:
     sink_table: tuple | None = None
     # the factorised saddle [[K, Aᵀ], [A, 0]] of the linear recovery, kept for the next call (the same matrix at every
     # state: verifying a thesis' deck at 2m + 2 states factorised it once per state, 5.5 s of 5.8 s on
-    # examples/composite); not a field of the file, nor of a copy (dataclasses.replace builds a new one)
+    # examples/composite); not a field of the file, nor of a copy (dataclasses.replace builds a new one; :meth:`linear`
+    # shares it)
     _linear: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def linear(self) -> "ExportedRecovery":
+        """This recovery in linear mode (the emission left out), sharing its factorised saddle: :meth:`recover` solves
+        the same ``[[K, Aᵀ], [A, 0]]`` in both modes (the emission mode's start)."""
+        if self.mode == "linear":
+            return self
+        out = replace(self, mode="linear")
+        object.__setattr__(out, "_linear", self._linear)
+        return out
 
     def __getstate__(self) -> dict:  # (a factorisation does not pickle: a Dask worker's result travels without it)
         return {k: v for k, v in self.__dict__.items() if k != "_linear"}
