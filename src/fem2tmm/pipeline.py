@@ -792,8 +792,8 @@ def _transient(run: _RunState, reduced: Reduced | None, reductor, problem, q_orb
                                              orbit=orbit_loads, exported=exported)
 
 
-def _deliver_and_verify(run: _RunState, reduced: Reduced, problem, net: _Network | None = None,
-                        q_orbit: np.ndarray | None = None) -> None:
+def _deliver_and_verify(run: _RunState, reduced: Reduced, problem, net: _Network,
+                        q_orbit: np.ndarray | None) -> None:
     """What the user receives (the network written, read back, solved, recovered), then its validity range; where
     ``radiation_aware = "auto"`` kept the radiation-aware network by its design-state estimate, the thesis' network
     is verified over the same range and replaces it when it holds that range better (:func:`_range_choice`)."""
@@ -807,7 +807,7 @@ def _deliver_and_verify(run: _RunState, reduced: Reduced, problem, net: _Network
     reduced.verified = why_unverified(run.result)  # the validity range: checked against the detailed model, or not
     if reduced.verified is None:
         references = {}  # the detailed solutions at the verified states, shared with the thesis' check
-        other = run.alternative is not None and net is not None
+        other = run.alternative is not None
         with run.prog.stage("verify", "verifying the network over its validity range (edited decks vs detailed)"):
             reduced.verified = verify_network(run.result, problem, references, warn=not other)
         if other:
