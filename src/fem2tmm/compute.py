@@ -320,3 +320,45 @@ def run_concurrently(ex, jobs: list, run_one: Callable, store, quiet: bool) -> l
                     r.cache[st] = "reused" if (st, k) in seen else "computed"
                     seen.add((st, k))
     return results
+
+
+def cached_stage(prog, store, status: dict, stage: str, label: str, key, compute):
+    """Stage ``stage`` of ``prog`` (:class:`~fem2tmm.progress.Progress`), timed: its value from the stage cache
+    ``store`` under ``key()`` or ``compute()``d (and cached); records "computed" or "reused" in ``status``."""
+    with prog.stage(stage, label):
+        if store is None:
+            value, how = compute(), "computed"
+        else:
+            value, how = store.get_or_compute(stage, key(), compute)
+    status[stage] = how
+    return value
+
+
+class SceneShelf:
+    """The ray scenes of one :func:`run`, shared by its load cases (and refinement rounds): a scene depends only on
+    the geometry (the surface's points and faces, and the quadric fit; the optics come with each trace), so cases
+    that share it build it once (on the baffle, a quadric scene is ~1.7 s and its sunlit areas ~0.8 s per case).
+    Thread-safe: concurrent cases wanting the same scene wait for the one that builds it.  Keeps the ``size`` most
+    recently built scenes (refinement rounds fit new quadrics each round: their older scenes are let go)."""
+
+    def __init__(self, size: int = 4):
+        self._scenes: dict = {}
+        self._locks: dict = {}
+        self._lock = threading.Lock()
+        self.size = size
+
+    def get(self, key: tuple, build):
+        """The scene under ``key``, ``build()``-ing it on first use."""
+        with self._lock:
+            lock = self._locks.setdefault(key, threading.Lock())
+        with lock:
+            scene = self._scenes.get(key)
+            if scene is None:
+                scene = build()
+                with self._lock:
+                    self._scenes[key] = scene
+                    while len(self._scenes) > self.size:  # the oldest (a case still using it keeps its reference)
+                        old = next(iter(self._scenes))
+                        self._scenes.pop(old)
+                        self._locks.pop(old, None)
+            return scene
