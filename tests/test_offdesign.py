@@ -134,3 +134,32 @@ def test_a_super_node_short_of_heat_is_fed_from_the_held_edge_and_the_design_sta
     # the design state still closes every free node's balance, by an independent sum of the flows
     flow = Q - (K + dK) @ T - SIGMA * e * (T**4 - 3.0**4)
     assert np.abs(flow[~fixed]).max() < 1e-12
+
+
+def test_a_super_node_short_of_heat_is_fed_along_its_own_links_when_asked_and_the_design_state_stays_exact():
+    """emission_floor_links, ``source = "linked"``, on the chain above: node 3's only conducting link from a warmer
+    node is node 2's (0.01 W/K, 40 K warmer: 0.4 W); that link alone grows, by 1 + need / 0.4 W, and the held node
+    gives nothing (the rule the satellite's short bars keep, docs/design-notes.md)."""
+    import numpy as np
+
+    from fem2tmm.constants import SIGMA
+    from fem2tmm.reduce.radiative import EMISSION_MIN_FRACTION, effective_emission, emission_floor_links
+
+    T = np.array([293.0, 200.0, 120.0, 80.0])
+    K = np.array([[0.05, -0.05, 0.0, 0.0], [-0.05, 0.07, -0.03, 0.01], [0.0, -0.03, 0.04, -0.01],
+                  [0.0, 0.01, -0.01, 0.0]])
+    K[np.diag_indices(4)] -= K.sum(axis=1)
+    Q, fixed, g = np.array([0.0, 2.0, 0.2, 0.0]), np.array([True, False, False, False]), np.full(4, 0.05)
+    r3 = Q[3] - K[3] @ T  # node 3's balance: what it must lose to space (negative: short of heat)
+    need = SIGMA * EMISSION_MIN_FRACTION * g[3] * (T[3] ** 4 - 3.0**4) - r3
+    assert r3 < 0 and need > 0
+    dK = emission_floor_links(K, Q, None, fixed, T, 3.0, g, source="linked")
+    assert np.allclose(dK.sum(axis=1), 0.0) and np.allclose(dK, dK.T)
+    off = dK - np.diag(np.diag(dK))
+    assert np.count_nonzero(off) == 2  # the 2-3 link only: not the held node, not the negative 1-3 link
+    assert -dK[3, 2] == pytest.approx(0.01 * need / (0.01 * (T[2] - T[3])), rel=1e-12)
+    assert -dK[3, 2] * (T[2] - T[3]) == pytest.approx(need, rel=1e-12)  # the flow it adds is what node 3 lacked
+    e, _ = effective_emission(K + dK, Q, None, fixed, T, 3.0, np.full(4, 0.01), np.zeros(4), g)
+    assert e[3] == pytest.approx(EMISSION_MIN_FRACTION * g[3], rel=1e-9)
+    flow = Q - (K + dK) @ T - SIGMA * e * (T**4 - 3.0**4)
+    assert np.abs(flow[~fixed]).max() < 1e-12

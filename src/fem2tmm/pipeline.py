@@ -11,7 +11,6 @@ write_outputs` writes a temporary folder next to it and renames it at the end).
 from __future__ import annotations
 
 import dataclasses
-import threading
 import time
 from pathlib import Path
 
@@ -20,7 +19,7 @@ import numpy as np
 from .case import Case
 from .errors import Fem2TmmError, InternalError
 from .cache import digest
-from .compute import map_units, run_concurrently
+from .compute import SceneShelf, cached_stage, map_units, run_concurrently
 from .constants import KELVIN
 from .export.output import check_output_place, write_cases_outputs, write_outputs
 from .export.summary import build_cases_summary, build_summary, network_radiated_W
@@ -207,48 +206,6 @@ def _shared_linearisations(cases: list, jobs: list, store, labels, shelf) -> dic
     return groups or None
 
 
-def _cached(prog: Progress, store, status: dict, stage: str, label: str, key, compute):
-    """Stage ``stage``, timed: its value from the stage cache ``store`` under ``key()`` or ``compute()``d (and
-    cached); records "computed" or "reused" in ``status``."""
-    with prog.stage(stage, label):
-        if store is None:
-            value, how = compute(), "computed"
-        else:
-            value, how = store.get_or_compute(stage, key(), compute)
-    status[stage] = how
-    return value
-
-
-class SceneShelf:
-    """The ray scenes of one :func:`run`, shared by its load cases (and refinement rounds): a scene depends only on
-    the geometry (the surface's points and faces, and the quadric fit; the optics come with each trace), so cases
-    that share it build it once (on the baffle, a quadric scene is ~1.7 s and its sunlit areas ~0.8 s per case).
-    Thread-safe: concurrent cases wanting the same scene wait for the one that builds it.  Keeps the ``size`` most
-    recently built scenes (refinement rounds fit new quadrics each round: their older scenes are let go)."""
-
-    def __init__(self, size: int = 4):
-        self._scenes: dict = {}
-        self._locks: dict = {}
-        self._lock = threading.Lock()
-        self.size = size
-
-    def get(self, key: tuple, build):
-        """The scene under ``key``, ``build()``-ing it on first use."""
-        with self._lock:
-            lock = self._locks.setdefault(key, threading.Lock())
-        with lock:
-            scene = self._scenes.get(key)
-            if scene is None:
-                scene = build()
-                with self._lock:
-                    self._scenes[key] = scene
-                    while len(self._scenes) > self.size:  # the oldest (a case still using it keeps its reference)
-                        old = next(iter(self._scenes))
-                        self._scenes.pop(old)
-                        self._locks.pop(old, None)
-            return scene
-
-
 class _Scenes:
     """The case's ray scenes, each built on first use (a stage whose result is cached needs none), taken from the
     run's :class:`SceneShelf` when another case of the run built one for the same geometry."""
@@ -317,7 +274,7 @@ class _RunState:
         return (self.surface, self.scenes.main()) if self.trace else (None, None)
 
     def cached(self, stage: str, label: str, key, compute):
-        return _cached(self.prog, self.store, self.status, stage, label, key, compute)
+        return cached_stage(self.prog, self.store, self.status, stage, label, key, compute)
 
     def sun_key(self, stage: str, scene: str, role: str, *more) -> str:
         env = self.asked.environment
@@ -805,14 +762,20 @@ def _deliver_and_verify(run: _RunState, reduced: Reduced, problem, net: _Network
     from .verify import verify_network, warn_off_range, why_unverified
 
     reduced.verified = why_unverified(run.result)  # the validity range: checked against the detailed model, or not
+    floor = getattr(reduced.network.radiative, "floor_linked", None)
     if reduced.verified is None:
-        references = {}  # the detailed solutions at the verified states, shared with the thesis' check
+        references = {}  # the detailed solutions at the verified states, shared with the other networks' checks
         other = run.alternative is not None
         with run.prog.stage("verify", "verifying the network over its validity range (edited decks vs detailed)"):
-            reduced.verified = verify_network(run.result, problem, references, warn=not other)
+            reduced.verified = verify_network(run.result, problem, references, warn=not (other or floor))
+        if floor is not None:
+            reduced = _floor_choice(run, net, reduced, problem, references, q_orbit)
         if other:
             _range_choice(run, net, reduced, problem, references, q_orbit)
+        if other or floor is not None:
             warn_off_range(run.case.source, run.result.reduced.verified)  # for the network handed over
+    if floor is not None:
+        reduced.network.radiative.floor_linked = None  # the candidate not handed over
     if run.alternative is not None and run.result.reduced is reduced:  # its warning, held back until it was kept
         warn_emission(reduced.emission_check)
     run.alternative = None
@@ -826,7 +789,6 @@ def _range_choice(run: _RunState, net: _Network, reduced: Reduced, problem, refe
     ``reduced.choice.verified_range`` either way; the orbit positions of ``steady = "positions"`` are solved again on
     the network handed over.  Not where the deck carries what the thesis' network cannot (the parametric correction,
     a load-case set's shared network)."""
-    from .handover import check_deliverable
     from .verify import RANGE_FLOOR_K, range_choice, verify_network
 
     thesis, inputs = run.alternative
@@ -862,6 +824,47 @@ def _range_choice(run: _RunState, net: _Network, reduced: Reduced, problem, refe
                   "chosen_by": (f"{reduced.choice['chosen_by']}; {figures}: the thesis' network holds the range "
                                 "better and is handed over")}
     run.case = thesis.case
+    _hand_over(run, net, alt, q_orbit)
+
+
+def _floor_choice(run: _RunState, net: _Network, reduced: Reduced, problem, references: dict,
+                  q_orbit: np.ndarray | None) -> Reduced:
+    """Where a short super node's heat comes from (:func:`fem2tmm.reduce.radiative.emission_floor_links`): the
+    radiation-aware network with it fed along K̃'s links, verified on the same states and detailed solutions,
+    replaces the one fed from the held node when its worst verified RMS is smaller beyond the reference noise and
+    :data:`~fem2tmm.verify.FLOOR_RELATIVE_MARGIN` of the held one's (:func:`fem2tmm.verify.range_choice`).  Both
+    are exact at the design state.  ``reduced.choice.floor`` keeps both worsts.  Returns the network handed over."""
+    from .verify import FLOOR_RELATIVE_MARGIN, range_choice, verify_network
+
+    if reduced.verified.get("status") not in ("verified", "partly verified"):
+        return reduced
+    t0 = time.perf_counter()
+    with run.prog.stage("verify_floor", "verifying the network with its short super nodes fed along its links"):
+        linked, sol = reduced.network.radiative.floor_linked
+        alt = dataclasses.replace(reduced, network=linked, solution=sol)
+        alt.verified = verify_network(dataclasses.replace(run.result, reduced=alt), problem, references, warn=False)
+    rc = range_choice(reduced.verified, alt.verified, relative=FLOOR_RELATIVE_MARGIN)
+    # and never a network without a solution at a state the other solves (both are the same method's)
+    rc["thesis"] = rc["thesis"] and set(rc["failed"]["thesis"]) <= set(rc["failed"]["kept"])
+    rec = {"source": "linked" if rc["thesis"] else "held", "tolerance_K": rc["tolerance_K"],
+           "seconds": time.perf_counter() - t0, "failed": {"held": rc["failed"]["kept"], "linked": rc["failed"]["thesis"]},
+           **{k: {"held": rc[k]["kept"], "linked": rc[k]["thesis"]} for k in ("worst_K", "worst_state")}}
+    keep = alt if rc["thesis"] else reduced
+    keep.verified = {**keep.verified, "seconds": reduced.verified["seconds"] + rec["seconds"]}
+    keep.choice = {**(reduced.choice or {}), "floor": rec, "chosen_by": (
+        f"{(reduced.choice or {}).get('chosen_by', '')}; the heat its short super nodes lack comes from "
+        f"{'the super nodes linked to them' if rc['thesis'] else 'the held node'} (worst verified RMS "
+        f"{rec['worst_K']['held']:.3g} K from the held node, {rec['worst_K']['linked']:.3g} K along the links)")}
+    if keep is alt:
+        _hand_over(run, net, alt, q_orbit)
+    return keep
+
+
+def _hand_over(run: _RunState, net: _Network, alt: Reduced, q_orbit: np.ndarray | None) -> None:
+    """Hand over ``alt`` in place of the network verified first: read back and recovered again, its emission checked,
+    the orbit positions of ``steady = "positions"`` solved on it."""
+    from .handover import check_deliverable
+
     run.result.reduced = alt
     with run.prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
         alt.delivered = check_deliverable(run.result, recover=run.dpart.solution is not None)

@@ -57,6 +57,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..constants import SIGMA
+from ..errors import InternalError
 from ..fem.assembly import ElementCOO
 from .conduction import ConductiveReduction
 
@@ -131,6 +132,10 @@ class RadiationAware:
     T_built : (n_dof,) K the field the reduced operator was linearised about (``h = 4σ e T_built³``): T_lin after
         re-linearising outer iterations, the set's field for a shared network; another state reduced about it gets
         the same K̃ (``[reduction] parametric``)
+    floor_linked : ``(network, solution)``: the same network with the heat its short super nodes lack fed along K̃'s
+        links instead of from the held node (:func:`emission_floor_links`, ``source = "linked"``), where that differs;
+        the run verifies it beside the network over the validity range and hands over the better (``fem2tmm.pipeline``),
+        then drops it (None)
     """
 
     reduction: ConductiveReduction
@@ -144,6 +149,7 @@ class RadiationAware:
     T_lin: np.ndarray | None = None
     q_tally: np.ndarray | None = None
     T_built: np.ndarray | None = None
+    floor_linked: tuple | None = None
 
     def correction(self, T_ref: np.ndarray, T_sn_ref: np.ndarray, e_sn: np.ndarray) -> np.ndarray:
         """Q_corr (n_SN,) W at the reference state.
@@ -239,7 +245,8 @@ def _free_balance(K: np.ndarray, Q: np.ndarray, GR, T: np.ndarray) -> np.ndarray
 
 
 def emission_floor_links(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fixed: np.ndarray, T_sn: np.ndarray,
-                         T_sink: float, g_space: np.ndarray, fraction: float = EMISSION_MIN_FRACTION) -> np.ndarray:
+                         T_sink: float, g_space: np.ndarray, fraction: float = EMISSION_MIN_FRACTION,
+                         source: str = "held") -> np.ndarray:
     """Conductances that let every super node close its design balance with a non-negative emitting area.
 
     In the network of :func:`effective_emission` a cold super node far from the loads can be left with less heat
@@ -254,11 +261,19 @@ def emission_floor_links(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fi
     links bring it) made examples/smallsat (no held node) worse in 5 of its 7 verified states (docs/design-notes.md).  The design
     state stays exact: the added flows are part of K̃ T.
 
+    ``source = "linked"`` takes it instead from the warmer super nodes K̃ already links to the node with a positive
+    conductance, each such link scaled up by the same factor (1 + need / the heat those links bring at T*): the
+    deficit follows the heat paths the reduction found.  Neither source holds everywhere (examples/satellite, sink
+    at its warmest design temperature: held 12.8 K RMS, linked 1.36 K; its optics-``none`` twin, all constants
+    high: held 4.18 K, linked 11.0 K; docs/design-notes.md, "Where a short node's heat comes from"), so where a run
+    verifies its range it builds both and keeps the one that holds the range better (``fem2tmm.pipeline``).
+
     Parameters
     ----------
     K : (n, n) W/K, K̃ (zero row sums) ; Q : (n,) W ; GR : (n, n) m² or None ; fixed : (n,) bool
     T_sn : (n,) K design state ; T_sink : K ; g_space : (n,) m² physical εA to space
     fraction : the least emitting area, as a fraction of ``g_space``
+    source : ``"held"`` (the hottest warmer held node) or ``"linked"`` (the warmer super nodes K̃ links it to)
 
     Returns
     -------
@@ -274,13 +289,24 @@ def emission_floor_links(K: np.ndarray, Q: np.ndarray, GR: np.ndarray | None, fi
     # only the nodes whose balance asks for a negative emitting area: lifting small positive ones as well made
     # examples/composite worse in every verified state (heater 0 W 3.76 / 28.8 K against 2.40 / 15.7)
     need = np.where(~fixed & (d4 > 0) & (r < 0), SIGMA * fraction * np.asarray(g_space, float) * d4 - r, 0.0)
+    if source not in ("held", "linked"):
+        raise InternalError(f"emission_floor_links: source {source!r}, not 'held' or 'linked'")
     held = np.flatnonzero(fixed)
     for i in np.flatnonzero(need > 0):
-        warm = held[T[held] > T[i]]
-        if not len(warm):  # no held node to feed it: left as it is (see the docstring)
-            continue
-        js, w = warm[np.argmax(T[warm])][None], np.ones(1)
-        g = need[i] * w / (T[js] - T[i])
+        if source == "linked":  # every warmer node K̃ links to i, its link scaled by 1 + need / their inflow
+            link = np.maximum(-K[i], 0.0)
+            link[i] = 0.0
+            js = np.flatnonzero((link > 0) & (T > T[i]))
+            inflow = float(np.sum(link[js] * (T[js] - T[i])))
+            if not inflow > 0:
+                continue
+            g = link[js] * (need[i] / inflow)
+        else:
+            warm = held[T[held] > T[i]]
+            if not len(warm):  # no held node to feed it: left as it is (see the docstring)
+                continue
+            js = warm[np.argmax(T[warm])][None]
+            g = need[i] / (T[js] - T[i])
         dK[i, js] -= g
         dK[js, i] -= g
         dK[i, i] += g.sum()

@@ -289,10 +289,22 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         # a concave super node's self-exchange: the share of its linearised emission H that never leaves it
         own = self_exchange(e_sn, rm)
         # the physical couplings to space: the super faces', and a one-DOF super node's own emission
-        ra_rm, sol = effective_network(ra_rm, sol, ra.reduction.distribute(q_detailed) + q_lumped, case, held,
-                                       rm.g_space + np.maximum(dg, 0.0), self_exchange=own)
+        args = (ra.reduction.distribute(q_detailed) + q_lumped, case, held, rm.g_space + np.maximum(dg, 0.0))
+        built, sol_built = ra_rm, sol
+        ra_rm, sol = effective_network(built, sol_built, *args, self_exchange=own)
+        linked = None
+        if ra_rm.g_space_table is not None:
+            # the other source of a short super node's heat, where it makes another network: the run keeps the one
+            # that holds the verified range better (emission_floor_links); a candidate, so its warnings are not the run's
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                linked = effective_network(built, sol_built, *args, self_exchange=own, floor="linked")
+            if linked[0].g_space_table is None or np.array_equal(np.asarray(linked[0].K), np.asarray(ra_rm.K)):
+                linked = None
         if ra_rm.g_space_table is not None:  # the heat the loads radiate inside their super nodes: nodes of its own
             ra_rm, sol = with_hot_spots(model, case, ra_rm, sol, q_detailed, T)
+        if linked is not None:
+            ra.floor_linked = with_hot_spots(model, case, *linked, q_detailed, T)
     ra.history = history
     ra.shared = shared
     ra.T_lin, ra.q_tally = lin_T, lin_q
@@ -372,7 +384,7 @@ def self_exchange(e_sn: np.ndarray, rm: ReducedModel) -> np.ndarray:
 
 def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case,
                       held_W: np.ndarray | None = None, g_space: np.ndarray | None = None,
-                      self_exchange: np.ndarray | None = None) -> tuple[ReducedModel, SteadySolution]:
+                      self_exchange: np.ndarray | None = None, floor: str = "held") -> tuple[ReducedModel, SteadySolution]:
     """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
     the exact reduction distributes them (Y'q), K̃ and GR as they are, and each super node's coupling to space a
     function of its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design
@@ -388,7 +400,8 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     linearisation 4σ GR_self T*³, which neither GR (no diagonal) nor K̃ carries: the heat a super node loses as it
     warms.  Matching the gross H made a concave super node's effective emission rise faster than T⁴, and the deck
     drifted off its design state (examples/baffle, the screws held 50 K warmer: 0.50 K RMS against 0.007 K;
-    examples/smallsat, all constants high: 1.11 against 0.44 K; docs/design-notes.md).  Returns the network and its
+    examples/smallsat, all constants high: 1.11 against 0.44 K; docs/design-notes.md).  ``floor``: where a short super
+    node's heat comes from, ``"held"`` or ``"linked"`` (:func:`fem2tmm.reduce.radiative.emission_floor_links`).  Returns the network and its
     solution (the design state again, to
     the solver's tolerance); where the network without correction has no solution, ``rm`` and ``sol`` as given."""
     from ..linalg import blas_threads
@@ -399,7 +412,7 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     g_space = rm.g_space if g_space is None else np.asarray(g_space, float)
     # super nodes short of heat at T* (a negative emitting area): conduction from the held edge (issue 41)
     rm = dataclasses.replace(rm, K=np.asarray(rm.K, float) + emission_floor_links(
-        rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, g_space))
+        rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, g_space, source=floor))
     g_fixed = np.where(rm.fixed, g_space, 0.0)
     if held_W is not None:
         d4 = T**4 - rm.T_sink**4
