@@ -16,7 +16,9 @@ the reference noise, the whole run's wall time, and ``verified``: the validity r
 at either end, all low, all high; :mod:`fem2tmm.verify`), each state's RMS / max K against its own detailed
 reference, and ``verified_range``: where the estimate kept the radiation-aware network, that network's and the
 thesis' worst RMS over the same verified states, and whether the thesis' replaced it (``reduced.choice.verified_range``,
-:func:`fem2tmm.verify.range_choice`).  The claim the table shows (issue 42): on every study the default's error is
+:func:`fem2tmm.verify.range_choice`), and ``floor``: where super nodes of the radiation-aware network were short of
+heat, whether the network handed over feeds them from the held node or along K̃'s links, with both worsts
+(``reduced.choice.floor``).  The claim the table shows (issue 42): on every study the default's error is
 never above the thesis' by more than the reference noise, at the design state and over the verified states.  One
 JSON line per (study, method).
 """
@@ -85,6 +87,8 @@ def bench_choice() -> list[dict]:
                          "rms_K": acc["rms_K"], "max_K": acc["max_K"],
                          "reference_noise_rms_K": acc.get("reference_noise_rms_K"), "seconds": round(seconds, 1),
                          "verified": _verified(red.get("verified")),
-                         "verified_range": _range(ch.get("verified_range"))})
+                         "verified_range": _range(ch.get("verified_range")),
+                         "floor": None if not ch.get("floor") else {
+                             k: ch["floor"][k] for k in ("source", "worst_K", "worst_state", "tolerance_K", "seconds")}})
             print(rows[-1], flush=True)
     return rows

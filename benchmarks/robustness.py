@@ -15,7 +15,8 @@ default's error and the thesis method's against the detailed reference (``tests/
 ray noise (``accuracy.reference_noise_rms_K``, two half-budget tracings; without face-to-face radiation there are
 no rays and the margin is the floor ``MARGIN_FLOOR_K``), and by more than 3x that noise, at the design state; and
 ``accuracy.verified_range`` (:func:`range_table`) how often the verified range handed the thesis' network over
-instead of the radiation-aware one the design-state estimate kept.
+instead of the radiation-aware one the design-state estimate kept; ``accuracy.floor`` (:func:`floor_table`) how often
+the radiation-aware network whose short super nodes are fed along K̃'s links replaced the one fed from the held node.
 
 One JSON line: ``models``, ``solved``, ``refused`` (cause -> count), ``failures`` (list of {what, error}),
 ``accuracy`` (above), ``seconds``.  ``FEM2TMM_ROBUSTNESS_MODELS`` sets the number of models (default 2000);
@@ -66,6 +67,23 @@ def accuracy_table(records: list[dict]) -> dict:
     out["default_worse_by_more_than_noise"] = len(out["worse"])
     out["worse"] = sorted(out["worse"], key=lambda r: r["thesis_rms_K"] - r["default_rms_K"])[:20]
     out["verified_range"] = range_table(rows)
+    out["floor"] = floor_table(rows)
+    return out
+
+
+def floor_table(rows: list[dict]) -> dict:
+    """Over the ``"auto"`` models whose radiation-aware network had super nodes short of heat fed two ways and a
+    verified range (``floor`` of the record: ``reduced.choice.floor``): how often the network fed along K̃'s links
+    replaced the one fed from the held node, and each one's worst verified RMS (medians, K) on either side."""
+    import numpy as np
+
+    fl = [r["floor"] for r in rows if r.get("floor")]
+    out = {"checked": len(fl)}
+    for src in ("linked", "held"):
+        rs = [f for f in fl if f["source"] == src]
+        out[f"{src}_handed_over"] = {"models": len(rs), **{
+            f"worst_K_median_{k}": float(np.median([f["worst_K"][k] for f in rs])) if rs else None
+            for k in ("held", "linked")}}
     return out
 
 

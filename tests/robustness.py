@@ -329,4 +329,6 @@ def accuracy_record(s: dict) -> dict:
             "estimated_rms_K": choice.get("estimated_rms_K"), "estimate_noise_K": choice.get("estimate_noise_K"),
             "estimate_cost_fraction": choice.get("estimate_cost_fraction"),
             "verified_range": None if not choice.get("verified_range") else {
-                k: choice["verified_range"][k] for k in ("thesis", "worst_K", "worst_state", "tolerance_K", "failed")}}
+                k: choice["verified_range"][k] for k in ("thesis", "worst_K", "worst_state", "tolerance_K", "failed")},
+            "floor": None if not choice.get("floor") else {
+                k: choice["floor"][k] for k in ("source", "worst_K", "worst_state", "tolerance_K", "failed")}}
