@@ -98,6 +98,8 @@ def solve_network(net: Network, case: LoadCase | None = None, T0=None, tol: floa
     """Steady solution of ``net`` under ``case`` (default: the deck's own QI and boundary temperatures).
 
     ``T0`` start temperatures (K, scalar or (n,)); default: the deck's T where positive, else the boundary mean.
+    Where Newton from ``T0`` does not converge it starts again from a uniform field (the mean of the boundary
+    temperatures, raised to the radiative balance of the loads: :func:`~fem2tmm.solve.steady.solve_steady`).
     Raises :class:`Fem2TmmError` naming the nodes of a part with neither a boundary nor radiation.
     """
     case = net.default_case() if case is None else case
@@ -107,7 +109,16 @@ def solve_network(net: Network, case: LoadCase | None = None, T0=None, tol: floa
         fb = problem.fixed
         mean = float(np.mean(problem.T_fixed[fb])) if fb.any() else 293.15
         T0 = np.where(net.T > 1.0, net.T, mean)
-    sol = solve_steady(problem, T0=T0, tol=tol)
+    try:
+        sol = solve_steady(problem, T0=T0, tol=tol)
+    except Fem2TmmError as first:
+        # a Newton started far from this state can stall where a uniform start converges: the L-bracket's deck at 300
+        # super nodes, its sink edited from -270 to 20 °C (the held edge's temperature) and started from its design
+        # temperatures (60-293 K), took 200 damped steps; from a uniform 293 K it converges in a few (2026-12-06)
+        try:
+            sol = solve_steady(problem, T0=None, tol=tol)
+        except Fem2TmmError:
+            raise first from None
     Hc, Hr = boundary_flows(net, sol.T)
     return NetworkSolution(T=sol.T, H_conductive=Hc, H_radiative=Hr, iterations=sol.iterations)
 
