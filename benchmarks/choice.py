@@ -89,6 +89,7 @@ def bench_choice() -> list[dict]:
                          "verified": _verified(red.get("verified")),
                          "verified_range": _range(ch.get("verified_range")),
                          "floor": None if not ch.get("floor") else {
-                             k: ch["floor"][k] for k in ("source", "worst_K", "worst_state", "tolerance_K", "seconds")}})
+                             k: ch["floor"][k]
+                             for k in ("source", "worst_K", "worst_state", "tolerance_K", "seconds")}})
             print(rows[-1], flush=True)
     return rows

@@ -847,7 +847,8 @@ def _floor_choice(run: _RunState, net: _Network, reduced: Reduced, problem, refe
     # and never a network without a solution at a state the other solves (both are the same method's)
     rc["thesis"] = rc["thesis"] and set(rc["failed"]["thesis"]) <= set(rc["failed"]["kept"])
     rec = {"source": "linked" if rc["thesis"] else "held", "tolerance_K": rc["tolerance_K"],
-           "seconds": time.perf_counter() - t0, "failed": {"held": rc["failed"]["kept"], "linked": rc["failed"]["thesis"]},
+           "seconds": time.perf_counter() - t0,
+           "failed": {"held": rc["failed"]["kept"], "linked": rc["failed"]["thesis"]},
            **{k: {"held": rc[k]["kept"], "linked": rc[k]["thesis"]} for k in ("worst_K", "worst_state")}}
     keep = alt if rc["thesis"] else reduced
     keep.verified = {**keep.verified, "seconds": reduced.verified["seconds"] + rec["seconds"]}

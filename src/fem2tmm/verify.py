@@ -543,7 +543,8 @@ def range_worst(verified: dict, labels=None) -> tuple[float, str]:
 #: K̃'s links must beat the one fed from the held node to replace it (``range_choice(..., relative=)``): the worst
 #: state is one number, and a near tie there can hide a larger loss elsewhere (issue 41's L-bracket at 100 super
 #: nodes: 2.98 against 3.02 K at heater 40 W, beyond the 0.028 K noise, but 2.75 against 1.56 K at heater 0 W); on
-#: examples/satellite the links win by 12.8 against 1.76 K (docs/design-notes.md, "Where a short node's heat comes from")
+#: examples/satellite the links win by 12.8 against 1.76 K (docs/design-notes.md, "Where a short node's heat comes
+#: from")
 FLOOR_RELATIVE_MARGIN = 0.2
 
 

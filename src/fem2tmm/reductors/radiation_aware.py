@@ -295,7 +295,7 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         linked = None
         if ra_rm.g_space_table is not None:
             # the other source of a short super node's heat, where it makes another network: the run keeps the one
-            # that holds the verified range better (emission_floor_links); a candidate, so its warnings are not the run's
+            # that holds the verified range better (emission_floor_links); a candidate: its warnings are not the run's
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 linked = effective_network(built, sol_built, *args, self_exchange=own, floor="linked")
@@ -384,7 +384,8 @@ def self_exchange(e_sn: np.ndarray, rm: ReducedModel) -> np.ndarray:
 
 def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case,
                       held_W: np.ndarray | None = None, g_space: np.ndarray | None = None,
-                      self_exchange: np.ndarray | None = None, floor: str = "held") -> tuple[ReducedModel, SteadySolution]:
+                      self_exchange: np.ndarray | None = None,
+                      floor: str = "held") -> tuple[ReducedModel, SteadySolution]:
     """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
     the exact reduction distributes them (Y'q), K̃ and GR as they are, and each super node's coupling to space a
     function of its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design
@@ -401,7 +402,8 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     warms.  Matching the gross H made a concave super node's effective emission rise faster than T⁴, and the deck
     drifted off its design state (examples/baffle, the screws held 50 K warmer: 0.50 K RMS against 0.007 K;
     examples/smallsat, all constants high: 1.11 against 0.44 K; docs/design-notes.md).  ``floor``: where a short super
-    node's heat comes from, ``"held"`` or ``"linked"`` (:func:`fem2tmm.reduce.radiative.emission_floor_links`).  Returns the network and its
+    node's heat comes from, ``"held"`` or ``"linked"`` (:func:`fem2tmm.reduce.radiative.emission_floor_links`).
+    Returns the network and its
     solution (the design state again, to
     the solver's tolerance); where the network without correction has no solution, ``rm`` and ``sol`` as given."""
     from ..linalg import blas_threads
