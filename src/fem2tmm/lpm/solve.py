@@ -46,8 +46,9 @@ def steady_problem(net: Network, case: LoadCase) -> SteadyProblem:
         raise Fem2TmmError(f"{net.source}: solve the active network (Network.active()) — inactive nodes present")
     fixed = net.boundary
     T_fixed = np.where(fixed, case.T_boundary, 0.0)
-    if fixed.any() and np.any(T_fixed[fixed] <= 0):
-        raise Fem2TmmError(f"{net.source}: case {case.name!r}: boundary temperatures must be above absolute zero")
+    if fixed.any() and np.any(T_fixed[fixed] < 0):  # 0 K is a space node at absolute zero (a -273.15 °C sink)
+        raise Fem2TmmError(f"{net.source}: case {case.name!r}: boundary temperatures must be at or above absolute "
+                           "zero")
     n = net.n
     GR = sp.csr_matrix(net.GR)
     faced = None

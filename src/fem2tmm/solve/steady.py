@@ -282,8 +282,8 @@ def solve_steady(problem: SteadyProblem, T0: float | np.ndarray | None = None, t
             T0 = max(T0, float(((q_tot / (SIGMA * g_tot)) + problem.T_sink**4) ** 0.25))
     T = np.broadcast_to(np.asarray(T0, float), (n,)).copy()
     T[fixed] = problem.T_fixed[fixed]
-    if np.any(T <= 0):
-        raise Fem2TmmError("start and fixed temperatures must be above absolute zero")
+    if np.any(T[free] <= 0) or np.any(T[fixed] < 0):  # a fixed node may sit at 0 K (a deck's space node)
+        raise Fem2TmmError("start temperatures must be above absolute zero, fixed ones at or above it")
     ops = _Operators(problem)
     krylov = (not ops.dense) and ops.Gf is not None
     cache = {}

@@ -273,8 +273,8 @@ class _Integrator:
         self.t = float(t0)
         self.T = np.asarray(T0, float).copy()
         self.T[self.fixed] = problem.T_fixed(self.t)[self.fixed]
-        if np.any(self.T <= 0):
-            raise Fem2TmmError("initial and fixed temperatures must be above absolute zero")
+        if np.any(self.T[~self.fixed] <= 0) or np.any(self.T[self.fixed] < 0):  # a fixed space node may be at 0 K
+            raise Fem2TmmError("initial temperatures must be above absolute zero, fixed ones at or above it")
         self.T_ref = float(np.mean(self.T))
         self.F, self.pieces = self._flux(self.t, self.T)
         self.G = {k: 0.0 for k in self.pieces}  # effective integrals of the previous step (BDF2)
