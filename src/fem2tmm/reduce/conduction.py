@@ -396,7 +396,9 @@ def _local(coo: ElementCOO, sn: SuperNodes, labels, elements, dense_below: int, 
 
         results = _condense_clusters(parts.part(0, nc, copy=False), dense_below, keep, report=True)
         _report(nc, nc, "clusters reduced")  # (each cluster is reported as it starts: this is the last one's end)
-        del parts
+        # the sorted copy of the conduction entries, before the interface condensation (the reduction's memory peak:
+        # 3 x 8 bytes per entry, 0.41 GB at 1.07·10⁶ quads)
+        del parts, rows_s, cols_s, vals_s
     t_clusters = time.perf_counter() - t0
     blocks, clusters, multipliers = [], [], {}
     for cl, gidx, blk, _, _ in results:
