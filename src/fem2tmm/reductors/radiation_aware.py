@@ -403,16 +403,15 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     drifted off its design state (examples/baffle, the screws held 50 K warmer: 0.50 K RMS against 0.007 K;
     examples/smallsat, all constants high: 1.11 against 0.44 K; docs/design-notes.md).  ``floor``: where a short super
     node's heat comes from, ``"held"`` or ``"linked"`` (:func:`fem2tmm.reduce.radiative.emission_floor_links`).
-    Returns the network and its
-    solution (the design state again, to
-    the solver's tolerance); where the network without correction has no solution, ``rm`` and ``sol`` as given."""
+    Returns the network and its solution (the design state again, to the solver's tolerance); where the network
+    without correction has no solution, ``rm`` and ``sol`` as given."""
     from ..linalg import blas_threads
     from ..reduce.radiative import effective_emission, emission_floor_links
 
     T = sol.T
     given = rm
     g_space = rm.g_space if g_space is None else np.asarray(g_space, float)
-    # super nodes short of heat at T* (a negative emitting area): conduction from the held edge (issue 41)
+    # super nodes short of heat at T* (a negative emitting area): conduction from the held edge or along K̃'s links
     rm = dataclasses.replace(rm, K=np.asarray(rm.K, float) + emission_floor_links(
         rm.K, Q_applied, rm.GR, rm.fixed, T, rm.T_sink, g_space, source=floor))
     g_fixed = np.where(rm.fixed, g_space, 0.0)
