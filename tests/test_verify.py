@@ -357,40 +357,29 @@ def _satellite_quick():
     return Case.from_dict(raw, base_dir=f.parent)
 
 
-def test_the_satellites_short_bars_are_fed_along_their_links_where_that_holds_the_range_better(monkeypatch):
+def test_the_satellites_short_bars_are_fed_along_their_links_where_that_holds_the_range_better():
     """Issue 41/42 on examples/satellite (orbit coarsened): 24 bar and fitting super nodes emit nothing and are short
     of heat at the design state (condensed panel emission, down to −40 W).  Fed from the held adapter, 0.2 K warmer,
     they follow it: 4.46 K RMS with the sink at its warmest design temperature (12.8 K with the full orbit).  Fed
     along the links the reduction gave them, 1.79 K at worst (measured 2026-12-06).  The run verifies both and hands
     over the second, which also beats the thesis' network over the range (3.95 K), so the default stays the
-    radiation-aware network, exact at the design state.  The discarded network's figure is checked by a second run
-    that can only feed them from the held node: there the thesis' network takes the range."""
-    import fem2tmm.reduce.radiative as radiative
-
+    radiation-aware network, exact at the design state; fed from the adapter it would have lost the range to the
+    thesis' network (a second run forcing the held node measured that: the thesis' network handed over, its
+    recorded worst the same 4.46 K to 1e-6)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r = run(_satellite_quick())
     ch = r.summary["reduced"]["choice"]
-    fl, v = ch["floor"], r.summary["reduced"]["verified"]
+    fl, v, vr = ch["floor"], r.summary["reduced"]["verified"], ch["verified_range"]
     assert fl["source"] == "linked", ch["chosen_by"]
     assert fl["worst_K"]["held"] > fl["worst_K"]["linked"] + fl["tolerance_K"], fl
+    assert fl["tolerance_K"] >= 0.2 * fl["worst_K"]["held"]  # the margin of a choice between two rules
     assert not fl["failed"]["linked"]
     # what the run hands over is the linked network: its own verified worst is the record's
     worst = max([v["design"]["rms_K"]] + [s["rms_K"] for s in v["states"]])
     assert worst == pytest.approx(fl["worst_K"]["linked"], rel=1e-12)
     assert "comes from the super nodes linked to them" in ch["chosen_by"]
     # it is the radiation-aware network, exact at the design state (reference noise 0.027 K RMS; measured 0.031 K),
-    # and it holds the verified range better than the thesis' network
+    # and it holds the verified range better than the thesis' network, which the held node's would not have
     assert r.reduced.method == "radiation_aware" and r.summary["accuracy"]["rms_K"] < 0.1
-    assert not ch["verified_range"]["thesis"] and worst < ch["verified_range"]["worst_K"]["thesis"]
-    # the held-node network's figure, independently: a run whose both sources are the held node (no second network)
-    real = radiative.emission_floor_links
-    monkeypatch.setattr(radiative, "emission_floor_links", lambda *a, **k: real(*a, **{**k, "source": "held"}))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        held = run(_satellite_quick())
-    hc = held.summary["reduced"]["choice"]
-    assert hc.get("floor") is None
-    # fed from the held node, the radiation-aware network loses the range to the thesis' (the default before)
-    assert hc["verified_range"]["thesis"] and held.reduced.method == "thesis"
-    assert hc["verified_range"]["worst_K"]["kept"] == pytest.approx(fl["worst_K"]["held"], rel=1e-6)
+    assert not vr["thesis"] and worst < vr["worst_K"]["thesis"] < fl["worst_K"]["held"], (vr, fl)
