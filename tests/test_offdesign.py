@@ -30,7 +30,7 @@ def decks(tmp_path_factory):
 
 @pytest.mark.parametrize("heater, sink", STATES)
 def test_the_edited_deck_beats_the_thesis_network_and_its_books_add_up(decks, heater, sink):
-    ref = run_bracket(N_SN, heater, sink, n=N_QUADS)[0]
+    ref = run_bracket(N_SN, heater, sink, n=N_QUADS, verify=False)[0]  # its detailed reference
     T_ref = ref.detailed.solution.T
     field, net, T, _ = deck_state(decks / "default", heater, sink)
     rms, mx = _err(ref.model, field, T_ref)
