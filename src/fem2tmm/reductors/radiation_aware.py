@@ -295,10 +295,8 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         linked = None
         if ra_rm.g_space_table is not None:
             # the other source of a short super node's heat, where it makes another network: the run keeps the one
-            # that holds the verified range better (emission_floor_links); a candidate: its warnings are not the run's
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                linked = effective_network(built, sol_built, *args, self_exchange=own, floor="linked")
+            # that holds the verified range better (emission_floor_links); a candidate, so it does not warn
+            linked = effective_network(built, sol_built, *args, self_exchange=own, floor="linked", warn=False)
             if linked[0].g_space_table is None or np.array_equal(np.asarray(linked[0].K), np.asarray(ra_rm.K)):
                 linked = None
         if ra_rm.g_space_table is not None:  # the heat the loads radiate inside their super nodes: nodes of its own
@@ -384,8 +382,8 @@ def self_exchange(e_sn: np.ndarray, rm: ReducedModel) -> np.ndarray:
 
 def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarray, case: Case,
                       held_W: np.ndarray | None = None, g_space: np.ndarray | None = None,
-                      self_exchange: np.ndarray | None = None,
-                      floor: str = "held") -> tuple[ReducedModel, SteadySolution]:
+                      self_exchange: np.ndarray | None = None, floor: str = "held",
+                      warn: bool = True) -> tuple[ReducedModel, SteadySolution]:
     """The radiation-aware network without a correction load (issue 41): the applied loads ``Q_applied`` (n,) W as
     the exact reduction distributes them (Y'q), K̃ and GR as they are, and each super node's coupling to space a
     function of its own temperature (:func:`fem2tmm.reduce.radiative.effective_emission`) that holds the design
@@ -402,8 +400,8 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     warms.  Matching the gross H made a concave super node's effective emission rise faster than T⁴, and the deck
     drifted off its design state (examples/baffle, the screws held 50 K warmer: 0.50 K RMS against 0.007 K;
     examples/smallsat, all constants high: 1.11 against 0.44 K; docs/design-notes.md).  ``floor``: where a short super
-    node's heat comes from, ``"held"`` or ``"linked"`` (:func:`fem2tmm.reduce.radiative.emission_floor_links`).
-    Returns the network and its solution (the design state again, to the solver's tolerance); where the network
+    node's heat comes from, ``"held"`` or ``"linked"`` (:func:`fem2tmm.reduce.radiative.emission_floor_links`);
+    ``warn`` False: a candidate network, which says nothing when it has no solution.  Returns the network and its solution (the design state again, to the solver's tolerance); where the network
     without correction has no solution, ``rm`` and ``sol`` as given."""
     from ..linalg import blas_threads
     from ..reduce.radiative import effective_emission, emission_floor_links
@@ -435,8 +433,10 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
             new = solve_steady(reduced_problem(net), T0=T, tol=case.solver.tolerance,
                                max_iter=case.solver.max_iterations)
     except Fem2TmmError as exc:  # a network without a solution at its own design state is not handed over
-        warnings.warn(f"the radiation-aware network without a correction load has no steady solution at its own "
-                      f"design state ({exc}); the network with the correction load is written instead", stacklevel=2)
+        if warn:
+            warnings.warn(f"the radiation-aware network without a correction load has no steady solution at its own "
+                          f"design state ({exc}); the network with the correction load is written instead",
+                          stacklevel=2)
         return given, sol
     return net, new
 
