@@ -47,9 +47,8 @@ The estimate covers the design state.  Over the off-design range of ``[reduction
 instead, where the run has its detailed reference: when step 2 keeps the radiation-aware network, the run verifies
 the thesis' network too, on the same states and the same detailed solutions (``fem2tmm.pipeline._range_choice``,
 :func:`fem2tmm.verify.range_choice`), and hands it over when its worst RMS over the design and verified states is
-smaller by more than the reference noise (examples/satellite: the radiation-aware network 0.031 K at the design
-state but 12.8 K with the sink at its warmest design temperature, the thesis' 3.9 K at worst; 0.43 s more, 3 % of the
-run).  An estimate of those 2m + 2 states (m named constants) without a reference would need every candidate's
+smaller by more than the reference noise (examples/cylinders: the radiation-aware network 0.073 K at the design
+state but 0.51 K with every constant high, the thesis' 0.13 K at worst; `fem2tmm bench choice`, 2026-12-06).  An estimate of those 2m + 2 states (m named constants) without a reference would need every candidate's
 network solved and recovered there (the radiation-aware one by its nonlinear emission-mode recovery) and a detailed
 Newton step at each state's field: about 2m + 2 times the design estimate (9 states on examples/satellite, whose
 design estimate is already 2.9 % of the reduction stages), beyond the 20 % the estimate may cost; without a
