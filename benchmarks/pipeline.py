@@ -144,36 +144,34 @@ def bench_pipeline_1m(n: int = 408, super_nodes: int = 1000, rays: float = 1e7, 
     row = {}
     # the baseline's Newton matrix waits on disk while the pipeline runs: the pipeline's peak is its own and the mesh's
     # (held in memory between rounds it added ~0.2 GB to rounds 2-5; 2026-12-06)
-    keep = Path(tempfile.mkdtemp(prefix="fem2tmm-bench-"))
-    for r in range(rounds):
-        reset_peak()
-        t0 = time.perf_counter()
-        res = run(case, mesh=mesh, reference=False)
-        walls.append(time.perf_counter() - t0)
-        peaks.append(vm("VmHWM") * 2**20 / 1e9)
-        if r == 0:
-            pieces = connected_pieces(res.model)
-            assert pieces == 1, f"the benchmark model splits into {pieces} pieces: not one structure"
-            J, b = newton_matrix(res.model, res.reduced.T_recovered)
-            sp.save_npz(keep / "J.npz", J, compressed=False)
-            np.save(keep / "b.npy", b)
-            row = _pipeline_row("pipeline_1m", res, walls[-1])
-            row["connected_pieces"] = pieces
-        else:
-            J, b = sp.load_npz(keep / "J.npz").tocsr(), np.load(keep / "b.npy")
-        del res
-        for k in solvers:
-            t, rel = timed_solve(k, J, b)
-            base[k].append(t)
-            residuals[k] = max(residuals.get(k, 0.0), rel)
-        unknowns, nnz = int(J.shape[0]), int(J.nnz)
-        del J, b
-        print(f"pipeline_1m round {r + 1}/{rounds}: pipeline {walls[-1]:.1f} s, peak {peaks[-1]:.2f} GB, "
-              + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in base.items()) + f", load {os.getloadavg()[0]:.1f}",
-              file=sys.stderr, flush=True)
-    import shutil
-
-    shutil.rmtree(keep, ignore_errors=True)
+    with tempfile.TemporaryDirectory(prefix="fem2tmm-bench-") as tmp:  # removed whatever happens
+        keep = Path(tmp)
+        for r in range(rounds):
+            reset_peak()
+            t0 = time.perf_counter()
+            res = run(case, mesh=mesh, reference=False)
+            walls.append(time.perf_counter() - t0)
+            peaks.append(vm("VmHWM") * 2**20 / 1e9)
+            if r == 0:
+                pieces = connected_pieces(res.model)
+                assert pieces == 1, f"the benchmark model splits into {pieces} pieces: not one structure"
+                J, b = newton_matrix(res.model, res.reduced.T_recovered)
+                sp.save_npz(keep / "J.npz", J, compressed=False)
+                np.save(keep / "b.npy", b)
+                row = _pipeline_row("pipeline_1m", res, walls[-1])
+                row["connected_pieces"] = pieces
+            else:
+                J, b = sp.load_npz(keep / "J.npz").tocsr(), np.load(keep / "b.npy")
+            del res
+            for k in solvers:
+                t, rel = timed_solve(k, J, b)
+                base[k].append(t)
+                residuals[k] = max(residuals.get(k, 0.0), rel)
+            unknowns, nnz = int(J.shape[0]), int(J.nnz)
+            del J, b
+            print(f"pipeline_1m round {r + 1}/{rounds}: pipeline {walls[-1]:.1f} s, peak {peaks[-1]:.2f} GB, "
+                  + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in base.items()) + f", load {os.getloadavg()[0]:.1f}",
+                  file=sys.stderr, flush=True)
     best = solvers[0]
     ratios = [w / t for w, t in zip(walls, base[best])]
     row.update(
