@@ -32,6 +32,7 @@ from .radiation.compiled import compile_estimate
 from .radiation.quadric_scene import QuadricScene
 from .radiation.surfaces import TriangleScene
 from .radiation.tracer import side_fractions
+from .range_checks import deliver_and_verify
 from .reduce.network import build_reduced, refresh_reduced, super_faces
 from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for
 from .reductors.radiation_aware import parametric_corrections, parametric_states, set_parametric
@@ -264,6 +265,8 @@ class _RunState:
     # ``radiation_aware = "auto"`` kept the radiation-aware network by its design-state estimate: the thesis' reduction
     # (not delivered) and the inputs it ran with, checked over the same validity range after the reference
     alternative: tuple | None = None
+    # the a-posteriori estimate's two half IR tallies (stages/choice.py), shared by the range's estimate
+    tallies: dict = dataclasses.field(default_factory=dict)
 
     @property
     def status(self) -> dict:
@@ -336,7 +339,7 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
     if run.case.transient is not None:
         _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
     if reduced is not None:
-        _deliver_and_verify(run, reduced, problem, net, q_orbit)
+        deliver_and_verify(run, reduced, problem, net, q_orbit, _hand_over)
     result.summary = build_summary(result, prog.timings)
     return result
 
@@ -546,7 +549,8 @@ def _reduce(run: _RunState, net: _Network, clustering, linearised: dict | None, 
         extra["shared_network"] = {"linearised_at": group["case"], "cases": list(group["cases"])}
     inputs = net.inputs = dataclasses.replace(inputs, case=case, linearised_at=None if group is None else group["T"])
     if case.reduction.radiation_aware == "auto":  # the estimated errors decide
-        red, choice, thesis = measured_choice(inputs, red, choice, prog, *run.tracing(), extra.get("radiation"))
+        red, choice, thesis = measured_choice(inputs, red, choice, prog, *run.tracing(), extra.get("radiation"),
+                                               run.tallies)
         case, reductor = red.case, reductor_for(red.case)
         extra.update({} if thesis is None else {"thesis_T_recovered": thesis.T_recovered})
         run.alternative = None if thesis is None else (thesis, inputs)
@@ -747,118 +751,6 @@ def _transient(run: _RunState, reduced: Reduced | None, reductor, problem, q_orb
                                              None if reduced is None else reduced.q_recover,
                                              problem if with_ref else None, None if det is None else det.T,
                                              orbit=orbit_loads, exported=exported)
-
-
-def _deliver_and_verify(run: _RunState, reduced: Reduced, problem, net: _Network,
-                        q_orbit: np.ndarray | None) -> None:
-    """What the user receives (the network written, read back, solved, recovered), then its validity range; where
-    ``radiation_aware = "auto"`` kept the radiation-aware network by its design-state estimate, the thesis' network
-    is verified over the same range and replaces it when it holds that range better (:func:`_range_choice`)."""
-    from .handover import check_deliverable
-
-    with run.prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
-        reduced.delivered = check_deliverable(run.result, recover=run.dpart.solution is not None)
-    from .stages.radiation import warn_emission
-    from .verify import verify_network, warn_off_range, why_unverified
-
-    reduced.verified = why_unverified(run.result)  # the validity range: checked against the detailed model, or not
-    floor = getattr(reduced.network.radiative, "floor_linked", None)
-    if reduced.verified is None:
-        references = {}  # the detailed solutions at the verified states, shared with the other networks' checks
-        other = run.alternative is not None
-        with run.prog.stage("verify", "verifying the network over its validity range (edited decks vs detailed)"):
-            reduced.verified = verify_network(run.result, problem, references, warn=not (other or floor))
-        if floor is not None:
-            reduced = _floor_choice(run, net, reduced, problem, references, q_orbit)
-        if other:
-            _range_choice(run, net, reduced, problem, references, q_orbit)
-        if other or floor is not None:
-            warn_off_range(run.case.source, run.result.reduced.verified)  # for the network handed over
-    if floor is not None:
-        reduced.network.radiative.floor_linked = None  # the candidate not handed over
-    if run.alternative is not None and run.result.reduced is reduced:  # its warning, held back until it was kept
-        warn_emission(reduced.emission_check)
-    run.alternative = None
-
-
-def _range_choice(run: _RunState, net: _Network, reduced: Reduced, problem, references: dict,
-                  q_orbit: np.ndarray | None) -> None:
-    """The measured choice over the validity range (issue 42): the thesis' network, delivered and verified on the
-    same states and detailed solutions (:func:`fem2tmm.verify.range_choice`), replaces the radiation-aware one the
-    design-state estimate kept when its worst verified RMS is smaller by more than the reference noise.  Recorded in
-    ``reduced.choice.verified_range`` either way; the orbit positions of ``steady = "positions"`` are solved again on
-    the network handed over.  Not where the deck carries what the thesis' network cannot (the parametric correction,
-    a load-case set's shared network)."""
-    from .verify import RANGE_FLOOR_K, range_choice, verify_network
-
-    thesis, inputs = run.alternative
-    if (reduced.verified.get("status") not in ("verified", "partly verified") or reduced.parametric is not None
-            or reduced.shared_network is not None):
-        return
-    t0 = time.perf_counter()
-    with run.prog.stage("verify_thesis", "verifying the thesis' network over the same range"):
-        alt = reductor_for(thesis.case).deliver(dataclasses.replace(inputs, case=thesis.case), thesis, run.prog)
-        alt = dataclasses.replace(alt, clustering=reduced.clustering, radiation=reduced.radiation,
-                                  super_faces_count=reduced.super_faces_count, solar=reduced.solar,
-                                  solar_on=reduced.solar_on, refinement=reduced.refinement)
-        alt.verified = verify_network(dataclasses.replace(run.result, reduced=alt), problem, references, warn=False)
-    rc = range_choice(reduced.verified, alt.verified)
-    rc["seconds"] = time.perf_counter() - t0
-    wk, wt = rc["worst_K"]["kept"], rc["worst_K"]["thesis"]
-    failed = "".join(f"; the {who} network has no solution at {', '.join(rc['failed'][k])}"
-                     for k, who in (("kept", "radiation-aware"), ("thesis", "thesis'")) if rc["failed"][k])
-    figures = (f"over the verified range the radiation-aware network's worst RMS is {wk:.3g} K "
-               f"({rc['worst_state']['kept']}), the thesis' {wt:.3g} K ({rc['worst_state']['thesis']}), the "
-               f"tolerance {rc['tolerance_K']:.2g} K (the reference noise, at least {RANGE_FLOOR_K:g} K){failed}")
-    # the validity range's cost in the run is both checks' (summary: verified.seconds, cost_fraction)
-    both = reduced.verified["seconds"] + rc["seconds"]
-    if not rc["thesis"]:
-        reduced.choice = {**reduced.choice, "verified_range": rc,
-                          "chosen_by": f"{reduced.choice['chosen_by']}; {figures}: kept"}
-        reduced.verified = {**reduced.verified, "seconds": both}
-        return
-    rc["replaced"] = {"method": reduced.method, "verified": reduced.verified}
-    alt.verified = {**alt.verified, "seconds": both}
-    alt.choice = {**reduced.choice, "radiation_aware": False, "ir_on": thesis.case.radiation.ir_on,
-                  "verified_range": rc,
-                  "chosen_by": (f"{reduced.choice['chosen_by']}; {figures}: the thesis' network holds the range "
-                                "better and is handed over")}
-    run.case = thesis.case
-    _hand_over(run, net, alt, q_orbit)
-
-
-def _floor_choice(run: _RunState, net: _Network, reduced: Reduced, problem, references: dict,
-                  q_orbit: np.ndarray | None) -> Reduced:
-    """Where a short super node's heat comes from (:func:`fem2tmm.reduce.radiative.emission_floor_links`): the
-    radiation-aware network with it fed along K̃'s links, verified on the same states and detailed solutions,
-    replaces the one fed from the held node when its worst verified RMS is smaller beyond the reference noise and
-    :data:`~fem2tmm.verify.FLOOR_RELATIVE_MARGIN` of the held one's (:func:`fem2tmm.verify.range_choice`).  Both
-    are exact at the design state.  ``reduced.choice.floor`` keeps both worsts.  Returns the network handed over."""
-    from .verify import FLOOR_RELATIVE_MARGIN, range_choice, verify_network
-
-    if reduced.verified.get("status") not in ("verified", "partly verified"):
-        return reduced
-    t0 = time.perf_counter()
-    with run.prog.stage("verify_floor", "verifying the network with its short super nodes fed along its links"):
-        linked, sol = reduced.network.radiative.floor_linked
-        alt = dataclasses.replace(reduced, network=linked, solution=sol)
-        alt.verified = verify_network(dataclasses.replace(run.result, reduced=alt), problem, references, warn=False)
-    rc = range_choice(reduced.verified, alt.verified, relative=FLOOR_RELATIVE_MARGIN)
-    # and never a network without a solution at a state the other solves (both are the same method's)
-    rc["thesis"] = rc["thesis"] and set(rc["failed"]["thesis"]) <= set(rc["failed"]["kept"])
-    rec = {"source": "linked" if rc["thesis"] else "held", "tolerance_K": rc["tolerance_K"],
-           "seconds": time.perf_counter() - t0,
-           "failed": {"held": rc["failed"]["kept"], "linked": rc["failed"]["thesis"]},
-           **{k: {"held": rc[k]["kept"], "linked": rc[k]["thesis"]} for k in ("worst_K", "worst_state")}}
-    keep = alt if rc["thesis"] else reduced
-    keep.verified = {**keep.verified, "seconds": reduced.verified["seconds"] + rec["seconds"]}
-    keep.choice = {**(reduced.choice or {}), "floor": rec, "chosen_by": (
-        f"{(reduced.choice or {}).get('chosen_by', '')}; the heat its short super nodes lack comes from "
-        f"{'the super nodes linked to them' if rc['thesis'] else 'the held node'} (worst verified RMS "
-        f"{rec['worst_K']['held']:.3g} K from the held node, {rec['worst_K']['linked']:.3g} K along the links)")}
-    if keep is alt:
-        _hand_over(run, net, alt, q_orbit)
-    return keep
 
 
 def _hand_over(run: _RunState, net: _Network, alt: Reduced, q_orbit: np.ndarray | None) -> None:

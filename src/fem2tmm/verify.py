@@ -316,15 +316,20 @@ def superseded(verified: dict | None) -> dict | None:
                       + "; run the case alone to verify it")
 
 
-def why_unverified(result) -> dict | None:
+#: ``reduced.verified.reason`` of a run without a detailed reference
+NO_REFERENCE = "no detailed reference was solved: [reference] detailed = false or --no-reference"
+
+
+def why_unverified(result, reference: bool = True) -> dict | None:
     """``reduced.verified`` of a run whose range is not verified (:func:`unverified` with the reason), or None
     when :func:`verify_network` applies: ``[reduction] verify`` on, a detailed steady reference solved, the network
-    read back (``reduced.delivered``) and a steady deck."""
+    read back (``reduced.delivered``) and a steady deck.  ``reference`` False: the same without the reference (when
+    the range can be *estimated*: :func:`verify_network` with an ``estimator``)."""
     red = result.reduced
     if not result.case.reduction.verify:
         return unverified("[reduction] verify = false")
-    if result.detailed.solution is None:
-        return unverified("no detailed reference was solved: [reference] detailed = false or --no-reference")
+    if reference and result.detailed.solution is None:
+        return unverified(NO_REFERENCE)
     if result.transient is not None:
         return unverified("a transient deck: the range is verified on steady decks")
     if red.recovery is None:
@@ -334,8 +339,9 @@ def why_unverified(result) -> dict | None:
     return None
 
 
-def verify_network(result, problem, references: dict | None = None, warn: bool = True) -> dict:
-    """Verify the network a run hands over over its validity range (module docstring).
+def verify_network(result, problem, references: dict | None = None, warn: bool = True,
+                   estimator=None) -> dict:
+    """Verify the network a run hands over over its validity range (module docstring), or estimate its error there.
 
     Parameters
     ----------
@@ -350,6 +356,13 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     warn : bool
         Warn when states are flagged or have no solution (:func:`warn_off_range`); False where the caller may hand
         over another network and warns for the one it keeps.
+    estimator : callable, optional
+        Without a detailed reference: ``estimator(values, T_sn, T_rec) -> {"beyond_noise_K", "max_K", "noise_K"}``,
+        the a-posteriori estimate of the recovered field's error at a state ({constant name: SI value}, {} the
+        design state; the deck's super-node temperatures (n,) K; the recovered field (n_dof,) K), in place of the
+        detailed solve (:func:`fem2tmm.stages.choice.range_estimator`).  The record's ``status`` is then
+        "estimated", each row's ``rms_K`` the estimate beyond its ray noise and ``noise_K`` that noise, and the
+        sink's range tops at the recovered field's warmest temperature.
 
     Returns
     -------
@@ -358,7 +371,8 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         ``range`` [{name, deck, kind, unit, nominal, low, high, source}] in case units, ``states`` [{label,
         values (case units), rms_K, max_K, node_T_C [min, max] of the deck's nodes, seconds, network_s,
         detailed_s, detailed_iterations, flagged, error}], ``design`` {rms_K, max_K} through the same path,
-        ``reference_noise`` {rms_K, max_K} (design state) or None, ``worst`` (the state of largest RMS),
+        ``reference_noise`` {rms_K, max_K} (design state) or None, ``estimate_noise`` {rms_K} (the largest over the
+        states; with an ``estimator``) or None, ``worst`` (the state of largest RMS),
         ``node_T_C`` [min, max] over the design and every verified state, ``flagged`` [labels], ``seconds``.
     """
     from .export.deliverable import write_network
@@ -372,15 +386,20 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     t_start = time.perf_counter()
     case, model, red = result.case, result.model, result.reduced
     det = result.detailed.solution
-    T_warmest = float(np.max(det.T))
+    T_warmest = float(np.max(red.T_recovered if estimator is not None else det.T))
     radiating = bool(np.any(np.asarray(problem.g_space) > 0) or problem.faced is not None or problem.GR is not None)
     constants = verify_range(case, T_warmest, radiating)
     deck_name = {c.name: constant_name(c.name) for c in constants if c.kind != "sink"}
     names = red.network.names
     ok = model.node_dof >= 0
-    T_ref_design = model.node_temperatures(det.T)[ok]
+    T_ref_design = None if estimator is not None else model.node_temperatures(det.T)[ok]
+    noises = []  # the estimate's ray noise at each state (estimator only)
 
-    def error(T_dof, T_ref_nodes):
+    def error(T_dof, T_ref_nodes, values=None, T_sn=None):
+        if estimator is not None:
+            est = estimator(values, T_sn, T_dof)
+            noises.append(float(est["noise_K"]))
+            return float(est["beyond_noise_K"]), float(est["max_K"])
         e = model.node_temperatures(T_dof)[ok] - T_ref_nodes
         return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max(initial=0.0))
 
@@ -426,7 +445,7 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         design_deck = None
         T_sn0, design_deck, _, _ = deck_state(None)
         T_des = recovery.recover(T_sn0, T0=red.T_recovered)  # the design state, through the same path
-        d_rms, d_max = error(T_des, T_ref_design)
+        d_rms, d_max = error(T_des, T_ref_design, {}, T_sn0)
         node_lo, node_hi = float(T_sn0.min()), float(T_sn0.max())
         rows, solved = [], []
         for st in states:  # the decks of every state, edited, read back, solved
@@ -458,7 +477,9 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
                 # the detailed model at that state, its Newton from the recovered field (it converges to the
                 # solver's tolerance from any start: the start only saves iterations, 7 -> 4 on examples/composite)
                 key = tuple(sorted(st.values.items()))
-                if references is not None and key in references:
+                if estimator is not None:
+                    ref = None
+                elif references is not None and key in references:
                     ref = references[key]
                 else:
                     p_state = state_problem(problem, model, case, st.values, patterns)
@@ -469,28 +490,36 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
                         ref = solve_steady(p_state, T0=det.T, **settings)
                     if references is not None:
                         references[key] = ref
-                t2 = time.perf_counter()
             except Fem2TmmError as exc:
                 row["error"] = str(exc)
                 row["seconds"] += time.perf_counter() - t0 + share
                 continue
-            rms, mx = error(T_rec, model.node_temperatures(ref.T)[ok])
+            if ref is None:
+                rms, mx = error(T_rec, None, st.values, T_sn)
+                row["noise_K"] = noises[-1]
+            else:
+                rms, mx = error(T_rec, model.node_temperatures(ref.T)[ok])
+            t2 = time.perf_counter()
             node_lo, node_hi = min(node_lo, float(T_sn.min())), max(node_hi, float(T_sn.max()))
             row.update(rms_K=rms, max_K=mx, node_T_C=[float(T_sn.min() - KELVIN), float(T_sn.max() - KELVIN)],
                        network_s=row["network_s"] + share + t1 - t0, detailed_s=t2 - t1,
-                       detailed_iterations=ref.iterations, flagged=worse_than_design(rms, mx, d_rms, d_max))
+                       detailed_iterations=None if ref is None else ref.iterations,
+                       flagged=worse_than_design(rms, mx, d_rms, d_max))
             row["seconds"] = row["network_s"] + row["detailed_s"]
     done = [r for r in rows if r["rms_K"] is not None]
     worst = max(done, key=lambda r: (r["rms_K"], r["max_K"]), default=None)
     noise = result.detailed.noise
     out = {
-        "status": "verified" if len(done) == len(rows) else "partly verified",
+        "status": ("estimated" if estimator is not None else
+                   "verified" if len(done) == len(rows) else "partly verified"),
         "range": [{"name": c.name, "deck": deck_name[c.name], "kind": c.kind, "unit": c.unit,
                    "nominal": c.to_case(c.nominal), "low": c.to_case(c.low), "high": c.to_case(c.high),
                    "source": c.source} for c in constants],
         "states": rows,
         "design": {"rms_K": d_rms, "max_K": d_max},
-        "reference_noise": None if noise is None else {"rms_K": noise["rms_K"], "max_K": noise["max_K"]},
+        "reference_noise": (None if noise is None or estimator is not None else
+                            {"rms_K": noise["rms_K"], "max_K": noise["max_K"]}),
+        "estimate_noise": {"rms_K": max(noises)} if noises else None,
         "worst": worst,
         "failed": [r["label"] for r in rows if r["error"] is not None],
         "flagged": [r["label"] for r in rows if r["flagged"]],
@@ -555,7 +584,8 @@ def range_choice(kept: dict, thesis: dict, relative: float = 0.0) -> dict:
     The network an engineer edits must hold over the range it states; one exact at the design state and far off
     beyond it is worse for them than one a little off everywhere.  So the comparison is each network's worst RMS
     over the design state and the verified states where both have a solution: the thesis' network replaces the other
-    when that worst is smaller by more than the detailed reference's own noise (its RMS at the design state), or
+    when that worst is smaller by more than the detailed reference's own noise (its RMS at the design state; for two
+    estimated records, the two estimates' ray noise added in quadrature), or
     :data:`RANGE_FLOOR_K` if that is more: the bound the default is held to against the thesis method.  A state
     where a deck has no solution is not counted against it: its solver says so where the user edits it, and the
     record and the run's warning name it, where a network far off everywhere is silently wrong.
@@ -580,6 +610,9 @@ def range_choice(kept: dict, thesis: dict, relative: float = 0.0) -> dict:
     wk, lk = range_worst(kept, both)
     wt, lt = range_worst(thesis, both)
     noise = kept.get("reference_noise")
+    if noise is None and kept.get("estimate_noise") is not None:  # estimated records: both estimates' noise
+        noise = {"rms_K": float(np.hypot(kept["estimate_noise"]["rms_K"],
+                                         (thesis.get("estimate_noise") or {"rms_K": 0.0})["rms_K"]))}
     tol = max(0.0 if noise is None else float(noise["rms_K"]), RANGE_FLOOR_K, relative * wk)
     by = {r["label"]: r["rms_K"] for r in thesis["states"]}
     states = {"design": [kept["design"]["rms_K"], thesis["design"]["rms_K"]]}
@@ -590,6 +623,6 @@ def range_choice(kept: dict, thesis: dict, relative: float = 0.0) -> dict:
             "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states, "failed": failed}
 
 
-__all__ = ["Constant", "State", "edit_deck", "range_choice", "range_worst", "state_problem", "superseded", "unverified",
+__all__ = ["NO_REFERENCE", "Constant", "State", "edit_deck", "range_choice", "range_worst", "state_problem", "superseded", "unverified",
            "verify_network", "verify_range", "verify_states", "warn_off_range", "why_unverified", "worse_than_design",
            "COLDEST_SINK_K", "FLOOR_RELATIVE_MARGIN", "POWER_FACTOR", "RANGE_FLOOR_K", "TEMPERATURE_SWING_K"]

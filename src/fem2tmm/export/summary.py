@@ -407,7 +407,15 @@ def verified_rows(red: dict | None) -> list[tuple[str, str]]:
     if not v:
         return []
     if v["status"] == "UNVERIFIED":
-        return [("validity range", f"UNVERIFIED ({v['reason']})")]
+        rows = [("validity range", f"UNVERIFIED ({v['reason']})")]
+        est = v.get("estimated")
+        if est and est.get("worst") is not None:  # estimated where a choice rested on it (fem2tmm.range_checks)
+            w = est["worst"]
+            rows.append(("range, estimated", f"{len(est['states'])} states, a-posteriori (not verified): worst "
+                         f"'{w['label']}' RMS {w['rms_K']:.3g} K, max {w['max_K']:.3g} K (design RMS "
+                         f"{est['design']['rms_K']:.3g} K; {est['seconds']:.1f} s)"))
+            rows += _range_pairs(red)
+        return rows
     rng = "; ".join(f"{r['name']} {r['low']:.4g}..{r['high']:.4g} {r['unit']}" for r in v["range"])
     d, w, n = v["design"], v["worst"], v.get("reference_noise")
     text = f"{len(v['states'])} states over {rng or 'the design state only'}: "
@@ -421,13 +429,19 @@ def verified_rows(red: dict | None) -> list[tuple[str, str]]:
         rows.append(("", "WARNING: " + "; ".join(x for x in (
             v["flagged"] and f"above {v['threshold']['factor']:g} x the design error at {', '.join(v['flagged'])}",
             v["failed"] and f"no solution at {', '.join(v['failed'])}") if x)))
+    return rows + _range_pairs(red)
+
+
+def _range_pairs(red: dict) -> list[tuple[str, str]]:
+    """Both networks over the same range (fem2tmm.verify.range_choice): the figures the choice rests on."""
     rc = (red.get("choice") or {}).get("verified_range")
-    if rc:  # both networks over the same range (fem2tmm.verify.range_choice): the figures the choice rests on
-        fmt = lambda x: "no solution" if x is None else f"{x:.3g}"  # noqa: E731
-        pairs = "; ".join(f"{k} {fmt(a)} / {fmt(b)}" for k, (a, b) in rc["states_K"].items())
-        rows.append(("range, both networks", f"RMS K radiation-aware / thesis: {pairs}; handed over: "
-                     + ("the thesis' network" if rc["thesis"] else "the radiation-aware network")))
-    return rows
+    if not rc:
+        return []
+    fmt = lambda x: "no solution" if x is None else f"{x:.3g}"  # noqa: E731
+    pairs = "; ".join(f"{k} {fmt(a)} / {fmt(b)}" for k, (a, b) in rc["states_K"].items())
+    what = "estimated RMS K" if rc.get("by") == "estimate" else "RMS K"
+    return [("range, both networks", f"{what} radiation-aware / thesis: {pairs}; handed over: "
+             + ("the thesis' network" if rc["thesis"] else "the radiation-aware network"))]
 
 
 def summary_table(s: dict) -> str:

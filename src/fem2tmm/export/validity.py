@@ -35,14 +35,22 @@ def validity_lines(verified: dict | None, choice: dict | None = None) -> list[st
         text = (f"VALIDITY RANGE: UNVERIFIED. This network was not checked against the detailed model away from its "
                 f"design state ({v['reason']}); edited constants (loads, held temperatures, sink) give results of "
                 "unknown accuracy.")
-        return textwrap.wrap(text, WIDTH)
+        out = textwrap.wrap(text, WIDTH)
+        est = v.get("estimated")
+        if est and est.get("worst") is not None:  # estimated where a choice rested on the range (fem2tmm.range_checks)
+            w = est["worst"]
+            out += textwrap.wrap(
+                f"Its error was ESTIMATED instead (a-posteriori, without the detailed model: not a verification) at "
+                f"{len(est['states'])} states (each constant at either end of its range, the others at design; then "
+                "all low, all high):", WIDTH)
+            out += _range_lines(est)
+            out.append(f"  estimated worst state '{w['label']}': RMS {w['rms_K']:.3g} K, max {w['max_K']:.3g} K "
+                       f"(design state RMS {est['design']['rms_K']:.3g} K)")
+            out += _chosen_lines(choice)
+        return [line[:WIDTH] for line in out]
     out = [f"VALIDITY RANGE: {v['status']} against the detailed FE model at {len(v['states'])} states",
            "(each constant at either end of its range, the others at design; then all low, all high):"]
-    for r in v["range"]:
-        out.append(f"  {r['deck']:<24} {r['low']:.5g} .. {r['high']:.5g} {r['unit']} (design {r['nominal']:.5g}; "
-                   f"{r['source']})")
-    lo, hi = v["node_T_C"]
-    out.append(f"  node temperatures seen: {lo:.5g} .. {hi:.5g} degC")
+    out += _range_lines(v)
     d, w = v["design"], v["worst"]
     out.append(f"  recovered field against the detailed model: design state RMS {d['rms_K']:.3g} K, max {d['max_K']:.3g} K")
     if w is not None:
@@ -56,16 +64,31 @@ def validity_lines(verified: dict | None, choice: dict | None = None) -> list[st
     if v["flagged"]:
         out += textwrap.wrap(f"WARNING: error above {v['threshold']['factor']:g} x the design state's: "
                              f"{', '.join(v['flagged'])}", WIDTH, initial_indent="  ", subsequent_indent="    ")
-    rc = (choice or {}).get("verified_range")
-    if rc and rc["worst_K"]["kept"] is not None:
-        wk, wt = rc["worst_K"]["kept"], rc["worst_K"]["thesis"]
-        which = (f"the thesis' network (worst RMS {wt:.3g} K) rather than the radiation-aware one ({wk:.3g} K)"
-                 if rc["thesis"] else f"the radiation-aware network (worst RMS {wk:.3g} K) rather than the thesis' "
-                 f"({wt:.3g} K)")
-        out += textwrap.wrap(f"This network was chosen over the range: {which}.", WIDTH, initial_indent="  ",
-                             subsequent_indent="    ")
+    out += _chosen_lines(choice)
     out.append("Outside these ranges the network is UNVERIFIED.")
     return [line[:WIDTH] for line in out]
+
+
+def _range_lines(v: dict) -> list[str]:
+    """Each constant's range and the node temperatures the checked decks reached."""
+    out = [f"  {r['deck']:<24} {r['low']:.5g} .. {r['high']:.5g} {r['unit']} (design {r['nominal']:.5g}; "
+           f"{r['source']})" for r in v["range"]]
+    lo, hi = v["node_T_C"]
+    return out + [f"  node temperatures seen: {lo:.5g} .. {hi:.5g} degC"]
+
+
+def _chosen_lines(choice: dict | None) -> list[str]:
+    """Which network the range chose (``reduced.choice.verified_range``), or nothing."""
+    rc = (choice or {}).get("verified_range")
+    if not (rc and rc["worst_K"]["kept"] is not None):
+        return []
+    wk, wt = rc["worst_K"]["kept"], rc["worst_K"]["thesis"]
+    worst = "estimated worst RMS" if rc.get("by") == "estimate" else "worst RMS"
+    which = (f"the thesis' network ({worst} {wt:.3g} K) rather than the radiation-aware one ({wk:.3g} K)"
+             if rc["thesis"] else f"the radiation-aware network ({worst} {wk:.3g} K) rather than the thesis' "
+             f"({wt:.3g} K)")
+    return textwrap.wrap(f"This network was chosen over the range: {which}.", WIDTH, initial_indent="  ",
+                         subsequent_indent="    ")
 
 
 def validity_arrays(verified: dict | None) -> dict[str, np.ndarray]:

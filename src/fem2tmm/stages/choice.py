@@ -151,8 +151,8 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
 
     Returns
     -------
-    ``{"rms_K", "noise_K", "beyond_noise_K"}``: the RMS of the estimated error field over the mesh nodes (K), its
-    ray noise N (K, 0 without a tally) and √max(rms² − N², 0) (K).
+    ``{"rms_K", "noise_K", "beyond_noise_K", "max_K"}``: the RMS of the estimated error field over the mesh nodes
+    (K), its ray noise N (K, 0 without a tally), √max(rms² − N², 0) (K) and the field's largest magnitude (K).
     """
     case = red.case
     model = inputs.model.with_unblocked(red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None
@@ -175,11 +175,61 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
         dT, w = error_field(*args, Refinement(), None, None)
         noise = 0.0
     rms = float(np.sqrt((w * dT**2).sum() / w.sum()))
-    return {"rms_K": rms, "noise_K": noise, "beyond_noise_K": float(np.sqrt(max(rms**2 - noise**2, 0.0)))}
+    return {"rms_K": rms, "noise_K": noise, "beyond_noise_K": float(np.sqrt(max(rms**2 - noise**2, 0.0))),
+            "max_K": float(np.abs(dT[w > 0]).max(initial=0.0))}
+
+
+def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=None, tallies: dict | None = None,
+                    budget: tuple[int, float] | None = None):
+    """The estimate of :func:`estimate` at the other states of the validity range, for
+    :func:`fem2tmm.verify.verify_network` ``(estimator=)`` in a run without a detailed reference.
+
+    At a state the same Newton step of the detailed problem is taken from the recovered field of the edited deck,
+    under that state's loads (the named power and flux loads' patterns scaled to their edited values,
+    :func:`fem2tmm.verify.load_patterns`), its held temperatures (the deck's fixed super nodes) and sink; the side
+    tallies are geometry and are shared with the design estimate (``tallies``).  The linearisation is the state's
+    own (a factorisation of ``K + diag(h)`` per state), so the estimate is as good off the design state as on it.
+
+    Parameters
+    ----------
+    inputs : the reduction's inputs (the design state's loads ``q_recover`` (n_dof,) W)
+    red : the candidate network (its ``network``, ``solution``, ``case`` and ``ir``)
+    surface, scene, tallies, budget : as for :func:`estimate`
+
+    Returns
+    -------
+    ``estimator(values, T_sn, T_rec) -> dict``: :func:`estimate`'s record at the state ``values`` ({constant name:
+    SI value}, "sink" K; {} the design state), the deck's super-node temperatures ``T_sn`` (n,) K in the network's
+    order and the recovered field ``T_rec`` (n_dof,) K.
+    """
+    from ..verify import load_patterns
+
+    model, case = inputs.model, inputs.case
+    named = {b.name: b for b in case.boundaries if b.name}
+    patterns: dict = {}
+    tallies = {} if tallies is None else tallies
+
+    def at(values: dict, T_sn: np.ndarray, T_rec: np.ndarray) -> dict:
+        q = np.array(inputs.q_recover, float)
+        for name, v in values.items():
+            b = named.get(name)
+            if b is None or b.kind == "temperature" or v == b.value:
+                continue
+            if name not in patterns:
+                patterns.update(load_patterns(model, case, [name]))
+            q += (v - b.value) * patterns[name]
+        net = red.network
+        net = dataclasses.replace(net, T_fixed=np.where(net.fixed, T_sn, net.T_fixed))
+        cand = dataclasses.replace(red, network=net, solution=dataclasses.replace(red.solution, T=T_sn),
+                                   T_recovered=T_rec)
+        m = dataclasses.replace(model, T_sink=float(values.get("sink", model.T_sink)))
+        return estimate(dataclasses.replace(inputs, model=m, q_recover=q), cand, surface, scene, tallies, budget)
+
+    return at
 
 
 def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog, surface=None,
-                    scene=None, exchange=None) -> tuple[Reduced, dict, Reduced | None]:
+                    scene=None, exchange=None, tallies: dict | None = None) -> tuple[Reduced, dict, Reduced | None]:
     """Resolve ``radiation_aware = "auto"`` by the estimated errors (the module's rule).
 
     Parameters
@@ -191,6 +241,7 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     surface, scene : the radiation surface and ray scene, or None (no radiation traced)
     exchange : the run's super-face :class:`~fem2tmm.radiation.ExchangeResult` (its rays cap the estimate's,
         :func:`tally_budget`), or None
+    tallies : dict, filled with the two half tallies traced here (shared with :func:`range_estimator`), or None
 
     Returns
     -------
@@ -199,7 +250,8 @@ def measured_choice(inputs: ReductionInputs, thesis: Reduced, choice: dict, prog
     ``chosen_by``, ``estimate_seconds``, ``estimate_covers``, ``estimate_rays`` the rays of each half tally traced,
     [] without one), and the thesis' reduction when the other was kept.
     """
-    tallies, seconds, refused = {}, 0.0, None
+    tallies = {} if tallies is None else tallies
+    seconds, refused = 0.0, None
 
     def timed(red: Reduced) -> dict:
         nonlocal seconds
