@@ -44,6 +44,7 @@ RANK = {
     "pipeline": 14,
     "handover": 14, "recovering": 14,  # the network handed over read back and checked; outside temperatures back
     "verify": 14,  # the validity range of the network handed over, checked against the detailed model
+    "range_checks": 14,  # the network delivered, its range checked (measured or estimated), the choices made there
     "demo": 15, "cli": 16,
 }
 #: the stage packages and the reduction methods: never the orchestration, the CLI or a benchmark ("a method never
