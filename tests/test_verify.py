@@ -308,11 +308,12 @@ def test_the_range_choice_compares_each_networks_worst_state_beyond_the_referenc
 
 def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_range_better(tmp_path):
     """Issue 42, the choice over the verified range, on ``examples/cylinders`` (32 super nodes): the design-state
-    estimate keeps the radiation-aware network (0.80 against 1.04 K estimated, 0.073 against 0.095 K measured at the
+    estimate keeps the radiation-aware network (0.058 against 0.19 K estimated, 0.073 against 0.095 K measured at the
     design state), but over the verified range its worst state is all high, 0.51 K RMS, where the thesis' network is
     0.13 K (measured 2026-12-06, ``fem2tmm bench choice``; reference noise 0.0047 K).  The default hands over the
     thesis' network: the same deck, the same verified figures (to round-off) as the run asked for the thesis' method,
-    its choice record keeping both networks' range."""
+    its choice record keeping both networks' range.  Without the reference the range's estimated errors make the same
+    choice (the radiation-aware network estimated 0.48 K at all high, 2026-12-07)."""
     from benchmarks.choice import _case
 
     with warnings.catch_warnings():
@@ -343,6 +344,17 @@ def test_the_default_hands_over_the_thesis_network_where_it_holds_the_verified_r
     # and what the run hands over holds the range no worse than either network beyond the noise
     worst = max([vd["design"]["rms_K"]] + [s["rms_K"] for s in vd["states"]])
     assert worst <= rc["worst_K"]["thesis"] + 1e-9
+    # the estimator emits from the areas the rays are traced on (the quadric cylinders, 1.15 % more than the facets):
+    # its estimate of the radiation-aware network is its measured error within a factor 2 (before, from the facets'
+    # areas, 0.80 K against 0.073 K: an imbalance of 0.8 W that the reference does not have)
+    assert 0.5 < ch["estimated_rms_K"]["radiation_aware"] / rc["replaced"]["verified"]["design"]["rms_K"] < 2.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        blind = run(_case("cylinders/case.toml", "default"), reference=False)
+    cb = blind.summary["reduced"]["choice"]
+    assert blind.reduced.method == "thesis" and cb["verified_range"]["by"] == "estimate", cb["chosen_by"]
+    assert cb["verified_range"]["worst_state"]["kept"] == "all high"
+    assert blind.summary["reduced"]["verified"]["status"] == "UNVERIFIED"
 
 
 def _satellite_quick():

@@ -41,6 +41,7 @@ import numpy as np
 
 from .constants import KELVIN
 from .errors import Fem2TmmError, InternalError
+from .fem.model import load_patterns
 
 #: named powers and fluxes: verified from 0 to this many times their design value.  4x is the issue's "beyond the
 #: tables" edit (a 10 W heater at 40 W) and covers a unit's duty cycle from off to a peak of several times its mean
@@ -289,13 +290,6 @@ def state_problem(problem, model, case, values: dict, patterns: dict | None = No
     return dataclasses.replace(problem, Q=Q, T_fixed=T_fixed, T_sink=float(values.get("sink", problem.T_sink)))
 
 
-def load_patterns(model, case, names) -> dict:
-    """{name: (n_dof,) W per unit value (W or W/m²)} of the named power / flux boundaries ``names`` of ``case``
-    (:func:`fem2tmm.fem.model.boundary_load` at value 1)."""
-    from .fem.model import boundary_load
-
-    named = {b.name: b for b in case.boundaries if b.name}
-    return {n: boundary_load(model, case, dataclasses.replace(named[n], value=1.0)) for n in names}
 
 
 # ---------------------------------------------------------------------------------------------- the check

@@ -435,7 +435,7 @@ def verified_rows(red: dict | None) -> list[tuple[str, str]]:
 def _range_pairs(red: dict) -> list[tuple[str, str]]:
     """Both networks over the same range (fem2tmm.verify.range_choice): the figures the choice rests on."""
     rc = (red.get("choice") or {}).get("verified_range")
-    if not rc:
+    if not rc or not rc.get("checked", True):
         return []
     fmt = lambda x: "no solution" if x is None else f"{x:.3g}"  # noqa: E731
     pairs = "; ".join(f"{k} {fmt(a)} / {fmt(b)}" for k, (a, b) in rc["states_K"].items())

@@ -84,9 +84,11 @@ def _chosen_lines(choice: dict | None) -> list[str]:
         return []
     wk, wt = rc["worst_K"]["kept"], rc["worst_K"]["thesis"]
     worst = "estimated worst RMS" if rc.get("by") == "estimate" else "worst RMS"
+    other = (f"{wt:.3g} K" if wt is not None else
+             f"estimated {rc['thesis_design_estimate_K']:.3g} K at the design state alone")
     which = (f"the thesis' network ({worst} {wt:.3g} K) rather than the radiation-aware one ({wk:.3g} K)"
              if rc["thesis"] else f"the radiation-aware network ({worst} {wk:.3g} K) rather than the thesis' "
-             f"({wt:.3g} K)")
+             f"({other})")
     return textwrap.wrap(f"This network was chosen over the range: {which}.", WIDTH, initial_indent="  ",
                          subsequent_indent="    ")
 

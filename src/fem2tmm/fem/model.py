@@ -777,6 +777,14 @@ def boundary_load(model: FEModel, case: Case, b: Boundary) -> np.ndarray:
     return _load_vector(model.mesh, case, b, model.node_dof, model.n_dof)
 
 
+def load_patterns(model, case, names) -> dict:
+    """{name: (n_dof,) W per unit value (W or W/m²)} of the named power / flux boundaries ``names`` of ``case``
+    (:func:`boundary_load` at value 1): a named load at value v is v times its pattern."""
+    named = {b.name: b for b in case.boundaries if b.name}
+    return {n: boundary_load(model, case, replace(named[n], value=1.0)) for n in names}
+
+
+
 def _load_vector(mesh: Mesh, case: Case, b: Boundary, node_dof: np.ndarray, n_dof: int) -> np.ndarray:
     """Nodal loads (n_dof,) W of a power or flux boundary."""
     where = f"{case.source}: [[boundary]] {b.name!r} ({b.kind})"

@@ -172,7 +172,7 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
         (da, w), (db, _) = fields
         dT, noise = 0.5 * (da + db), float(np.sqrt((w * (da - db) ** 2).sum() / w.sum()) / 2.0)
     else:
-        dT, w = error_field(*args, Refinement(), None, None)
+        dT, w = error_field(*args, Refinement(), surface, scene)  # (the scene: its traced areas; no tally here)
         noise = 0.0
     rms = float(np.sqrt((w * dT**2).sum() / w.sum()))
     return {"rms_K": rms, "noise_K": noise, "beyond_noise_K": float(np.sqrt(max(rms**2 - noise**2, 0.0))),
@@ -186,7 +186,7 @@ def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=N
 
     At a state the same Newton step of the detailed problem is taken from the recovered field of the edited deck,
     under that state's loads (the named power and flux loads' patterns scaled to their edited values,
-    :func:`fem2tmm.verify.load_patterns`), its held temperatures (the deck's fixed super nodes) and sink; the side
+    :func:`fem2tmm.fem.model.load_patterns`), its held temperatures (the deck's fixed super nodes) and sink; the side
     tallies are geometry and are shared with the design estimate (``tallies``).  The linearisation is the state's
     own (a factorisation of ``K + diag(h)`` per state), so the estimate is as good off the design state as on it.
 
@@ -202,7 +202,7 @@ def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=N
     SI value}, "sink" K; {} the design state), the deck's super-node temperatures ``T_sn`` (n,) K in the network's
     order and the recovered field ``T_rec`` (n_dof,) K.
     """
-    from ..verify import load_patterns
+    from ..fem.model import load_patterns
 
     model, case = inputs.model, inputs.case
     named = {b.name: b for b in case.boundaries if b.name}
