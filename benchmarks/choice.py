@@ -21,6 +21,11 @@ heat, whether the network handed over feeds them from the held node or along K̃
 (``reduced.choice.floor``).  The claim the table shows (issue 42): on every study the default's error is
 never above the thesis' by more than the reference noise, at the design state and over the verified states.  One
 JSON line per (study, method).
+
+A fourth run, ``blind``, is the default without the detailed reference (``--no-reference``): its choices rest on the
+estimated range (:mod:`fem2tmm.range_checks`).  Its row gives what it handed over (method, the floor's source), the
+estimated worst of each candidate, the range check's seconds, and ``same_as_default``: whether it handed over the
+network the default chose with the reference.
 """
 
 from __future__ import annotations
@@ -67,13 +72,33 @@ def _range(rc: dict | None) -> dict | None:
     if not rc:
         return None
     return {"thesis": rc["thesis"], "worst_K": rc["worst_K"], "worst_state": rc["worst_state"],
-            "tolerance_K": rc["tolerance_K"], "seconds": rc.get("seconds")}
+            "tolerance_K": rc["tolerance_K"], "seconds": rc.get("seconds"), "by": rc.get("by"),
+            "checked": rc.get("checked", True)}
+
+
+def _blind(file: str, default: dict) -> dict:
+    """The default without the detailed reference: what it hands over, on the estimated range."""
+    res, seconds = timed_run(_case(file, "default"), reference=False)
+    red = res.summary["reduced"]
+    ch, est = red["choice"] or {}, (red.get("verified") or {}).get("estimated")
+    floor = (ch.get("floor") or {}).get("source")
+    return {"study": file, "method": "blind", "radiation_aware": ch.get("radiation_aware"), "floor_source": floor,
+            "chosen_by": ch.get("chosen_by"), "estimated": _verified(est),
+            "verified_range": _range(ch.get("verified_range")),
+            "floor": None if not ch.get("floor") else {k: ch["floor"][k] for k in ("source", "worst_K", "worst_state")},
+            "range_seconds": None if est is None else est.get("seconds"), "seconds": round(seconds, 1),
+            "same_as_default": (ch.get("radiation_aware") == default["radiation_aware"]
+                                and floor == (default["floor"] or {}).get("source"))}
 
 
 def bench_choice() -> list[dict]:
     rows = []
     for file in STUDIES:
-        for method in ("default", "thesis", "radiation_aware"):
+        for method in ("default", "thesis", "radiation_aware", "blind"):
+            if method == "blind":
+                rows.append(_blind(file, next(r for r in rows if r["study"] == file and r["method"] == "default")))
+                print(rows[-1], flush=True)
+                continue
             res, seconds = timed_run(_case(file, method))
             s = res.summary
             acc, red = s["accuracy"], s["reduced"]

@@ -42,14 +42,14 @@ def as_thesis(raw: dict) -> dict:
     return raw
 
 
-def timed_run(case):
-    """``(result, wall seconds)`` of ``fem2tmm.run(case)``, its warnings silenced."""
+def timed_run(case, reference: bool | None = None):
+    """``(result, wall seconds)`` of ``fem2tmm.run(case, reference=reference)``, its warnings silenced."""
     from fem2tmm.pipeline import run
 
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = run(case)
+        res = run(case, reference=reference)
     return res, time.perf_counter() - t0
 
 
