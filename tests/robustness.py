@@ -307,6 +307,16 @@ def check(data: dict, mesh, record: dict | None = None) -> str:
     return "solved, the network's negative conductances or loads take it outside the bounds" if outside else "solved"
 
 
+def _reference_floor(det: dict | None) -> float:
+    """K: the warmest temperature of a cold reference stopped on a residual floor (:func:`accuracy_record`), else 0."""
+    from fem2tmm.solve.steady import COLD_FIELD
+
+    if not det or det.get("stopped_on") in (None, "step"):
+        return 0.0
+    T_max = det["T_max_C"] + KELVIN
+    return T_max if T_max < COLD_FIELD else 0.0
+
+
 def accuracy_record(s: dict) -> dict:
     """The default's error and the thesis method's in one run's ``summary.json`` (K RMS over the nodes against the
     detailed reference), and the reference's own ray noise; {} without a reference.
@@ -315,7 +325,10 @@ def accuracy_record(s: dict) -> dict:
     the same run (``accuracy.thesis_method``, its pre-solve), or the default's own figure when ``"auto"`` chose the
     thesis' reduction (the same network); None when the thesis' network had no physical solution
     (``thesis_refused``).  ``noise_K`` is ``accuracy.reference_noise_rms_K`` (two half-budget tracings of the
-    reference), 0 without face-to-face radiation (no rays)."""
+    reference), 0 without face-to-face radiation (no rays).  ``reference_floor_K``: the warmest temperature of a
+    reference field below ``COLD_FIELD`` (1 K) whose Newton stopped on a residual floor instead of its step
+    (``detailed.stopped_on`` "cold field" or "round-off": near 0 K the Jacobian 4σεA·T³ vanishes and Newton only
+    contracts as T -> 3/4 T, so the distance left to the solution is of the field's own size), else 0."""
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is None:
         return {}
@@ -325,6 +338,7 @@ def accuracy_record(s: dict) -> dict:
     thesis = th["rms_K"] if th else (acc["rms_K"] if chosen == "thesis" else None)
     return {"chosen": chosen, "default_rms_K": acc["rms_K"], "thesis_rms_K": thesis,
             "noise_K": acc.get("reference_noise_rms_K") or 0.0, "thesis_refused": bool(choice.get("thesis_refused")),
+            "reference_floor_K": _reference_floor(s.get("detailed")),
             "biot_cluster_max": choice.get("biot_cluster_max"),
             "estimated_rms_K": choice.get("estimated_rms_K"), "estimate_noise_K": choice.get("estimate_noise_K"),
             "estimate_cost_fraction": choice.get("estimate_cost_fraction"),

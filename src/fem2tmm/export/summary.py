@@ -45,7 +45,7 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         "radiation": _radiation_summary(result),
         "accuracy": {"rms_K": None, "max_K": None},
         "detailed": None if detailed is None else {
-            "iterations": detailed.iterations,
+            "iterations": detailed.iterations, "stopped_on": detailed.stats.get("stopped_on"),
             "T_min_C": float(np.nanmin(T) - KELVIN), "T_max_C": float(np.nanmax(T) - KELVIN),
             "heat_into_fixed_W": fixed_heat, "loads_W": dict(model.loads),
             "to_space_W": float(detailed.to_space.sum()),
