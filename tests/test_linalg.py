@@ -102,3 +102,30 @@ def test_a_pinned_blas_count_holds_against_nested_limits():
     with blas_threads(1):  # outside a pin it limits as before
         assert blas_now() == {1}
     assert blas_now() == before
+
+
+def test_a_saddle_with_a_definite_block_is_solved_through_its_schur_complement():
+    """linalg.saddle_factor: [[Kd, Aᵀ], [A, 0]] with Kd = a floating plate's conduction plus a small positive
+    diagonal (emission) and A the means of 12 strips of it (a recovery's constraints) against a dense LAPACK solve:
+    the block elimination (Kd's factorisation and the dense Schur complement A Kd⁻¹ Aᵀ) and the whole-matrix path
+    agree with it to the backward-stable bound above; a Kd without the diagonal (floating: singular) is refused by the
+    elimination's Cholesky and taken by the whole-matrix path, which the constraints make regular."""
+    n = 24
+    T = sp.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1])
+    K = (sp.kron(sp.eye(n), T) + sp.kron(T, sp.eye(n))).tocsr()
+    K = sp.csr_matrix(K - sp.diags(np.asarray(K.sum(axis=1)).ravel()))  # zero row sums: floating
+    strips = np.arange(n * n) // (n * n // 12)
+    A = sp.csr_matrix((np.full(n * n, 12.0 / (n * n)), (strips, np.arange(n * n))), shape=(12, n * n))
+    rng = np.random.default_rng(3)
+    for h, definite in ((1e-3, True), (0.0, False)):
+        Kd = sp.csr_matrix(K + sp.diags(np.full(n * n, h)))
+        M = sp.bmat([[Kd, A.T], [A, None]]).toarray()
+        b = rng.standard_normal((M.shape[0], 2))
+        ref = np.linalg.solve(M, b)
+        f = linalg.saddle_factor(Kd, A, definite=definite)
+        assert isinstance(f, linalg._SchurSaddle) is definite
+        for x, r in ((f.solve(b), ref), (f.solve(b[:, 0]), ref[:, 0])):
+            assert np.linalg.norm(x - r) / np.linalg.norm(r) < 1e-10
+    # told definite where it is not: the elimination fails and the whole matrix is factorised instead
+    f = linalg.saddle_factor(K, A, definite=True)
+    assert not isinstance(f, linalg._SchurSaddle)

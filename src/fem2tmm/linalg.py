@@ -140,6 +140,57 @@ def factorize(A, kind: str = "spd"):
     return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 
+#: :func:`saddle_factor` eliminates through the Schur complement while n x m (the dense solves that form it) is at
+#: most this many entries (160 MB); beyond, the whole saddle matrix is factorised
+SCHUR_MAX_ENTRIES = 20_000_000
+
+
+class _SchurSaddle:
+    """``solve(b)`` with the saddle matrix [[Kd, Aᵀ], [A, 0]] by block elimination: Kd (n, n) SPD factorised once,
+    S = A Kd⁻¹ Aᵀ (m, m) dense SPD (Cholesky): μ = S⁻¹ (A Kd⁻¹ f − g), x = Kd⁻¹ (f − Aᵀ μ)."""
+
+    def __init__(self, Kd, A):
+        import scipy.linalg as sla
+
+        self.n, self.A = Kd.shape[0], sp.csr_matrix(A)
+        self.lu = factorize(Kd, "spd")
+        m = self.A.shape[0]
+        cols = max(1, SCHUR_MAX_ENTRIES // max(self.n, 1))
+        S = np.empty((m, m))
+        At = self.A.T.tocsc()
+        for j in range(0, m, cols):  # the m solves in blocks of at most SCHUR_MAX_ENTRIES entries
+            S[:, j:j + cols] = self.A @ self.lu.solve(At[:, j:j + cols].toarray())
+        self.S = sla.cho_factor(0.5 * (S + S.T))
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        import scipy.linalg as sla
+
+        b = np.asarray(b, float)
+        f, g = b[: self.n], b[self.n:]
+        y = self.lu.solve(f)
+        mu = sla.cho_solve(self.S, self.A @ y - g)
+        x = y - self.lu.solve(np.asarray(self.A.T @ mu))
+        return np.concatenate([x, mu], axis=0)
+
+
+def saddle_factor(Kd, A, definite: bool):
+    """A factorisation with ``solve(b)`` of the saddle matrix [[Kd, Aᵀ], [A, 0]] (Kd (n, n) symmetric, A (m, n)).
+
+    ``definite``: the caller knows Kd is positive definite (a conduction matrix plus a positive diagonal on every
+    connected piece: a held DOF, emission, a capacitance).  It is then eliminated through Kd's factorisation and the
+    dense Schur complement A Kd⁻¹ Aᵀ, when n x m is at most :data:`SCHUR_MAX_ENTRIES`: on examples/composite's
+    recovery (6 802 DOFs, 101 super nodes) 0.09 s against 0.78 s for SuperLU on the whole symmetric indefinite matrix
+    (2026-12-07), whose constraint rows, each spanning a cluster, fill it.  Otherwise (or Kd singular) the whole
+    matrix, :func:`factorize` kind "symmetric"."""
+    n, m = Kd.shape[0], A.shape[0]
+    if definite and m and n * m <= SCHUR_MAX_ENTRIES:
+        try:
+            return _SchurSaddle(Kd, A)
+        except (RuntimeError, np.linalg.LinAlgError):  # not positive definite after all: the general path decides
+            pass
+    return factorize(sp.bmat([[Kd, A.T], [A, None]], format="csc"), "symmetric")
+
+
 def solve(A, b: np.ndarray, kind: str = "spd") -> np.ndarray:
     """x = A⁻¹ b for a sparse (see :func:`factorize`) or dense A; b (n,) or (n, r)."""
     if sp.issparse(A):

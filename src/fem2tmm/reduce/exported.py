@@ -39,11 +39,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from ..case.types import TRANSIENT_METHODS
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
-from ..linalg import ROUNDOFF_ULPS, factorize, roundoff
+from ..linalg import ROUNDOFF_ULPS, roundoff, saddle_factor
 
 #: Newton stops once the largest temperature step is below this (K), the IR fixed point likewise
 RECOVERY_TOLERANCE = 1e-10
@@ -243,15 +244,28 @@ class ExportedRecovery:
         return np.asarray(self.orbit_q.T @ (h - self.orbit_weights)).ravel()
 
     def _saddle(self, diag: np.ndarray | None = None, M: sp.spmatrix | None = None):
+        """[[K + diag(diag) + M, Aᵀ], [A, 0]] factorised (:func:`fem2tmm.linalg.saddle_factor`): through the Schur
+        complement where every connected piece of K gets a positive diagonal (emission, capacitance)."""
         Kd = self.K if diag is None else self.K + sp.diags(diag)
         if M is not None:
             Kd = Kd + M
-        M = sp.bmat([[Kd, self.A.T], [self.A, None]], format="csc")
+        added = np.zeros(self.n_dof) if diag is None else np.asarray(diag, float).copy()
+        if M is not None:
+            added += np.asarray(M.diagonal(), float)
         try:
-            return factorize(M, "symmetric")  # [[K + diag, Aᵀ], [A, 0]]: symmetric indefinite
+            return saddle_factor(Kd, self.A, definite=self._definite(added))
         except RuntimeError as exc:  # a singular saddle: dependent super nodes (DESIGN §3.2)
             raise Fem2TmmError(f"the recovery's saddle matrix is singular ({exc}): the super nodes do not fix every "
                                "connected part's mean temperature") from None
+
+    def _definite(self, added: np.ndarray) -> bool:
+        """Whether K + diag(added) is positive definite: K is a conduction matrix (positive semi-definite, zero row
+        sums on each connected piece), so every piece needs a positive ``added`` somewhere."""
+        if "pieces" not in self._linear:
+            self._linear["pieces"] = connected_components(self.K, directed=False)
+        count, piece = self._linear["pieces"]
+        hit = np.bincount(piece, weights=(added > 0).astype(float), minlength=count)
+        return bool(np.all(hit > 0) and np.all(added >= 0))
 
     def _absorbed(self, T: np.ndarray, T_sn: np.ndarray, T_sink: float) -> np.ndarray:
         """(n_dof,) W of IR absorbed by the FE faces (emission mode with the IR operator), else zeros."""
