@@ -290,8 +290,6 @@ def state_problem(problem, model, case, values: dict, patterns: dict | None = No
     return dataclasses.replace(problem, Q=Q, T_fixed=T_fixed, T_sink=float(values.get("sink", problem.T_sink)))
 
 
-
-
 # ---------------------------------------------------------------------------------------------- the check
 def unverified(reason: str) -> dict:
     """The ``reduced.verified`` of a run that did not verify its range: ``{"status": "UNVERIFIED", "reason"}``."""

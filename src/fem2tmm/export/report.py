@@ -287,9 +287,31 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
 
 
 def _verified_section(v: dict | None) -> str:
-    """The report's validity-range section: one row per verified state (summary.json ``reduced.verified``)."""
-    if not v or v["status"] == "UNVERIFIED":
+    """The report's validity-range section: one row per verified state (summary.json ``reduced.verified``), or per
+    estimated state where an unverified run's choices rested on the range (``reduced.verified.estimated``)."""
+    if not v:
         return ""
+    if v["status"] == "UNVERIFIED":
+        est = v.get("estimated")
+        if not est or not est.get("states"):
+            return ""
+        return (f"<h2>Validity range: UNVERIFIED; the error ESTIMATED at each state (no detailed reference)</h2>"
+                f"{_range_table(est)}<p>Each state: <code>model.esatan</code> with those constants edited, read back "
+                "and solved, recovered with the recovery of <code>reduced.npz</code>; its error is the a-posteriori "
+                "estimate (one Newton step of the detailed problem at that state from the recovered field, beyond "
+                f"its ray noise), not a comparison with the detailed model. Why unverified: {html.escape(v['reason'])}."
+                "</p>")
+    noise = v.get("reference_noise")
+    return (f"<h2>Validity range: the deck edited, solved and recovered against the detailed model</h2>"
+            f"{_range_table(v)}<p>Each state: <code>model.esatan</code> with those constants edited, read back and "
+            "solved, recovered with the recovery of <code>reduced.npz</code>, against the detailed model solved at "
+            "that state. Reference noise (design state): "
+            + ("not estimated" if noise is None else f"RMS {noise['rms_K']:.2g} K, max {noise['max_K']:.2g} K")
+            + ".</p>")
+
+
+def _range_table(v: dict) -> str:
+    """One row per state of a verified (or estimated) range record: the constants, RMS, max, cost, remark."""
     names = [r["name"] for r in v["range"]]
     rows = [("design", *(_fmt(r["nominal"], "") for r in v["range"]), _fmt(v["design"]["rms_K"], ""),
              _fmt(v["design"]["max_K"], ""), "", "")]
@@ -298,13 +320,7 @@ def _verified_section(v: dict | None) -> str:
                      _fmt(st["max_K"], ""), _fmt(st.get("seconds"), " s"),
                      st["error"] or ("above the threshold" if st["flagged"] else "")))
     head = ("state", *(f"{r['name']} [{r['unit']}]" for r in v["range"]), "RMS [K]", "max [K]", "cost", "")
-    noise = v.get("reference_noise")
-    return (f"<h2>Validity range: the deck edited, solved and recovered against the detailed model</h2>"
-            f"{_table(rows, head)}<p>Each state: <code>model.esatan</code> with those constants edited, read back and "
-            "solved, recovered with the recovery of <code>reduced.npz</code>, against the detailed model solved at "
-            "that state. Reference noise (design state): "
-            + ("not estimated" if noise is None else f"RMS {noise['rms_K']:.2g} K, max {noise['max_K']:.2g} K")
-            + ".</p>")
+    return _table(rows, head)
 
 
 def _step_table(result) -> str:
