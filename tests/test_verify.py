@@ -415,3 +415,12 @@ def test_the_satellites_short_bars_are_fed_along_their_links_where_that_holds_th
         assert 0.5 < s["rms_K"] / measured[s["label"]] < 2.0, (s["label"], s["rms_K"], measured[s["label"]])
     for key in ("held", "linked"):
         assert 0.5 < fe["worst_K"][key] / fl["worst_K"][key] < 2.0, (fe, fl)
+    # what the engineer reads: the deck's header, the terminal and the report say UNVERIFIED and give the estimate
+    from fem2tmm.export.report import _verified_section
+    from fem2tmm.export.validity import validity_lines
+
+    deck = " ".join(validity_lines(ve, ce))
+    assert "UNVERIFIED" in deck and "ESTIMATED" in deck and "estimated worst state 'all high'" in deck, deck
+    assert "range, estimated" in summary_table(e.summary)
+    page = _verified_section(ve)
+    assert "ESTIMATED" in page and page.count("<tr>") == len(ve["estimated"]["states"]) + 2, page  # head, design
