@@ -293,9 +293,10 @@ def radiation_aware_network(model: FEModel, clustering: Clustering, case: Case, 
         built, sol_built = ra_rm, sol
         ra_rm, sol = effective_network(built, sol_built, *args, self_exchange=own)
         linked = None
-        if ra_rm.g_space_table is not None:
+        if ra_rm.g_space_table is not None and case.reduction.verify and case.transient is None:
             # the other source of a short super node's heat, where it makes another network: the run keeps the one
-            # that holds the verified range better (emission_floor_links); a candidate, so it does not warn
+            # that holds the validity range better (emission_floor_links; the range is checked, verified or
+            # estimated, only with [reduction] verify on a steady deck); a candidate, so it does not warn
             linked = effective_network(built, sol_built, *args, self_exchange=own, floor="linked", warn=False)
             if linked[0].g_space_table is None or np.array_equal(np.asarray(linked[0].K), np.asarray(ra_rm.K)):
                 linked = None
