@@ -46,7 +46,7 @@ from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_posi
                            orbit_positions_reduced, super_face_orbit)
 from .stages.quadrics import fit_quadrics, quadric_regions
 from .stages.radiation import (detailed_radiation, emission_check, ir_absorption, mean_faced, radiation_surface,
-                               reduced_radiation, reference_noise, tracer_settings)
+                               reduced_radiation, reference_noise, traced_area_ratio, tracer_settings)
 from .stages.choice import measured_choice, reduce_aware
 from .stages.refine import Refinement, refinement_step
 from .stages.solar import absorbed_solar_maps, detailed_solar, solar_prepass, super_face_solar
@@ -582,7 +582,8 @@ def _emission_check(run: _RunState, net: _Network, reduced: Reduced, red: Reduce
     reduced.emission_check = emission_check(
         run.model, network_radiated_W(reduced.network, reduced.solution),
         reduced.T_recovered, red.ir.to_space if ir_sides else net.inputs.to_space, res.blocked, res.eps_area,
-        net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware" and run.alternative is None)
+        net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware" and run.alternative is None,
+        area_ratio=traced_area_ratio(run.scenes.main(), run.model.faces.n))
 
 
 def _refinement_step(run: _RunState, net: _Network, clustering, reduced: Reduced, red: Reduced,

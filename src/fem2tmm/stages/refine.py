@@ -17,7 +17,7 @@ from ..radiation import Surface
 from ..radiation.ir_absorption import IRAbsorption
 from ..radiation.tracer import trace_absorption
 from ..reduce.network import ReducedModel, face_owner
-from .radiation import role_seed, tracer_settings
+from .radiation import role_seed, traced_area_ratio, tracer_settings
 
 
 @dataclass
@@ -144,24 +144,6 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
         e = e + model.extra_space
     r, h = emission_residual(model.K, T, q, e, model.T_sink)
     return r, h, source, feedback
-
-
-def traced_area_ratio(scene, n_faces: int) -> np.ndarray | float:
-    """(f,) each FE face's emitting area as the ray scene traces it over its facet area: 1.0 on flat facets; on a
-    :class:`~fem2tmm.radiation.quadric_scene.QuadricScene` the area of its patch on the fitted quadric, which the
-    traced exchange factors (and so the detailed reference and both networks) emit from.
-
-    The estimator's own emission must use the same area, or it sees an energy imbalance the reference does not have:
-    on examples/cylinders (12 facets around each tube) the facets are 1.15 % smaller than the cylinders, 0.80 W of
-    their 67 W, and the estimate of the detailed reference's own field was 1.06 K RMS, 10x the networks' measured
-    error (2026-12-07)."""
-    flat = getattr(scene, "tri_area_fe", None)
-    if flat is None:
-        return 1.0
-    face = np.asarray(scene.tri_face, np.int64)
-    traced = np.bincount(face, weights=scene.tri_area, minlength=n_faces)
-    facets = np.bincount(face, weights=flat, minlength=n_faces)
-    return np.where(facets > 0, traced / np.maximum(facets, 1e-300), 1.0)
 
 
 def error_estimate(model: FEModel, clustering: Clustering, case: Case, rm: ReducedModel, T_sn: np.ndarray,
