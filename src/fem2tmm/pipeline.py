@@ -46,7 +46,7 @@ from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_posi
                            orbit_positions_reduced, super_face_orbit)
 from .stages.quadrics import fit_quadrics, quadric_regions
 from .stages.radiation import (detailed_radiation, emission_check, ir_absorption, mean_faced, radiation_surface,
-                               reduced_radiation, reference_noise, traced_area_ratio, tracer_settings)
+                               reduced_radiation, reference_noise, traced_area, tracer_settings)
 from .stages.choice import measured_choice, reduce_aware
 from .stages.refine import Refinement, refinement_step
 from .stages.solar import absorbed_solar_maps, detailed_solar, solar_prepass, super_face_solar
@@ -505,6 +505,7 @@ def _reduced_network(run: _RunState, clustering, ckey: str, q_solar: np.ndarray 
     inputs = ReductionInputs(model=model, case=case, clustering=clustering, network=rm,
                              q_recover=q_recover, q_lumped=q_lumped, orbit=orbit_rec,
                              unblocked=fates[0], to_space=fates[1],
+                             traced_area=traced_area(scenes.main(), model) if run.trace else None,
                              ir_on_asked=case.radiation.ir_on,
                              trace_ir=(lambda c: ir_absorption(model, rm, c, surface, scene=scenes.main(), sf=sf))
                              if run.trace else None)
@@ -580,17 +581,17 @@ def _emission_check(run: _RunState, net: _Network, reduced: Reduced, red: Reduce
     """One emission for every method: the network's radiation to space against its field's (issue 42)."""
     ir_sides = red.ir is not None and red.ir.to_space is not None
     reduced.emission_check = emission_check(
-        run.model, network_radiated_W(reduced.network, reduced.solution),
+        run.model.with_unblocked(None, net.inputs.traced_area), network_radiated_W(reduced.network, reduced.solution),
         reduced.T_recovered, red.ir.to_space if ir_sides else net.inputs.to_space, res.blocked, res.eps_area,
-        net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware" and run.alternative is None,
-        area_ratio=traced_area_ratio(run.scenes.main(), run.model.faces.n))
+        net.rm.part[net.sf[1]], warn=reduced.method == "radiation_aware" and run.alternative is None)
 
 
 def _refinement_step(run: _RunState, net: _Network, clustering, reduced: Reduced, red: Reduced,
                      refine: Refinement) -> np.ndarray | None:
     """The error-driven refinement's estimate: the next round's labels, or None when the target is met."""
     with run.prog.stage("refine", "estimating the recovery error (error-driven refinement)"):
-        return refinement_step(run.model.with_unblocked(_unblocked(net, red)), clustering, run.case,
+        model = run.model.with_unblocked(_unblocked(net, red), net.inputs.traced_area)
+        return refinement_step(model, clustering, run.case,
                                reduced.network, reduced.solution.T, reduced.T_recovered, net.q_recover,
                                net.q_lumped, reduced.ir, refine, *run.tracing())
 

@@ -66,7 +66,9 @@ class Faces:
     ``unblocked`` (2f,) or None: the traced fraction of each side's emission that is not stopped by an inactive side
     (optics ``"none"``; docs/case-file.md), None before any tracing (1 everywhere).  A blocked ray is one the side
     never emits, as the traced exchange factors count it: :attr:`eps_area` is the emission εA (1 − blocked) that
-    the REFs close on (:meth:`FEModel.with_unblocked`).
+    the REFs close on (:meth:`FEModel.with_unblocked`).  ``traced_area`` (f,) m² or None: the area each face emits
+    from as the rays are traced (a fitted quadric's patch; :func:`fem2tmm.stages.radiation.traced_area_ratio`),
+    None: its facet's, ``area``.
     """
 
     nodes: np.ndarray
@@ -85,18 +87,24 @@ class Faces:
     active: np.ndarray
     W: sp.csr_matrix
     unblocked: np.ndarray | None = None
+    traced_area: np.ndarray | None = None
 
     @property
     def n(self) -> int:
         return len(self.area)
 
     @property
+    def emitting_area(self) -> np.ndarray:  # (f,) m²: :attr:`traced_area` once traced, else :attr:`area`
+        return self.area if self.traced_area is None else self.traced_area
+
+    @property
     def eps_area(self) -> np.ndarray:
-        """(f,) εA of each face summed over its active sides, m² (times :attr:`unblocked` once traced)."""
+        """(f,) εA of each face summed over its active sides, m² (times :attr:`unblocked` once traced; A the
+        :attr:`emitting_area`)."""
         e = self.emissivity * self.active
         if self.unblocked is not None:
             e = e * self.unblocked
-        return e.reshape(-1, 2).sum(axis=1) * self.area
+        return e.reshape(-1, 2).sum(axis=1) * self.emitting_area
 
     @property
     def active_area(self) -> np.ndarray:
@@ -155,16 +163,19 @@ class FEModel:
             v[g.dof] = g.T
         return v
 
-    def with_unblocked(self, unblocked: np.ndarray | None) -> "FEModel":
+    def with_unblocked(self, unblocked: np.ndarray | None, traced_area: np.ndarray | None = None) -> "FEModel":
         """This model whose sides emit εA (1 − blocked): ``unblocked`` (2f,) the traced fraction of each side's
-        emission not stopped by an inactive side (:func:`fem2tmm.radiation.side_fractions`), or None (this model).
+        emission not stopped by an inactive side (:func:`fem2tmm.radiation.side_fractions`), or None; A the
+        ``traced_area`` (f,) m² the rays are traced from (a fitted quadric's patch), or None (the facets').
         The emission every method and the detailed reference then share (the REFs close on it)."""
-        if unblocked is None:
+        if unblocked is None and traced_area is None:
             return self
-        u = np.clip(np.asarray(unblocked, float), 0.0, 1.0)
-        if u.shape != (2 * self.faces.n,):
-            raise ValueError(f"unblocked must have one value per side ({2 * self.faces.n},), got {u.shape}")
-        return replace(self, faces=replace(self.faces, unblocked=u))
+        f, n = self.faces, self.faces.n
+        u = f.unblocked if unblocked is None else np.clip(np.asarray(unblocked, float), 0.0, 1.0)
+        a = f.traced_area if traced_area is None else np.asarray(traced_area, float)
+        if (u is not None and u.shape != (2 * n,)) or (a is not None and a.shape != (n,)):
+            raise ValueError(f"unblocked needs one value per side ({2 * n},) and traced_area one per face ({n},)")
+        return replace(self, faces=replace(f, unblocked=u, traced_area=a))
 
     def space_coupling(self) -> np.ndarray:
         """(n_dof,) εA (m²) of every DOF to space, summed over the active sides of its faces."""
@@ -782,7 +793,6 @@ def load_patterns(model, case, names) -> dict:
     (:func:`boundary_load` at value 1): a named load at value v is v times its pattern."""
     named = {b.name: b for b in case.boundaries if b.name}
     return {n: boundary_load(model, case, replace(named[n], value=1.0)) for n in names}
-
 
 
 def _load_vector(mesh: Mesh, case: Case, b: Boundary, node_dof: np.ndarray, n_dof: int) -> np.ndarray:

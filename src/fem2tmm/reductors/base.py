@@ -52,6 +52,8 @@ class ReductionInputs:
         (:meth:`fem2tmm.fem.model.FEModel.with_unblocked`), as the traced REFs close on it
     advise : False where ``"auto"``'s estimates chose the method (:mod:`fem2tmm.stages.choice`): no advice to set
         ``radiation_aware`` otherwise (the radiation-aware reduction's low-Biot warning)
+    traced_area : (f,) m² the area each FE face emits from as the rays are traced (a fitted quadric's patch), or
+        None (the facets'): a method that emits from the FE sides emits from it, as the traced REFs do
     """
 
     model: FEModel
@@ -67,6 +69,7 @@ class ReductionInputs:
     unblocked: np.ndarray | None = None
     to_space: np.ndarray | None = None
     advise: bool = True
+    traced_area: np.ndarray | None = None
 
 
 class Reductor:

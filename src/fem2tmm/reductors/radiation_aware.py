@@ -69,7 +69,8 @@ class RadiationAwareReductor(Reductor):
                             "tracing where the super faces' IR is absorbed (FE sides)"):
                 ir = inputs.trace_ir(case)
         # one emission for every method (issue 42): a side emits εA (1 − blocked), the share its traced REFs close on
-        model = model.with_unblocked(inputs.unblocked if ir is None or ir.unblocked is None else ir.unblocked)
+        model = model.with_unblocked(inputs.unblocked if ir is None or ir.unblocked is None else ir.unblocked,
+                                     inputs.traced_area)
         notes = []
         with prog.stage("radiation_aware", "radiation-aware reduction and outer iterations"):
             args = (model, inputs.clustering, case, start.network, inputs.q_recover, inputs.q_lumped,

@@ -156,7 +156,7 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
     """
     case = red.case
     model = inputs.model.with_unblocked(red.ir.unblocked if red.ir is not None and red.ir.unblocked is not None
-                                        else inputs.unblocked)
+                                        else inputs.unblocked, inputs.traced_area)
     args = (model, inputs.clustering, case, red.network, red.solution.T, red.T_recovered, inputs.q_recover,
             inputs.q_lumped, red.ir)
     if uses_side_tally(model, case, red.ir, surface):
@@ -172,7 +172,7 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
         (da, w), (db, _) = fields
         dT, noise = 0.5 * (da + db), float(np.sqrt((w * (da - db) ** 2).sum() / w.sum()) / 2.0)
     else:
-        dT, w = error_field(*args, Refinement(), surface, scene)  # (the scene: its traced areas; no tally here)
+        dT, w = error_field(*args, Refinement(), None, None)
         noise = 0.0
     rms = float(np.sqrt((w * dT**2).sum() / w.sum()))
     return {"rms_K": rms, "noise_K": noise, "beyond_noise_K": float(np.sqrt(max(rms**2 - noise**2, 0.0))),

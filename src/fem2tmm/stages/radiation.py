@@ -166,6 +166,14 @@ def ir_absorption(model: FEModel, rm: ReducedModel, case: Case, surface: Surface
 EMISSION_MISMATCH = 0.01
 
 
+def traced_area(scene, model: FEModel) -> np.ndarray | None:
+    """(f,) m² each FE face's area as the ray scene traces it (:func:`traced_area_ratio` times the facet's), or None
+    where the scene traces the facets themselves (no quadric fitted): what
+    :meth:`~fem2tmm.fem.model.FEModel.with_unblocked` gives the model's emission."""
+    ratio = traced_area_ratio(scene, model.faces.n)
+    return None if np.isscalar(ratio) else model.faces.area * ratio
+
+
 def traced_area_ratio(scene, n_faces: int) -> np.ndarray | float:
     """(f,) each FE face's emitting area as the ray scene traces it over its facet area: 1.0 on flat facets; on a
     :class:`~fem2tmm.radiation.quadric_scene.QuadricScene` the area of its patch on the fitted quadric, which the
@@ -184,18 +192,18 @@ def traced_area_ratio(scene, n_faces: int) -> np.ndarray | float:
     return np.where(facets > 0, traced / np.maximum(facets, 1e-300), 1.0)
 
 
-def space_emission(model: FEModel, T: np.ndarray, to_space: np.ndarray, area_ratio=1.0) -> float:
+def space_emission(model: FEModel, T: np.ndarray, to_space: np.ndarray) -> float:
     """The traced emission to space of a detailed field, W: Σ over FE sides of σ εA ℱ_space (W T⁴ − T_s⁴).
 
     ``T`` (n_dof,) K, ``to_space`` (2f,) each side's traced fraction of its emission εA that leaves to space
     (:func:`~fem2tmm.radiation.tracer.side_fractions`); deck faces radiating to the sink (``extra_space``) count
-    with their own εA.  ``area_ratio`` (f,) or 1: each face's traced area over its facet's
-    (:func:`traced_area_ratio`).  At a network's solution this is what its recovered field radiates to space; a
-    network whose emission misses a blocked share (issue 42) radiates more than it."""
+    with their own εA; A is each face's :attr:`~fem2tmm.fem.model.Faces.emitting_area` (the traced area where the
+    model carries it: :func:`traced_area`).  At a network's solution this is what its recovered field radiates to
+    space; a network whose emission misses a blocked share (issue 42) radiates more than it."""
     f = model.faces
     T = np.asarray(T, float)
     s4 = model.T_sink**4
-    eA = (f.emissivity * f.active * np.asarray(to_space, float)).reshape(-1, 2).sum(axis=1) * f.area * area_ratio
+    eA = (f.emissivity * f.active * np.asarray(to_space, float)).reshape(-1, 2).sum(axis=1) * f.emitting_area
     out = float(np.dot(eA, np.asarray(f.W @ T**4).ravel() - s4))
     if model.extra_space is not None:
         out += float(np.dot(model.extra_space, T**4 - s4))
@@ -204,19 +212,20 @@ def space_emission(model: FEModel, T: np.ndarray, to_space: np.ndarray, area_rat
 
 def emission_check(model: FEModel, network_W: float, T: np.ndarray, to_space: np.ndarray | None,
                    blocked: np.ndarray | None = None, eps_area: np.ndarray | None = None,
-                   part: np.ndarray | None = None, warn: bool = True, area_ratio=1.0) -> dict | None:
+                   part: np.ndarray | None = None, warn: bool = True) -> dict | None:
     """The network's radiation to space against the traced emission to space of its recovered field.
 
     ``network_W`` what the network radiates at its solution (its couplings to space, plus what a radiation-aware
     network's correction load radiates), ``T`` (n_dof,) K its recovered field, ``to_space`` (2f,) per side traced
     space fraction (None: no face-to-face tracing, nothing to check).  ``blocked``, ``eps_area``, ``part`` (g,) per
-    super face: its blocked fraction, εA and part index, for the blocked fraction per part; ``area_ratio``
-    (:func:`space_emission`).  Returns ``{"network_W", "traced_W", "relative", "blocked_by_part"}`` and, with
-    ``warn``, warns when ``relative`` exceeds :data:`EMISSION_MISMATCH` (for the radiation-aware network, whose fixed
-    point makes the two equal up to the ray noise; the thesis' network differs by its uniform-load error)."""
+    super face: its blocked fraction, εA and part index, for the blocked fraction per part.  Returns
+    ``{"network_W", "traced_W", "relative", "blocked_by_part"}`` and, with ``warn``, warns when ``relative``
+    exceeds :data:`EMISSION_MISMATCH` (for the radiation-aware network, whose fixed point makes the two equal up to
+    the ray noise; the thesis' network differs by its uniform-load error).  ``model`` carries the traced emitting
+    areas (:meth:`~fem2tmm.fem.model.FEModel.with_unblocked`)."""
     if to_space is None:
         return None
-    traced = space_emission(model, T, to_space, area_ratio)
+    traced = space_emission(model, T, to_space)
     rel = abs(network_W - traced) / max(abs(traced), 1e-300)
     out = {"network_W": float(network_W), "traced_W": traced, "relative": float(rel)}
     if blocked is not None:

@@ -17,7 +17,7 @@ from ..radiation import Surface
 from ..radiation.ir_absorption import IRAbsorption
 from ..radiation.tracer import trace_absorption
 from ..reduce.network import ReducedModel, face_owner
-from .radiation import role_seed, traced_area_ratio, tracer_settings
+from .radiation import role_seed, tracer_settings
 
 
 @dataclass
@@ -139,7 +139,7 @@ def refinement_residual(model: FEModel, case: Case, clustering: Clustering, rm: 
                       clustering.labels[f.element[face]])
         else:  # the model's absorbed IR is lumped per super node: the whole FE-resolved absorption is the load
             q += np.asarray(B.T @ p_fe).ravel()
-    e = emission_weights(f.W, f.eps_area * traced_area_ratio(scene, f.n))
+    e = emission_weights(f.W, f.eps_area)
     if model.extra_space is not None:
         e = e + model.extra_space
     r, h = emission_residual(model.K, T, q, e, model.T_sink)
