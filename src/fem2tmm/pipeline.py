@@ -505,7 +505,8 @@ def _reduced_network(run: _RunState, clustering, ckey: str, q_solar: np.ndarray 
     inputs = ReductionInputs(model=model, case=case, clustering=clustering, network=rm,
                              q_recover=q_recover, q_lumped=q_lumped, orbit=orbit_rec,
                              unblocked=fates[0], to_space=fates[1],
-                             traced_area=traced_area(scenes.main(), model) if run.trace else None,
+                             # (a flat scene traces the facets: no scene is built for that answer)
+                             traced_area=traced_area(scenes.main(), model) if run.trace and scenes.fit else None,
                              ir_on_asked=case.radiation.ir_on,
                              trace_ir=(lambda c: ir_absorption(model, rm, c, surface, scene=scenes.main(), sf=sf))
                              if run.trace else None)
