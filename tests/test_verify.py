@@ -250,22 +250,20 @@ def test_the_small_satellite_default_deck_beats_the_thesis_network_at_every_veri
     sink-high and all-high states were 0.89 and 1.11 K, above the thesis' 0.41 and 0.60 K (docs/design-notes.md)."""
     from benchmarks.choice import _case
 
-    out = {}
-    for method in ("default", "thesis"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            r = run(_case("smallsat/case.toml", method))
-        v = r.summary["reduced"]["verified"]
-        assert v["status"] == "verified", v
-        out[method] = {s["label"]: s["rms_K"] for s in v["states"]}
-        noise = v["reference_noise"]["rms_K"]
-        if method == "default":  # the run's own check of the thesis' network over the same range: the aware one kept
-            rc = r.summary["reduced"]["choice"]["verified_range"]
-            assert r.reduced.method == "radiation_aware" and not rc["thesis"], rc
-    assert r.summary["reduced"]["choice"]["radiation_aware"] is False  # (the thesis run)
-    for k, v in out["thesis"].items():  # that check's figures are the thesis run's own
-        assert rc["states_K"][k][1] == pytest.approx(v, rel=1e-6, abs=1e-9), k
-    assert set(out["default"]) == set(out["thesis"]) and len(out["default"]) == 7, out
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = run(_case("smallsat/case.toml", "default"))
+    v = r.summary["reduced"]["verified"]
+    assert v["status"] == "verified", v
+    noise = v["reference_noise"]["rms_K"]
+    # the run's own check of the thesis' network over the same range and detailed solutions (the record's thesis
+    # figures equal an independent thesis run's: the two-plate test below): the radiation-aware network kept
+    rc = r.summary["reduced"]["choice"]["verified_range"]
+    assert r.reduced.method == "radiation_aware" and not rc["thesis"], rc
+    out = {"default": {k: a for k, (a, _) in rc["states_K"].items() if k != "design"},
+           "thesis": {k: t for k, (_, t) in rc["states_K"].items() if k != "design"}}
+    assert out["default"] == {s["label"]: s["rms_K"] for s in v["states"]}
+    assert len(out["default"]) == 7, out
     worse = {k: (out["default"][k], out["thesis"][k]) for k in out["default"]
              if out["default"][k] >= out["thesis"][k] + noise}
     assert not worse, (worse, noise)
