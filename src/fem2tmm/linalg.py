@@ -28,6 +28,7 @@ import os
 import weakref
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
@@ -150,8 +151,6 @@ class _SchurSaddle:
     S = A Kd⁻¹ Aᵀ (m, m) dense SPD (Cholesky): μ = S⁻¹ (A Kd⁻¹ f − g), x = Kd⁻¹ (f − Aᵀ μ)."""
 
     def __init__(self, Kd, A):
-        import scipy.linalg as sla
-
         self.n, self.A = Kd.shape[0], sp.csr_matrix(A)
         self.lu = factorize(Kd, "spd")
         m = self.A.shape[0]
@@ -163,8 +162,6 @@ class _SchurSaddle:
         self.S = sla.cho_factor(0.5 * (S + S.T))
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        import scipy.linalg as sla
-
         b = np.asarray(b, float)
         f, g = b[: self.n], b[self.n:]
         y = self.lu.solve(f)

@@ -103,9 +103,9 @@ def _range_choice(run, net, reduced: Reduced, check, q_orbit, hand_over) -> None
     """The measured choice over the validity range (issue 42): the thesis' network, delivered and checked on the
     same states (``check``: the same detailed solutions, or the estimate), replaces the radiation-aware one the
     design-state estimate kept when its worst RMS is smaller by more than the noise
-    (:func:`fem2tmm.verify.range_choice`; estimated: and by ``ESTIMATE_RELATIVE_MARGIN`` of the kept one's).  Recorded in ``reduced.choice.verified_range``
-    either way (``by``: "reference" or "estimate"); the orbit positions of ``steady = "positions"`` are solved again
-    on the network handed over.  Not where the deck carries what the thesis' network cannot (the parametric
+    (:func:`fem2tmm.verify.range_choice`; estimated: and by ``ESTIMATE_RELATIVE_MARGIN`` of the kept one's).
+    Recorded in ``reduced.choice.verified_range`` either way (``by``: "reference" or "estimate"); the orbit positions
+    of ``steady = "positions"`` are solved again on the network handed over.  Not where the deck carries what the thesis' network cannot (the parametric
     correction, a load-case set's shared network)."""
     from .stages.choice import ESTIMATE_RELATIVE_MARGIN
     from .verify import RANGE_FLOOR_K, range_choice

@@ -408,7 +408,9 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         constants = tuple(c for c in constants if c.kind == "sink" or (
             deck_name[c.name] in defined and (c.kind == "temperature" or c.name in load_names)))
         states = verify_states(constants)
-        patterns = load_patterns(model, case, [c.name for c in constants if c.kind in ("power", "flux")])
+        # the named loads' patterns, for the detailed problem at each state (an estimator forms its own loads)
+        patterns = (None if estimator is not None else
+                    load_patterns(model, case, [c.name for c in constants if c.kind in ("power", "flux")]))
 
         def deck_state(values: dict | None):
             """The deck edited to ``values`` (None: as written), read back and solved: (T_sn (n,) K in the order
@@ -615,6 +617,7 @@ def range_choice(kept: dict, thesis: dict, relative: float = 0.0) -> dict:
             "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states, "failed": failed}
 
 
-__all__ = ["NO_REFERENCE", "Constant", "State", "edit_deck", "range_choice", "range_worst", "state_problem", "superseded", "unverified",
-           "verify_network", "verify_range", "verify_states", "warn_off_range", "why_unverified", "worse_than_design",
+__all__ = ["NO_REFERENCE", "Constant", "State", "edit_deck", "range_choice", "range_worst", "state_problem",
+           "superseded", "unverified", "verify_network", "verify_range", "verify_states", "warn_off_range",
+           "why_unverified", "worse_than_design",
            "COLDEST_SINK_K", "FLOOR_RELATIVE_MARGIN", "POWER_FACTOR", "RANGE_FLOOR_K", "TEMPERATURE_SWING_K"]

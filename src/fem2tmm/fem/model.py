@@ -67,7 +67,7 @@ class Faces:
     (optics ``"none"``; docs/case-file.md), None before any tracing (1 everywhere).  A blocked ray is one the side
     never emits, as the traced exchange factors count it: :attr:`eps_area` is the emission εA (1 − blocked) that
     the REFs close on (:meth:`FEModel.with_unblocked`).  ``traced_area`` (f,) m² or None: the area each face emits
-    from as the rays are traced (a fitted quadric's patch; :func:`fem2tmm.stages.radiation.traced_area_ratio`),
+    from as the rays are traced (a fitted quadric's patch; :func:`fem2tmm.stages.radiation.traced_area`),
     None: its facet's, ``area``.
     """
 

@@ -34,6 +34,7 @@ solves, 5-10 rounds); linear in the nonzeros of K and A, never a dense n_dof mat
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -323,11 +324,15 @@ class ExportedRecovery:
                 w = -np.asarray(self.orbit_weights, float)
                 w[int(positions[j])] += 1.0
                 q[:, j] += np.asarray(self.orbit_q.T @ w).ravel()
-        def linear():  # the linear mode's field (the emission mode's start, or its second start)
+        def solve_linear(loads_q):  # the linear mode's field for these loads, its saddle factorised once
             if "lu" not in self._linear:
                 self._linear["lu"] = self._saddle()
-            return self._linear["lu"].solve(np.vstack([q, Ts]))[: self.n_dof]
+            return self._linear["lu"].solve(np.vstack([loads_q, Ts]))[: self.n_dof]
 
+        # the linear field with the state's loads, formed only where it is needed: the linear mode's answer, the
+        # emission mode's start, or its second start after a failed Newton (the factorisation of the floating K is
+        # the costliest step of a recovery from a given start: examples/composite 0.78 s against 0.09 s)
+        linear = functools.cache(lambda: solve_linear(q))
         if self.mode != "emission":
             T = linear()
             return T[:, 0] if one else T
@@ -336,17 +341,12 @@ class ExportedRecovery:
             # (without the emission, a named load's change alone moves the linear field by hundreds of K: the
             # composite example's deck edited to its heater at 4x drove Newton into 0 K from there); that
             # linear field with the state's loads stays the second start
-            linear()
-            qd = self.loads()
-            starts = self._linear["lu"].solve(np.vstack([np.repeat(qd[:, None], k, axis=1), Ts]))[: self.n_dof]
+            starts = solve_linear(np.repeat(self.loads()[:, None], k, axis=1))
         else:
             starts = None if T0 is None else np.asarray(T0, float).reshape(self.n_dof, -1)
-        # the linear field only when it is a start (its factorisation of the floating K is the costliest step of a
-        # recovery from a given start: examples/composite 0.78 s against 0.09 s for the emission mode's)
-        lin = linear() if starts is None else None
         T = np.empty((self.n_dof, k))
         for j in range(k):
-            start = lin[:, j] if starts is None else starts[:, min(j, starts.shape[1] - 1)]
+            start = linear()[:, j] if starts is None else starts[:, min(j, starts.shape[1] - 1)]
             second = None if starts is None else (lambda j=j: linear()[:, j])
             T[:, j] = self._nonlinear(Ts[:, j], q[:, j], float(sinks[j]), start, second)
         return T[:, 0] if one else T

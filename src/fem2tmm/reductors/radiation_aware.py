@@ -403,8 +403,9 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     drifted off its design state (examples/baffle, the screws held 50 K warmer: 0.50 K RMS against 0.007 K;
     examples/smallsat, all constants high: 1.11 against 0.44 K; docs/design-notes.md).  ``floor``: where a short super
     node's heat comes from, ``"held"`` or ``"linked"`` (:func:`fem2tmm.reduce.radiative.emission_floor_links`);
-    ``warn`` False: a candidate network, which says nothing when it has no solution.  Returns the network and its solution (the design state again, to the solver's tolerance); where the network
-    without correction has no solution, ``rm`` and ``sol`` as given."""
+    ``warn`` False: a candidate network, which says nothing when it has no solution.  Returns the network and its
+    solution (the design state again, to the solver's tolerance); where the network without correction has no
+    solution, ``rm`` and ``sol`` as given."""
     from ..linalg import blas_threads
     from ..reduce.radiative import effective_emission, emission_floor_links
 

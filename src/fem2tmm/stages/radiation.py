@@ -167,17 +167,10 @@ EMISSION_MISMATCH = 0.01
 
 
 def traced_area(scene, model: FEModel) -> np.ndarray | None:
-    """(f,) m² each FE face's area as the ray scene traces it (:func:`traced_area_ratio` times the facet's), or None
-    where the scene traces the facets themselves (no quadric fitted): what
-    :meth:`~fem2tmm.fem.model.FEModel.with_unblocked` gives the model's emission."""
-    ratio = traced_area_ratio(scene, model.faces.n)
-    return None if np.isscalar(ratio) else model.faces.area * ratio
-
-
-def traced_area_ratio(scene, n_faces: int) -> np.ndarray | float:
-    """(f,) each FE face's emitting area as the ray scene traces it over its facet area: 1.0 on flat facets; on a
-    :class:`~fem2tmm.radiation.quadric_scene.QuadricScene` the area of its patch on the fitted quadric, which the
-    traced exchange factors (and so the detailed reference and both networks) emit from.
+    """(f,) m² each FE face's emitting area as the ray scene traces it, or None where the scene traces the facets
+    themselves (no quadric fitted): on a :class:`~fem2tmm.radiation.quadric_scene.QuadricScene` the area of its
+    patch on the fitted quadric, which the traced exchange factors (and so the detailed reference and both
+    networks) emit from; what :meth:`~fem2tmm.fem.model.FEModel.with_unblocked` gives the model's emission.
 
     A balance drawn from the FE model's own areas must use the same area: on examples/cylinders (12 facets around
     each tube) the facets are 1.15 % smaller than the cylinders, 0.80 W of their 67 W.  From the facets, the
@@ -186,11 +179,11 @@ def traced_area_ratio(scene, n_faces: int) -> np.ndarray | float:
     0.073 K off at the design state and 0.51 K at all high (from the traced area: 0.026 and 0.059 K; 2026-12-07)."""
     flat = getattr(scene, "tri_area_fe", None)
     if flat is None:
-        return 1.0
-    face = np.asarray(scene.tri_face, np.int64)
-    traced = np.bincount(face, weights=scene.tri_area, minlength=n_faces)
-    facets = np.bincount(face, weights=flat, minlength=n_faces)
-    return np.where(facets > 0, traced / np.maximum(facets, 1e-300), 1.0)
+        return None
+    n, face = model.faces.n, np.asarray(scene.tri_face, np.int64)
+    traced = np.bincount(face, weights=scene.tri_area, minlength=n)
+    facets = np.bincount(face, weights=flat, minlength=n)
+    return model.faces.area * np.where(facets > 0, traced / np.maximum(facets, 1e-300), 1.0)
 
 
 def space_emission(model: FEModel, T: np.ndarray, to_space: np.ndarray) -> float:
