@@ -354,6 +354,7 @@ def test_a_named_load_far_from_design_recovers_from_the_design_loads_start():
                            load_q=pattern, load_values=np.array([1.0]), node_dof=np.arange(n),
                            node_ids=np.arange(101, 101 + n), midside=np.zeros((0, 3), np.int64), mode="emission",
                            e=np.full(n, e), T_sink=sink)
+    design = None
     for power in (1.0, 20.0, 40.0):
         T = np.full(n, 300.0)
         for _ in range(60):  # the detailed model, Newton to 1e-10 K
@@ -364,3 +365,7 @@ def test_a_named_load_far_from_design_recovers_from_the_design_loads_start():
                 break
         field = rec.recover(A @ T, loads={"heater": power})
         assert np.abs(field - T).max() < 1e-8  # the Newton tolerances (1e-10 K steps); measured 4e-14 - 3e-12 K
+        # the validity range's path: every state from the design state's field, through its one saddle
+        design = field if design is None else design
+        about = rec.recover_about(design, A @ T, loads={"heater": power})
+        assert np.abs(about - T).max() < 1e-8  # the same tolerances

@@ -54,8 +54,10 @@ RECOVERY_MAX_ROUNDS = 60
 #: CHORD_RATE times the one before; the Newton iteration then takes over from the start
 CHORD_MAX = 100
 CHORD_RATE = 0.7
-#: the chord iteration is accelerated (Anderson mixing) over this many earlier steps
+#: the chord iteration is accelerated (Anderson mixing) over this many earlier steps; where an accelerated step does
+#: not contract, the history is dropped and a plain step taken, at most CHORD_RESETS times
 CHORD_DEPTH = 5
+CHORD_RESETS = 2
 
 _PREFIX = "recovery_"
 
@@ -362,8 +364,7 @@ class ExportedRecovery:
         The chord iteration from ``T_ref`` with that factorisation: its first step is the linearised one (Newton's
         from ``T_ref``, the state's loads, sink and means), the rest the emission's and absorbed IR's departure from
         that linearisation.  Where it does not contract (a state far from ``T_ref``), :meth:`recover` takes over from
-        the first step (clipped at 1 K).  On examples/composite's range (7 states, sink up to 82 °C, heater 4×) the
-        states' own saddles and the linear recovery's shifts cost 1.3 s, the shared one 0.06 s (2026-12-07).
+        ``T_ref`` moved by the linearised response to the change of means alone (clipped at 1 K).
 
         Parameters
         ----------
@@ -394,10 +395,10 @@ class ExportedRecovery:
         done = self._chord(T_sn, q, sink, T_ref, None, held[1])
         if done is not None:
             return done
-        s4 = sink**4
-        r1 = self.K @ T_ref + SIGMA * self.e * (T_ref**4 - s4) - q - self._absorbed(T_ref, T_sn, sink)
-        step = held[1].solve(-np.concatenate([r1, self.A @ T_ref - T_sn]))[: self.n_dof]
-        return self.recover(T_sn, loads=loads, T_sink=T_sink, T0=np.maximum(T_ref + step, 1.0))
+        # else T_ref moved by the linearised response to the change of means alone (the loads and sink held: a
+        # named load's change moves a linearised field too far, 20x a heater drove it below 0 K), then recover()
+        shift = held[1].solve(np.concatenate([np.zeros(self.n_dof), T_sn - self.A @ T_ref]))[: self.n_dof]
+        return self.recover(T_sn, loads=loads, T_sink=T_sink, T0=np.maximum(T_ref + shift, 1.0))
 
     def recover_transient(self, T_sn: np.ndarray, times: np.ndarray, loads=None, T_sink=None,
                           step: float | None = None, scheme: str = "crank-nicolson", orbital: bool = False,
@@ -604,7 +605,7 @@ class ExportedRecovery:
         if lu is None:  # (a given lu: a saddle factorised at an earlier state, as a transient's steps reuse it)
             lu = self._saddle(4.0 * SIGMA * self.e * T**3, M)
         z = np.concatenate([T, np.zeros(self.n_sn)])  # the field and the constraints' multipliers
-        prev = None
+        prev, resets = None, 0
         dz, dg = [], []  # the Anderson history: differences of the last steps d and of the images z + d
         last = None
         for _ in range(CHORD_MAX):
@@ -616,13 +617,16 @@ class ExportedRecovery:
             size = float(np.abs(d[:n]).max())
             if not np.isfinite(size) or np.any(X + d[:n] <= 0.0):
                 return None
-            if prev is not None and size > CHORD_RATE * prev:
-                if not dz:  # a plain chord step that does not contract: Newton takes over
-                    return None
-                dz, dg, last = [], [], None  # the accelerated step did not pay: a plain step from here
             if size < max(RECOVERY_TOLERANCE, 1e-13 * float(np.abs(X).max())):
                 return X + d[:n]
-            prev = size
+            if prev is not None and size > CHORD_RATE * prev:
+                if not dz or resets == CHORD_RESETS:  # a plain chord step that does not contract: Newton's turn
+                    return None
+                # the accelerated step did not pay: a plain step from here, which must contract on the last step
+                # that did
+                dz, dg, last, resets = [], [], None, resets + 1
+            else:
+                prev = size
             g = z + d
             if last is not None:
                 dz.append(d - last[0])
