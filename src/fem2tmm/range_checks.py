@@ -8,9 +8,9 @@ solved, its field recovered, and
   (``reduced.verified``, status "verified");
 - **without it** (``--no-reference``, ``[reference] detailed = false``): the range stays UNVERIFIED, but where the
   run has a choice to make, each candidate's error at those states is *estimated*: the a-posteriori estimate of
-  ``radiation_aware = "auto"`` (:func:`fem2tmm.stages.choice.range_estimator`: one Newton step of the detailed
-  problem at the state's loads, held temperatures and sink, from the recovered field; the same IR tallies as the
-  design estimate).  ``reduced.verified.estimated`` keeps the record of the network handed over.
+  ``radiation_aware = "auto"`` (:func:`fem2tmm.stages.choice.range_estimator`: Newton steps of the detailed
+  problem at the state's loads, held temperatures and sink, from the recovered field, as at the design state; the
+  same IR tallies as the design estimate).  ``reduced.verified.estimated`` keeps the record of the network handed over.
 
 Two choices rest on that range, measured or estimated, on the same states:
 

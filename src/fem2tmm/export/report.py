@@ -298,7 +298,7 @@ def _verified_section(v: dict | None) -> str:
         return (f"<h2>Validity range: UNVERIFIED; the error ESTIMATED at each state (no detailed reference)</h2>"
                 f"{_range_table(est)}<p>Each state: <code>model.esatan</code> with those constants edited, read back "
                 "and solved, recovered with the recovery of <code>reduced.npz</code>; its error is the a-posteriori "
-                "estimate (one Newton step of the detailed problem at that state from the recovered field, beyond "
+                "estimate (Newton steps of the detailed problem at that state from the recovered field, beyond "
                 f"its ray noise), not a comparison with the detailed model. Why unverified: {html.escape(v['reason'])}."
                 "</p>")
     noise = v.get("reference_noise")

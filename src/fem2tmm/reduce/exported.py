@@ -598,8 +598,10 @@ class ExportedRecovery:
         current field) solved with the saddle matrix of the start's linearised emission.  Near the solution (a
         transient's output times from their linearised recovery: ~0.5 K off) it contracts like the IR
         fixed point, at a back-substitution per iteration instead of a factorisation per Newton step: on
-        examples/composite's orbit, 51 output times 90 s -> (README).  None when it does not contract; the
-        Newton iteration then starts again from ``T``."""
+        examples/composite's orbit, 51 output times 90 s -> (README).  Anderson-accelerated over the last
+        :data:`CHORD_DEPTH` steps (the range's states from the design field, 150-185 K away on examples/composite:
+        0.2-0.26 -> 0.09-0.1 s, docs/design-notes.md).  None when it does not contract; the Newton iteration then
+        starts again from ``T``."""
         n = self.n_dof
         s4 = T_sink**4
         if lu is None:  # (a given lu: a saddle factorised at an earlier state, as a transient's steps reuse it)

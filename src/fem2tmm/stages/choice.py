@@ -1,9 +1,10 @@
 """The measured choice of ``[reduction] radiation_aware = "auto"``: the method with the smaller
 estimated error on this model, without a detailed reference.
 
-The estimate is the ``target_rms`` global estimator (:func:`fem2tmm.stages.refine.error_field`: one Newton step of
-the detailed problem from the recovered field, under the true loads and the FE sides' traced IR), applied to each
-candidate's recovered field.  Its own ray noise is measured, as the reference's is: the side-to-side IR tally is
+The estimate is the ``target_rms`` global estimator (:func:`fem2tmm.stages.refine.error_field`: a Newton step of
+the detailed problem from the recovered field, under the true loads and the FE sides' traced IR; further steps while
+the last moved a node by more than :data:`ESTIMATE_LINEAR` of its temperature), applied to each candidate's recovered
+field.  Its own ray noise is measured, as the reference's is: the side-to-side IR tally is
 traced as two independent halves (``[reduction] refine_rays_per_face`` / 2 rays per emitting FE side each, random
 streams ``estimate_a`` / ``estimate_b``); the estimate is the RMS of the mean of the two error fields, its noise
 ``N = RMS(δT_a − δT_b) / 2`` (the noise of that mean).  Noise adds in quadrature to the error it rides on, so the
