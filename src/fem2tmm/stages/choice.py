@@ -176,9 +176,11 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
     # Newton steps of the detailed problem from the recovered field while the last one moved a node by more than
     # ESTIMATE_LINEAR of its temperature (the T⁴ linearisation's error, ~1.5 x of the step, x its relative size); both
     # halves step from their mean field, through one factorisation of K + diag(h) there; a step not below half the
-    # one before (Newton not contracting: a tally of a few rays per side) is left out and ends the steps
-    T = np.asarray(red.T_recovered, float)
-    totals, last = None, 0.0
+    # one before (Newton not contracting: a tally of a few rays per side) is left out and ends the steps.  Each half's
+    # estimate is the mean field reached plus its own last step (its residual carries its whole tally at every step:
+    # summing the halves' steps would count their difference once per step)
+    T_rec = np.asarray(red.T_recovered, float)
+    T, kept, last = T_rec, None, 0.0
     for _ in range(ESTIMATE_MAX_STEPS):
         args = (model, inputs.clustering, case, red.network, red.solution.T, T, inputs.q_recover, inputs.q_lumped,
                 red.ir)
@@ -191,14 +193,14 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
         steps, w = [o[0] for o in out], out[0][1]  # (the RMS weights: mesh nodes per DOF)
         step = sum(steps) / len(steps)
         size = float(np.abs(step).max(initial=0.0))
-        if totals is not None and size >= 0.5 * last:  # Newton does not contract (a noisy tally): the steps so far
+        if kept is not None and size >= 0.5 * last:  # Newton does not contract (a noisy tally): the steps so far
             break
-        totals = steps if totals is None else [a + b for a, b in zip(totals, steps)]
+        kept = [T - T_rec + s for s in steps]
         if np.all(np.abs(step) <= ESTIMATE_LINEAR * T):
             break
         T, last = np.maximum(T + step, 1.0), size
-    dT = sum(totals) / len(totals)
-    noise = float(np.sqrt((w * (totals[0] - totals[1]) ** 2).sum() / w.sum()) / 2.0) if side else 0.0
+    dT = sum(kept) / len(kept)
+    noise = float(np.sqrt((w * (kept[0] - kept[1]) ** 2).sum() / w.sum()) / 2.0) if side else 0.0
     rms = float(np.sqrt((w * dT**2).sum() / w.sum()))
     return {"rms_K": rms, "noise_K": noise, "beyond_noise_K": float(np.sqrt(max(rms**2 - noise**2, 0.0))),
             "max_K": float(np.abs(dT[w > 0]).max(initial=0.0))}
