@@ -262,6 +262,71 @@ def test_esatan_reader_errors_name_file_and_line(tmp_path, line, bad, match):
         read_esatan(p)
 
 
+PLAIN_DECK = """$MODEL PLAIN
+$NODES
+D1 = 'a', T = 20.0, C = 1.0, A = 0.1, EPS = 0.8;
+D2 = 'b', T = 20.0, C = 1.0, A = 0.1, EPS = 0.8;
+D3 = 'c', T = 20.0, C = 1.0, A = 0.1, EPS = 0.8;
+B99 = 'SPACE', T = -269.0;
+B98 = 'held', T = 20.0;
+$CONDUCTORS
+# plain conductors, as fem2tmm writes them
+GL(1, 2) = 1.5;
+GL(2, 3) = -0.25;
+GL(3, 98) = 2.0;
+GR(1, 99) = 0.08;
+GR(2, 99) = 0.07;
+$CONSTANTS
+$REAL
+HEATER = 10.0;
+$VARIABLES1
+QI1 = 0.25 * HEATER;
+QI3 = 0.75 * HEATER;
+$ENDMODEL
+"""
+
+
+def test_a_deck_read_again_with_its_constants_edited_reads_as_a_fresh_read(tmp_path):
+    # the validity range reads the same deck at every state, its constants edited: the second read reuses the parse of
+    # the last plain $CONDUCTORS block read (lpm.esatan._LAST_CONDUCTORS), and must read what a fresh read reads
+    from fem2tmm.lpm import esatan
+
+    def fresh(path):
+        esatan._LAST_CONDUCTORS[0] = None
+        return read_esatan(path)
+
+    def same(a, b):
+        for k in ("numbers", "T", "C", "A", "eps", "QI"):
+            assert np.array_equal(getattr(a, k), getattr(b, k)), k
+        assert (a.GL != b.GL).nnz == 0 and (a.GR != b.GR).nnz == 0
+
+    p = tmp_path / "m.esatan"
+    p.write_text(PLAIN_DECK)
+    first = fresh(p)
+    assert esatan._LAST_CONDUCTORS[0] is not None  # kept: every conductor plain
+    edited = tmp_path / "e.esatan"
+    edited.write_text(PLAIN_DECK.replace("HEATER = 10.0;", "HEATER = 40.0;").replace("T = -269.0", "T = -100.0"))
+    again = read_esatan(edited)
+    assert again.QI[0] == 10.0 and again.QI[2] == 30.0 and first.QI[0] == 2.5
+    same(again, fresh(edited))
+    # a conductor edited, or the block moved by a line: parsed again
+    read_esatan(p)
+    moved = tmp_path / "moved.esatan"
+    moved.write_text(PLAIN_DECK.replace("GL(2, 3) = -0.25;", "GL(2, 3) = -0.5;"))
+    assert read_esatan(moved).GL[1, 2] == -0.5
+    for lines, at in ((1, 12), (2, 13)):  # node 98 gone, the same block at line 12 (reused) or moved to line 13
+        read_esatan(p)
+        gone = tmp_path / f"gone{lines}.esatan"
+        gone.write_text(PLAIN_DECK.replace("B98 = 'held', T = 20.0;", "\n".join(["# no held node"] * lines)))
+        with pytest.raises(Fem2TmmError, match=rf"gone{lines}\.esatan:{at}: conductor to undefined node\(s\) 98"):
+            read_esatan(gone)
+    # a block with a general conductor is not kept
+    general = tmp_path / "g.esatan"
+    general.write_text(PLAIN_DECK.replace("GL(1, 2) = 1.5;", "GL(1, 2) = HEATER / 10;"))
+    esatan._LAST_CONDUCTORS[0] = None
+    assert read_esatan(general).GL[0, 1] == 1.0 and esatan._LAST_CONDUCTORS[0] is None
+
+
 SINDA_DECK = """C hand-written SINDA/FLUINT deck
 HEADER CONTROL DATA, GLOBAL
       SIGMA  = 5.670374419e-8

@@ -454,7 +454,8 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
             row["seconds"] = row["network_s"] = time.perf_counter() - t0
         # every state's recovery from the design field, through its saddle factorised once (the chord iteration of
         # ExportedRecovery.recover_about; its first step the linearised one): examples/composite's 7 states
-        # 1.3 -> 0.06 s of factorisations (2026-12-07)
+        # 1.2 -> 0.26 s of saddle factorisations (the design state's, and their own for the 3 states where its chord
+        # does not contract; 2026-12-07)
         for row, st, T_sn, _, loads, T_sink in solved:
             t0 = time.perf_counter()
             try:

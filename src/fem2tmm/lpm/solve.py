@@ -114,7 +114,7 @@ def solve_network(net: Network, case: LoadCase | None = None, T0=None, tol: floa
         # no free node starts below the coldest boundary temperature, which (its loads non-negative) it cannot end
         # below either, and from above the T⁴ emission converges monotonically: the L-bracket's deck at 100 super
         # nodes, its sink edited from -270 to 20 °C and started from its design temperatures (60-290 K), took 89
-        # damped Newton steps (its cold nodes' 4σT³ ~100x too small, each full step thousands of K), 4 from there
+        # damped Newton steps (its cold nodes' 4σT³ ~100x too small, each full step thousands of K), 5 from there
         T0 = np.where(fb, T0, np.maximum(T0, float(problem.T_fixed[fb].min())))
     try:
         sol = solve_steady(problem, T0=T0, tol=tol)
