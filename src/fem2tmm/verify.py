@@ -438,7 +438,9 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
 
         design_deck = None
         T_sn0, design_deck, _, _ = deck_state(None)
-        T_des = recovery.recover(T_sn0, T0=red.T_recovered)  # the design state, through the same path
+        # the design state through the same path: the chord from the run's recovered field with the saddle factorised
+        # there, which every state below then shares (recover(T0=) would factorise the same saddle once more)
+        T_des = recovery.recover_about(red.T_recovered, T_sn0)
         d_rms, d_max = error(T_des, T_ref_design, {}, T_sn0)
         node_lo, node_hi = float(T_sn0.min()), float(T_sn0.max())
         rows, solved = [], []
@@ -452,14 +454,14 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
             except Fem2TmmError as exc:  # a state without a solution (say so in the summary and the deck)
                 row["error"] = str(exc)
             row["seconds"] = row["network_s"] = time.perf_counter() - t0
-        # every state's recovery from the design field, through its saddle factorised once (the chord iteration of
-        # ExportedRecovery.recover_about; its first step the linearised one): examples/composite's 7 states
+        # every state's recovery from the run's design field, through its saddle factorised once (the chord iteration
+        # of ExportedRecovery.recover_about; its first step the linearised one): examples/composite's 7 states
         # 1.2 -> 0.26 s of saddle factorisations (the design state's, and their own for the 3 states where its chord
         # does not contract; 2026-12-07)
         for row, st, T_sn, _, loads, T_sink in solved:
             t0 = time.perf_counter()
             try:
-                T_rec = recovery.recover_about(T_des, T_sn, loads=loads, T_sink=T_sink)
+                T_rec = recovery.recover_about(red.T_recovered, T_sn, loads=loads, T_sink=T_sink)
                 t1 = time.perf_counter()
                 # the detailed model at that state, its Newton from the recovered field (it converges to the
                 # solver's tolerance from any start: the start only saves iterations, 7 -> 4 on examples/composite)

@@ -24,6 +24,7 @@ Comments run from ``#`` to the end of the line; a statement ends at ``;`` and ma
 from __future__ import annotations
 
 import gc
+import hashlib
 import re
 from pathlib import Path
 
@@ -134,8 +135,6 @@ def _range(token: str) -> np.ndarray:
 def _conductor_block(text: str) -> tuple[int, int, int, int, bytes] | None:
     """``(start, end, first line, length, digest)`` of the text of the deck's one ``$CONDUCTORS`` block (the lines after
     its header up to the next block's header), or None where it has none or several."""
-    import hashlib
-
     heads = [m for m in _HEADER.finditer(text) if m.group(1).upper() not in _SUBBLOCKS]
     at = [i for i, m in enumerate(heads) if m.group(1).upper() == "CONDUCTORS"]
     if len(at) != 1:
