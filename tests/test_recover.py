@@ -334,7 +334,7 @@ def test_means_without_a_positive_field_are_refused_naming_the_node_and_super_no
         rec.recover(np.array([400.0, 5.0]))
 
 
-def test_a_named_load_far_from_design_recovers_from_the_design_loads_start():
+def test_a_named_load_far_from_design_recovers_from_the_design_loads_start(monkeypatch):
     # The same chain (G = 0.05 W/K, 1e-2 m² emitting per node), a named heater on its first node, designed at 1 W.
     # With space-only emission the recovery's equations are the detailed model's, so given the detailed field's own
     # means it returns that field (lambda = 0) whatever the load: an independent check of the nonlinear recovery.
@@ -369,3 +369,15 @@ def test_a_named_load_far_from_design_recovers_from_the_design_loads_start():
         design = field if design is None else design
         about = rec.recover_about(design, A @ T, loads={"heater": power})
         assert np.abs(about - T).max() < 1e-8  # the same tolerances
+    # the range's path keeps the saddle a far state needed and starts the next state from the nearest field: the
+    # 40 W state again costs no factorisation (its own field is the nearest start); at the range's tolerance the
+    # field is within 1e-5 K of the detailed one (RANGE_RECOVERY_TOLERANCE 1e-6 K on the last chord step)
+    from fem2tmm.reduce.exported import ABOUT_ANCHORS, RANGE_RECOVERY_TOLERANCE
+
+    held = rec._linear["about"]
+    assert 1 <= len(held["anchors"]) <= ABOUT_ANCHORS and held["anchors"][0][0] is held["ref"]
+    factorised = []
+    real = ExportedRecovery._saddle
+    monkeypatch.setattr(ExportedRecovery, "_saddle", lambda *a, **k: factorised.append(1) or real(*a, **k))
+    again = rec.recover_about(design, A @ T, loads={"heater": 40.0}, tol=RANGE_RECOVERY_TOLERANCE)
+    assert not factorised and np.abs(again - T).max() < 1e-5

@@ -58,6 +58,16 @@ CHORD_RATE = 0.7
 #: not contract, the history is dropped and a plain step taken, at most CHORD_RESETS times
 CHORD_DEPTH = 5
 CHORD_RESETS = 2
+#: :meth:`ExportedRecovery.recover_about` keeps at most this many saddle factorisations (the reference field's and
+#: the last states' that needed their own) and this many recovered fields to start from.  examples/composite's 7 range
+#: states: 4 factorisations -> 3, recoveries 0.86 -> 0.75 s (the fields the chord starts from nearer); a saddle of
+#: detailed size each, so few
+ABOUT_ANCHORS = 2
+ABOUT_FIELDS = 16
+#: the validity range's recoveries stop at this last step (K), not at RECOVERY_TOLERANCE: its figures are printed to
+#: three digits against a reference noise of 1e-2 K or more and a campaign floor of 1e-3 K (verify.RANGE_FLOOR_K), and
+#: the 4 decades below it cost 4-8 chord steps a state (examples/composite's 7 states 0.75 -> 0.59 s, 2026-12-07)
+RANGE_RECOVERY_TOLERANCE = 1e-6
 
 _PREFIX = "recovery_"
 
@@ -356,15 +366,19 @@ class ExportedRecovery:
         return T[:, 0] if one else T
 
     def recover_about(self, T_ref: np.ndarray, T_sn: np.ndarray, loads: dict | None = None,
-                      T_sink: float | None = None) -> np.ndarray:
+                      T_sink: float | None = None, tol: float | None = None) -> np.ndarray:
         """The emission mode's field at another state, from a field ``T_ref`` already recovered at a nearby one (the
         validity range's edited decks from the design state's field): the same answer as :meth:`recover` (to
-        :data:`RECOVERY_TOLERANCE`), through the saddle factorised once at ``T_ref`` for every state.
+        ``tol``), through saddles factorised once and shared by the states.
 
-        The chord iteration from ``T_ref`` with that factorisation: its first step is the linearised one (Newton's
-        from ``T_ref``, the state's loads, sink and means), the rest the emission's and absorbed IR's departure from
-        that linearisation.  Where it does not contract (a state far from ``T_ref``), :meth:`recover` takes over from
-        ``T_ref`` moved by the linearised response to the change of means alone (clipped at 1 K).
+        The chord iteration with the saddle factorised at ``T_ref`` (or at the field of an earlier state nearer in
+        its means: at most :data:`ABOUT_ANCHORS` saddles are kept), from the nearest field recovered so far: its first
+        step is the linearised one (Newton's from there, the state's loads, sink and means), the rest the emission's
+        and absorbed IR's departure from that linearisation.  Where it does not contract (a state far from every kept
+        saddle), the saddle is factorised again at the nearest field moved by the linearised response to the change of
+        means alone (clipped at 1 K) and the chord run from there; that saddle is kept for the next states.  Should
+        that not contract either, :meth:`recover` takes over from the same start.  The kept saddles and fields are
+        those of the last ``T_ref``: a call with another one starts afresh.
 
         Parameters
         ----------
@@ -374,6 +388,9 @@ class ExportedRecovery:
             The state's super-node temperatures.
         loads, T_sink
             As :meth:`recover`: {named load: value} (missing names at their design value), the sink (K).
+        tol : float, optional
+            The chord's tolerance on its last step (K); default :data:`RECOVERY_TOLERANCE`.  The validity range's
+            states take :data:`RANGE_RECOVERY_TOLERANCE`.
 
         Returns
         -------
@@ -387,18 +404,33 @@ class ExportedRecovery:
             raise Fem2TmmError(f"{T_sn.size} super-node temperatures for a network of {self.n_sn}")
         self._absolute(T_sn[:, None])
         held = self._linear.get("about")
-        if held is None or not np.array_equal(held[0], T_ref):
-            held = (T_ref.copy(), self._saddle(4.0 * SIGMA * self.e * T_ref**3))
+        if held is None or not np.array_equal(held["ref"], T_ref):
+            T0 = T_ref.copy()
+            held = {"ref": T0, "anchors": [(T0, self._saddle(4.0 * SIGMA * self.e * T0**3))], "fields": [T0]}
             self._linear["about"] = held
         q = self.loads(loads or {})
         sink = float(self.T_sink if T_sink is None else T_sink)
-        done = self._chord(T_sn, q, sink, T_ref, None, held[1])
-        if done is not None:
-            return done
-        # else T_ref moved by the linearised response to the change of means alone (the loads and sink held: a
-        # named load's change moves a linearised field too far, 20x a heater drove it below 0 K), then recover()
-        shift = held[1].solve(np.concatenate([np.zeros(self.n_dof), T_sn - self.A @ T_ref]))[: self.n_dof]
-        return self.recover(T_sn, loads=loads, T_sink=T_sink, T0=np.maximum(T_ref + shift, 1.0))
+
+        def far(F):  # how far a field's means are from the state's
+            return float(np.abs(self.A @ F - T_sn).max(initial=0.0))
+
+        anchor = min(held["anchors"], key=lambda a: far(a[0]))
+        start = min(held["fields"], key=far)
+        done = self._chord(T_sn, q, sink, start, None, anchor[1], tol=tol)
+        if done is None:
+            # the nearest field moved by the linearised response to the change of means alone (the loads and sink
+            # held: a named load's change moves a linearised field too far, 20x a heater drove it below 0 K), its
+            # saddle factorised there
+            shift = anchor[1].solve(np.concatenate([np.zeros(self.n_dof), T_sn - self.A @ start]))[: self.n_dof]
+            T0 = np.maximum(start + shift, 1.0)
+            lu = self._saddle(4.0 * SIGMA * self.e * T0**3)
+            done = self._chord(T_sn, q, sink, T0, None, lu, tol=tol)
+            if done is None:
+                done = self.recover(T_sn, loads=loads, T_sink=T_sink, T0=T0)
+            else:
+                held["anchors"] = _kept(held["anchors"], (T0, lu), ABOUT_ANCHORS)
+        held["fields"] = _kept(held["fields"], done, ABOUT_FIELDS)
+        return done
 
     def recover_transient(self, T_sn: np.ndarray, times: np.ndarray, loads=None, T_sink=None,
                           step: float | None = None, scheme: str = "crank-nicolson", orbital: bool = False,
@@ -593,7 +625,7 @@ class ExportedRecovery:
                 "file, or a [[cases]] entry), or give that part more super nodes")
 
     def _chord(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
-               M: sp.spmatrix | None = None, lu=None) -> np.ndarray | None:
+               M: sp.spmatrix | None = None, lu=None, tol: float | None = None) -> np.ndarray | None:
         """One factorisation, at the start: iterations on the whole residual (emission and absorbed IR at the
         current field) solved with the saddle matrix of the start's linearised emission.  Near the solution (a
         transient's output times from their linearised recovery: ~0.5 K off) it contracts like the IR
@@ -601,8 +633,10 @@ class ExportedRecovery:
         examples/composite's orbit, 51 output times 90 s -> (README).  Anderson-accelerated over the last
         :data:`CHORD_DEPTH` steps (the range's states from the design field, 150-185 K away on examples/composite:
         0.2-0.26 -> 0.09-0.1 s, docs/design-notes.md).  None when it does not contract; the Newton iteration then
-        starts again from ``T``."""
+        starts again from ``T``.  ``tol``: the last step's size that ends it (K; default
+        :data:`RECOVERY_TOLERANCE`)."""
         n = self.n_dof
+        tol = RECOVERY_TOLERANCE if tol is None else float(tol)
         s4 = T_sink**4
         if lu is None:  # (a given lu: a saddle factorised at an earlier state, as a transient's steps reuse it)
             lu = self._saddle(4.0 * SIGMA * self.e * T**3, M)
@@ -619,7 +653,7 @@ class ExportedRecovery:
             size = float(np.abs(d[:n]).max())
             if not np.isfinite(size) or np.any(X + d[:n] <= 0.0):
                 return None
-            if size < max(RECOVERY_TOLERANCE, 1e-13 * float(np.abs(X).max())):
+            if size < max(tol, 1e-13 * float(np.abs(X).max())):
                 return X + d[:n]
             if prev is not None and size > CHORD_RATE * prev:
                 if not dz or resets == CHORD_RESETS:  # a plain chord step that does not contract: Newton's turn
@@ -711,6 +745,12 @@ class ExportedRecovery:
         if len(ms):
             out[ms[:, 0]] = 0.5 * (out[ms[:, 1]] + out[ms[:, 2]])
         return out
+
+
+def _kept(items: list, new, most: int) -> list:
+    """``items`` with ``new`` appended, the first (the reference's) and the last ``most`` − 1 kept."""
+    rest = items[1:] + [new]
+    return items[:1] + (rest[len(rest) - (most - 1):] if most > 1 else [])
 
 
 def load(path) -> ExportedRecovery:
