@@ -277,6 +277,40 @@ def _record(design, states, noise=0.01):
             "states": [{"label": k, "rms_K": v, "max_K": None if v is None else 3 * v} for k, v in states.items()]}
 
 
+def test_a_candidate_stops_where_it_can_no_longer_win_and_the_choice_is_the_same():
+    """:func:`fem2tmm.verify.cannot_win`: another candidate's states are checked in the order of the kept network's
+    errors and stop once one is off by the kept worst less the least margin :func:`range_choice` applies.  Over
+    random records (states with and without solutions, noises, margins), every record cut where ``enough`` says so
+    gets the choice the full record gets, and its unchecked states are not named as states without a solution."""
+    from fem2tmm.verify import cannot_win, range_choice
+
+    rng = np.random.default_rng(7)
+    stopped = 0
+    for _ in range(3000):
+        labels = [f"s{i}" for i in range(int(rng.integers(1, 8)))]
+        kept_rms = {k: (None if rng.random() < 0.1 else float(rng.lognormal(0.0, 1.0))) for k in labels}
+        alt_rms = {k: (None if rng.random() < 0.1 else float(rng.lognormal(0.0, 1.0))) for k in labels}
+        noise, relative = float(rng.choice([0.0, 0.01, 0.3])), float(rng.choice([0.0, 0.2]))
+        kept = _record(float(rng.lognormal(-2.0, 1.0)), kept_rms, noise)
+        full = _record(float(rng.lognormal(-1.0, 1.0)), alt_rms, noise)
+        order, enough = cannot_win(kept, relative)
+        assert order == sorted((k for k in labels if kept_rms[k] is not None), key=lambda k: -kept_rms[k])
+        # the states as verify_network visits them: the order first, then the others; cut at the first `enough`
+        visit = order + [k for k in labels if k not in order]
+        done = enough(full["design"]["rms_K"])
+        cut = _record(full["design"]["rms_K"], alt_rms, noise)
+        for row in sorted(cut["states"], key=lambda r: visit.index(r["label"])):
+            if done:
+                row.update(rms_K=None, max_K=None, checked=False)
+            elif row["rms_K"] is not None:
+                done = enough(row["rms_K"])
+        a, b = range_choice(kept, full, relative), range_choice(kept, cut, relative)
+        assert a["thesis"] == b["thesis"], (kept, full, cut)
+        assert set(b["failed"]["thesis"]) <= set(a["failed"]["thesis"])
+        stopped += any(r.get("checked") is False for r in cut["states"])
+    assert stopped > 500  # the cut happens often (measured 1 389 of 3 000)
+
+
 def test_the_range_choice_compares_each_networks_worst_state_beyond_the_reference_noise():
     """:func:`fem2tmm.verify.range_choice`: the thesis' network replaces the other when its worst RMS over the design
     state and the verified states both solve is smaller by more than the reference noise (at least

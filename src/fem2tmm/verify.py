@@ -332,7 +332,7 @@ def why_unverified(result, reference: bool = True) -> dict | None:
 
 
 def verify_network(result, problem, references: dict | None = None, warn: bool = True,
-                   estimator=None) -> dict:
+                   estimator=None, order=None, enough=None) -> dict:
     """Verify the network a run hands over over its validity range (module docstring), or estimate its error there.
 
     Parameters
@@ -355,6 +355,12 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         detailed solve (:func:`fem2tmm.stages.choice.range_estimator`).  The record's ``status`` is then
         "estimated", each row's ``rms_K`` the estimate beyond its ray noise and ``noise_K`` that noise, and the
         sink's range tops at the recovered field's warmest temperature.
+    order : sequence of str, optional
+        State labels to check first, in this order (the others after them, in :func:`verify_states`' order).
+    enough : callable, optional
+        ``enough(rms_K) -> bool``, called with the design state's RMS and then each checked state's: True leaves
+        the states not yet checked unchecked (rows with ``checked`` False, listed in ``unchecked``).  For a
+        candidate that cannot win a choice any more (:func:`cannot_win`).
 
     Returns
     -------
@@ -365,7 +371,8 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         detailed_s, detailed_iterations, flagged, error}], ``design`` {rms_K, max_K} through the same path,
         ``reference_noise`` {rms_K, max_K} (design state) or None, ``estimate_noise`` {rms_K} (the largest over the
         states; with an ``estimator``) or None, ``worst`` (the state of largest RMS),
-        ``node_T_C`` [min, max] over the design and every verified state, ``flagged`` [labels], ``seconds``.
+        ``node_T_C`` [min, max] over the design and every verified state, ``flagged`` [labels], ``unchecked``
+        [labels] (``enough``), ``seconds``.
     """
     from .export.deliverable import write_network
     from .export.esatan import constant_name
@@ -443,24 +450,29 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         T_des = recovery.recover_about(red.T_recovered, T_sn0)
         d_rms, d_max = error(T_des, T_ref_design, {}, T_sn0)
         node_lo, node_hi = float(T_sn0.min()), float(T_sn0.max())
-        rows, solved = [], []
-        for st in states:  # the decks of every state, edited, read back, solved
-            row = {"label": st.label, "values": {c.name: c.to_case(st.values[c.name]) for c in constants},
-                   "rms_K": None, "max_K": None, "node_T_C": None, "flagged": False, "error": None}
-            rows.append(row)
+        rows = [{"label": st.label, "values": {c.name: c.to_case(st.values[c.name]) for c in constants},
+                 "rms_K": None, "max_K": None, "node_T_C": None, "flagged": False, "error": None, "seconds": 0.0,
+                 "network_s": 0.0} for st in states]
+        rank = {label: i for i, label in enumerate(order or ())}
+        stopped = enough is not None and enough(d_rms)
+        # each state's deck edited, read back and solved, its field recovered from the run's design field through
+        # the saddle factorised there (the chord iteration of ExportedRecovery.recover_about; its first step the
+        # linearised one): examples/composite's 7 states 1.2 -> 0.26 s of saddle factorisations (the design state's,
+        # and their own for the 3 states where its chord does not contract; 2026-12-07); a saddle such a state needed
+        # is kept for the next, each state starts from the nearest field recovered so far, and stops at
+        # RANGE_RECOVERY_TOLERANCE: recoveries 0.86 -> 0.60 s.  In the order asked (``order``), until ``enough``
+        for i in sorted(range(len(states)), key=lambda i: (rank.get(states[i].label, len(rank)), i)):
+            st, row = states[i], rows[i]
+            if stopped:
+                row["checked"] = False
+                continue
             t0 = time.perf_counter()
             try:
-                solved.append((row, st, *deck_state(st.values)))
+                T_sn, _, loads, T_sink = deck_state(st.values)
             except Fem2TmmError as exc:  # a state without a solution (say so in the summary and the deck)
                 row["error"] = str(exc)
-            row["seconds"] = row["network_s"] = time.perf_counter() - t0
-        # every state's recovery from the run's design field, through its saddle factorised once (the chord iteration
-        # of ExportedRecovery.recover_about; its first step the linearised one): examples/composite's 7 states
-        # 1.2 -> 0.26 s of saddle factorisations (the design state's, and their own for the 3 states where its chord
-        # does not contract; 2026-12-07); a saddle such a state needed is kept for the next, each state starts from
-        # the nearest field recovered so far, and stops at RANGE_RECOVERY_TOLERANCE: recoveries 0.86 -> 0.60 s
-        for row, st, T_sn, _, loads, T_sink in solved:
-            t0 = time.perf_counter()
+                row["seconds"] = row["network_s"] = time.perf_counter() - t0
+                continue
             try:
                 T_rec = recovery.recover_about(red.T_recovered, T_sn, loads=loads, T_sink=T_sink,
                                                tol=RANGE_RECOVERY_TOLERANCE)
@@ -483,7 +495,7 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
                         references[key] = ref
             except Fem2TmmError as exc:
                 row["error"] = str(exc)
-                row["seconds"] += time.perf_counter() - t0
+                row["seconds"] = row["network_s"] = time.perf_counter() - t0
                 continue
             if ref is None:
                 rms, mx = error(T_rec, None, st.values, T_sn)
@@ -493,10 +505,11 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
             t2 = time.perf_counter()
             node_lo, node_hi = min(node_lo, float(T_sn.min())), max(node_hi, float(T_sn.max()))
             row.update(rms_K=rms, max_K=mx, node_T_C=[float(T_sn.min() - KELVIN), float(T_sn.max() - KELVIN)],
-                       network_s=row["network_s"] + t1 - t0, detailed_s=t2 - t1,
+                       network_s=t1 - t0, detailed_s=t2 - t1,
                        detailed_iterations=None if ref is None else ref.iterations,
                        flagged=worse_than_design(rms, mx, d_rms, d_max))
             row["seconds"] = row["network_s"] + row["detailed_s"]
+            stopped = enough is not None and enough(rms)
     done = [r for r in rows if r["rms_K"] is not None]
     worst = max(done, key=lambda r: (r["rms_K"], r["max_K"]), default=None)
     noise = result.detailed.noise
@@ -513,6 +526,7 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         "estimate_noise": {"rms_K": max(noises)} if noises else None,
         "worst": worst,
         "failed": [r["label"] for r in rows if r["error"] is not None],
+        "unchecked": [r["label"] for r in rows if r.get("checked") is False],
         "flagged": [r["label"] for r in rows if r["flagged"]],
         "node_T_C": [node_lo - KELVIN, node_hi - KELVIN],
         "threshold": {"factor": WARN_FACTOR, "rms_K": WARN_RMS_K, "max_K": WARN_MAX_K},
@@ -597,7 +611,8 @@ def range_choice(kept: dict, thesis: dict, relative: float = 0.0) -> dict:
         None for a state without a solution; ``failed`` the states each has no solution at).
     """
     solved = lambda v: {r["label"] for r in v["states"] if r["rms_K"] is not None}  # noqa: E731
-    both = solved(kept) & solved(thesis)
+    # (a state the other left unchecked, :func:`cannot_win`, is not one it has no solution at)
+    both = solved(kept) - {r["label"] for r in thesis["states"] if r["rms_K"] is None and r.get("checked", True)}
     wk, lk = range_worst(kept, both)
     wt, lt = range_worst(thesis, both)
     noise = kept.get("reference_noise")
@@ -608,13 +623,31 @@ def range_choice(kept: dict, thesis: dict, relative: float = 0.0) -> dict:
     by = {r["label"]: r["rms_K"] for r in thesis["states"]}
     states = {"design": [kept["design"]["rms_K"], thesis["design"]["rms_K"]]}
     states.update({r["label"]: [r["rms_K"], by.get(r["label"])] for r in kept["states"]})
-    failed = {k: [r["label"] for r in v["states"] if r["rms_K"] is None]
+    failed = {k: [r["label"] for r in v["states"] if r["rms_K"] is None and r.get("checked", True)]
               for k, v in (("kept", kept), ("thesis", thesis))}
     return {"thesis": bool(wk > wt + tol), "worst_K": {"kept": wk, "thesis": wt},
             "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states, "failed": failed}
 
 
-__all__ = ["NO_REFERENCE", "Constant", "State", "edit_deck", "range_choice", "range_worst", "state_problem",
+def cannot_win(kept: dict, relative: float = 0.0):
+    """``(order, enough)`` for :func:`verify_network` of another candidate that :func:`range_choice` will weigh against
+    ``kept`` (its record, fully checked): its states in the order of ``kept``'s errors, largest first, and
+    ``enough(rms_K)``, True once one of its states is off by at least the kept network's worst less the least margin
+    :func:`range_choice` can apply (the kept record's own noise, :data:`RANGE_FLOOR_K`, ``relative`` × that worst).
+    The other's worst is then at least that state's and the kept one's worst over the states both solve at most its
+    worst: the other cannot replace it, whatever its states left unchecked give, so they are not checked (the choice
+    is the same; the other's worst in the record is that of the states checked).  Used without the detailed reference
+    (:func:`fem2tmm.range_checks._against`): examples/smallsat's candidate fed along its links stops after its first
+    state, 0.24 -> 0.08 s."""
+    wk, _ = range_worst(kept)
+    noise = kept.get("reference_noise") or kept.get("estimate_noise") or {"rms_K": 0.0}
+    margin = max(float(noise["rms_K"]), RANGE_FLOOR_K, relative * wk)
+    rows = sorted((r for r in kept["states"] if r["rms_K"] is not None), key=lambda r: -r["rms_K"])
+    return [r["label"] for r in rows], lambda rms: bool(wk <= rms + margin)
+
+
+__all__ = ["NO_REFERENCE", "Constant", "State", "cannot_win", "edit_deck", "range_choice", "range_worst",
+           "state_problem",
            "superseded", "unverified", "verify_network", "verify_range", "verify_states", "warn_off_range",
            "why_unverified", "worse_than_design",
            "COLDEST_SINK_K", "FLOOR_RELATIVE_MARGIN", "POWER_FACTOR", "RANGE_FLOOR_K", "TEMPERATURE_SWING_K"]
