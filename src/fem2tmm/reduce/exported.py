@@ -423,6 +423,9 @@ class ExportedRecovery:
             # saddle factorised there
             shift = anchor[1].solve(np.concatenate([np.zeros(self.n_dof), T_sn - self.A @ start]))[: self.n_dof]
             T0 = np.maximum(start + shift, 1.0)
+            # the oldest kept saddle let go before the new one is factorised: at most ABOUT_ANCHORS at any time
+            del anchor
+            held["anchors"] = held["anchors"][:1] + held["anchors"][1:][len(held["anchors"]) - ABOUT_ANCHORS + 1:]
             lu = self._saddle(4.0 * SIGMA * self.e * T0**3)
             done = self._chord(T_sn, q, sink, T0, None, lu, tol=tol)
             if done is None:
