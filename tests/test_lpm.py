@@ -327,6 +327,52 @@ def test_a_deck_read_again_with_its_constants_edited_reads_as_a_fresh_read(tmp_p
     assert read_esatan(general).GL[0, 1] == 1.0 and esatan._LAST_CONDUCTORS[0] is None
 
 
+@pytest.mark.parametrize("edit", [
+    None,  # as fem2tmm writes it: read at once (lpm.esatan._plain_block)
+    ("GL(1, 2) = 1.5;\nGL(2, 3) = -0.25;", "GL(1, 2) = 1.5; GL(2, 3) = -0.25;"),  # two on a line
+    ("GL(2, 3) = -0.25;", "GL(2, 3) = -0.25"),  # not terminated
+    ("GL(2, 3) = -0.25;", "GL(2, 3) = nan;"),  # not a number
+    ("GL(2, 3) = -0.25;", "GL (2, 3) = -0.25;"),
+    ("GL(2, 3) = -0.25;", "gl(2, 3) = -.25e0;  # lower case"),
+    ("GL(2, 3) = -0.25;", "GL(2,\n 3) = -0.25;"),  # over two lines
+    ("# plain conductors, as fem2tmm writes them", "# GL(7, 8) = 1; a conductor in a comment"),
+    ("GL(2, 3) = -0.25;", "GL(2, 3) = -0.25; # 5; 6"),
+    ("GL(2, 3) = -0.25;", "GL(2, 3) = 0.25 * 2;"),
+    ("GL(2, 3) = -0.25;", "GL(2:3, 98) = 1.0;"),
+    ("GL(2, 3) = -0.25;", "GL(2, 97) = 1.0;"),  # an undefined node: the same message and line
+])
+def test_a_plain_conductor_block_read_at_once_reads_as_statement_by_statement(tmp_path, monkeypatch, edit):
+    """The $CONDUCTORS block of plain conductors is read at once by NumPy (5·10⁵ conductors 1.84 -> 0.66 s); any
+    block that is not exactly that goes statement by statement.  Either way the network, or the error with its file
+    and line, is the one the statement-by-statement reader gives."""
+    from fem2tmm.lpm import esatan
+
+    text = PLAIN_DECK if edit is None else PLAIN_DECK.replace(*edit)
+    path = tmp_path / "m.esatan"
+    path.write_text(text)
+
+    def read(at_once):
+        esatan._LAST_CONDUCTORS[0] = None
+        if not at_once:
+            monkeypatch.setattr(esatan, "_plain_block", lambda block: None)
+        try:
+            return read_esatan(path)
+        except Fem2TmmError as exc:
+            return str(exc)
+        finally:
+            monkeypatch.undo()
+
+    a, b = read(True), read(False)
+    if isinstance(b, str):
+        assert a == b
+        return
+    for k in ("numbers", "T", "C", "A", "eps", "QI"):
+        assert np.array_equal(getattr(a, k), getattr(b, k)), k
+    assert (a.GL != b.GL).nnz == 0 and (a.GR != b.GR).nnz == 0
+    block = text.split("$CONDUCTORS\n")[1].split("$CONSTANTS")[0]
+    assert (esatan._plain_block(block) is not None) == (edit is None or edit[1].startswith("gl(")), edit
+
+
 SINDA_DECK = """C hand-written SINDA/FLUINT deck
 HEADER CONTROL DATA, GLOBAL
       SIGMA  = 5.670374419e-8

@@ -151,6 +151,60 @@ def _conductor_block(text: str) -> tuple[int, int, int, int, bytes] | None:
     return start, end, text.count("\n", 0, start) + 1, end - start, digest
 
 
+#: the plain conductor block read at once (:func:`_plain_block`): ``GL(a, b) = v;`` becomes ``0,a,b,v#`` (GR: 1), the
+#: letters G, the closing brackets and the blanks deleted
+_PLAIN_ROW = bytes.maketrans(b"LlRr(=;", b"0011,,#")
+_PLAIN_DROP = b"Gg) \t"
+
+
+def _plain_block(block: str) -> tuple | None:
+    """``(None, is GR, a, b, value)`` arrays of a ``$CONDUCTORS`` block's text whose every statement is a plain
+    conductor, one to a line (what fem2tmm writes), read at once by NumPy's text reader; None for any other block,
+    which the statement-by-statement reader then reads (and refuses, where it must, with ``file:line``).
+
+    Each statement ``GL(a, b) = v;`` is translated to ``0,a,b,v#`` (GR: 1; the ``;`` ends the row, what follows is
+    a comment) and the rows read by :func:`numpy.loadtxt`: a block is taken only where every row has those four
+    fields, the kind is 0 or 1, the nodes whole numbers, the value finite, and the rows are as many as the ``GL(`` and
+    ``GR(`` in the text and as the ``;`` that end a number.  5·10⁵ conductors: 1.84 -> 0.66 s (the
+    statement-by-statement reader takes about 4 µs a statement).  The statements' lines are not kept (None):
+    :func:`_statement_lines` finds them for an error message."""
+    import io
+
+    if "'" in block or '"' in block:
+        return None
+    try:
+        raw = block.encode("ascii")
+    except UnicodeEncodeError:
+        return None
+    up = raw.upper()
+    count = up.count(b"GL(") + up.count(b"GR(")
+    if not count:
+        return None
+    tr = raw.translate(_PLAIN_ROW, _PLAIN_DROP)
+    b = np.frombuffer(tr, np.uint8)
+    # (a "#" after a digit or "." was a ";" ending a number: a comment's own "#" follows a line end or a ";")
+    ends = np.count_nonzero((b[1:] == ord("#")) & (((b[:-1] >= ord("0")) & (b[:-1] <= ord("9"))) | (b[:-1] == ord("."))))
+    if ends != count:
+        return None
+    try:
+        rows = np.loadtxt(io.StringIO(tr.decode("ascii")), delimiter=",", comments="#", ndmin=2)
+    except ValueError:
+        return None
+    if rows.shape != (count, 4):
+        return None
+    kind, a, b, g = rows.T
+    if not (np.isin(kind, (0.0, 1.0)).all() and np.isfinite(g).all() and (a == np.round(a)).all()
+            and (b == np.round(b)).all() and (np.abs(rows[:, 1:3]) < 2.0**53).all()):
+        return None
+    return None, kind == 1.0, a.astype(np.int64), b.astype(np.int64), np.ascontiguousarray(g)
+
+
+def _statement_lines(block: str, first: int) -> np.ndarray:
+    """(m,) int: the deck lines of a plain conductor block's statements (:func:`_plain_block`), its text starting at
+    line ``first``."""
+    return np.array([first + i for i, ln in enumerate(block.split("\n")) if ln.lstrip()[:1] in ("G", "g")], np.int64)
+
+
 def read_esatan(path: str | Path, time: float | None = None) -> Network:
     """Read an ESATAN input deck (see the module docstring for the subset); temperatures to K, GR to fem2tmm's σ.
 
@@ -191,11 +245,19 @@ def _read_deck(path, time, window):
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
         raise Fem2TmmError(f"{path}: cannot read the deck ({exc.strerror})") from None
-    span, held = _conductor_block(text), None
+    span, held, cond_text = _conductor_block(text), None, ""
     if span is not None:
         key = _LAST_CONDUCTORS[0]
-        if key is not None and key[:3] == span[2:]:  # the same block as the last read: its lines left blank here
+        cond_text = text[span[0]: span[1]]
+        if key is not None and key[:3] == span[2:]:  # the same block as the last read
             held = key[3]
+        else:  # every statement a plain conductor: read at once, kept for the next read
+            held = _plain_block(cond_text)
+            if held is not None:
+                for v in held[1:]:
+                    v.flags.writeable = False
+                _LAST_CONDUCTORS[0] = (*span[2:], held)
+        if held is not None:  # its lines left blank here
             text = text[: span[0]] + "\n" * text.count("\n", span[0], span[1]) + text[span[1]:]
     stmts = list(statements(text))
 
@@ -370,6 +432,8 @@ def _read_deck(path, time, window):
         bad = (sorted_numbers[pos] != refs).reshape(2, -1).any(axis=0)
         first_general = next((ln for ln, _, a, b, _ in conds
                               if not np.isin(np.r_[a, b], sorted_numbers).all()), None)
+        if bad.any() and p_line is None:  # (a block read at once: its lines found for the message)
+            p_line = _statement_lines(cond_text, span[2])
         if bad.any() and (first_general is None or p_line[bad].min() < first_general):
             k = int(np.flatnonzero(bad)[np.argmin(p_line[bad])])
             rows(int(p_line[k]), np.array([p_a[k], p_b[k]], np.int64))
