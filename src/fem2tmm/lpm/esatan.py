@@ -183,7 +183,8 @@ def _plain_block(block: str) -> tuple | None:
     tr = raw.translate(_PLAIN_ROW, _PLAIN_DROP)
     b = np.frombuffer(tr, np.uint8)
     # (a "#" after a digit or "." was a ";" ending a number: a comment's own "#" follows a line end or a ";")
-    ends = np.count_nonzero((b[1:] == ord("#")) & (((b[:-1] >= ord("0")) & (b[:-1] <= ord("9"))) | (b[:-1] == ord("."))))
+    digit = ((b[:-1] >= ord("0")) & (b[:-1] <= ord("9"))) | (b[:-1] == ord("."))
+    ends = np.count_nonzero((b[1:] == ord("#")) & digit)
     if ends != count:
         return None
     try:
