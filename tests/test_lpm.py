@@ -340,6 +340,8 @@ def test_a_deck_read_again_with_its_constants_edited_reads_as_a_fresh_read(tmp_p
     ("GL(2, 3) = -0.25;", "GL(2, 3) = 0.25 * 2;"),
     ("GL(2, 3) = -0.25;", "GL(2:3, 98) = 1.0;"),
     ("GL(2, 3) = -0.25;", "GL(2, 97) = 1.0;"),  # an undefined node: the same message and line
+    ("GL(2, 3) = -0.25;", "GL(2.0, 3) = -0.25;"),  # a node number that is not an integer
+    ("GL(2, 3) = -0.25;", "GL(2, 3) = -0.25;\n$REAL"),
 ])
 def test_a_plain_conductor_block_read_at_once_reads_as_statement_by_statement(tmp_path, monkeypatch, edit):
     """The $CONDUCTORS block of plain conductors is read at once by NumPy (5·10⁵ conductors 1.84 -> 0.66 s); any
