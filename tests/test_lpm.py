@@ -344,7 +344,7 @@ def test_a_deck_read_again_with_its_constants_edited_reads_as_a_fresh_read(tmp_p
     ("GL(2, 3) = -0.25;", "GL(2, 3) = -0.25;\n$REAL"),
 ])
 def test_a_plain_conductor_block_read_at_once_reads_as_statement_by_statement(tmp_path, monkeypatch, edit):
-    """The $CONDUCTORS block of plain conductors is read at once by NumPy (5·10⁵ conductors 1.84 -> 0.66 s); any
+    """The $CONDUCTORS block of plain conductors is read at once by NumPy (5·10⁵ conductors 1.88 -> 0.61 s); any
     block that is not exactly that goes statement by statement.  Either way the network, or the error with its file
     and line, is the one the statement-by-statement reader gives."""
     from fem2tmm.lpm import esatan

@@ -166,7 +166,7 @@ def _plain_block(block: str) -> tuple | None:
     Each statement ``GL(a, b) = v;`` is translated to ``0,a,b,v#`` (GR: 1; the ``;`` ends the row, what follows is
     a comment) and the rows read by :func:`numpy.loadtxt`: a block is taken only where every row has those four
     fields, the kind is 0 or 1, the nodes integers, the value finite, and the rows are as many as the ``GL(`` and
-    ``GR(`` in the text and as the ``;`` that end a number.  5·10⁵ conductors: 1.84 -> 0.66 s (the
+    ``GR(`` in the text and as the ``;`` that end a number.  5·10⁵ conductors: 1.88 -> 0.61 s (the
     statement-by-statement reader takes about 4 µs a statement).  The statements' lines are not kept (None):
     :func:`_statement_lines` finds them for an error message."""
     import io
