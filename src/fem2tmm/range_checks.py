@@ -22,6 +22,10 @@ Two choices rest on that range, measured or estimated, on the same states:
   by :data:`~fem2tmm.stages.choice.ESTIMATE_RELATIVE_MARGIN` of the kept one's: the estimator's own accuracy, as at
   the design state).
 
+Without the reference the other candidate's states are checked in the order of the kept network's errors and stop
+once it can no longer win (:func:`fem2tmm.verify.cannot_win`: the same choice, at a fraction of the cost where it
+loses); with the reference every state of both is checked.
+
 The orchestrator passes ``hand_over(run, net, alt, q_orbit)``, which delivers another network in place of the first.
 """
 
