@@ -35,6 +35,8 @@ from .progress import report, report_units
 
 #: seconds to wait for a Dask scheduler before giving up (the whole check stays within 10 s)
 CONNECT_TIMEOUT = 3.0
+#: how long a local cluster's run waits for all its workers to register (s)
+LOCAL_START_TIMEOUT = 60.0
 #: a unit that raised is re-run this many times (a unit on a worker that died is always re-run by Dask)
 RETRIES = 1
 #: workers that hold a copy of each map call's shared data (a trace's job): enough to survive one dead worker
@@ -224,11 +226,14 @@ def open_executor(scheduler: str = "serial", workers: int | None = None, timeout
                                silence_logs=logging.ERROR)
         try:
             client = Client(cluster, timeout=f"{timeout}s")
-            client.wait_for_workers(n, timeout=timeout)  # every worker registered before the first map
+            # every worker registered before the first map (LocalCluster has started them: a formality, given a
+            # busy machine's time rather than the connection timeout)
+            client.wait_for_workers(n, timeout=max(timeout, LOCAL_START_TIMEOUT))
         except (OSError, TimeoutError) as exc:
             cluster.close()
-            raise Fem2TmmError(f"the local Dask cluster did not start its {n} workers within {timeout:g} s "
-                               f"({type(exc).__name__}); try fewer workers or --scheduler serial") from None
+            raise Fem2TmmError(f"the local Dask cluster of {n} workers did not come up (the client within {timeout:g} s, "
+                               f"its workers within {max(timeout, LOCAL_START_TIMEOUT):g} s; {type(exc).__name__}): "
+                               "try fewer workers or --scheduler serial") from None
         except BaseException:
             cluster.close()
             raise
