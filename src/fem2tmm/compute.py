@@ -231,8 +231,9 @@ def open_executor(scheduler: str = "serial", workers: int | None = None, timeout
             client.wait_for_workers(n, timeout=max(timeout, LOCAL_START_TIMEOUT))
         except (OSError, TimeoutError) as exc:
             cluster.close()
-            raise Fem2TmmError(f"the local Dask cluster of {n} workers did not come up (the client within {timeout:g} s, "
-                               f"its workers within {max(timeout, LOCAL_START_TIMEOUT):g} s; {type(exc).__name__}): "
+            raise Fem2TmmError(f"the local Dask cluster of {n} workers did not come up (the client within "
+                               f"{timeout:g} s, its workers within {max(timeout, LOCAL_START_TIMEOUT):g} s; "
+                               f"{type(exc).__name__}): "
                                "try fewer workers or --scheduler serial") from None
         except BaseException:
             cluster.close()
