@@ -57,8 +57,9 @@ _BLOCKS = {"MODEL", "LOCALS", "NODES", "CONDUCTORS", "CONSTANTS", "ARRAYS", "EVA
 _SUBBLOCKS = {"REAL", "INTEGER", "CHARACTER", "CONTROL"}
 _HEADER = re.compile(r"\$([A-Za-z]\w*)")  # a block header where only blanks precede it on its line
 #: the last $CONDUCTORS block of plain conductors read: ``(first line, length, digest of its text, (lines, is GR, a, b,
-#: value) arrays)`` (lines None for a block read at once, :func:`_plain_block`).  A deck read again with only its constants edited (each state of the validity range) skips the
-#: parse of its conductors, most of its lines: examples/composite's deck (10⁴ statements) 0.10 -> 0.02 s a read
+#: value) arrays)`` (lines None for a block read at once, :func:`_plain_block`).  A deck read again with only its
+#: constants edited (each state of the validity range) skips the parse of its conductors, most of its lines:
+#: examples/composite's deck (10⁴ statements) 0.10 -> 0.02 s a read
 _LAST_CONDUCTORS: list = [None]
 
 
