@@ -636,7 +636,9 @@ def cannot_win(kept: dict, relative: float = 0.0):
     :func:`range_choice` can apply (the kept record's own noise, :data:`RANGE_FLOOR_K`, ``relative`` × that worst).
     The other's worst is then at least that state's and the kept one's worst over the states both solve at most its
     worst: the other cannot replace it, whatever its states left unchecked give, so they are not checked (the choice
-    is the same; the other's worst in the record is that of the states checked).  Used without the detailed reference
+    is the same; the other's worst in the record is that of the states checked).  The states where the kept network has
+    no solution are not in the order, so they come last: a stop at one of them leaves only such states unchecked,
+    which :func:`range_choice` does not weigh either.  Used without the detailed reference
     (:func:`fem2tmm.range_checks._against`): examples/smallsat's candidate fed along its links stops after its first
     state, 0.24 -> 0.08 s."""
     wk, _ = range_worst(kept)
