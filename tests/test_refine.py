@@ -246,3 +246,43 @@ def test_composite_refinement_meets_its_target():
     ref = r.summary["reduced"]["refinement"]
     assert ref["stop"] == "target met" and len(ref["rounds"]) > 1, ref
     assert r.summary["accuracy"]["rms_K"] <= 1.0, (r.summary["accuracy"], ref["rounds"])
+
+
+@pytest.mark.filterwarnings("ignore:.*flow straight into it")
+def test_a_factorisation_at_another_field_stands_for_the_fields_own():
+    # global_estimate(pre=): the range's estimate at a state whose linearised emission h is within PRECONDITION_KAPPA
+    # of a field already factorised takes GMRES on that factorisation (to ``tol``) instead of its own; further away
+    # it factorises its own and keeps it.  The answer is the direct one to the GMRES tolerance, with and without the
+    # re-absorption feedback.
+    from fem2tmm.reduce import refine
+
+    mesh, case, model, clustering = _plate_model(6)
+    T = solve_steady(detailed_problem(model), tol=1e-12, max_iter=50).T
+    free = ~model.fixed_mask
+    rng = np.random.default_rng(3)
+    r = np.where(free, rng.normal(size=model.n_dof) * 1e-3, 0.0)  # W
+    w = np.ones(model.n_dof)
+    own = np.full(model.n_dof, -1)
+    h = 4 * 5.67e-8 * _emission(model) * T**3  # W/K
+    src = rng.choice(np.flatnonzero(free), 30, replace=False)
+    E = sp.csr_matrix((np.ones(len(src)), (np.arange(len(src)), src)), shape=(len(src), model.n_dof))
+    B = sp.random(len(src), model.n_dof, density=0.1, random_state=2, format="csr")
+    B = sp.diags(0.5 / np.maximum(np.asarray(B.sum(axis=1)).ravel(), 1e-300)) @ B
+    for feedback in (None, (B, h[src], E)):
+        pre: list = []
+        h_design = h * (0.8**3)  # the design field 20 % colder everywhere: κ = 1.95
+        refine.global_estimate(model.K, h_design, r, free, w, own, 0, feedback=feedback, shares=False, pre=pre)
+        assert len(pre) == 1  # the design state's factorisation, kept
+        direct, _ = refine.global_estimate(model.K, h, r, free, w, own, 0, feedback=feedback, shares=False)
+        cache: dict = {}
+        near, _ = refine.global_estimate(model.K, h, r, free, w, own, 0, feedback=feedback, shares=False,
+                                         cache=cache, tol=1e-8, pre=pre)
+        assert cache["shift"] is not None and len(pre) == 1  # the design factorisation stood for its own
+        assert np.abs(near - direct).max() < 1e-6 * np.abs(direct).max()  # GMRES at 1e-8 relative
+        far_h = h * 20.0  # κ = 20 / 0.512 > PRECONDITION_KAPPA: its own factorisation, kept beside the first
+        far_direct, _ = refine.global_estimate(model.K, far_h, r, free, w, own, 0, feedback=feedback, shares=False)
+        cache = {}
+        far, _ = refine.global_estimate(model.K, far_h, r, free, w, own, 0, feedback=feedback, shares=False,
+                                        cache=cache, tol=1e-8, pre=pre)
+        assert cache["shift"] is None and len(pre) == refine.PRECONDITIONERS
+        assert np.abs(far - far_direct).max() < 1e-6 * np.abs(far_direct).max()

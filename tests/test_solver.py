@@ -5,13 +5,14 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from conftest import make_case
 from fem2tmm.mesh import shapes
 from fem2tmm.fem.model import build_model
 from fem2tmm.pipeline import detailed_problem
-from fem2tmm.solve.steady import FacedRadiation, solve_steady
+from fem2tmm.solve.steady import FacedRadiation, SteadyProblem, solve_steady
 
 
 def faced_plate():
@@ -84,3 +85,58 @@ def test_a_stalled_krylov_step_falls_back_to_the_exact_jacobian(monkeypatch):
     assert stalled.stats["direct_fallbacks"] >= 1
     assert np.abs(stalled.T - good.T).max() < 1e-9
     assert stalled.balance["relative"] < 1e-9
+
+
+def _lone_network(sparse: bool):
+    """4 nodes, each conducting to every other (0.1 W/K), node 0 held at 300 K, node 3 heated 2 W, each emitting to a 3 K
+    sink; and node 4, a radiator coupled only to the sink (g = 0.02 m²) and by GR = 0.01 m² to node 5, a fixed node at
+    250 K, loaded with 0.5 W (a deck's hot-spot node beside its space node)."""
+    n = 6
+    K = np.zeros((n, n))
+    for a in range(4):
+        for b in range(a + 1, 4):
+            K[a, a] += 0.1
+            K[b, b] += 0.1
+            K[a, b] = K[b, a] = -0.1
+    GR = np.zeros((n, n))
+    GR[4, 5] = GR[5, 4] = 0.01
+    fixed = np.zeros(n, bool)
+    fixed[[0, 5]] = True
+    return SteadyProblem(K=sp.csr_matrix(K) if sparse else K, Q=np.array([0, 0, 0, 2.0, 0.5, 0]),
+                         fixed=fixed, T_fixed=np.array([300.0, 0, 0, 0, 0, 250.0]),
+                         g_space=np.array([0, 0.01, 0.01, 0.01, 0.02, 0]), T_sink=3.0,
+                         GR=sp.csr_matrix(GR) if sparse else GR)
+
+
+def test_a_radiator_coupled_only_to_the_sink_and_fixed_nodes_is_solved_in_closed_form():
+    # Node 4's balance: σ (g + GR) T⁴ = Q + σ (g T_s⁴ + GR T_5⁴), solved before Newton starts; from 1 000 K, Newton on
+    # T⁴ would take a quarter of the temperature a step at most before its quadratic end
+    from fem2tmm.constants import SIGMA
+
+    problem = _lone_network(sparse=True)
+    exact = ((0.5 / SIGMA + 0.02 * 3.0**4 + 0.01 * 250.0**4) / 0.03) ** 0.25
+    T0 = np.full(6, 1000.0)
+    sol = solve_steady(problem, T0=T0, tol=1e-12)
+    assert sol.T[4] == pytest.approx(exact, rel=1e-14)  # the closed form, untouched by the Newton steps
+    # the same network with node 4 also conducting to node 3 is an ordinary node: Newton from 1 000 K takes more steps
+    K = problem.K.toarray()
+    K[3, 3] += 1e-6
+    K[4, 4] += 1e-6
+    K[3, 4] = K[4, 3] = -1e-6
+    coupled = solve_steady(dataclasses.replace(problem, K=sp.csr_matrix(K)), T0=T0, tol=1e-12)
+    assert coupled.T[4] == pytest.approx(exact, rel=1e-4)  # a conductor of 1e-6 W/K moves it by little
+    assert sol.iterations < coupled.iterations
+    assert sol.balance["relative"] < 1e-12
+
+
+def test_a_dense_network_read_as_sparse_is_solved_dense_to_the_same_temperatures():
+    # DENSE_NETWORK / DENSE_FILL: a small network whose K is mostly non-zero is solved with dense Jacobians; the
+    # temperatures are the sparse path's to round-off (1e-10 K: Newton's tolerance 1e-12 K, LU round-off)
+    from fem2tmm.solve import steady
+
+    sparse_problem = _lone_network(sparse=True)
+    dense_problem = _lone_network(sparse=False)
+    assert steady._Operators(sparse_problem).dense  # 6 nodes, 16 of 36 entries non-zero: above DENSE_FILL
+    a = solve_steady(sparse_problem, tol=1e-12)
+    b = solve_steady(dense_problem, tol=1e-12)
+    assert np.abs(a.T - b.T).max() < 1e-10

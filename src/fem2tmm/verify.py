@@ -379,7 +379,7 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     from .handover import _by_label
     from .lpm.readers import read_network
     from .lpm.solve import solve_network
-    from .reduce.exported import RANGE_RECOVERY_TOLERANCE, load
+    from .reduce.exported import ESTIMATED_RANGE_TOLERANCE, RANGE_RECOVERY_TOLERANCE, load
     from .solve.steady import solve_steady
 
     t_start = time.perf_counter()
@@ -437,13 +437,16 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
             path = folder / "state.esatan"
             path.write_text(edit_deck(text, edits, sink_C) if values is not None else text, encoding="utf-8")
             net = read_network(path)
-            sol = solve_network(net, T0=design_deck)
+            sol = solve_network(net, T0=design_deck, tol=deck_tol)
             T_sn = _by_label(net, sol.T, names)
             if T_sn is None:
                 raise InternalError("the deck read back lacks some of the network's node labels")
             return T_sn, sol.T, loads, T_sink
 
         design_deck = None
+        # an estimate's states need neither the deck's nor the recovery's last digits (ESTIMATED_RANGE_TOLERANCE)
+        deck_tol, recovery_tol = ((1e-10, RANGE_RECOVERY_TOLERANCE) if estimator is None else
+                                  (ESTIMATED_RANGE_TOLERANCE, ESTIMATED_RANGE_TOLERANCE))
         T_sn0, design_deck, _, _ = deck_state(None)
         # the design state through the same path: the chord from the run's recovered field with the saddle factorised
         # there, which every state below then shares (recover(T0=) would factorise the same saddle once more)
@@ -475,7 +478,7 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
                 continue
             try:
                 T_rec = recovery.recover_about(red.T_recovered, T_sn, loads=loads, T_sink=T_sink,
-                                               tol=RANGE_RECOVERY_TOLERANCE)
+                                               tol=recovery_tol)
                 t1 = time.perf_counter()
                 # the detailed model at that state, its Newton from the recovered field (it converges to the
                 # solver's tolerance from any start: the start only saves iterations, 7 -> 4 on examples/composite)

@@ -68,6 +68,10 @@ ABOUT_FIELDS = 16
 #: three digits against a reference noise of 1e-2 K or more and a campaign floor of 1e-3 K (verify.RANGE_FLOOR_K), and
 #: the 4 decades below it cost 4-8 chord steps a state (examples/composite's 7 states 0.75 -> 0.59 s, 2026-12-07)
 RANGE_RECOVERY_TOLERANCE = 1e-6
+#: and where the range's error is estimated (no detailed reference), the edited decks' solves and recoveries stop at
+#: this one (K): the estimate's own solves stop at a relative 1e-3 (stages.choice.ESTIMATE_TOL) and its figures are
+#: compared with margins of their ray noise (>= 1e-2 K) and 20 % of their size
+ESTIMATED_RANGE_TOLERANCE = 1e-3
 
 _PREFIX = "recovery_"
 

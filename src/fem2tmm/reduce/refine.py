@@ -122,7 +122,8 @@ def local_error(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, dof_cluster
 def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: np.ndarray, weight: np.ndarray,
                     dof_owner: np.ndarray, n_clusters: int, source: tuple | None = None,
                     feedback: tuple | None = None, shares: bool = True,
-                    cache: dict | None = None, tol: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    cache: dict | None = None, tol: float | None = None,
+                    pre: list | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(δT, share)``: the error of every free DOF from one detailed linear solve, and each cluster's share of it.
 
     ``K'_FF δT_F = r_F`` with ``r = residual + Bᵀ dp`` (only the fixed DOFs held): like :func:`local_error` with
@@ -153,6 +154,10 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     cache : a dict keeping the factorisation of ``K + diag(h)`` on the free DOFs for another call with the same
         ``K``, ``h`` and ``free`` (another residual at the same field), or None
     tol : the re-absorption solve's relative tolerance (default :data:`FEEDBACK_TOL`)
+    pre : a list of ``(h on the free DOFs, factorisation of K + diag(h) there)`` at earlier fields, or None.  Where one
+        is near enough (:func:`_preconditioner`) it stands for the factorisation: ``J = K'_p + diag(h − h_p) − G``
+        solved by the same GMRES on ``(I − K'_p⁻¹(G − diag(h − h_p))) δT = K'_p⁻¹ r`` to ``tol``; otherwise the
+        factorisation made here is kept in it (at most :data:`PRECONDITIONERS`: the first and the latest)
 
     Returns
     -------
@@ -169,22 +174,46 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     if not idx.size:
         return dT, share
     cache = {} if cache is None else cache
+    h = np.asarray(h, float)
     if "lu" not in cache:
-        cache["lu"] = factorize((sp.csr_matrix(K) + sp.diags(np.asarray(h, float)))[idx][:, idx], "spd")
-    lu = cache["lu"]
-    if feedback is None:
+        near = _preconditioner(pre, h[idx]) if pre is not None else None
+        if near is None:
+            cache["lu"], cache["shift"] = factorize((sp.csr_matrix(K) + sp.diags(h))[idx][:, idx], "spd"), None
+            if pre is not None:  # kept for the next fields: the first one and the latest
+                pre[:] = pre[:1][: PRECONDITIONERS - 1] + [(h[idx].copy(), cache["lu"])]
+        else:
+            cache["lu"], cache["shift"] = near[1], np.zeros(n)
+            cache["shift"][idx] = h[idx] - near[0]
+    lu, shift = cache["lu"], cache.get("shift")
+    G = Gt = None
+    if feedback is not None:
+        Bf, g, E = feedback
+        G = lambda x: np.asarray(Bf.T @ (g * np.asarray(E @ x).ravel())).ravel()  # noqa: E731
+        Gt = lambda x: np.asarray(E.T @ (g * np.asarray(Bf @ x).ravel())).ravel()  # noqa: E731
+    if shift is not None:  # K' factorised at another field: its diagonal's change joins the iterated operator
+        G = _less(G, shift)
+        Gt = _less(Gt, shift)
+    if G is None:
         dT[idx] = lu.solve(r[idx])
         if not shares:
             return dT, share
         z[idx] = lu.solve((np.asarray(weight, float) * dT)[idx])  # K' symmetric: its own adjoint
     else:
-        Bf, g, E = feedback
-        G = lambda x: np.asarray(Bf.T @ (g * np.asarray(E @ x).ravel())).ravel()  # noqa: E731
-        Gt = lambda x: np.asarray(E.T @ (g * np.asarray(Bf @ x).ravel())).ravel()  # noqa: E731
-        dT[idx] = _fixed_point(lu, r, G, idx, n, tol)
+        limit = None if shift is None else PRECONDITIONED_MAX_ITER
+        x = _fixed_point(lu, r, G, idx, n, tol, limit)
+        if x is None:  # the factorisation at another field did not do: this field's own
+            del cache["lu"]
+            return global_estimate(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares,
+                                   cache, tol, pre=None)
+        dT[idx] = x
         if not shares:
             return dT, share
-        z[idx] = _fixed_point(lu, np.asarray(weight, float) * dT, Gt, idx, n, tol)
+        x = _fixed_point(lu, np.asarray(weight, float) * dT, Gt, idx, n, tol, limit)
+        if x is None:
+            del cache["lu"]
+            return global_estimate(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares,
+                                   cache, tol, pre=None)
+        z[idx] = x
     own = np.asarray(dof_owner)
     sel = own >= 0
     share += np.bincount(own[sel], (z * np.asarray(residual, float))[sel], minlength=n_clusters)
@@ -195,6 +224,41 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
     return dT, share
 
 
+def _less(G, shift: np.ndarray):
+    """``x ↦ G(x) − shift ⊙ x`` (G None: ``−shift ⊙ x``): the operator a factorisation at another field leaves."""
+    if G is None:
+        return lambda x: -shift * x
+    return lambda x: G(x) - shift * x
+
+
+def _preconditioner(pre: list, h: np.ndarray):
+    """The kept ``(h_p, factorisation)`` of ``pre`` nearest the field's ``h`` (on the free DOFs), when the spread of
+    the ratios ``h / h_p`` over the DOFs that emit, κ = max(max h/h_p, 1) / min(min h/h_p, 1), is at most
+    :data:`PRECONDITION_KAPPA`; else None.  K is positive semi-definite, so the eigenvalues of
+    (K + diag(h_p))⁻¹ (K + diag(h)) lie in [min(min h/h_p, 1), max(max h/h_p, 1)]: κ bounds the preconditioned
+    operator's condition number, and GMRES reaches a relative residual ε in about ln(2/ε) / ln((√κ+1)/(√κ−1))
+    iterations (10 at κ = 8, ε = 1e-3; docs/design-notes.md, "The range's estimate on one factorisation")."""
+    best, kappa = None, PRECONDITION_KAPPA
+    for hp, lu in pre:
+        on = hp > 0
+        if np.any((h > 0) != on):
+            continue
+        r = h[on] / hp[on]
+        k = max(float(r.max(initial=1.0)), 1.0) / min(float(r.min(initial=1.0)), 1.0)
+        if k <= kappa:
+            best, kappa = (hp, lu), k
+    return best
+
+
+#: :func:`global_estimate` with ``pre``: a factorisation at another field stands for the field's own while the
+#: spread of the linearised emission's ratios to its own is at most this (:func:`_preconditioner`)
+PRECONDITION_KAPPA = 8.0
+#: and at most this many are kept (the first field's, the estimate's design state, and the latest)
+PRECONDITIONERS = 2
+#: GMRES iterations with such a factorisation before the field's own is made
+PRECONDITIONED_MAX_ITER = 40
+
+
 #: relative residual of the preconditioned re-absorption solve of :func:`global_estimate` (GMRES; the fixed point's
 #: relative change where it falls back to that) at which it stops
 FEEDBACK_TOL = 1e-6
@@ -203,11 +267,13 @@ FEEDBACK_MAX_ITER = 200
 FEEDBACK_RESTART = 20
 
 
-def _fixed_point(lu, rhs: np.ndarray, G, idx: np.ndarray, n: int, tol: float | None = None) -> np.ndarray:
+def _fixed_point(lu, rhs: np.ndarray, G, idx: np.ndarray, n: int, tol: float | None = None,
+                 limit: int | None = None) -> np.ndarray | None:
     """x on ``idx`` solving ``(K' − G) x = rhs`` (``lu`` factors K' on idx; x = 0 off idx): GMRES on the
     preconditioned system ``(I − K'⁻¹G) x = K'⁻¹ rhs`` to ``tol`` (default :data:`FEEDBACK_TOL`; one solve with K' and one product
     with G per iteration, as the fixed point ``x ← K'⁻¹(rhs + G x)`` it accelerates), that fixed point where GMRES
-    stops short.  Raises if it does not contract (more re-absorbed than emitted: a bug of the caller's operators)."""
+    stops short.  Raises if it does not contract (more re-absorbed than emitted: a bug of the caller's operators).
+    ``limit``: at most that many GMRES iterations, and None where they do not reach ``tol`` (no fixed point)."""
     import scipy.sparse.linalg as spla
 
     tol = FEEDBACK_TOL if tol is None else float(tol)
@@ -222,10 +288,13 @@ def _fixed_point(lu, rhs: np.ndarray, G, idx: np.ndarray, n: int, tol: float | N
     if not np.any(b):
         return b
     A = spla.LinearOperator((m, m), matvec=apply, dtype=float)
-    y, info = spla.gmres(A, b, x0=b.copy(), rtol=tol, atol=0.0, restart=FEEDBACK_RESTART,
-                         maxiter=FEEDBACK_MAX_ITER // FEEDBACK_RESTART)
+    its = FEEDBACK_MAX_ITER if limit is None else limit
+    y, info = spla.gmres(A, b, x0=b.copy(), rtol=tol, atol=0.0, restart=min(FEEDBACK_RESTART, its),
+                         maxiter=max(1, its // FEEDBACK_RESTART))
     if info == 0:
         return y
+    if limit is not None:
+        return None
     x = np.zeros(n)
     x[idx] = y
     for _ in range(FEEDBACK_MAX_ITER):

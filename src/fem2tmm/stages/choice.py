@@ -145,7 +145,7 @@ def super_face_of_sides(model, clustering) -> np.ndarray:
 
 
 def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
-             tallies: dict | None = None, budget: tuple[int, float] | None = None) -> dict:
+             tallies: dict | None = None, budget: tuple[int, float] | None = None, pre: list | None = None) -> dict:
     """The a-posteriori estimate of one candidate's recovered-field error, with its own ray noise.
 
     Parameters
@@ -156,6 +156,8 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
     tallies : ``{"a", "b"}`` the two half tallies, traced on first use and shared by the candidates
     budget : ``(rays per side, share of the sides)`` of each half tally (:func:`tally_budget`; None: its uncapped
         value)
+    pre : factorisations of ``K + diag(h)`` at earlier fields, shared by the calls on one candidate
+        (:func:`~fem2tmm.reduce.refine.global_estimate`: one near enough stands for the field's own), or None
 
     Returns
     -------
@@ -187,9 +189,9 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
         if side:
             lu: dict = {}
             out = [error_field(*args, Refinement(side_absorption=tallies[h]), surface, scene, cache=lu,
-                               tol=ESTIMATE_TOL, reabsorb=share >= 1.0) for h in ("a", "b")]
+                               tol=ESTIMATE_TOL, reabsorb=share >= 1.0, pre=pre) for h in ("a", "b")]
         else:
-            out = [error_field(*args, Refinement(), None, None)]
+            out = [error_field(*args, Refinement(), None, None, tol=None if pre is None else ESTIMATE_TOL, pre=pre)]
         steps, w = [o[0] for o in out], out[0][1]  # (the RMS weights: mesh nodes per DOF)
         step = sum(steps) / len(steps)
         size = float(np.abs(step).max(initial=0.0))
@@ -235,6 +237,7 @@ def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=N
     named = {b.name: b for b in case.boundaries if b.name}
     patterns: dict = {}
     tallies = {} if tallies is None else tallies
+    pre: list = []  # factorisations of K + diag(h) at the states estimated so far (the design state's first)
 
     def at(values: dict, T_sn: np.ndarray, T_rec: np.ndarray) -> dict:
         q = np.array(inputs.q_recover, float)
@@ -250,7 +253,7 @@ def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=N
         cand = dataclasses.replace(red, network=net, solution=dataclasses.replace(red.solution, T=T_sn),
                                    T_recovered=T_rec)
         m = dataclasses.replace(model, T_sink=float(values.get("sink", model.T_sink)))
-        return estimate(dataclasses.replace(inputs, model=m, q_recover=q), cand, surface, scene, tallies, budget)
+        return estimate(dataclasses.replace(inputs, model=m, q_recover=q), cand, surface, scene, tallies, budget, pre)
 
     return at
 

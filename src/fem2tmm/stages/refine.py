@@ -175,20 +175,21 @@ def error_field(model: FEModel, clustering: Clustering, case: Case, rm: ReducedM
                 T: np.ndarray, q_recover: np.ndarray, q_lumped: np.ndarray, ir: IRAbsorption | None,
                 state: Refinement, surface: Surface | None = None, scene=None,
                 cache: dict | None = None, tol: float | None = None,
-                reabsorb: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                reabsorb: bool = True, pre: list | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(δT (n_dof,) K, weight (n_dof,))``: the global estimator's error field of the recovered field ``T`` (one
     detailed linear solve, no cluster shares: :func:`~fem2tmm.reduce.refine.global_estimate`) and the RMS weights
     (mesh nodes per DOF).  Arguments as for :func:`error_estimate`; ``cache`` a dict that keeps the factorised
     ``K + diag(h)`` for another call at the same field ``T`` (another tally), or None; ``tol`` the re-absorption
     solve's relative tolerance (:func:`~fem2tmm.reduce.refine.global_estimate`); ``reabsorb`` False leaves the
-    linearised re-absorption G out of the Newton step (``K'⁻¹ r``: linear in the tally)."""
+    linearised re-absorption G out of the Newton step (``K'⁻¹ r``: linear in the tally); ``pre`` factorisations at
+    other fields that may stand for this one's (:func:`~fem2tmm.reduce.refine.global_estimate`), or None."""
     from ..reduce.refine import global_estimate
 
     r, h, source, feedback = refinement_residual(model, case, clustering, rm, T_sn, T, q_recover, q_lumped, ir, state,
                                                  surface, scene)
     weight = np.bincount(model.node_dof[model.node_dof >= 0], minlength=model.n_dof).astype(float)
     dT, _ = global_estimate(model.K, h, r, ~model.fixed_mask, weight, np.full(model.n_dof, -1), 0, source,
-                            feedback if reabsorb else None, shares=False, cache=cache, tol=tol)
+                            feedback if reabsorb else None, shares=False, cache=cache, tol=tol, pre=pre)
     return dT, weight
 
 
