@@ -144,6 +144,9 @@ def factorize(A, kind: str = "spd"):
 #: :func:`saddle_factor` eliminates through the Schur complement while n x m (the dense solves that form it) is at
 #: most this many entries (160 MB); beyond, the whole saddle matrix is factorised
 SCHUR_MAX_ENTRIES = 20_000_000
+#: and keeps Kd⁻¹Aᵀ while it has at most this many entries (32 MB): each solve then needs one back-substitution with
+#: Kd's factors instead of two (the recovery's chord steps, a solve each: examples/composite's 6 802 x 101, 2026-12-07)
+SCHUR_KEEP_ENTRIES = 4_000_000
 
 
 class _SchurSaddle:
@@ -157,8 +160,13 @@ class _SchurSaddle:
         cols = max(1, SCHUR_MAX_ENTRIES // max(self.n, 1))
         S = np.empty((m, m))
         At = self.A.T.tocsc()
+        # Kd⁻¹Aᵀ kept where small: a solve then takes one sparse back-substitution instead of two
+        self.Z = np.empty((self.n, m)) if self.n * m <= SCHUR_KEEP_ENTRIES else None
         for j in range(0, m, cols):  # the m solves in blocks of at most SCHUR_MAX_ENTRIES entries
-            S[:, j:j + cols] = self.A @ self.lu.solve(At[:, j:j + cols].toarray())
+            Zj = self.lu.solve(At[:, j:j + cols].toarray())
+            S[:, j:j + cols] = self.A @ Zj
+            if self.Z is not None:
+                self.Z[:, j:j + cols] = Zj
         self.S = sla.cho_factor(0.5 * (S + S.T))
 
     def solve(self, b: np.ndarray) -> np.ndarray:
@@ -166,7 +174,7 @@ class _SchurSaddle:
         f, g = b[: self.n], b[self.n:]
         y = self.lu.solve(f)
         mu = sla.cho_solve(self.S, self.A @ y - g)
-        x = y - self.lu.solve(np.asarray(self.A.T @ mu))
+        x = y - (self.Z @ mu if self.Z is not None else self.lu.solve(np.asarray(self.A.T @ mu)))
         return np.concatenate([x, mu], axis=0)
 
 

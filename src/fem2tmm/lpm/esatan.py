@@ -68,6 +68,23 @@ def _segments(raw: str) -> list[str]:
     rest of the line (possibly empty)."""
     if "'" not in raw and '"' not in raw:  # no quotes: str methods (a 10⁶-conductor deck, issue 29)
         return raw.split("#", 1)[0].split(";")
+    pieces = raw.split("'")
+    if '"' not in raw and len(pieces) % 2:  # single quotes, closed: str methods on the unquoted pieces (node lines)
+        out, cur = [], ""
+        for k, piece in enumerate(pieces):
+            if k % 2:
+                cur += "'" + piece + "'"
+                continue
+            comment = "#" in piece
+            cut = piece.split("#", 1)[0].split(";")
+            cur += cut[0]
+            if len(cut) > 1:
+                out.append(cur)
+                out.extend(cut[1:-1])
+                cur = cut[-1]
+            if comment:
+                break
+        return out + [cur]
     out, line, quote = [], [], None
     for ch in raw:
         if quote:

@@ -8,6 +8,7 @@ calls of the deck's own subroutines) is refused with the text that could not be 
 from __future__ import annotations
 
 import ast
+import functools
 import math
 import operator
 import re
@@ -30,10 +31,9 @@ def evaluate(text: str, names: dict[str, float] | None = None) -> float:
     s = text.strip()
     if _NUMBER.match(s):  # fast path: a plain number
         return float(_FORTRAN_EXP.sub("e", s))
-    try:
-        tree = ast.parse(_FORTRAN_EXP.sub("e", s), mode="eval")
-    except SyntaxError:
-        raise ExpressionError(f"cannot read the expression {text.strip()!r}") from None
+    tree = _parse(s)
+    if tree is None:
+        raise ExpressionError(f"cannot read the expression {text.strip()!r}")
     names = names or {}
 
     def ev(node):
@@ -67,8 +67,35 @@ def evaluate(text: str, names: dict[str, float] | None = None) -> float:
     return value
 
 
+@functools.lru_cache(maxsize=1 << 16)
+def _parse(s: str):
+    """The syntax tree of the stripped expression ``s`` (None: not Python syntax), kept for the next read of the same
+    text: a deck read again with its constants edited (the validity range's states) parses the same expressions.  The
+    tree is only read, never changed."""
+    try:
+        return ast.parse(_FORTRAN_EXP.sub("e", s), mode="eval")
+    except SyntaxError:
+        return None
+
+
 def split_top(text: str, sep: str = ",") -> list[str]:
     """Split ``text`` at ``sep`` outside quotes and parentheses."""
+    if "(" not in text and ")" not in text and '"' not in text:
+        pieces = text.split("'")
+        if len(pieces) % 2:  # quotes closed: split the unquoted pieces only (an array's numbers, a node's attributes)
+            out, cur = [], ""
+            for k, piece in enumerate(pieces):
+                if k % 2:
+                    cur += "'" + piece + "'"
+                    continue
+                cut = piece.split(sep)
+                cur += cut[0]
+                if len(cut) > 1:
+                    out.append(cur)
+                    out.extend(cut[1:-1])
+                    cur = cut[-1]
+            out.append(cur)
+            return out
     out, depth, quote, start = [], 0, None, 0
     for i, ch in enumerate(text):
         if quote:
