@@ -58,6 +58,12 @@ CHORD_RATE = 0.7
 #: not contract, the history is dropped and a plain step taken, at most CHORD_RESETS times
 CHORD_DEPTH = 5
 CHORD_RESETS = 2
+#: the patient chord of ExportedRecovery.recover_about (a saddle factorised at another state): at most this many
+#: steps, and none beyond PATIENT_GROWTH times the smallest so far.  examples/composite's heater at 4x and its sink
+#: at the warmest temperature, from the design state's saddle: the plain chord diverges (steps of 229, 240, 257 ... K),
+#: Anderson's converges in 11 and 13 steps (2026-12-07)
+PATIENT_STEPS = 30
+PATIENT_GROWTH = 10.0
 #: :meth:`ExportedRecovery.recover_about` keeps at most this many saddle factorisations (the reference field's and
 #: the last states' that needed their own) and this many recovered fields to start from.  examples/composite's 7 range
 #: states: 4 factorisations -> 3, recoveries 0.86 -> 0.75 s (the fields the chord starts from nearer); a saddle of
@@ -378,8 +384,9 @@ class ExportedRecovery:
         The chord iteration with the saddle factorised at ``T_ref`` (or at the field of an earlier state nearer in
         its means: at most :data:`ABOUT_ANCHORS` saddles are kept), from the nearest field recovered so far: its first
         step is the linearised one (Newton's from there, the state's loads, sink and means), the rest the emission's
-        and absorbed IR's departure from that linearisation.  Where it does not contract (a state far from every kept
-        saddle), the saddle is factorised again at the nearest field moved by the linearised response to the change of
+        and absorbed IR's departure from that linearisation, Anderson-accelerated without asking each step to
+        contract (``patient``: a far state's plain chord diverges on a few modes that the accelerated one removes).
+        Where it does not converge (a state far from every kept saddle), the saddle is factorised again at the nearest field moved by the linearised response to the change of
         means alone (clipped at 1 K) and the chord run from there; that saddle is kept for the next states.  Should
         that not contract either, :meth:`recover` takes over from the same start.  The kept saddles and fields are
         those of the last ``T_ref``: a call with another one starts afresh.
@@ -420,7 +427,7 @@ class ExportedRecovery:
 
         anchor = min(held["anchors"], key=lambda a: far(a[0]))
         start = min(held["fields"], key=far)
-        done = self._chord(T_sn, q, sink, start, None, anchor[1], tol=tol)
+        done = self._chord(T_sn, q, sink, start, None, anchor[1], tol=tol, patient=True)
         if done is None:
             # the nearest field moved by the linearised response to the change of means alone (the loads and sink
             # held: a named load's change moves a linearised field too far, 20x a heater drove it below 0 K), its
@@ -632,7 +639,8 @@ class ExportedRecovery:
                 "file, or a [[cases]] entry), or give that part more super nodes")
 
     def _chord(self, T_sn: np.ndarray, q: np.ndarray, T_sink: float, T: np.ndarray,
-               M: sp.spmatrix | None = None, lu=None, tol: float | None = None) -> np.ndarray | None:
+               M: sp.spmatrix | None = None, lu=None, tol: float | None = None,
+               patient: bool = False) -> np.ndarray | None:
         """One factorisation, at the start: iterations on the whole residual (emission and absorbed IR at the
         current field) solved with the saddle matrix of the start's linearised emission.  Near the solution (a
         transient's output times from their linearised recovery: ~0.5 K off) it contracts like the IR
@@ -641,7 +649,10 @@ class ExportedRecovery:
         :data:`CHORD_DEPTH` steps (the range's states from the design field, 150-185 K away on examples/composite:
         0.2-0.26 -> 0.09-0.1 s, docs/design-notes.md).  None when it does not contract; the Newton iteration then
         starts again from ``T``.  ``tol``: the last step's size that ends it (K; default
-        :data:`RECOVERY_TOLERANCE`)."""
+        :data:`RECOVERY_TOLERANCE`).  ``patient``: Anderson's steps need not contract one by one; it gives up after
+        :data:`PATIENT_STEPS` steps, or once a step grows beyond :data:`PATIENT_GROWTH` times the smallest so far (a
+        saddle factorised far from the state, whose plain chord diverges on a few modes that Anderson's history
+        removes: :meth:`recover_about`)."""
         n = self.n_dof
         tol = RECOVERY_TOLERANCE if tol is None else float(tol)
         s4 = T_sink**4
@@ -651,7 +662,8 @@ class ExportedRecovery:
         prev, resets = None, 0
         dz, dg = [], []  # the Anderson history: differences of the last steps d and of the images z + d
         last = None
-        for _ in range(CHORD_MAX):
+        least = np.inf
+        for _ in range(PATIENT_STEPS if patient else CHORD_MAX):
             X, mu = z[:n], z[n:]
             r1 = self.K @ X + SIGMA * self.e * (X**4 - s4) + self.A.T @ mu - q - self._absorbed(X, T_sn, T_sink)
             if M is not None:
@@ -662,7 +674,11 @@ class ExportedRecovery:
                 return None
             if size < max(tol, 1e-13 * float(np.abs(X).max())):
                 return X + d[:n]
-            if prev is not None and size > CHORD_RATE * prev:
+            least = min(least, size)
+            if patient:
+                if size > PATIENT_GROWTH * least:
+                    return None
+            elif prev is not None and size > CHORD_RATE * prev:
                 if not dz or resets == CHORD_RESETS:  # a plain chord step that does not contract: Newton's turn
                     return None
                 # the accelerated step did not pay: a plain step from here, which must contract on the last step
