@@ -419,3 +419,50 @@ def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on():
     assert rec._chord(A @ T30, q, sink, design, None, lu, tol=1e-8) is None
     patient = rec._chord(A @ T30, q, sink, design, None, lu, tol=1e-8, patient=True)
     assert patient is not None and np.abs(patient - T30).max() < 1e-7
+
+
+def test_another_candidate_adopts_the_saddles_of_the_same_operator(monkeypatch):
+    # ExportedRecovery.adopt_about: a second recovery of the same K, A and emitting areas (another candidate network
+    # over the same range, exact at the same design state) takes the first's saddles and fields: its range needs no
+    # factorisation while its reference field is within ABOUT_SAME_REF of the first's, and its answers are its own
+    # (the detailed field to the chord's tolerance).  A recovery of another operator adopts nothing.
+    import dataclasses
+
+    from scipy.sparse.linalg import spsolve
+
+    from fem2tmm.constants import SIGMA
+    from fem2tmm.reduce.exported import ExportedRecovery
+
+    n, e, sink = 20, 1e-2, 3.0
+    K = 0.05 * sp.diags([np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsr()
+    A = sp.csr_matrix((np.full(n, 0.1), (np.repeat([0, 1], 10), np.arange(n))), shape=(2, n))
+    pattern = sp.csr_matrix(([1.0], ([0], [0])), shape=(1, n))
+    kw = dict(K=K, A=A, names=np.array(["a", "b"]), q0=np.zeros(n), load_names=np.array(["heater"]), load_q=pattern,
+              load_values=np.array([1.0]), node_dof=np.arange(n), node_ids=np.arange(101, 101 + n),
+              midside=np.zeros((0, 3), np.int64), mode="emission", e=np.full(n, e), T_sink=sink)
+    first, second = ExportedRecovery(**kw), ExportedRecovery(**kw)
+
+    def detailed(power):
+        T = np.full(n, 300.0)
+        for _ in range(100):
+            r = K @ T + SIGMA * e * (T**4 - sink**4) - power * pattern.toarray()[0]
+            d = spsolve((K + sp.diags(4.0 * SIGMA * e * T**3)).tocsc(), -r)
+            T += d
+            if np.abs(d).max() < 1e-10:
+                break
+        return T
+
+    design = first.recover(A @ detailed(10.0), loads={"heater": 10.0})
+    T20 = detailed(20.0)
+    assert np.abs(first.recover_about(design, A @ T20, loads={"heater": 20.0}) - T20).max() < 1e-8
+    assert second.adopt_about(first)
+    factorised = []
+    real = ExportedRecovery._saddle
+    monkeypatch.setattr(ExportedRecovery, "_saddle", lambda *a, **k: factorised.append(1) or real(*a, **k))
+    T15 = detailed(15.0)
+    # its own design field, 1e-9 K from the first's: the kept saddle serves
+    got = second.recover_about(design + 1e-9, A @ T15, loads={"heater": 15.0})
+    assert not factorised and np.abs(got - T15).max() < 1e-8
+    other = ExportedRecovery(**{**kw, "e": np.full(n, 2 * e)})
+    assert not other.adopt_about(first) and "about" not in other._linear
+    assert not dataclasses.replace(first, K=2.0 * K).adopt_about(first)

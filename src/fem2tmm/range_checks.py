@@ -60,11 +60,12 @@ def deliver_and_verify(run, reduced: Reduced, problem, net, q_orbit, hand_over) 
     floor = getattr(reduced.network.radiative, "floor_linked", None)
     other = run.alternative is not None
     unverified = None
+    shared: dict = {}  # the last candidate's recovery: its saddles and fields, adopted by the next candidate's
     if reduced.verified is None:
         references = {}  # the detailed solutions at the verified states, shared with the other networks' checks
 
         def check(result, warn=False, against=None):
-            return verify_network(result, problem, references, warn=warn, **(against or {}))
+            return verify_network(result, problem, references, warn=warn, shared=shared, **(against or {}))
 
         stage = ("verify", "verifying the network over its validity range (edited decks vs detailed)")
     elif ((other or floor is not None) and reduced.verified.get("reason") == NO_REFERENCE
@@ -76,7 +77,7 @@ def deliver_and_verify(run, reduced: Reduced, problem, net, q_orbit, hand_over) 
 
         def check(result, warn=False, against=None):
             est = range_estimator(net.inputs, result.reduced, *surface_scene, run.tallies, budget)
-            return verify_network(result, problem, None, warn=False, estimator=est, **(against or {}))
+            return verify_network(result, problem, None, warn=False, estimator=est, shared=shared, **(against or {}))
 
         stage = ("estimate_range", "estimating the networks' error over the validity range (no detailed reference)")
     else:

@@ -341,7 +341,7 @@ def why_unverified(result, reference: bool = True) -> dict | None:
 
 
 def verify_network(result, problem, references: dict | None = None, warn: bool = True,
-                   estimator=None, order=None, enough=None) -> dict:
+                   estimator=None, order=None, enough=None, shared: dict | None = None) -> dict:
     """Verify the network a run hands over over its validity range (module docstring), or estimate its error there.
 
     Parameters
@@ -370,6 +370,10 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         ``enough(rms_K) -> bool``, called with the design state's RMS and then each checked state's: True leaves
         the states not yet checked unchecked (rows with ``checked`` False, listed in ``unchecked``).  For a
         candidate that cannot win a choice any more (:func:`cannot_win`).
+    shared : dict, optional
+        Kept between the calls on the candidates of one run (as ``references``): the last candidate's recovery, whose
+        saddles and recovered fields the next one adopts where its detailed operator is the same
+        (:meth:`~fem2tmm.reduce.exported.ExportedRecovery.adopt_about`).
 
     Returns
     -------
@@ -423,6 +427,9 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         # the sink: the constant SINK of a parametric deck, else the space node's temperature
         deck_name["sink"] = "SINK" if re.search(r"^\s*SINK\s*=", text, re.M | re.I) else "SPACE node T"
         recovery = load(folder / "reduced.npz")
+        if shared is not None:
+            recovery.adopt_about(shared.get("recovery"))
+            shared["recovery"] = recovery
         load_names = set(map(str, recovery.load_names))
         # only what the deck holds as a constant (and the recovery as a named load) is a constant a user edits
         defined = set(re.findall(r"^\s*([A-Za-z_]\w*)\s*=", _block(text, "CONSTANTS"), re.M))

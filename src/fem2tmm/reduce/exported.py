@@ -70,6 +70,9 @@ PATIENT_GROWTH = 10.0
 #: detailed size each, so few
 ABOUT_ANCHORS = 2
 ABOUT_FIELDS = 16
+#: a reference field within this of the kept one (K, anywhere) keeps its saddles and fields (:meth:`ExportedRecovery.
+#: adopt_about`: another candidate network over the same range, exact at the same design state)
+ABOUT_SAME_REF = 1e-6
 #: the validity range's recoveries stop at this last step (K), not at RECOVERY_TOLERANCE: its figures are printed to
 #: three digits against a reference noise of 1e-2 K or more and a campaign floor of 1e-3 K (verify.RANGE_FLOOR_K), and
 #: the 4 decades below it cost 4-8 chord steps a state (examples/composite's 7 states 0.75 -> 0.59 s, 2026-12-07)
@@ -415,7 +418,7 @@ class ExportedRecovery:
             raise Fem2TmmError(f"{T_sn.size} super-node temperatures for a network of {self.n_sn}")
         self._absolute(T_sn[:, None])
         held = self._linear.get("about")
-        if held is None or not np.array_equal(held["ref"], T_ref):
+        if held is None or held["ref"].shape != T_ref.shape or np.abs(held["ref"] - T_ref).max() > ABOUT_SAME_REF:
             T0 = T_ref.copy()
             held = {"ref": T0, "anchors": [(T0, self._saddle(4.0 * SIGMA * self.e * T0**3))], "fields": [T0]}
             self._linear["about"] = held
@@ -445,6 +448,20 @@ class ExportedRecovery:
                 held["anchors"] = _kept(held["anchors"], (T0, lu), ABOUT_ANCHORS)
         held["fields"] = _kept(held["fields"], done, ABOUT_FIELDS)
         return done
+
+    def adopt_about(self, other: ExportedRecovery | None) -> bool:
+        """Share the saddles and fields :meth:`recover_about` kept on ``other``, a recovery of the same detailed
+        operator (K, A, the emitting areas): another candidate network over the same range (the floor's two, exact at
+        the same design state) then starts each state from the first's field there, and needs no saddle of its own
+        while its reference field is within :data:`ABOUT_SAME_REF` of the first's.  The saddles are only the chord's
+        preconditioner and the fields its starts: the answers are this recovery's own.  True when shared."""
+        held = None if other is None else other._linear.get("about")
+        if (held is None or self.mode != "emission" or other.mode != "emission" or self.n_dof != other.n_dof
+                or self.n_sn != other.n_sn or not _same_csr(self.K, other.K) or not _same_csr(self.A, other.A)
+                or not np.array_equal(self.e, other.e)):
+            return False
+        self._linear["about"] = held
+        return True
 
     def recover_transient(self, T_sn: np.ndarray, times: np.ndarray, loads=None, T_sink=None,
                           step: float | None = None, scheme: str = "crank-nicolson", orbital: bool = False,
@@ -768,6 +785,12 @@ class ExportedRecovery:
         if len(ms):
             out[ms[:, 0]] = 0.5 * (out[ms[:, 1]] + out[ms[:, 2]])
         return out
+
+
+def _same_csr(a, b) -> bool:
+    """Whether two csr matrices hold the same entries in the same layout."""
+    return (a.shape == b.shape and np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
+            and np.array_equal(a.data, b.data))
 
 
 def _kept(items: list, new, most: int) -> list:
