@@ -249,7 +249,7 @@ def test_composite_refinement_meets_its_target():
 
 
 @pytest.mark.filterwarnings("ignore:.*flow straight into it")
-def test_a_factorisation_at_another_field_stands_for_the_fields_own():
+def test_a_factorisation_at_another_field_stands_for_the_fields_own(monkeypatch):
     # global_estimate(pre=): the range's estimate at a state whose linearised emission h is within PRECONDITION_KAPPA
     # of a field already factorised takes GMRES on that factorisation (to ``tol``) instead of its own; further away
     # it factorises its own and keeps it.  The answer is the direct one to the GMRES tolerance, with and without the
@@ -286,3 +286,14 @@ def test_a_factorisation_at_another_field_stands_for_the_fields_own():
                                         cache=cache, tol=1e-8, pre=pre)
         assert cache["shift"] is None and len(pre) == refine.PRECONDITIONERS
         assert np.abs(far - far_direct).max() < 1e-6 * np.abs(far_direct).max()
+    # where GMRES on the kept factorisation does not reach the tolerance within PRECONDITIONED_MAX_ITER, the field's own
+    # factorisation answers (and is kept as the latest)
+    pre = []
+    refine.global_estimate(model.K, h * 0.8**3, r, free, w, own, 0, shares=False, pre=pre)
+    first = pre[0][1]
+    cache = {}
+    monkeypatch.setattr(refine, "PRECONDITIONED_MAX_ITER", 1)
+    own_lu, _ = refine.global_estimate(model.K, h, r, free, w, own, 0, shares=False, cache=cache, tol=1e-8, pre=pre)
+    direct, _ = refine.global_estimate(model.K, h, r, free, w, own, 0, shares=False)
+    assert cache["shift"] is None and len(pre) == 2 and pre[0][1] is first and pre[1][1] is cache["lu"]
+    assert np.abs(own_lu - direct).max() <= 1e-12 * np.abs(direct).max()

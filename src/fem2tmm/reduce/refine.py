@@ -202,17 +202,13 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
         limit = None if shift is None else PRECONDITIONED_MAX_ITER
         x = _fixed_point(lu, r, G, idx, n, tol, limit)
         if x is None:  # the factorisation at another field did not do: this field's own
-            del cache["lu"]
-            return global_estimate(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares,
-                                   cache, tol, pre=None)
+            return _own(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares, cache, tol, pre)
         dT[idx] = x
         if not shares:
             return dT, share
         x = _fixed_point(lu, np.asarray(weight, float) * dT, Gt, idx, n, tol, limit)
         if x is None:
-            del cache["lu"]
-            return global_estimate(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares,
-                                   cache, tol, pre=None)
+            return _own(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares, cache, tol, pre)
         z[idx] = x
     own = np.asarray(dof_owner)
     sel = own >= 0
@@ -222,6 +218,15 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
         sg = og >= 0
         share += np.bincount(og[sg], (dp * np.asarray(B @ z).ravel())[sg], minlength=n_clusters)
     return dT, share
+
+
+def _own(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares, cache, tol, pre):
+    """:func:`global_estimate` on the field's own factorisation, kept in ``pre`` beside the first."""
+    del cache["lu"]
+    out = global_estimate(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares, cache, tol)
+    idx = np.flatnonzero(np.asarray(free, bool))
+    pre[:] = pre[:1][: PRECONDITIONERS - 1] + [(np.asarray(h, float)[idx].copy(), cache["lu"])]
+    return out
 
 
 def _less(G, shift: np.ndarray):
