@@ -146,22 +146,32 @@ class _Operators:
         n = len(self.g)
         on = np.zeros(n, bool)
         on[free] = True
-        if p.g_table is not None:
+        g = np.array(self.g, float)
+        if p.g_table is not None:  # a table of one value is that constant coupling
             y = np.asarray(p.g_table[1], float)
             on &= np.all(y == y[:, :1], axis=1)
+            g = y[:, 0].copy()
         absK = abs(self.K)
         on &= np.asarray(absK.sum(axis=1)).ravel() + np.asarray(absK.sum(axis=0)).ravel() == 0
         if self.W is not None:
             on &= np.asarray(abs(self.W).sum(axis=0)).ravel() == 0
-        a, b = self.g.copy(), self.g * p.T_sink**4
+        a, b = g, g * p.T_sink**4
         if self.L is not None:
-            L = sp.csr_matrix(self.L)
-            off = (L - sp.diags(L.diagonal())).tocoo()
-            free_mask = np.zeros(n, bool)
-            free_mask[free] = True
-            on[off.row[free_mask[off.col] & (off.data != 0)]] = False
-            a = a + L.diagonal()
-            b = b - np.asarray(off.tocsr() @ np.where(free_mask, 0.0, T**4)).ravel()
+            held_T4 = T**4  # (the fixed nodes' only: a lone node has no free radiative neighbour)
+            held_T4[free] = 0.0
+            if sp.issparse(self.L):
+                L = sp.csr_matrix(self.L)
+                diag = L.diagonal()
+                off = (L - sp.diags(diag)).tocsr()
+                touched = np.asarray(abs(off)[:, free].sum(axis=1)).ravel() > 0
+                b = b - np.asarray(off @ held_T4).ravel()
+            else:
+                diag = np.diag(self.L).copy()
+                off = self.L - np.diag(diag)
+                touched = np.abs(off[:, free]).sum(axis=1) > 0
+                b = b - off @ held_T4
+            on &= ~touched
+            a = a + diag
         idx = np.flatnonzero(on & (a > 0))
         T4 = (p.Q[idx] / SIGMA + b[idx]) / a[idx]
         keep = T4 > 0.0
