@@ -140,3 +140,39 @@ def test_a_dense_network_read_as_sparse_is_solved_dense_to_the_same_temperatures
     a = solve_steady(sparse_problem, tol=1e-12)
     b = solve_steady(dense_problem, tol=1e-12)
     assert np.abs(a.T - b.T).max() < 1e-10
+
+
+def test_a_lone_radiator_beside_a_sparse_network_is_solved_in_closed_form():
+    # The same closed form on the sparse path (a 200-node conducting chain, 1.5 % of K non-zero, stays sparse): the
+    # radiator's row and column of K hold no stored entry, its GR reaches only the held node
+    from fem2tmm.constants import SIGMA
+    from fem2tmm.solve import steady
+
+    n = 202  # 0..199 the chain (0 held at 300 K, 199 heated 2 W), 200 the radiator, 201 held at 250 K
+    main = np.zeros(n)
+    main[:200] = 0.2
+    main[[0, 199]] = 0.1
+    off = np.zeros(n - 1)
+    off[:199] = -0.1
+    K = sp.diags([main, off, off], [0, 1, -1]).tocsr()
+    K.eliminate_zeros()
+    GR = sp.csr_matrix(([0.01, 0.01], ([200, 201], [201, 200])), shape=(n, n))
+    fixed = np.zeros(n, bool)
+    fixed[[0, 201]] = True
+    T_fixed = np.zeros(n)
+    T_fixed[[0, 201]] = [300.0, 250.0]
+    Q = np.zeros(n)
+    Q[[199, 200]] = [2.0, 0.5]
+    g = np.full(n, 1e-3)
+    g[[0, 201]] = 0.0
+    g[200] = 0.02
+    problem = SteadyProblem(K=K, Q=Q, fixed=fixed, T_fixed=T_fixed, g_space=g, T_sink=3.0, GR=GR)
+    ops = steady._Operators(problem)
+    assert not ops.dense
+    start = np.where(fixed, T_fixed, 1000.0)
+    found, T_found = ops.lone(np.flatnonzero(~fixed), start)
+    assert found.tolist() == [200]  # the radiator alone: the chain's nodes conduct, the held nodes are not free
+    sol = solve_steady(problem, T0=np.full(n, 1000.0), tol=1e-12)
+    assert T_found[0] == sol.T[200]
+    exact = ((0.5 / SIGMA + 0.02 * 3.0**4 + 0.01 * 250.0**4) / 0.03) ** 0.25
+    assert sol.T[200] == pytest.approx(exact, rel=1e-14) and sol.balance["relative"] < 1e-12
