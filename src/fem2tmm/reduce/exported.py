@@ -389,10 +389,11 @@ class ExportedRecovery:
         step is the linearised one (Newton's from there, the state's loads, sink and means), the rest the emission's
         and absorbed IR's departure from that linearisation, Anderson-accelerated without asking each step to
         contract (``patient``: a far state's plain chord diverges on a few modes that the accelerated one removes).
-        Where it does not converge (a state far from every kept saddle), the saddle is factorised again at the nearest field moved by the linearised response to the change of
-        means alone (clipped at 1 K) and the chord run from there; that saddle is kept for the next states.  Should
-        that not contract either, :meth:`recover` takes over from the same start.  The kept saddles and fields are
-        those of the last ``T_ref``: a call with another one starts afresh.
+        Where it does not converge (a state far from every kept saddle), the saddle is factorised again at the
+        nearest field moved by the linearised response to the change of means alone (clipped at 1 K) and the chord
+        run from there; that saddle is kept for the next states.  Should that not contract either, :meth:`recover`
+        takes over from the same start.  The kept saddles and fields are those of the last ``T_ref`` (or one within
+        :data:`ABOUT_SAME_REF` of it): a call with another one starts afresh.
 
         Parameters
         ----------
