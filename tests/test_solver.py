@@ -88,8 +88,8 @@ def test_a_stalled_krylov_step_falls_back_to_the_exact_jacobian(monkeypatch):
 
 
 def _lone_network(sparse: bool):
-    """4 nodes, each conducting to every other (0.1 W/K), node 0 held at 300 K, node 3 heated 2 W, each emitting to a 3 K
-    sink; and node 4, a radiator coupled only to the sink (g = 0.02 m²) and by GR = 0.01 m² to node 5, a fixed node at
+    """4 nodes, each conducting to every other (0.1 W/K), node 0 held at 300 K, node 3 heated 2 W, each emitting to a
+    3 K sink; and node 4, a radiator coupled only to the sink (g = 0.02 m²) and by GR = 0.01 m² to node 5, a fixed node at
     250 K, loaded with 0.5 W (a deck's hot-spot node beside its space node)."""
     n = 6
     K = np.zeros((n, n))
