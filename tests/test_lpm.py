@@ -578,65 +578,20 @@ T98 = INTRP1(TIMEM, TTAB1);
     assert net.QI[1] == pytest.approx(7.0) and net.T[5] == pytest.approx(15.0 + KELVIN)
 
 
-def test_split_top_fast_paths_equal_the_character_scan():
-    # split_top cuts a text with no parentheses and closed single quotes (a node's attributes, an array's numbers) by
-    # str.split; the character scan it replaces there decides every other text.  On 20 000 random texts over the
-    # characters that matter, both give the same pieces.
-    from fem2tmm.lpm import expressions
+@pytest.mark.parametrize("what", ["split_top", "_segments"])
+def test_cuts_by_str_methods_equal_the_character_scans(what):
+    # split_top cuts a text with no parentheses and closed single quotes (a node's attributes, an array's numbers),
+    # esatan._segments a deck line with closed single quotes and no double quotes (a node's line), by str methods
+    # (expressions.split_quoted); the character scans decide the others.  On 20 000 random texts over the characters
+    # that matter, both give the same pieces.
+    from fem2tmm.lpm import esatan, expressions
 
-    def scan(text, sep=","):
-        out, depth, quote, start = [], 0, None, 0
-        for i, ch in enumerate(text):
-            if quote:
-                if ch == quote:
-                    quote = None
-            elif ch in "'\"":
-                quote = ch
-            elif ch == "(":
-                depth += 1
-            elif ch == ")":
-                depth -= 1
-            elif ch == sep and depth == 0:
-                out.append(text[start:i])
-                start = i + 1
-        out.append(text[start:])
-        return out
-
+    fast, scan, chars = {"split_top": (expressions.split_top, expressions._split_scan, "ab1 ,,,''\"();="),
+                         "_segments": (esatan._segments, esatan._segments_scan, "ab1 ;;''\"#,=")}[what]
     rng = np.random.default_rng(5)
-    alphabet = np.array(list("ab1 ,,,''\"();="))
+    alphabet = np.array(list(chars))
     for _ in range(20000):
         text = "".join(rng.choice(alphabet, rng.integers(0, 16)))
-        assert expressions.split_top(text) == scan(text), text
+        assert fast(text) == scan(text), text
     assert expressions.split_top("D1 = 'a, b', T = 2") == ["D1 = 'a, b'", " T = 2"]
-
-
-def test_a_deck_lines_cut_by_str_methods_equal_the_character_scan():
-    # esatan._segments cuts a line with closed single quotes and no double quotes (a node's line) by str methods; the
-    # character scan decides the others.  On 20 000 random lines over the characters that matter, both agree.
-    from fem2tmm.lpm import esatan
-
-    def scan(raw):
-        out, line, quote = [], [], None
-        for ch in raw:
-            if quote:
-                line.append(ch)
-                if ch == quote:
-                    quote = None
-                continue
-            if ch == "#":
-                break
-            if ch in "'\"":
-                quote = ch
-            if ch == ";":
-                out.append("".join(line))
-                line = []
-                continue
-            line.append(ch)
-        return out + ["".join(line)]
-
-    rng = np.random.default_rng(6)
-    alphabet = np.array(list("ab1 ;;''\"#,="))
-    for _ in range(20000):
-        raw = "".join(rng.choice(alphabet, rng.integers(0, 16)))
-        assert esatan._segments(raw) == scan(raw), raw
     assert esatan._segments("D1 = 'a;b#', T = 2; # c; d") == ["D1 = 'a;b#', T = 2", " "]

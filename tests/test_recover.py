@@ -341,28 +341,12 @@ def test_a_named_load_far_from_design_recovers_from_the_design_loads_start(monke
     # At 20 and 40 W the default start used to be the linear field with the state's loads and no emission (hundreds
     # of K below 0 at the far end): Newton stalled at 0 K and refused exact means.  It now starts from the means
     # with the loads held at design.
-    from scipy.sparse.linalg import spsolve
-
-    from fem2tmm.constants import SIGMA
     from fem2tmm.reduce.exported import ExportedRecovery
 
-    n, e, sink = 20, 1e-2, 3.0
-    K = 0.05 * sp.diags([np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsr()
-    A = sp.csr_matrix((np.full(n, 0.1), (np.repeat([0, 1], 10), np.arange(n))), shape=(2, n))
-    pattern = sp.csr_matrix(([1.0], ([0], [0])), shape=(1, n))
-    rec = ExportedRecovery(K=K, A=A, names=np.array(["a", "b"]), q0=np.zeros(n), load_names=np.array(["heater"]),
-                           load_q=pattern, load_values=np.array([1.0]), node_dof=np.arange(n),
-                           node_ids=np.arange(101, 101 + n), midside=np.zeros((0, 3), np.int64), mode="emission",
-                           e=np.full(n, e), T_sink=sink)
+    rec, detailed, A = _rod()
     design = None
     for power in (1.0, 20.0, 40.0):
-        T = np.full(n, 300.0)
-        for _ in range(60):  # the detailed model, Newton to 1e-10 K
-            r = K @ T + SIGMA * e * (T**4 - sink**4) - power * pattern.toarray()[0]
-            d = spsolve((K + sp.diags(4.0 * SIGMA * e * T**3)).tocsc(), -r)
-            T += d
-            if np.abs(d).max() < 1e-10:
-                break
+        T = detailed(power)  # the detailed model, Newton to 1e-10 K
         field = rec.recover(A @ T, loads={"heater": power})
         assert np.abs(field - T).max() < 1e-8  # the Newton tolerances (1e-10 K steps); measured 4e-14 - 3e-12 K
         # the validity range's path: every state from the design state's field, through its one saddle
@@ -383,11 +367,10 @@ def test_a_named_load_far_from_design_recovers_from_the_design_loads_start(monke
     assert not factorised and np.abs(again - T).max() < 1e-5
 
 
-def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on():
-    # A 20-node rod radiating to a 3 K sink, two super nodes, heated at one end: the saddle factorised at 10 W serves
-    # the state at 30 W (hot end 320 -> 446 K, its 4σεT³ 2.6x): the plain chord does not contract there and gives up;
-    # the patient one (recover_about's first try, Anderson's steps not asked to contract one by one) converges on the
-    # same saddle to the detailed field (its tolerance 1e-8 K on the last step: measured 5e-9 K)
+def _rod(e_scale: float = 1.0):
+    """``(recovery, detailed, A)``: a 20-node rod (0.05 W/K links) radiating to a 3 K sink (εA 1e-2 m² a node, times
+    ``e_scale`` in the recovery), two super nodes of 10 nodes, a heater on its first node; ``detailed(power)`` its
+    detailed field by Newton to 1e-10 K."""
     from scipy.sparse.linalg import spsolve
 
     from fem2tmm.constants import SIGMA
@@ -400,7 +383,7 @@ def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on():
     rec = ExportedRecovery(K=K, A=A, names=np.array(["a", "b"]), q0=np.zeros(n), load_names=np.array(["heater"]),
                            load_q=pattern, load_values=np.array([1.0]), node_dof=np.arange(n),
                            node_ids=np.arange(101, 101 + n), midside=np.zeros((0, 3), np.int64), mode="emission",
-                           e=np.full(n, e), T_sink=sink)
+                           e=np.full(n, e * e_scale), T_sink=sink)
 
     def detailed(power):
         T = np.full(n, 300.0)
@@ -412,12 +395,23 @@ def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on():
                 break
         return T
 
+    return rec, detailed, A
+
+
+def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on():
+    # The rod's saddle factorised at 10 W serves the state at 30 W (hot end 320 -> 446 K, its 4σεT³ 2.6x): the plain
+    # chord does not contract there and gives up; the patient one (recover_about's first try, Anderson's steps not
+    # asked to contract one by one) converges on the same saddle to the detailed field (its tolerance 1e-8 K on the
+    # last step: measured 5e-9 K)
+    from fem2tmm.constants import SIGMA
+
+    rec, detailed, A = _rod()
     design = rec.recover(A @ detailed(10.0), loads={"heater": 10.0})
     T30 = detailed(30.0)
-    lu = rec._saddle(4.0 * SIGMA * e * design**3)
+    lu = rec._saddle(4.0 * SIGMA * rec.e * design**3)
     q = rec.loads({"heater": 30.0})
-    assert rec._chord(A @ T30, q, sink, design, None, lu, tol=1e-8) is None
-    patient = rec._chord(A @ T30, q, sink, design, None, lu, tol=1e-8, patient=True)
+    assert rec._chord(A @ T30, q, rec.T_sink, design, None, lu, tol=1e-8) is None
+    patient = rec._chord(A @ T30, q, rec.T_sink, design, None, lu, tol=1e-8, patient=True)
     assert patient is not None and np.abs(patient - T30).max() < 1e-7
 
 
@@ -428,30 +422,10 @@ def test_another_candidate_adopts_the_saddles_of_the_same_operator(monkeypatch):
     # (the detailed field to the chord's tolerance).  A recovery of another operator adopts nothing.
     import dataclasses
 
-    from scipy.sparse.linalg import spsolve
-
-    from fem2tmm.constants import SIGMA
     from fem2tmm.reduce.exported import ExportedRecovery
 
-    n, e, sink = 20, 1e-2, 3.0
-    K = 0.05 * sp.diags([np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsr()
-    A = sp.csr_matrix((np.full(n, 0.1), (np.repeat([0, 1], 10), np.arange(n))), shape=(2, n))
-    pattern = sp.csr_matrix(([1.0], ([0], [0])), shape=(1, n))
-    kw = dict(K=K, A=A, names=np.array(["a", "b"]), q0=np.zeros(n), load_names=np.array(["heater"]), load_q=pattern,
-              load_values=np.array([1.0]), node_dof=np.arange(n), node_ids=np.arange(101, 101 + n),
-              midside=np.zeros((0, 3), np.int64), mode="emission", e=np.full(n, e), T_sink=sink)
-    first, second = ExportedRecovery(**kw), ExportedRecovery(**kw)
-
-    def detailed(power):
-        T = np.full(n, 300.0)
-        for _ in range(100):
-            r = K @ T + SIGMA * e * (T**4 - sink**4) - power * pattern.toarray()[0]
-            d = spsolve((K + sp.diags(4.0 * SIGMA * e * T**3)).tocsc(), -r)
-            T += d
-            if np.abs(d).max() < 1e-10:
-                break
-        return T
-
+    first, detailed, A = _rod()
+    second, _, _ = _rod()
     design = first.recover(A @ detailed(10.0), loads={"heater": 10.0})
     T20 = detailed(20.0)
     assert np.abs(first.recover_about(design, A @ T20, loads={"heater": 20.0}) - T20).max() < 1e-8
@@ -463,6 +437,6 @@ def test_another_candidate_adopts_the_saddles_of_the_same_operator(monkeypatch):
     # its own design field, 1e-9 K from the first's: the kept saddle serves
     got = second.recover_about(design + 1e-9, A @ T15, loads={"heater": 15.0})
     assert not factorised and np.abs(got - T15).max() < 1e-8
-    other = ExportedRecovery(**{**kw, "e": np.full(n, 2 * e)})
+    other, _, _ = _rod(e_scale=2.0)
     assert not other.adopt_about(first) and "about" not in other._linear
-    assert not dataclasses.replace(first, K=2.0 * K).adopt_about(first)
+    assert not dataclasses.replace(first, K=2.0 * first.K).adopt_about(first)

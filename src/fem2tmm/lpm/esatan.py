@@ -32,7 +32,7 @@ import numpy as np
 
 from ..constants import KELVIN, SIGMA
 from ..errors import Fem2TmmError
-from .expressions import ExpressionError, evaluate, resolve, split_top
+from .expressions import ExpressionError, evaluate, resolve, split_quoted, split_top
 from .network import Network, couplings_from_lists
 
 _NODE = re.compile(r"^([A-Za-z])\s*(\d+)\s*=\s*(.*)$", re.S)
@@ -68,23 +68,12 @@ def _segments(raw: str) -> list[str]:
     rest of the line (possibly empty)."""
     if "'" not in raw and '"' not in raw:  # no quotes: str methods (a 10⁶-conductor deck, issue 29)
         return raw.split("#", 1)[0].split(";")
-    pieces = raw.split("'")
-    if '"' not in raw and len(pieces) % 2:  # single quotes, closed: str methods on the unquoted pieces (node lines)
-        out, cur = [], ""
-        for k, piece in enumerate(pieces):
-            if k % 2:
-                cur += "'" + piece + "'"
-                continue
-            comment = "#" in piece
-            cut = piece.split("#", 1)[0].split(";")
-            cur += cut[0]
-            if len(cut) > 1:
-                out.append(cur)
-                out.extend(cut[1:-1])
-                cur = cut[-1]
-            if comment:
-                break
-        return out + [cur]
+    cut = split_quoted(raw, ";", "#")  # single quotes (node lines)
+    return cut if cut is not None else _segments_scan(raw)
+
+
+def _segments_scan(raw: str) -> list[str]:
+    """:func:`_segments` character by character: any quotes."""
     out, line, quote = [], [], None
     for ch in raw:
         if quote:

@@ -81,22 +81,42 @@ def _parse(s: str):
 
 def split_top(text: str, sep: str = ",") -> list[str]:
     """Split ``text`` at ``sep`` outside quotes and parentheses."""
-    if "(" not in text and ")" not in text and '"' not in text:
-        pieces = text.split("'")
-        if len(pieces) % 2:  # quotes closed: split the unquoted pieces only (an array's numbers, a node's attributes)
-            out, cur = [], ""
-            for k, piece in enumerate(pieces):
-                if k % 2:
-                    cur += "'" + piece + "'"
-                    continue
-                cut = piece.split(sep)
-                cur += cut[0]
-                if len(cut) > 1:
-                    out.append(cur)
-                    out.extend(cut[1:-1])
-                    cur = cut[-1]
+    if "(" not in text and ")" not in text:  # (an array's numbers, a node's attributes)
+        cut = split_quoted(text, sep)
+        if cut is not None:
+            return cut
+    return _split_scan(text, sep)
+
+
+def split_quoted(text: str, sep: str, stop: str | None = None) -> list[str] | None:
+    """``text`` cut at ``sep`` outside single quotes, and ended at the first ``stop`` outside them (a comment), by
+    ``str`` methods; None where a double quote or an unclosed single quote leaves it to a character scan (the same
+    pieces: tests/test_lpm.py compares them on random texts)."""
+    if '"' in text:
+        return None
+    pieces = text.split("'")
+    if not len(pieces) % 2:
+        return None
+    out, cur = [], ""
+    for k, piece in enumerate(pieces):
+        if k % 2:
+            cur += "'" + piece + "'"
+            continue
+        ended = stop is not None and stop in piece
+        cut = (piece.split(stop, 1)[0] if ended else piece).split(sep)
+        cur += cut[0]
+        if len(cut) > 1:
             out.append(cur)
-            return out
+            out.extend(cut[1:-1])
+            cur = cut[-1]
+        if ended:
+            break
+    out.append(cur)
+    return out
+
+
+def _split_scan(text: str, sep: str = ",") -> list[str]:
+    """:func:`split_top` character by character: any quotes and parentheses."""
     out, depth, quote, start = [], 0, None, 0
     for i, ch in enumerate(text):
         if quote:
@@ -140,4 +160,4 @@ def resolve(definitions, fail) -> dict[str, float]:
     return values
 
 
-__all__ = ["ExpressionError", "evaluate", "resolve", "split_top"]
+__all__ = ["ExpressionError", "evaluate", "resolve", "split_quoted", "split_top"]
