@@ -416,11 +416,12 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         e = model.node_temperatures(T_dof)[ok] - T_ref_nodes
         return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max(initial=0.0))
 
-    # one BLAS thread: each state's work is many small dense operations (the network's Newton, the recovery's Schur
-    # complement and chord steps), which a second thread only slows on a shared machine.  The L-bracket at 100 super
-    # nodes beside another process's single-threaded run (load 1.5): deck solves 0.52 -> 0.07 s, recoveries 1.49 ->
-    # 0.49 s (2026-12-07)
-    with tempfile.TemporaryDirectory(prefix="fem2tmm-verify-") as tmp, blas_threads(1):
+    # estimated, on one BLAS thread: each state's work is then many small dense operations (the network's Newton, the
+    # recovery's Schur complement and chord steps), which a second thread only slows on a shared machine.  The
+    # L-bracket at 100 super nodes beside another process's single-threaded run (load 1.5): deck solves 0.52 -> 0.07 s,
+    # recoveries 1.49 -> 0.49 s (2026-12-07).  With the reference each state's detailed factorisation keeps the threads
+    threads = 1 if estimator is not None else None
+    with tempfile.TemporaryDirectory(prefix="fem2tmm-verify-") as tmp, blas_threads(threads):
         folder = Path(tmp)
         write_network(folder, result, sinda=False)
         text = (folder / "model.esatan").read_text(encoding="utf-8")
