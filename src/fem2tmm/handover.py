@@ -18,7 +18,7 @@ from .export.deliverable import write_network
 from .result import Result
 
 
-def check_deliverable(result: Result, recover: bool = True) -> dict:
+def check_deliverable(result: Result, recover: bool = True, keep: dict | None = None) -> dict:
     """Write the network, read it back (``reduced.npz`` and ``model.esatan`` through :mod:`fem2tmm.lpm`), solve
     each with the network solver and recover the FE field with the recovery read from ``reduced.npz``.
 
@@ -27,18 +27,20 @@ def check_deliverable(result: Result, recover: bool = True) -> dict:
     network solution (a transient run: the deck's transient integrated as written, :func:`deck_transient`, against
     the in-process reduced transient at every output time; ``"esatan_compared"`` says which), "error" when the check
     could not run (its message)}``.  ``recover=False`` skips the recovery (a run without reference has no error to
-    report).
+    report).  ``keep``: a dict that receives what was read back, ``{"reduced": result.reduced, "text": the ESATAN
+    deck's text, "recovery": the recovery of reduced.npz or None}``, for the validity range's check of the same
+    network (:func:`fem2tmm.verify.verify_network` ``shared``), or None.
     """
     from .errors import Fem2TmmError
 
     try:
-        return _check(result, recover)
+        return _check(result, recover, keep)
     except Fem2TmmError as exc:  # e.g. a 0 K sink, which the decks' boundary node cannot hold: say so, go on
         return {"T_sn": None, "T_sn_esatan": None, "T": None, "npz_vs_in_process_K": None,
                 "esatan_vs_in_process_K": None, "error": str(exc)}
 
 
-def _check(result: Result, recover: bool) -> dict:
+def _check(result: Result, recover: bool, keep: dict | None = None) -> dict:
     from .lpm.readers import read_network
     from .lpm.solve import solve_network
     from .reduce.exported import load
@@ -62,6 +64,9 @@ def _check(result: Result, recover: bool) -> dict:
             esatan_vs = None if T_deck is None else float(np.abs(T_deck - rs.T).max(initial=0.0))
             compared = "steady"
         recovery = load(folder / "reduced.npz") if result.reduced.recovery is not None else None
+        if keep is not None:
+            keep.update(reduced=result.reduced, text=(folder / "model.esatan").read_text(encoding="utf-8"),
+                        recovery=recovery)
     T = None
     if recovery is not None and recover:
         T = recovery.recover(T_npz, T0=result.reduced.T_recovered)

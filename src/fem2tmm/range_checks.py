@@ -54,13 +54,16 @@ def deliver_and_verify(run, reduced: Reduced, problem, net, q_orbit, hand_over) 
     from .stages.radiation import warn_emission
     from .verify import NO_REFERENCE, verify_network, warn_off_range, why_unverified
 
+    # the last candidate's recovery (its saddles and fields, adopted by the next candidate's), and what the deliverable
+    # check wrote and read back of the first, which the range's check of that network takes as its own
+    shared: dict = {"written": {}}
     with run.prog.stage("deliverable", "reading back, solving and recovering the network handed over"):
-        reduced.delivered = check_deliverable(run.result, recover=run.dpart.solution is not None)
+        reduced.delivered = check_deliverable(run.result, recover=run.dpart.solution is not None,
+                                              keep=shared["written"])
     reduced.verified = why_unverified(run.result)  # the validity range: checked against the detailed model, or not
     floor = getattr(reduced.network.radiative, "floor_linked", None)
     other = run.alternative is not None
     unverified = None
-    shared: dict = {}  # the last candidate's recovery: its saddles and fields, adopted by the next candidate's
     if reduced.verified is None:
         references = {}  # the detailed solutions at the verified states, shared with the other networks' checks
 

@@ -373,7 +373,9 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     shared : dict, optional
         Kept between the calls on the candidates of one run (as ``references``): the last candidate's recovery, whose
         saddles and recovered fields the next one adopts where its detailed operator is the same
-        (:meth:`~fem2tmm.reduce.exported.ExportedRecovery.adopt_about`).
+        (:meth:`~fem2tmm.reduce.exported.ExportedRecovery.adopt_about`); and ``written``, what the deliverable check
+        wrote and read back of a network (:func:`fem2tmm.handover.check_deliverable` ``keep``), whose deck text and
+        recovery serve for that network instead of writing it again.
 
     Returns
     -------
@@ -423,11 +425,15 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     threads = 1 if estimator is not None else None
     with tempfile.TemporaryDirectory(prefix="fem2tmm-verify-") as tmp, blas_threads(threads):
         folder = Path(tmp)
-        write_network(folder, result, sinda=False)
-        text = (folder / "model.esatan").read_text(encoding="utf-8")
+        written = (shared or {}).get("written") or {}
+        if written.get("reduced") is red and written.get("recovery") is not None:  # read back by the deliverable check
+            text, recovery = written["text"], written["recovery"]
+        else:
+            write_network(folder, result, sinda=False)
+            text = (folder / "model.esatan").read_text(encoding="utf-8")
+            recovery = load(folder / "reduced.npz")
         # the sink: the constant SINK of a parametric deck, else the space node's temperature
         deck_name["sink"] = "SINK" if re.search(r"^\s*SINK\s*=", text, re.M | re.I) else "SPACE node T"
-        recovery = load(folder / "reduced.npz")
         if shared is not None:
             recovery.adopt_about(shared.get("recovery"))
             shared["recovery"] = recovery
