@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["unique", "unique_rows"]
+__all__ = ["kept", "unique", "unique_rows"]
 
 _LIMIT = 2**62  # packed keys stay below this: no int64 overflow in the products and sums
 
@@ -150,3 +150,10 @@ def unique_rows(a, return_inverse: bool = False, return_counts: bool = False):
     if return_counts:
         out += (np.diff(np.append(np.flatnonzero(keep), m)).astype(np.intp),)
     return out[0] if len(out) == 1 else out
+
+
+def kept(items: list, new, most: int) -> list:
+    """``items`` with ``new`` appended, the first and the last ``most`` − 1 kept (a bounded pool of factorisations or
+    fields whose first, the reference's, always stays)."""
+    rest = items[1:] + [new]
+    return items[:1] + (rest[len(rest) - (most - 1):] if most > 1 else [])

@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..arrays import kept
 from ..case.types import TRANSIENT_METHODS
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
@@ -446,8 +447,8 @@ class ExportedRecovery:
             if done is None:
                 done = self.recover(T_sn, loads=loads, T_sink=T_sink, T0=T0)
             else:
-                held["anchors"] = _kept(held["anchors"], (T0, lu), ABOUT_ANCHORS)
-        held["fields"] = _kept(held["fields"], done, ABOUT_FIELDS)
+                held["anchors"] = kept(held["anchors"], (T0, lu), ABOUT_ANCHORS)
+        held["fields"] = kept(held["fields"], done, ABOUT_FIELDS)
         return done
 
     def adopt_about(self, other: ExportedRecovery | None) -> bool:
@@ -792,12 +793,6 @@ def _same_csr(a, b) -> bool:
     """Whether two csr matrices hold the same entries in the same layout."""
     return (a.shape == b.shape and np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
             and np.array_equal(a.data, b.data))
-
-
-def _kept(items: list, new, most: int) -> list:
-    """``items`` with ``new`` appended, the first (the reference's) and the last ``most`` − 1 kept."""
-    rest = items[1:] + [new]
-    return items[:1] + (rest[len(rest) - (most - 1):] if most > 1 else [])
 
 
 def load(path) -> ExportedRecovery:

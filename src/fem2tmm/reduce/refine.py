@@ -49,7 +49,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from ..arrays import unique
+from ..arrays import kept, unique
 from ..constants import SIGMA
 from ..errors import Fem2TmmError
 from ..linalg import factorize
@@ -180,7 +180,7 @@ def global_estimate(K: sp.spmatrix, h: np.ndarray, residual: np.ndarray, free: n
         if near is None:
             cache["lu"], cache["shift"] = factorize((sp.csr_matrix(K) + sp.diags(h))[idx][:, idx], "spd"), None
             if pre is not None:  # kept for the next fields: the first one and the latest
-                pre[:] = pre[:1][: PRECONDITIONERS - 1] + [(h[idx].copy(), cache["lu"])]
+                pre[:] = kept(pre, (h[idx].copy(), cache["lu"]), PRECONDITIONERS)
         else:
             cache["lu"], cache["shift"] = near[1], np.zeros(n)
             cache["shift"][idx] = h[idx] - near[0]
@@ -224,8 +224,7 @@ def _own(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, 
     """:func:`global_estimate` on the field's own factorisation, kept in ``pre`` beside the first."""
     del cache["lu"]
     out = global_estimate(K, h, residual, free, weight, dof_owner, n_clusters, source, feedback, shares, cache, tol)
-    idx = np.flatnonzero(np.asarray(free, bool))
-    pre[:] = pre[:1][: PRECONDITIONERS - 1] + [(np.asarray(h, float)[idx].copy(), cache["lu"])]
+    pre[:] = kept(pre, (np.asarray(h, float)[np.asarray(free, bool)], cache["lu"]), PRECONDITIONERS)
     return out
 
 
@@ -294,8 +293,8 @@ def _fixed_point(lu, rhs: np.ndarray, G, idx: np.ndarray, n: int, tol: float | N
         return b
     A = spla.LinearOperator((m, m), matvec=apply, dtype=float)
     its = FEEDBACK_MAX_ITER if limit is None else limit
-    y, info = spla.gmres(A, b, x0=b.copy(), rtol=tol, atol=0.0, restart=min(FEEDBACK_RESTART, its),
-                         maxiter=max(1, its // FEEDBACK_RESTART))
+    restart = min(FEEDBACK_RESTART, its)
+    y, info = spla.gmres(A, b, x0=b.copy(), rtol=tol, atol=0.0, restart=restart, maxiter=-(-its // restart))
     if info == 0:
         return y
     if limit is not None:

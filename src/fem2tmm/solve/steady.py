@@ -152,11 +152,14 @@ class _Operators:
             on &= np.all(y == y[:, :1], axis=1)
             g = y[:, 0].copy()
         if self.dense:
-            on &= ~((self.K != 0).any(axis=1) | (self.K != 0).any(axis=0))
+            nz = self.K != 0
+            on &= ~(nz.any(axis=1) | nz.any(axis=0))
         else:  # no stored entry in its row or column (without a copy of K: a detailed model's is large)
             on &= (np.diff(self.K.indptr) == 0) & (np.bincount(self.K.indices, minlength=n) == 0)
         if self.W is not None:
             on &= np.asarray(abs(self.W).sum(axis=0)).ravel() == 0
+        if not on.any():  # (a detailed model: every node conducts)
+            return np.zeros(0, np.int64), np.zeros(0)
         a, b = g, g * p.T_sink**4
         if self.L is not None:
             held_T4 = T**4  # (the fixed nodes' only: a lone node has no free radiative neighbour)
