@@ -440,3 +440,32 @@ def test_another_candidate_adopts_the_saddles_of_the_same_operator(monkeypatch):
     other, _, _ = _rod(e_scale=2.0)
     assert not other.adopt_about(first) and "about" not in other._linear
     assert not dataclasses.replace(first, K=2.0 * first.K).adopt_about(first)
+
+
+def test_the_range_shares_the_saddle_of_the_design_states_recovery(monkeypatch):
+    # recover() of the design state (its loads and sink) keeps its chord's saddle and start; the read-back recovery of
+    # the same operator takes it (adopt_about: moved, not copied) and recover_about about the recovered design field
+    # factorises nothing for another state while the start's means are within ABOUT_SEED_K of the design field's
+    # (its answers the detailed field to the chord's tolerance); a start further off is not used, and a recovery at
+    # another state keeps no saddle
+    from fem2tmm.reduce.exported import ABOUT_SEED_K, ExportedRecovery
+
+    run, detailed, A = _rod()
+    back, _, _ = _rod()
+    T1, T2 = detailed(1.0), detailed(2.0)
+    design = run.recover(A @ T1, T0=T1 + 0.5 * ABOUT_SEED_K)  # (A's rows sum to 1: the means 0.5 ABOUT_SEED_K off)
+    assert np.abs(design - T1).max() < 1e-8 and "design_saddle" in run._linear
+    assert back.adopt_about(run) and "design_saddle" not in run._linear and "design_saddle" in back._linear
+    factorised = []
+    real = ExportedRecovery._saddle
+    monkeypatch.setattr(ExportedRecovery, "_saddle", lambda *a, **k: factorised.append(1) or real(*a, **k))
+    got = back.recover_about(design, A @ T2, loads={"heater": 2.0}, tol=1e-9)
+    assert not factorised and np.abs(got - T2).max() < 1e-8
+    far, _, _ = _rod()
+    far_design = far.recover(A @ T1, T0=T1 + 2.0 * ABOUT_SEED_K)
+    assert "design_saddle" in far._linear
+    got = far.recover_about(far_design, A @ T2, loads={"heater": 2.0}, tol=1e-9)
+    assert len(factorised) == 2 and np.abs(got - T2).max() < 1e-8  # its own recover's, and the reference field's
+    other, _, _ = _rod()
+    other.recover(A @ T2, loads={"heater": 2.0})
+    assert "design_saddle" not in other._linear and "chord_saddle" not in other._linear

@@ -434,8 +434,10 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
             recovery = load(folder / "reduced.npz")
         # the sink: the constant SINK of a parametric deck, else the space node's temperature
         deck_name["sink"] = "SINK" if re.search(r"^\s*SINK\s*=", text, re.M | re.I) else "SPACE node T"
+        # the last candidate's saddles and fields, else the saddle of the run's own recovery of the design state
+        if not (shared is not None and recovery.adopt_about(shared.get("recovery"))):
+            recovery.adopt_about(red.recovery)
         if shared is not None:
-            recovery.adopt_about(shared.get("recovery"))
             shared["recovery"] = recovery
         load_names = set(map(str, recovery.load_names))
         # only what the deck holds as a constant (and the recovery as a named load) is a constant a user edits

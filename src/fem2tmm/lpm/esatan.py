@@ -327,6 +327,8 @@ def _read_deck(path, time, window):
 
     def value(line, expr, what, sub=at_start):
         try:
+            if "INTRP1" not in expr.upper():  # (most values: a number or a constant's expression, no table)
+                return evaluate(expr, consts)
             return evaluate(_INTRP1.sub(sub, _INTRP1_OF.sub(of_constant, expr)), consts)
         except ExpressionError as exc:
             fail(line, f"{what}: {exc}")
@@ -461,8 +463,10 @@ def _read_deck(path, time, window):
     Q_t = T_t = None
     if times is not None:
         Q_t, T_t = np.tile(Q, (len(times), 1)), np.tile(T, (len(times), 1))
-    for line, what, num, q, expr in qi_set:
-        i = rows(line, np.array([num]))[0]
+    nums = np.array([x[2] for x in qi_set], np.int64)
+    at_rows = rows(0, nums) if np.isin(nums, sorted_numbers).all() else None  # all at once, else each one's message
+    for j, (line, what, num, q, expr) in enumerate(qi_set):
+        i = rows(line, np.array([num]))[0] if at_rows is None else at_rows[j]
         others = sum(nodes[i][4].get(k, 0.0) for k in _LOADS if k != "QI") if what == "QI" else tabs
         if what == "QI":
             Q[i] = q + others
@@ -472,8 +476,13 @@ def _read_deck(path, time, window):
             vals = [value(line, expr, what, at(t)) + others for t in times] if _INTRP1.search(expr) else \
                 [q + others] * len(times)
             (Q_t if what == "QI" else T_t)[:, i] = vals
-    gr_tables = tuple((rows(line, np.array([a]))[0], rows(line, np.array([b]))[0], rows(line, np.array([k]))[0], x, y)
-                      for line, a, b, k, x, y in gr_of_t)
+    refs = np.array([g[1:4] for g in gr_of_t], np.int64).reshape(-1, 3)
+    if np.isin(refs, sorted_numbers).all():
+        gr_tables = tuple((*(int(v) for v in r), g[4], g[5]) for r, g in zip(rows(0, refs.ravel()).reshape(-1, 3),
+                                                                               gr_of_t))
+    else:
+        gr_tables = tuple((*(rows(line, np.array([v]))[0] for v in (a, b, k)), x, y)
+                          for line, a, b, k, x, y in gr_of_t)
     coords = None
     if any(("FX" in nd[4] or "FY" in nd[4] or "FZ" in nd[4]) for nd in nodes):
         has = np.array([any(k in nd[4] for k in ("FX", "FY", "FZ")) for nd in nodes])

@@ -74,6 +74,10 @@ ABOUT_FIELDS = 16
 #: a reference field within this of the kept one (K, anywhere) keeps its saddles and fields (:meth:`ExportedRecovery.
 #: adopt_about`: another candidate network over the same range, exact at the same design state)
 ABOUT_SAME_REF = 1e-6
+#: the saddle the run's own recovery of the design state factorised (at its chord's start, the reductor's field) stands
+#: for the one :meth:`ExportedRecovery.recover_about` would factorise at the recovered design field where their means
+#: are within this (K): the chord from it is the same iteration on a preconditioner that far off
+ABOUT_SEED_K = 1.0
 #: the validity range's recoveries stop at this last step (K), not at RECOVERY_TOLERANCE: its figures are printed to
 #: three digits against a reference noise of 1e-2 K or more and a campaign floor of 1e-3 K (verify.RANGE_FLOOR_K), and
 #: the 4 decades below it cost 4-8 chord steps a state (examples/composite's 7 states 0.75 -> 0.59 s, 2026-12-07)
@@ -376,7 +380,13 @@ class ExportedRecovery:
         for j in range(k):
             start = linear()[:, j] if starts is None else starts[:, min(j, starts.shape[1] - 1)]
             second = None if starts is None else (lambda j=j: linear()[:, j])
+            self._linear.pop("chord_saddle", None)  # (one column's kept saddle let go before the next factorises)
             T[:, j] = self._nonlinear(Ts[:, j], q[:, j], float(sinks[j]), start, second)
+        # the design state's last chord saddle (its start field, its factorisation) kept for recover_about's reference
+        # (the validity range, about the field recovered here); any other state's let go
+        last = self._linear.pop("chord_saddle", None)
+        if k == 1 and not loads and T_sink is None and times is None and positions is None and last is not None:
+            self._linear["design_saddle"] = last
         return T[:, 0] if one else T
 
     def recover_about(self, T_ref: np.ndarray, T_sn: np.ndarray, loads: dict | None = None,
@@ -422,7 +432,10 @@ class ExportedRecovery:
         held = self._linear.get("about")
         if held is None or held["ref"].shape != T_ref.shape or np.abs(held["ref"] - T_ref).max() > ABOUT_SAME_REF:
             T0 = T_ref.copy()
-            held = {"ref": T0, "anchors": [(T0, self._saddle(4.0 * SIGMA * self.e * T0**3))], "fields": [T0]}
+            seed = self._linear.pop("design_saddle", None)  # the design state's recovery's (ABOUT_SEED_K)
+            if seed is None or seed[0].shape != T0.shape or np.abs(self.A @ (seed[0] - T0)).max() > ABOUT_SEED_K:
+                seed = (T0, self._saddle(4.0 * SIGMA * self.e * T0**3))
+            held = {"ref": T0, "anchors": [seed], "fields": [T0]}
             self._linear["about"] = held
         q = self.loads(loads or {})
         sink = float(self.T_sink if T_sink is None else T_sink)
@@ -455,15 +468,23 @@ class ExportedRecovery:
         """Share the saddles and fields :meth:`recover_about` kept on ``other``, a recovery of the same detailed
         operator (K, A, the emitting areas): another candidate network over the same range (the floor's two, exact at
         the same design state) then starts each state from the first's field there, and needs no saddle of its own
-        while its reference field is within :data:`ABOUT_SAME_REF` of the first's.  The saddles are only the chord's
-        preconditioner and the fields its starts: the answers are this recovery's own.  True when shared."""
-        held = None if other is None else other._linear.get("about")
-        if (held is None or self.mode != "emission" or other.mode != "emission" or self.n_dof != other.n_dof
-                or self.n_sn != other.n_sn or not _same_csr(self.K, other.K) or not _same_csr(self.A, other.A)
-                or not np.array_equal(self.e, other.e)):
+        while its reference field is within :data:`ABOUT_SAME_REF` of the first's.  Where ``other`` has no such
+        fields yet, the saddle its recovery of the design state factorised (:meth:`recover` keeps it) moves here
+        instead: the run's own recovery, whose saddle the range's first state then shares (:data:`ABOUT_SEED_K`).
+        The saddles are only the chord's preconditioner and the fields its starts: the answers are this recovery's
+        own.  True when something was shared."""
+        if (other is None or other is self or self.mode != "emission" or other.mode != "emission"
+                or self.n_dof != other.n_dof or self.n_sn != other.n_sn or not _same_csr(self.K, other.K)
+                or not _same_csr(self.A, other.A) or not np.array_equal(self.e, other.e)):
             return False
-        self._linear["about"] = held
-        return True
+        held = other._linear.get("about")
+        if held is not None:
+            self._linear["about"] = held
+            return True
+        seed = other._linear.pop("design_saddle", None)
+        if seed is not None:
+            self._linear["design_saddle"] = seed
+        return seed is not None
 
     def recover_transient(self, T_sn: np.ndarray, times: np.ndarray, loads=None, T_sink=None,
                           step: float | None = None, scheme: str = "crank-nicolson", orbital: bool = False,
@@ -675,6 +696,7 @@ class ExportedRecovery:
         n = self.n_dof
         tol = RECOVERY_TOLERANCE if tol is None else float(tol)
         s4 = T_sink**4
+        own = lu is None and M is None  # (kept where it converges: recover()'s design state, recover_about's seed)
         if lu is None:  # (a given lu: a saddle factorised at an earlier state, as a transient's steps reuse it)
             lu = self._saddle(4.0 * SIGMA * self.e * T**3, M)
         z = np.concatenate([T, np.zeros(self.n_sn)])  # the field and the constraints' multipliers
@@ -692,6 +714,8 @@ class ExportedRecovery:
             if not np.isfinite(size) or np.any(X + d[:n] <= 0.0):
                 return None
             if size < max(tol, 1e-13 * float(np.abs(X).max())):
+                if own:
+                    self._linear["chord_saddle"] = (np.array(T, float), lu)
                 return X + d[:n]
             least = min(least, size)
             if patient:
