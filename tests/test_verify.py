@@ -277,6 +277,20 @@ def _record(design, states, noise=0.01):
             "states": [{"label": k, "rms_K": v, "max_K": None if v is None else 3 * v} for k, v in states.items()]}
 
 
+def _cut(record: dict, order: list, enough) -> dict:
+    """``record`` cut as verify_network visits its states (``order`` first, then the others) at the first ``enough``
+    (called with the design state's RMS, then each solved state's): the rows after it unchecked."""
+    labels = [r["label"] for r in record["states"]]
+    visit = list(order) + [k for k in labels if k not in order]
+    done = enough(record["design"]["rms_K"])
+    for row in sorted(record["states"], key=lambda r: visit.index(r["label"])):
+        if done:
+            row.update(rms_K=None, max_K=None, checked=False)
+        elif row["rms_K"] is not None:
+            done = enough(row["rms_K"])
+    return record
+
+
 def test_a_candidate_stops_where_it_can_no_longer_win_and_the_choice_is_the_same():
     """:func:`fem2tmm.verify.cannot_win`: another candidate's states are checked in the order of the kept network's
     errors and stop once one is off by the kept worst less the least margin :func:`range_choice` applies.  Over
@@ -295,20 +309,42 @@ def test_a_candidate_stops_where_it_can_no_longer_win_and_the_choice_is_the_same
         full = _record(float(rng.lognormal(-1.0, 1.0)), alt_rms, noise)
         order, enough = cannot_win(kept, relative)
         assert order == sorted((k for k in labels if kept_rms[k] is not None), key=lambda k: -kept_rms[k])
-        # the states as verify_network visits them: the order first, then the others; cut at the first `enough`
-        visit = order + [k for k in labels if k not in order]
-        done = enough(full["design"]["rms_K"])
-        cut = _record(full["design"]["rms_K"], alt_rms, noise)
-        for row in sorted(cut["states"], key=lambda r: visit.index(r["label"])):
-            if done:
-                row.update(rms_K=None, max_K=None, checked=False)
-            elif row["rms_K"] is not None:
-                done = enough(row["rms_K"])
+        cut = _cut(_record(full["design"]["rms_K"], alt_rms, noise), order, enough)
         a, b = range_choice(kept, full, relative), range_choice(kept, cut, relative)
         assert a["thesis"] == b["thesis"], (kept, full, cut)
         assert set(b["failed"]["thesis"]) <= set(a["failed"]["thesis"])
         stopped += any(r.get("checked") is False for r in cut["states"])
     assert stopped > 500  # the cut happens often (measured 1 389 of 3 000)
+
+
+def test_a_kept_network_stops_where_it_must_lose_and_the_choice_is_the_same():
+    """:func:`fem2tmm.verify.must_lose`, the counterpart of ``cannot_win`` for a candidate checked in full first: the
+    kept network's states stop once one is off by more than the other's worst plus the largest margin
+    :func:`range_choice` can apply there.  Over random estimated records (states with and without solutions, each
+    state's noise of the kept network within NOISE_BOUND of the other's largest, margins), every kept record cut where
+    ``enough`` says so gets the choice its full record gets."""
+    from fem2tmm.verify import NOISE_BOUND, must_lose, range_choice
+
+    def record(design, states, noise):
+        return {"design": {"rms_K": design, "max_K": 3 * design}, "estimate_noise": {"rms_K": noise},
+                "states": [{"label": k, "rms_K": v, "max_K": None if v is None else 3 * v} for k, v in states.items()]}
+
+    rng = np.random.default_rng(11)
+    stopped = 0
+    for _ in range(3000):
+        labels = [f"s{i}" for i in range(int(rng.integers(1, 8)))]
+        kept_rms = {k: (None if rng.random() < 0.1 else float(rng.lognormal(0.5, 1.0))) for k in labels}
+        alt_rms = {k: (None if rng.random() < 0.1 else float(rng.lognormal(-0.5, 1.0))) for k in labels}
+        noise = float(rng.choice([0.0, 0.01, 0.3]))
+        kept_noise = noise * NOISE_BOUND * float(rng.random())  # (the bound must_lose assumes)
+        relative = float(rng.choice([0.0, 0.2]))
+        other = record(float(rng.lognormal(-2.0, 1.0)), alt_rms, noise)
+        full = record(float(rng.lognormal(-2.0, 1.0)), kept_rms, kept_noise)
+        order, enough = must_lose(other, relative)
+        cut = _cut(record(full["design"]["rms_K"], kept_rms, kept_noise), order, enough)
+        assert range_choice(full, other, relative)["thesis"] == range_choice(cut, other, relative)["thesis"]
+        stopped += any(r.get("checked") is False for r in cut["states"])
+    assert stopped > 500  # the cut happens often
 
 
 def test_the_range_choice_compares_each_networks_worst_state_beyond_the_reference_noise():
@@ -485,6 +521,10 @@ def test_the_satellites_short_bars_are_fed_along_their_links_where_that_holds_th
     ce = e.summary["reduced"]["choice"]
     fe, ve = ce["floor"], e.summary["reduced"]["verified"]
     assert fe["by"] == "estimate" and fe["source"] == "linked", ce["chosen_by"]
+    # both probed at the state farthest from the design one, the linked network lower there and checked in full, the
+    # held one only until it must lose (verify.must_lose): its worst "at least"
+    assert not fe["unchecked"]["linked"] and fe["unchecked"]["held"], fe
+    assert "at least" in ce["chosen_by"].split("from the held node")[0].rsplit("(", 1)[-1], ce["chosen_by"]
     assert ve["status"] == "UNVERIFIED" and ve["estimated"]["status"] == "estimated"
     assert ce["verified_range"]["by"] == "estimate" and not ce["verified_range"]["thesis"]
     assert e.reduced.method == "radiation_aware"

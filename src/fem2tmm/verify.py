@@ -375,7 +375,11 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         saddles and recovered fields the next one adopts where its detailed operator is the same
         (:meth:`~fem2tmm.reduce.exported.ExportedRecovery.adopt_about`); and ``written``, what the deliverable check
         wrote and read back of a network (:func:`fem2tmm.handover.check_deliverable` ``keep``), whose deck text and
-        recovery serve for that network instead of writing it again.
+        recovery serve for that network instead of writing it again; and ``sessions``, each checked network's deck,
+        recovery, design state and rows: a second call on the same ``result.reduced`` goes on from the first, its
+        states left unchecked there (``enough``) checked now, those checked kept (the floor's choice without the
+        reference probes both candidates at one state before either is checked in full,
+        :func:`fem2tmm.range_checks._floor_choice`).
 
     Returns
     -------
@@ -423,27 +427,36 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     # L-bracket at 100 super nodes beside another process's single-threaded run (load 1.5): deck solves 0.52 -> 0.07 s,
     # recoveries 1.49 -> 0.49 s (2026-12-07).  With the reference each state's detailed factorisation keeps the threads
     threads = 1 if estimator is not None else None
+    sessions = None if shared is None else shared.setdefault("sessions", [])
+    session = next((s for r, s in sessions or () if r is red), None)  # this network checked before: go on from there
     with tempfile.TemporaryDirectory(prefix="fem2tmm-verify-") as tmp, blas_threads(threads):
         folder = Path(tmp)
         written = (shared or {}).get("written") or {}
-        if written.get("reduced") is red and written.get("recovery") is not None:  # read back by the deliverable check
+        if session is not None:
+            text, recovery, constants, deck_name = (session[k] for k in ("text", "recovery", "constants", "deck_name"))
+            noises[:] = session["noises"]
+        elif written.get("reduced") is red and written.get("recovery") is not None:  # read back by the deliverable
             text, recovery = written["text"], written["recovery"]
         else:
             write_network(folder, result, sinda=False)
             text = (folder / "model.esatan").read_text(encoding="utf-8")
             recovery = load(folder / "reduced.npz")
-        # the sink: the constant SINK of a parametric deck, else the space node's temperature
-        deck_name["sink"] = "SINK" if re.search(r"^\s*SINK\s*=", text, re.M | re.I) else "SPACE node T"
-        # the last candidate's saddles and fields, else the saddle of the run's own recovery of the design state
-        if not (shared is not None and recovery.adopt_about(shared.get("recovery"))):
-            recovery.adopt_about(red.recovery)
+        if session is None:
+            # the sink: the constant SINK of a parametric deck, else the space node's temperature
+            deck_name["sink"] = "SINK" if re.search(r"^\s*SINK\s*=", text, re.M | re.I) else "SPACE node T"
+            # the last candidate's saddles and fields, else the saddle of the run's own recovery of the design state
+            if not (shared is not None and recovery.adopt_about(shared.get("recovery"))):
+                recovery.adopt_about(red.recovery)
+            # only what the deck holds as a constant (and the recovery as a named load) is a constant a user edits
+            load_names = set(map(str, recovery.load_names))
+            defined = set(re.findall(r"^\s*([A-Za-z_]\w*)\s*=", _block(text, "CONSTANTS"), re.M))
+            constants = tuple(c for c in constants if c.kind == "sink" or (
+                deck_name[c.name] in defined and (c.kind == "temperature" or c.name in load_names)))
+        elif shared.get("recovery") is not recovery:  # (another candidate's check between: its saddles and fields)
+            recovery.adopt_about(shared.get("recovery"))
         if shared is not None:
             shared["recovery"] = recovery
         load_names = set(map(str, recovery.load_names))
-        # only what the deck holds as a constant (and the recovery as a named load) is a constant a user edits
-        defined = set(re.findall(r"^\s*([A-Za-z_]\w*)\s*=", _block(text, "CONSTANTS"), re.M))
-        constants = tuple(c for c in constants if c.kind == "sink" or (
-            deck_name[c.name] in defined and (c.kind == "temperature" or c.name in load_names)))
         states = verify_states(constants)
         # the named loads' patterns, for the detailed problem at each state (an estimator forms its own loads)
         patterns = (None if estimator is not None else
@@ -473,21 +486,27 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
                 raise InternalError("the deck read back lacks some of the network's node labels")
             return T_sn, sol.T, loads, T_sink
 
-        design_deck = None
         # an estimate's states need neither the deck's nor the recovery's last digits (ESTIMATED_RANGE_TOLERANCE)
         deck_tol, recovery_tol = ((1e-10, RANGE_RECOVERY_TOLERANCE) if estimator is None else
                                   (ESTIMATED_RANGE_TOLERANCE, ESTIMATED_RANGE_TOLERANCE))
-        T_sn0, design_deck, _, _ = deck_state(None)
-        # the design state through the same path: the chord from the run's recovered field with the saddle factorised
-        # there, which every state below then shares (recover(T0=) would factorise the same saddle once more)
-        T_des = recovery.recover_about(red.T_recovered, T_sn0)
-        d_rms, d_max = error(T_des, T_ref_design, {}, T_sn0)
-        node_lo, node_hi = float(T_sn0.min()), float(T_sn0.max())
-        rows = [{"label": st.label, "values": {c.name: c.to_case(st.values[c.name]) for c in constants},
-                 "rms_K": None, "max_K": None, "node_T_C": None, "flagged": False, "error": None, "seconds": 0.0,
-                 "network_s": 0.0} for st in states]
+        if session is None:
+            design_deck = None
+            T_sn0, design_deck, _, _ = deck_state(None)
+            # the design state through the same path: the chord from the run's recovered field with the saddle
+            # factorised there, which every state below then shares (recover(T0=) would factorise it once more)
+            T_des = recovery.recover_about(red.T_recovered, T_sn0)
+            d_rms, d_max = error(T_des, T_ref_design, {}, T_sn0)
+            node_lo, node_hi = float(T_sn0.min()), float(T_sn0.max())
+            rows = [{"label": st.label, "values": {c.name: c.to_case(st.values[c.name]) for c in constants},
+                     "rms_K": None, "max_K": None, "node_T_C": None, "flagged": False, "error": None, "seconds": 0.0,
+                     "network_s": 0.0} for st in states]
+        else:  # its rows copied (the first call's record stays as it was), the unchecked ones to check now
+            design_deck, d_rms, d_max, node_lo, node_hi = (session[k] for k in ("design_deck", "d_rms", "d_max",
+                                                                                 "node_lo", "node_hi"))
+            rows = [{k: v for k, v in r.items() if k != "checked"} for r in session["rows"]]
         rank = {label: i for i, label in enumerate(order or ())}
-        stopped = enough is not None and enough(d_rms)
+        stopped = enough is not None and any(enough(r) for r in [d_rms] + [r["rms_K"] for r in rows
+                                                                           if r["rms_K"] is not None])
         # each state's deck edited, read back and solved, its field recovered from the run's design field through
         # the saddle factorised there (the chord iteration of ExportedRecovery.recover_about; its first step the
         # linearised one): examples/composite's 7 states 1.2 -> 0.26 s of saddle factorisations (the design state's,
@@ -496,6 +515,8 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         # RANGE_RECOVERY_TOLERANCE: recoveries 0.86 -> 0.60 s.  In the order asked (``order``), until ``enough``
         for i in sorted(range(len(states)), key=lambda i: (rank.get(states[i].label, len(rank)), i)):
             st, row = states[i], rows[i]
+            if row["rms_K"] is not None or row["error"] is not None:  # (checked by the first call)
+                continue
             if stopped:
                 row["checked"] = False
                 continue
@@ -563,8 +584,16 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         "flagged": [r["label"] for r in rows if r["flagged"]],
         "node_T_C": [node_lo - KELVIN, node_hi - KELVIN],
         "threshold": {"factor": WARN_FACTOR, "rms_K": WARN_RMS_K, "max_K": WARN_MAX_K},
-        "seconds": time.perf_counter() - t_start,
+        "seconds": time.perf_counter() - t_start + (0.0 if session is None else session["seconds"]),
     }
+    if sessions is not None:  # for a second call on this network
+        keep = {"text": text, "recovery": recovery, "constants": constants, "deck_name": deck_name,
+                "noises": list(noises), "design_deck": design_deck, "d_rms": d_rms, "d_max": d_max,
+                "node_lo": node_lo, "node_hi": node_hi, "rows": rows, "seconds": out["seconds"]}
+        if session is None:
+            sessions.append((red, keep))
+        else:
+            session.update(keep)
     _blocks.cache_clear()  # (the deck's text)
     if warn:
         warn_off_range(case.source, out)
@@ -663,6 +692,32 @@ def range_choice(kept: dict, thesis: dict, relative: float = 0.0) -> dict:
             "worst_state": {"kept": lk, "thesis": lt}, "tolerance_K": tol, "states_K": states, "failed": failed}
 
 
+#: without the reference, the floor's two candidates are first estimated at this state, and the one lower there is
+#: checked in full first (:func:`fem2tmm.range_checks._floor_choice`): the state farthest from the design state (the
+#: first state where it is not one, a single constant's range)
+PROBE_STATE = "all high"
+#: :func:`must_lose` bounds the kept network's estimate noise at the states it leaves unchecked by this many times the
+#: other's largest: both estimates at a state take the same tallies on fields a few K apart (the same state, the same
+#: detailed operator).  Where the choice on the states checked does not hold, every state is checked (the caller)
+NOISE_BOUND = 2.0
+
+
+def must_lose(other: dict, relative: float = 0.0):
+    """``(order, enough)`` for :func:`verify_network` of the kept network when another candidate, checked in full
+    first (``other``, its record), is weighed against it by :func:`range_choice` (``relative`` as there): the kept
+    network's states in the order of ``other``'s errors, largest first, and ``enough(rms_K)``, True once one of its
+    states is off by more than the other's worst plus the largest margin :func:`range_choice` can apply there (the
+    other's estimate noise and the kept one's, bounded by :data:`NOISE_BOUND` times the other's; :data:`RANGE_FLOOR_K`;
+    ``relative`` of that state's RMS): the kept network's worst is then at least that state's, and the other
+    replaces it.  The counterpart of :func:`cannot_win`, for a candidate that wins: its states all checked, the kept
+    network's a few.  Estimated records only (with the reference every state of both is checked)."""
+    wo, _ = range_worst(other)
+    n = float((other.get("estimate_noise") or other.get("reference_noise") or {"rms_K": 0.0})["rms_K"])
+    margin = max(float(np.hypot(n, NOISE_BOUND * n)), RANGE_FLOOR_K)
+    rows = sorted((r for r in other["states"] if r["rms_K"] is not None), key=lambda r: -r["rms_K"])
+    return [r["label"] for r in rows], lambda rms: bool(rms > wo + margin and (1.0 - relative) * rms > wo)
+
+
 def cannot_win(kept: dict, relative: float = 0.0):
     """``(order, enough)`` for :func:`verify_network` of another candidate that :func:`range_choice` will weigh against
     ``kept`` (its record, fully checked): its states in the order of ``kept``'s errors, largest first, and
@@ -682,8 +737,7 @@ def cannot_win(kept: dict, relative: float = 0.0):
     return [r["label"] for r in rows], lambda rms: bool(wk <= rms + margin)
 
 
-__all__ = ["NO_REFERENCE", "Constant", "State", "cannot_win", "edit_deck", "range_choice", "range_worst",
-           "state_problem",
-           "superseded", "unverified", "verify_network", "verify_range", "verify_states", "warn_off_range",
-           "why_unverified", "worse_than_design",
-           "COLDEST_SINK_K", "FLOOR_RELATIVE_MARGIN", "POWER_FACTOR", "RANGE_FLOOR_K", "TEMPERATURE_SWING_K"]
+__all__ = ["NO_REFERENCE", "PROBE_STATE", "Constant", "State", "cannot_win", "edit_deck", "must_lose", "range_choice",
+           "range_worst", "state_problem", "superseded", "unverified", "verify_network", "verify_range",
+           "verify_states", "warn_off_range", "why_unverified", "worse_than_design", "COLDEST_SINK_K",
+           "FLOOR_RELATIVE_MARGIN", "POWER_FACTOR", "RANGE_FLOOR_K", "TEMPERATURE_SWING_K"]

@@ -209,7 +209,7 @@ def estimate(inputs: ReductionInputs, red: Reduced, surface=None, scene=None,
 
 
 def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=None, tallies: dict | None = None,
-                    budget: tuple[int, float] | None = None):
+                    budget: tuple[int, float] | None = None, pre: list | None = None):
     """The estimate of :func:`estimate` at the other states of the validity range, for
     :func:`fem2tmm.verify.verify_network` ``(estimator=)`` in a run without a detailed reference.
 
@@ -217,13 +217,17 @@ def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=N
     under that state's loads (the named power and flux loads' patterns scaled to their edited values,
     :func:`fem2tmm.fem.model.load_patterns`), its held temperatures (the deck's fixed super nodes) and sink; the side
     tallies are geometry and are shared with the design estimate (``tallies``).  The linearisation is the state's
-    own (a factorisation of ``K + diag(h)`` per state), so the estimate is as good off the design state as on it.
+    own, so the estimate is as good off the design state as on it (solved on a factorisation of ``K + diag(h)`` at
+    an earlier state where h has not moved far: :func:`fem2tmm.reduce.refine.global_estimate` ``pre``).
 
     Parameters
     ----------
     inputs : the reduction's inputs (the design state's loads ``q_recover`` (n_dof,) W)
     red : the candidate network (its ``network``, ``solution``, ``case`` and ``ir``)
     surface, scene, tallies, budget : as for :func:`estimate`
+    pre : list, optional
+        The factorisations kept so far, shared by the candidates of one run (the same detailed K; h from each
+        candidate's recovered field at a state, a few K apart); a new list by default.
 
     Returns
     -------
@@ -237,7 +241,7 @@ def range_estimator(inputs: ReductionInputs, red: Reduced, surface=None, scene=N
     named = {b.name: b for b in case.boundaries if b.name}
     patterns: dict = {}
     tallies = {} if tallies is None else tallies
-    pre: list = []  # factorisations of K + diag(h) at the states estimated so far (the design state's first)
+    pre = [] if pre is None else pre  # factorisations of K + diag(h) at the states estimated so far
 
     def at(values: dict, T_sn: np.ndarray, T_rec: np.ndarray) -> dict:
         q = np.array(inputs.q_recover, float)
