@@ -415,6 +415,23 @@ def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on():
     assert patient is not None and np.abs(patient - T30).max() < 1e-7
 
 
+def test_the_patient_chord_damps_a_step_through_zero_kelvin():
+    # The rod's saddle factorised at 1 W serves the state at 10 W (hot end 146 -> 320 K): its first chord steps
+    # overshoot below 0 K.  The plain chord gives up; the patient one scales such a step to leave every node at least
+    # half its temperature (ExportedRecovery._chord) and converges on the same saddle to the detailed field (its
+    # tolerance 1e-9 K on the last, undamped step: measured 2e-10 K)
+    from fem2tmm.constants import SIGMA
+
+    rec, detailed, A = _rod()
+    design = rec.recover(A @ detailed(1.0), loads={"heater": 1.0})
+    T10 = detailed(10.0)
+    lu = rec._saddle(4.0 * SIGMA * rec.e * design**3)
+    q = rec.loads({"heater": 10.0})
+    assert rec._chord(A @ T10, q, rec.T_sink, design, None, lu, tol=1e-9) is None
+    patient = rec._chord(A @ T10, q, rec.T_sink, design, None, lu, tol=1e-9, patient=True)
+    assert patient is not None and np.abs(patient - T10).max() < 1e-8
+
+
 def test_another_candidate_adopts_the_saddles_of_the_same_operator(monkeypatch):
     # ExportedRecovery.adopt_about: a second recovery of the same K, A and emitting areas (another candidate network
     # over the same range, exact at the same design state) takes the first's saddles and fields: its range needs no

@@ -647,7 +647,7 @@ def _orbit_positions_reduced(run: _RunState, net: _Network, reduced: Reduced, q_
             else:
                 pos_args = (reduced.q_recover, q_sn_orbit - orbit_average(opart.fluxes, q_sn_orbit), None)
             opart.T_positions = orbit_positions_reduced(red, *pos_args, reduced.solution.T, run.case,
-                                                        exported=reduced.recovery)
+                                                        exported=reduced.recovery, T_ref=reduced.T_recovered)
         else:
             opart.T_positions = orbit_positions_reduced(
                 net.rm_base, net.q_recover_base, q_sn_orbit, q_orbit if orbit.fluxes_on == "detailed" else None,

@@ -109,6 +109,9 @@ def deliver_and_verify(run, reduced: Reduced, problem, net, q_orbit, hand_over) 
     if run.alternative is not None and run.result.reduced is reduced:  # its warning, held back until it was kept
         warn_emission(reduced.emission_check)
     run.alternative = None
+    for r in (reduced, run.result.reduced):  # the saddles the design state, the positions and the range shared
+        if hasattr(r.recovery, "release"):
+            r.recovery.release()
 
 
 _CHECKED = ("verified", "partly verified", "estimated")

@@ -95,7 +95,7 @@ def orbit_average(fluxes, q: np.ndarray) -> np.ndarray:
 
 
 def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.ndarray, q_dof: np.ndarray | None,
-                            T0: np.ndarray, case: Case, exported=None) -> np.ndarray:
+                            T0: np.ndarray, case: Case, exported=None, T_ref: np.ndarray | None = None) -> np.ndarray:
     """Steady reduced solves with the loads of each orbit position, recovered on the detailed mesh.
 
     ``rm`` the network with ``q_sn`` (k, n) W added to its loads at position j (the thesis': ``rm`` without orbital
@@ -104,7 +104,9 @@ def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.nd
     exact distribution; (k, n_dof) W) or ``q_recover`` alone (super-face loads, uniform over each super node); the
     radiation-aware network with ``exported`` (its :class:`~fem2tmm.reduce.exported.ExportedRecovery`, given when it
     is the method's own recovery; each position's orbital loads, as its transient and ``fem2tmm recover``), started
-    from the recovery about its linearisation.
+    from the recovery about its linearisation, or with ``T_ref`` (n_dof,) K, the recovered design field, through the
+    saddles :meth:`~fem2tmm.reduce.exported.ExportedRecovery.recover_about` shares between the positions
+    (examples/satellite's 16 positions: one saddle factorisation instead of 16).
     Starts from ``T0``; returns (k, n_dof) K."""
     ra = rm.radiative
     recover = ra.recover_linearised if ra is not None and ra.T_lin is not None else rm.reduction.recover
@@ -114,15 +116,22 @@ def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.nd
         sol = solve_steady(reduced_problem(dataclasses.replace(rm, Q=rm.Q + q_sn[j])), T0=T, tol=case.solver.tolerance,
                            max_iter=case.solver.max_iterations)
         T = sol.T
-        T_rec = recover(T, q_recover if q_dof is None else q_recover + q_dof[j])
-        if exported is not None:
+        # the recovery about the network's linearisation, formed where it is needed (half the positions' time on
+        # examples/satellite where recover_about does not start from it)
+        linear = (lambda T=T, j=j: recover(T, q_recover if q_dof is None else q_recover + q_dof[j]))  # noqa: E731
+        if exported is None:
+            T_rec = linear()
+        else:
+            position = j if q_dof is not None else None
             try:
-                T_rec = exported.recover(T, T0=T_rec, positions=np.array([j]) if q_dof is not None else None)
+                T_rec = (exported.recover(T, T0=linear(), positions=None if position is None else np.array([j]))
+                         if T_ref is None else exported.recover_about(T_ref, T, position=position))
             except Fem2TmmError as exc:  # no quasi-static field above 0 K: keep the linearised one, say so
                 import warnings
 
                 warnings.warn(f"orbit position {j}: the exported recovery has no solution ({exc}); the position "
                               "keeps the recovery about the network's linearisation", stacklevel=2)
+                T_rec = linear()
         out.append(T_rec)
     return np.array(out)
 
