@@ -486,3 +486,49 @@ def test_the_range_shares_the_saddle_of_the_design_states_recovery(monkeypatch):
     other, _, _ = _rod()
     other.recover(A @ T2, loads={"heater": 2.0})
     assert "design_saddle" not in other._linear and "chord_saddle" not in other._linear
+
+
+def test_an_orbit_position_through_the_shared_saddle_is_the_positions_own_recovery(monkeypatch):
+    # ExportedRecovery.recover_about(position=j): orbit position j's loads (a row of orbit_q) in place of their orbit
+    # average, as recover(positions=[j]); the run's steady solves at every position take it from the design field, on
+    # the design state's saddle (stages.orbit.orbit_positions_reduced: examples/satellite's 16 positions, one saddle
+    # instead of 16; the positions the same to 2e-11 K, 2026-12-07).  On the rod: three positions heating its first,
+    # middle and last node (2, 0.5, 1 W), orbit-averaged into the design loads; each position's field by both paths
+    # to the chord's tolerance, recover_about on the design state's saddle alone
+    import dataclasses
+
+    from scipy.sparse.linalg import spsolve
+
+    from fem2tmm.constants import SIGMA
+    from fem2tmm.reduce.exported import ExportedRecovery
+
+    rec, _, A = _rod()
+    n = rec.n_dof
+    orbit_q = sp.csr_matrix((np.array([2.0, 0.5, 1.0]), ([0, 1, 2], [0, n // 2, n - 1])), shape=(3, n))
+    weights = np.array([0.5, 0.25, 0.25])
+    rec = dataclasses.replace(rec, q0=np.asarray(weights @ orbit_q).ravel(), orbit_q=orbit_q, orbit_weights=weights)
+
+    def field(q):  # the rod's detailed field under the loads q (n,) W, Newton to 1e-10 K
+        T = np.full(n, 200.0)
+        for _ in range(100):
+            r = rec.K @ T + SIGMA * rec.e * (T**4 - rec.T_sink**4) - q
+            d = spsolve((rec.K + sp.diags(4.0 * SIGMA * rec.e * T**3)).tocsc(), -r)
+            T += d
+            if np.abs(d).max() < 1e-10:
+                return T
+        raise AssertionError("no convergence")
+
+    other, _, _ = _rod()  # (the same rod: the positions' own recoveries, apart from the saddle rec keeps)
+    other = dataclasses.replace(other, q0=rec.q0, orbit_q=orbit_q, orbit_weights=weights)
+    means = [A @ field(orbit_q[j].toarray()[0]) for j in range(3)]  # (each position's own: a physical state)
+    own = [other.recover(T_sn, positions=np.array([j])) for j, T_sn in enumerate(means)]
+    averaged = [other.recover(T_sn) for T_sn in means]
+    design = rec.recover(A @ field(rec.q0))  # (the design state: its saddle kept)
+    factorised = []
+    real = ExportedRecovery._saddle
+    monkeypatch.setattr(ExportedRecovery, "_saddle", lambda *a, **k: factorised.append(1) or real(*a, **k))
+    for j, T_sn in enumerate(means):
+        shared = rec.recover_about(design, T_sn, position=j, tol=1e-9)
+        assert np.abs(shared - own[j]).max() < 1e-8
+        assert np.abs(shared - averaged[j]).max() > 1e-2  # (the position's loads are not the average's)
+    assert not factorised  # the design state's saddle served the three
