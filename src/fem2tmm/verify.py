@@ -375,10 +375,10 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
         saddles and recovered fields the next one adopts where its detailed operator is the same
         (:meth:`~fem2tmm.reduce.exported.ExportedRecovery.adopt_about`); and ``written``, what the deliverable check
         wrote and read back of a network (:func:`fem2tmm.handover.check_deliverable` ``keep``), whose deck text and
-        recovery serve for that network instead of writing it again; and ``sessions``, each checked network's deck,
-        recovery, design state and rows: a second call on the same ``result.reduced`` goes on from the first, its
-        states left unchecked there (``enough``) checked now, those checked kept (the floor's choice without the
-        reference probes both candidates at one state before either is checked in full,
+        recovery serve for that network instead of writing it again; and ``sessions``, each estimated network's
+        deck, recovery, design state and rows (with an ``estimator``): a second call on the same ``result.reduced``
+        goes on from the first, its states left unchecked there (``enough``) checked now, those checked kept (the
+        floor's choice without the reference probes both candidates at one state before either is checked in full,
         :func:`fem2tmm.range_checks._floor_choice`).
 
     Returns
@@ -427,8 +427,10 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     # L-bracket at 100 super nodes beside another process's single-threaded run (load 1.5): deck solves 0.52 -> 0.07 s,
     # recoveries 1.49 -> 0.49 s (2026-12-07).  With the reference each state's detailed factorisation keeps the threads
     threads = 1 if estimator is not None else None
-    sessions = None if shared is None else shared.setdefault("sessions", [])
-    session = next((s for r, s in sessions or () if r is red), None)  # this network checked before: go on from there
+    # this network estimated before: go on from there (estimates only: with the reference every state is checked at
+    # once, and a network's deck and recovery are not kept beyond its check)
+    sessions = None if shared is None or estimator is None else shared.setdefault("sessions", [])
+    session = next((s for r, s in sessions or () if r is red), None)
     with tempfile.TemporaryDirectory(prefix="fem2tmm-verify-") as tmp, blas_threads(threads):
         folder = Path(tmp)
         written = (shared or {}).get("written") or {}
