@@ -203,6 +203,16 @@ def _at(verified: dict, label: str) -> dict:
             "states": [r for r in verified["states"] if r["label"] == label]}
 
 
+def _floor_decision(held: Reduced, linked: Reduced) -> dict:
+    """:func:`fem2tmm.verify.range_choice` of the floor's two candidates (their ``verified`` records), and never a
+    network without a solution at a state the other solves (both are the same method's)."""
+    from .verify import FLOOR_RELATIVE_MARGIN, range_choice
+
+    rc = range_choice(held.verified, linked.verified, relative=FLOOR_RELATIVE_MARGIN)
+    rc["thesis"] = rc["thesis"] and set(rc["failed"]["thesis"]) <= set(rc["failed"]["kept"])
+    return rc
+
+
 def _thesis_cannot_win(reduced: Reduced) -> bool:
     """Estimated ranges only: where the kept network's estimated worst over the range is at most the thesis' estimate
     at the design state alone (beyond its noise, ``reduced.choice``), the thesis' worst over the range, which counts
@@ -255,7 +265,7 @@ def _floor_choice(run, net, reduced: Reduced, check, q_orbit, hand_over) -> Redu
             # is lower there by the margin it needs to win (range_choice's), it is checked in full first and the held
             # one until it must lose, else the held one first and the linked one until it cannot win (the winner's
             # states all needed, the loser's a few: examples/satellite, the links 1.72 K against 6.52 K there,
-            # 20 -> 11 states; on a near tie the held one first, as the L-bracket's 3.06 K against 3.02 K)
+            # 20 -> 12 deck round trips; on a near tie the held one first, as the L-bracket's 3.06 K against 3.02 K)
             label = probed[0]["label"]
             alt.verified = check(result, against=_one_state(label))
             at = {r["label"]: r["rms_K"] for r in alt.verified["states"]}.get(label)
@@ -264,17 +274,16 @@ def _floor_choice(run, net, reduced: Reduced, check, q_orbit, hand_over) -> Redu
                 alt.verified = check(result)
                 reduced.verified = check(run.result, against=dict(zip(("order", "enough"), must_lose(
                     alt.verified, FLOOR_RELATIVE_MARGIN))))
-                if (reduced.verified["unchecked"] and not
-                        range_choice(reduced.verified, alt.verified, relative=FLOOR_RELATIVE_MARGIN)["thesis"]):
-                    reduced.verified = check(run.result)  # (its noise beyond must_lose's bound: all its states)
+                if reduced.verified["unchecked"] and not _floor_decision(reduced, alt)["thesis"]:
+                    # the held network kept after all (its noise beyond must_lose's bound, or the linked one without
+                    # a solution where it was not checked): handed over, so all its states
+                    reduced.verified = check(run.result)
             else:
                 reduced.verified = check(run.result)
                 alt.verified = check(result, against=_against(reduced, FLOOR_RELATIVE_MARGIN))
         else:
             alt.verified = check(result, against=_against(reduced, FLOOR_RELATIVE_MARGIN))
-    rc = range_choice(reduced.verified, alt.verified, relative=FLOOR_RELATIVE_MARGIN)
-    # and never a network without a solution at a state the other solves (both are the same method's)
-    rc["thesis"] = rc["thesis"] and set(rc["failed"]["thesis"]) <= set(rc["failed"]["kept"])
+    rc = _floor_decision(reduced, alt)
     by = "estimate" if reduced.verified["status"] == "estimated" else "reference"
     rec = {"source": "linked" if rc["thesis"] else "held", "tolerance_K": rc["tolerance_K"],
            "seconds": time.perf_counter() - t0, "by": by,
