@@ -398,38 +398,24 @@ def _rod(e_scale: float = 1.0):
     return rec, detailed, A
 
 
-def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on():
+@pytest.mark.parametrize("design_W, state_W", [(10.0, 30.0), (1.0, 10.0)])
+def test_the_patient_chord_reaches_a_state_the_plain_chord_gives_up_on(design_W, state_W):
     # The rod's saddle factorised at 10 W serves the state at 30 W (hot end 320 -> 446 K, its 4σεT³ 2.6x): the plain
     # chord does not contract there and gives up; the patient one (recover_about's first try, Anderson's steps not
-    # asked to contract one by one) converges on the same saddle to the detailed field (its tolerance 1e-8 K on the
-    # last step: measured 5e-9 K)
+    # asked to contract one by one) converges on the same saddle to the detailed field.  From 1 W to 10 W (hot end
+    # 146 -> 320 K) its first steps overshoot below 0 K: the patient chord scales such a step to leave every node at
+    # least half its temperature and goes on (only an undamped step ends it).  Tolerance 1e-9 K on the last step
+    # (measured 5e-9 and 2e-10 K from the detailed field)
     from fem2tmm.constants import SIGMA
 
     rec, detailed, A = _rod()
-    design = rec.recover(A @ detailed(10.0), loads={"heater": 10.0})
-    T30 = detailed(30.0)
+    design = rec.recover(A @ detailed(design_W), loads={"heater": design_W})
+    T = detailed(state_W)
     lu = rec._saddle(4.0 * SIGMA * rec.e * design**3)
-    q = rec.loads({"heater": 30.0})
-    assert rec._chord(A @ T30, q, rec.T_sink, design, None, lu, tol=1e-8) is None
-    patient = rec._chord(A @ T30, q, rec.T_sink, design, None, lu, tol=1e-8, patient=True)
-    assert patient is not None and np.abs(patient - T30).max() < 1e-7
-
-
-def test_the_patient_chord_damps_a_step_through_zero_kelvin():
-    # The rod's saddle factorised at 1 W serves the state at 10 W (hot end 146 -> 320 K): its first chord steps
-    # overshoot below 0 K.  The plain chord gives up; the patient one scales such a step to leave every node at least
-    # half its temperature (ExportedRecovery._chord) and converges on the same saddle to the detailed field (its
-    # tolerance 1e-9 K on the last, undamped step: measured 2e-10 K)
-    from fem2tmm.constants import SIGMA
-
-    rec, detailed, A = _rod()
-    design = rec.recover(A @ detailed(1.0), loads={"heater": 1.0})
-    T10 = detailed(10.0)
-    lu = rec._saddle(4.0 * SIGMA * rec.e * design**3)
-    q = rec.loads({"heater": 10.0})
-    assert rec._chord(A @ T10, q, rec.T_sink, design, None, lu, tol=1e-9) is None
-    patient = rec._chord(A @ T10, q, rec.T_sink, design, None, lu, tol=1e-9, patient=True)
-    assert patient is not None and np.abs(patient - T10).max() < 1e-8
+    q = rec.loads({"heater": state_W})
+    assert rec._chord(A @ T, q, rec.T_sink, design, None, lu, tol=1e-9) is None
+    patient = rec._chord(A @ T, q, rec.T_sink, design, None, lu, tol=1e-9, patient=True)
+    assert patient is not None and np.abs(patient - T).max() < 1e-7
 
 
 def test_another_candidate_adopts_the_saddles_of_the_same_operator(monkeypatch):
