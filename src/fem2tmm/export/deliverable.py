@@ -206,14 +206,19 @@ def write_network(folder: Path, result: Result, sinda: bool = True) -> None:
     into ``folder``."""
     arrays = network_arrays(result)
     np.savez(folder / "reduced.npz", **arrays)
-    deck = network_deck(result)
+    deck = write_deck(folder, result)
     # (the network's nodes: the loads' hot-spot nodes that follow them have no place of their own)
     write_positions(folder / "nodes.csv", deck.numbers[:len(arrays["positions"])], arrays["positions"])
-    stem = Path(result.case.source).stem
-    write_esatan(folder / "model.esatan", deck, title=stem)
     if sinda:
         write_sinda(folder / "model.sinda", deck, submodel=deck.model_name)
 
 
-__all__ = ["deck_node_numbers", "network_arrays", "network_deck", "network_positions", "write_network",
+def write_deck(folder: Path, result: Result) -> Deck:
+    """``model.esatan`` alone into ``folder``, as :func:`write_network` writes it; returns the deck written."""
+    deck = network_deck(result)
+    write_esatan(folder / "model.esatan", deck, title=Path(result.case.source).stem)
+    return deck
+
+
+__all__ = ["deck_node_numbers", "network_arrays", "network_deck", "network_positions", "write_deck", "write_network",
            "write_positions"]
