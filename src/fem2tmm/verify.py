@@ -450,21 +450,19 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
             write_network(folder, result, sinda=False)
             text = (folder / "model.esatan").read_text(encoding="utf-8")
             recovery = load(folder / "reduced.npz")
+        # the last candidate's saddles and fields (none to adopt where its recovery is this one), else, on a first
+        # call, the saddle of the run's own recovery of the design state
+        last = (shared or {}).get("recovery")
+        if last is not recovery and not recovery.adopt_about(last) and session is None:
+            recovery.adopt_about(red.recovery)
         if session is None:
             # the sink: the constant SINK of a parametric deck, else the space node's temperature
             deck_name["sink"] = "SINK" if re.search(r"^\s*SINK\s*=", text, re.M | re.I) else "SPACE node T"
-            # the last candidate's saddles and fields, else the saddle of the run's own recovery of the design state
-            # (none to adopt where the last candidate's recovery is this one)
-            if shared is None or shared.get("recovery") is not recovery:
-                if not (shared is not None and recovery.adopt_about(shared.get("recovery"))):
-                    recovery.adopt_about(red.recovery)
             # only what the deck holds as a constant (and the recovery as a named load) is a constant a user edits
             load_names = set(map(str, recovery.load_names))
             defined = set(re.findall(r"^\s*([A-Za-z_]\w*)\s*=", _block(text, "CONSTANTS"), re.M))
             constants = tuple(c for c in constants if c.kind == "sink" or (
                 deck_name[c.name] in defined and (c.kind == "temperature" or c.name in load_names)))
-        elif shared.get("recovery") is not recovery:  # (another candidate's check between: its saddles and fields)
-            recovery.adopt_about(shared.get("recovery"))
         if shared is not None:
             shared["recovery"] = recovery
         load_names = set(map(str, recovery.load_names))

@@ -124,7 +124,7 @@ def orbit_positions_reduced(rm: ReducedModel, q_recover: np.ndarray, q_sn: np.nd
         else:
             position = j if q_dof is not None else None
             try:
-                T_rec = (exported.recover(T, T0=linear(), positions=None if position is None else np.array([j]))
+                T_rec = (exported.recover(T, T0=linear(), positions=None if position is None else np.array([position]))
                          if T_ref is None else exported.recover_about(T_ref, T, position=position))
             except Fem2TmmError as exc:  # no quasi-static field above 0 K: keep the linearised one, say so
                 import warnings
