@@ -269,7 +269,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
                    f"<figcaption>{html.escape(cap)}</figcaption></figure>" for name, cap in images)
     doc = _page(f"""<h1>fem2tmm report</h1>
 <p>Case: <code>{html.escape(str(s.get('case')))}</code> — fem2tmm {html.escape(str(s.get('version')))}</p>
-<h2>Summary</h2>{_table(rows, ("", ""))}
+<h2>Summary</h2>{_table(rows, ("quantity", "value"))}
 <h2>Temperatures per part [°C]</h2>{_table(part_rows, part_head)}
 <p>Min and max over the part's nodes, mean = plain mean over its nodes.</p>
 <details><summary>Temperatures of the {len(sn_rows)} reduced nodes [°C]</summary>{_table(sn_rows, ("node", "T [°C]"))}</details>
@@ -311,15 +311,23 @@ def _verified_section(v: dict | None) -> str:
 
 
 def _range_table(v: dict) -> str:
-    """One row per state of a verified (or estimated) range record: the constants, RMS, max, cost, remark."""
+    """One row per state of a verified (or estimated) range record: the constants, RMS, max, the state's time, and
+    whether it is flagged (the record's ``threshold``) or has no solution."""
     names = [r["name"] for r in v["range"]]
-    rows = [("design", *(_fmt(r["nominal"], "") for r in v["range"]), _fmt(v["design"]["rms_K"], ""),
-             _fmt(v["design"]["max_K"], ""), "", "")]
+    g = lambda x, digits=4: "—" if x is None else f"{x:.{digits}g}"  # noqa: E731
+    t = v.get("threshold") or {}
+    flag = (f"flagged: above {t['factor']:g} x the design error and {t['rms_K']:g} K RMS or {t['max_K']:g} K max"
+            if t else "flagged")
+    rows = [("design", *(g(r["nominal"]) for r in v["range"]), g(v["design"]["rms_K"], 3),
+             g(v["design"]["max_K"], 3), "", "")]
     for st in v["states"]:
-        rows.append((st["label"], *(_fmt(st["values"][n], "") for n in names), _fmt(st["rms_K"], ""),
-                     _fmt(st["max_K"], ""), _fmt(st.get("seconds"), " s"),
-                     st["error"] or ("above the threshold" if st["flagged"] else "")))
-    head = ("state", *(f"{r['name']} [{r['unit']}]" for r in v["range"]), "RMS [K]", "max [K]", "cost", "")
+        checked = st.get("checked", True) is not False
+        rows.append((st["label"], *(g(st["values"][n]) for n in names), g(st["rms_K"], 3), g(st["max_K"], 3),
+                     "" if not checked else f"{st.get('seconds') or 0.0:.2f}",
+                     st["error"] or (flag if st["flagged"] else "" if checked else "not checked")))
+    unit = {"degC": "°C", "W/m2": "W/m²"}
+    head = ("state", *(f"{r['name']} [{unit.get(r['unit'], r['unit'])}]" for r in v["range"]), "RMS [K]",
+            "max [K]", "time [s]", "remark")
     return _table(rows, head)
 
 
@@ -369,7 +377,8 @@ def _heat_flows_html(hf: dict) -> str:
                    "<p>The interval of the solver's energy books (the last period of a periodic run). Stored heat "
                    "is an output: the model's heat content at the end minus at the start.</p>" + _table(rows, ("", *models)))
     out.append("<p>Signs: inputs heat the model; outputs are positive when the model loses heat (radiated to space, "
-               "into a fixed boundary, stored). The imbalance is relative to the larger of the inputs' and the outputs' "
+               "into a fixed boundary, stored): a negative flow into a fixed boundary is heat that boundary supplies "
+               "to the model. The imbalance is relative to the larger of the inputs' and the outputs' "
                "sums.</p>")
     parts = hf.get("parts") or []
     if parts:

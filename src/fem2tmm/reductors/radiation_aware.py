@@ -392,8 +392,9 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     state ``sol``; a super node whose balance there asks for a negative emitting area gets the heat it lacks by
     conduction from a warmer held node first (:func:`fem2tmm.reduce.radiative.emission_floor_links`).
     ``held_W`` (n,) W or None: the heat each fixed node gives the structure in the detailed model at
-    that state; what its conductors do not carry (the emission of the fin next to it, steeper than its neighbours'
-    mean temperatures show) becomes its own coupling to space, at its own temperature, so that the network's heat
+    that state; what its conductors and its radiative couplings to the other super nodes do not carry (the emission
+    of the fin next to it, steeper than its neighbours' mean temperatures show; a held part's own emission to space)
+    becomes its own coupling to space, at its own temperature, so that the network's heat
     books match the detailed ones (it moves no temperature: the node is fixed).  ``g_space`` (n,) m² or None: each
     node's physical coupling to space (default ``rm.g_space``; the network handed in may carry another, the outer
     iterations' :func:`one_node_emission`).  ``self_exchange`` (n,) m² or None: each super node's coupling to
@@ -418,10 +419,15 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
     g_fixed = np.where(rm.fixed, g_space, 0.0)
     if held_W is not None:
         d4 = T**4 - rm.T_sink**4
+        G = None if rm.GR is None else np.asarray(rm.GR, float)
         for i in np.flatnonzero(rm.fixed):
             row = -np.array(rm.K[i], float)
             row[i] = 0.0
-            left = float(held_W[i] - row @ (T[i] - T))  # W the conductors do not carry
+            # W neither its conductors nor its radiative couplings to the other super nodes carry (a held part that
+            # radiates into the structure, examples/composite's deck: 88 W to the panels, booked to space as well
+            # until 2026-12-07, 32 % too much radiated in all)
+            exchange = 0.0 if G is None else SIGMA * float(G[i] @ (T[i] ** 4 - T**4))
+            left = float(held_W[i] - row @ (T[i] - T) - exchange)
             if np.isfinite(left) and abs(d4[i]) > 1e-12 * T[i] ** 4:
                 g_fixed[i] = left / (SIGMA * d4[i])
     # the emission slope to match: H less what a concave super node re-absorbs of its own emission (4σ GR_self T³),
