@@ -17,6 +17,7 @@ from conftest import composite_box_case, make_case
 from fem2tmm import meshes
 from fem2tmm.cli import main
 from fem2tmm.constants import KELVIN
+from fem2tmm.errors import Fem2TmmError
 from fem2tmm.pipeline import run
 from fem2tmm.reduce.exported import load
 from fem2tmm.recovering import recover
@@ -136,6 +137,25 @@ def test_recover_round_trip_reproduces_the_run_outputs(plate_run, tmp_path):
     assert len(ia) == len(ib) == 1 and max(abs(ia[0][g] - ib[0][g]) for g in ia[0]) < 1e-9
     # every node of the model written, by original id
     assert len(ia[0]) == int(ok.sum()) and set(ia[0]) == set(PLATE.node_ids[ok].tolist())
+
+
+def test_rows_may_name_their_super_node_by_its_deck_number(plate_run, tmp_path):
+    # an ESATAN or SINDA result lists node numbers (D1001 = 'plate_1' in model.esatan, 1001 in model.sinda): a CSV
+    # of numbers (1001, and D1002 for the next) recovers what the same CSV of names recovers, to the bit
+    out = plate_run.out
+    z = np.load(out / "reduced.npz")
+    deck = (out / "model.esatan").read_text()
+    for name, number in zip(z["names"][:3], z["numbers"][:3]):  # the numbers are the deck's
+        assert f"D{int(number)} = '{name}'" in deck
+    by_name = write_csv(tmp_path / "names.csv", z["names"], [z["T"]])
+    keys = [f"D{int(v)}" if i == 1 else str(int(v)) for i, v in enumerate(z["numbers"])]
+    by_number = write_csv(tmp_path / "numbers.csv", keys, [z["T"]])
+    a = recover(out, by_name)["temperature"]
+    b = recover(out, by_number)["temperature"]
+    assert np.array_equal(a, b, equal_nan=True)
+    bad = write_csv(tmp_path / "bad.csv", [str(int(z["numbers"].max()) + 1)] + keys[1:], [z["T"]])
+    with pytest.raises(Fem2TmmError, match="deck numbers"):
+        recover(out, bad)
 
 
 def test_two_columns_and_a_named_load_give_what_a_fresh_run_gives(plate_run, tmp_path):

@@ -5,8 +5,9 @@ their own tool, hot and cold, along an orbit, and maps the super-node temperatur
 thermo-elastic analysis with the recovery ``reduced.npz`` carries (:mod:`fem2tmm.reduce.exported`).
 
 The temperature file is a CSV with a header row: first column the super-node name as in the deck (``reduced.npz``
-``names``; case-insensitive), then one column per time or case (°C); its header names the columns.  Every super node
-of the network must have a row.  Optional rows: a named load (``[[boundary]]`` name of a power or flux boundary, in
+``names``; case-insensitive) or its number there (``1001`` or ``D1001``, ``reduced.npz`` ``numbers``: what an
+ESATAN or SINDA result lists), then one column per time or case (°C); its header names the columns.  Every super
+node of the network must have a row.  Optional rows: a named load (``[[boundary]]`` name of a power or flux boundary, in
 W or W/m²) and ``sink`` (°C) give that value per column; the design value otherwise; ``time`` (s, on the run's
 time axis) gives each column's orbital loads to a network with orbital loads traced on the FE faces (the orbit
 average otherwise, as in the steady design case), or ``position`` (the orbit position counted from 1: position 1
@@ -29,10 +30,13 @@ from .constants import KELVIN
 from .errors import Fem2TmmError
 
 
-def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.ndarray
+def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.ndarray,
+                           numbers: np.ndarray | None = None
                            ) -> tuple[np.ndarray, dict, np.ndarray | None, list[str], np.ndarray | None,
                                       np.ndarray | None]:
-    """Parse a temperature CSV (module docstring).
+    """Parse a temperature CSV (module docstring).  ``numbers`` (n_sn,) int or None: each super node's number in the
+    decks (``D1001``, SINDA's ``1001``), in the order of ``names``; a row may then name its node by either (an
+    ESATAN or SINDA result lists the numbers).
 
     Returns ``(T_sn (n_sn, k) K, loads {name: (k,)}, sinks (k,) K or None, column labels, times (k,) s or None,
     positions (k,) int (counted from 0) or None)``; raises
@@ -50,6 +54,10 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
     labels = [c.strip() or f"column {j}" for j, c in enumerate(rows[0][1:], start=2)]
     k = len(labels)
     index = {str(n).upper(): i for i, n in enumerate(names)}
+    if numbers is not None:  # the deck's numbers, where no label reads the same
+        for i, num in enumerate(np.asarray(numbers).ravel()):
+            for alias in (str(int(num)), f"D{int(num)}"):
+                index.setdefault(alias, i)
     loads_index = {str(n).upper(): str(n) for n in load_names}
     T = np.full((len(names), k), np.nan)
     loads: dict[str, np.ndarray] = {}
@@ -91,7 +99,9 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
             raise Fem2TmmError(f"{path}: row {lineno}: {key!r} is no super node of this network (nor a named load: "
                                f"{', '.join(map(str, load_names)) or 'none'}, nor 'sink', 'time' or 'position'); its "
                                "super nodes are "
-                               f"{', '.join(map(str, names[:8]))}{' ...' if len(names) > 8 else ''}")
+                               f"{', '.join(map(str, names[:8]))}{' ...' if len(names) > 8 else ''}"
+                               + ("" if numbers is None else " (or their deck numbers "
+                                  f"{', '.join(str(int(v)) for v in np.asarray(numbers).ravel()[:4])} ...)"))
     missing = [str(names[i]) for i in range(len(names)) if i not in seen]
     if missing:
         raise Fem2TmmError(f"{path}: no row for super node(s) {', '.join(missing[:10])}"
@@ -146,11 +156,13 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None, in
 
         out = check_output_place(out)  # before any computation
     rec = load(npz)
+    numbers = _deck_numbers(npz, rec.names)
     where = str(temperatures) if isinstance(temperatures, (str, Path)) else "the temperatures"
     if isinstance(temperatures, (str, Path)):
-        T_sn, loads, sinks, labels, times, positions = read_temperature_table(temperatures, rec.names, rec.load_names)
+        T_sn, loads, sinks, labels, times, positions = read_temperature_table(temperatures, rec.names, rec.load_names,
+                                                                              numbers)
     else:
-        T_sn, loads, sinks, labels, times, positions = _from_mapping(temperatures, rec.names, rec.load_names)
+        T_sn, loads, sinks, labels, times, positions = _from_mapping(temperatures, rec.names, rec.load_names, numbers)
     if positions is not None:
         k = 0 if rec.orbit_q is None else rec.orbit_q.shape[0]
         if not k:
@@ -183,7 +195,18 @@ def recover(out_dir: str | Path, temperatures, out: str | Path | None = None, in
     return result
 
 
-def _from_mapping(temps, names, load_names):
+def _deck_numbers(npz: Path, names: np.ndarray) -> np.ndarray | None:
+    """(n_sn,) the deck number of each of the recovery's super nodes ``names``, from ``reduced.npz`` ``numbers``
+    (None for a file written before it carried them, or a name it lacks)."""
+    with np.load(npz, allow_pickle=False) as z:
+        if "numbers" not in z.files:
+            return None
+        of = dict(zip(z["names"].astype(str), np.asarray(z["numbers"]).astype(np.int64)))
+    got = [of.get(str(n)) for n in names]
+    return None if any(v is None for v in got) else np.array(got, np.int64)
+
+
+def _from_mapping(temps, names, load_names, numbers=None):
     lower = {str(k).upper(): v for k, v in dict(temps).items()}
     k = max((np.atleast_1d(np.asarray(v, float)).size for v in lower.values()), default=1)
     rows = [["node"] + [f"column {j + 1}" for j in range(k)]]
@@ -197,7 +220,7 @@ def _from_mapping(temps, names, load_names):
         buf = io.StringIO()
         csv.writer(buf).writerows(rows)
         p.write_text(buf.getvalue(), encoding="utf-8")
-        return read_temperature_table(p, names, load_names)
+        return read_temperature_table(p, names, load_names, numbers)
 
 
 def _write(folder: Path, vtu: Path, node_ids: np.ndarray, T: np.ndarray, labels: list[str]) -> None:
