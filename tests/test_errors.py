@@ -207,3 +207,16 @@ def test_cli_success_writes_outputs(tmp_path):
     assert main(["run", str(tmp_path / "case.toml"), "--quiet"]) == 0
     out = tmp_path / "case-out"
     assert {p.name for p in out.iterdir()} >= {"summary.json", "temperatures.vtu", "temperatures.bdf"}
+
+
+def test_a_missing_mesh_names_the_case_file_and_its_key(tmp_path, capsys):
+    # `fem2tmm run` and `fem2tmm inspect` of a case whose [mesh] file is misspelled: one line naming the case file,
+    # the key and the path looked for, before anything runs; nothing written
+    write_plate_msh(tmp_path / "plate.msh")
+    case = tmp_path / "case.toml"
+    case.write_text(plate_case_toml("plate").replace("plate.msh", "plate2.msh"))
+    for argv in (["run", str(case), "--out", str(tmp_path / "out")], ["inspect", str(case)]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert f"{case}: [mesh] file: {tmp_path / 'plate2.msh'} does not exist" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()

@@ -155,15 +155,18 @@ def _recover(args) -> int:
 def _inspect(args) -> int:
     import json
 
-    from .inspection import inspect_mesh, inspection_text
+    from .inspection import inspect_mesh, inspection_text, with_case_thickness
 
     if str(args.mesh).lower().endswith(".toml"):  # a case: its mesh, with its parts' counts
         from .case import Case
+        from .pipeline import check_mesh_file
 
         case = Case.from_toml(args.mesh)
+        check_mesh_file(case)
         parts = [(p.name, list(p.groups), p.super_nodes) for p in case.parts]
-        rep = inspect_mesh(case.mesh.file, unit=case.mesh.unit,
-                           unit_system=args.unit_system or getattr(case.mesh, "unit_system", None), parts=parts)
+        rep = with_case_thickness(inspect_mesh(
+            case.mesh.file, unit=case.mesh.unit, unit_system=args.unit_system or getattr(case.mesh, "unit_system", None),
+            parts=parts), case)
         rep["unit_key"] = "[mesh] unit"  # where the unit comes from (what a size warning advises to change)
     else:
         rep = inspect_mesh(args.mesh, unit=args.unit, unit_system=args.unit_system)

@@ -113,8 +113,8 @@ def _group_report(mesh: Mesh, name: str, feature_angle: float, node_use=None) ->
         rep["area_m2"] = float(np.nansum(area))
         t = None if prop is None else prop.thickness
         rep["thickness_m"] = t
-        rep["thickness_source"] = (prop.card if (prop is not None and t is not None) else "none: set the part's "
-                                   "'thickness'")
+        rep["thickness_source"] = (prop.card if (prop is not None and t is not None) else
+                                   "none: the part's thickness")
         rep["volume_m3"] = None if t is None else float(np.nansum(area) * t)
     elif kind == "solid":
         rep["volume_m3"] = float(np.nansum(mesh.element_volumes(elements=el)))
@@ -171,6 +171,18 @@ def _node_groups(mesh: Mesh) -> list[dict]:
             out.append({"group": name, "kind": _NODE_KIND.get(getattr(g, "dim", None), "node"),
                         "nodes": int(len(g.nodes))})
     return out
+
+
+def with_case_thickness(rep: dict, case) -> dict:
+    """``rep`` (:func:`inspect_mesh`) with each shell group that the mesh gives no thickness showing the one its
+    case's part sets (``thickness_source``: "case, part '<name>'"), where one does."""
+    given = {g: p for p in case.parts if getattr(p, "thickness", None) is not None for g in p.groups}
+    for g in rep["groups"]:
+        p = given.get(g["group"])
+        if g["kind"] == "shell" and g.get("thickness_m") is None and p is not None:
+            g["thickness_m"], g["thickness_source"] = float(p.thickness), f"case, part '{p.name}'"
+            g["volume_m3"] = g["area_m2"] * float(p.thickness)
+    return rep
 
 
 def inspect_mesh(path, unit: str = "m", feature_angle: float | None = None, parts=None, **options) -> dict:

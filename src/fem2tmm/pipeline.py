@@ -59,9 +59,18 @@ def load_mesh(case: Case) -> Mesh:
     """The mesh of ``[mesh] file`` in ``[mesh] unit``."""
     from .io import read_mesh
 
+    check_mesh_file(case)
+    return read_mesh(case.mesh.file, unit=case.mesh.unit, **case.mesh.reader_options())
+
+
+def check_mesh_file(case: Case) -> None:
+    """Raise :class:`Fem2TmmError` naming the case file and its ``[mesh] file`` key where it gives no mesh file, or
+    one that does not exist."""
     if case.mesh.file is None:
         raise Fem2TmmError(f"{case.source}: [mesh] file is missing")
-    return read_mesh(case.mesh.file, unit=case.mesh.unit, **case.mesh.reader_options())
+    if not Path(case.mesh.file).exists():  # (relative paths are read from the case file's folder)
+        raise Fem2TmmError(f"{case.source}: [mesh] file: {case.mesh.file} does not exist (the file is looked for "
+                           "relative to the case file's folder): check its name, or export the mesh there")
 
 
 def run(case: Case, out: str | Path | None = None, mesh: Mesh | None = None, quiet: bool = True,

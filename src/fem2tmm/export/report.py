@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
-from .summary import NEGATIVE_GL_NOTE, choice_text, parametric_rows, refinement_rows, verified_rows
+from .summary import NEGATIVE_GL_NOTE, count_of, choice_text, parametric_rows, refinement_rows, verified_rows
 from .orbit import orbit_plots
 from .viewer import VIEWER_CSS, distinct_colors, face_super_nodes, view_data, viewer_html
 
@@ -206,7 +206,8 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     rows = [("mesh", f"{s['mesh']['nodes']:,} nodes, {s['mesh']['elements']:,} elements")]
     red = s.get("reduced")
     if red:
-        rows.append(("reduced model", f"{red['super_nodes']} super nodes + {red['boundary_nodes']} boundary nodes; "
+        rows.append(("reduced model", f"{red['super_nodes']} super nodes + "
+                     f"{count_of(red['boundary_nodes'], 'boundary node')}; "
                      f"{red['conductive_links']} GL ({red['negative_links']} negative), {red['radiative_links']} GR, "
                      f"{red['super_faces']} super faces"))
         if red["negative_links"]:
@@ -302,7 +303,7 @@ def _verified_section(v: dict | None) -> str:
                 f"its ray noise), not a comparison with the detailed model. Why unverified: {html.escape(v['reason'])}."
                 "</p>")
     noise = v.get("reference_noise")
-    return (f"<h2>Validity range: the deck edited, solved and recovered against the detailed model</h2>"
+    return (f"<h2>Validity range: <code>model.esatan</code> edited, solved and recovered against the detailed model</h2>"
             f"{_range_table(v)}<p>Each state: <code>model.esatan</code> with those constants edited, read back and "
             "solved, recovered with the recovery of <code>reduced.npz</code>, against the detailed model solved at "
             "that state. Reference noise (design state): "

@@ -20,6 +20,11 @@ REDUCTION_STAGES = ("cluster", "reduce", "radiation", "solve_reduced", "recover"
                     "radiation_aware", "recovery")
 
 
+
+def count_of(k: int, noun: str) -> str:
+    """``"1 boundary node"``, ``"2 boundary nodes"``."""
+    return f"{k} {noun}{'' if k == 1 else 's'}"
+
 def build_summary(result: Result, timings: dict[str, float]) -> dict:
     """The ``summary.json`` dict of a run (plain JSON types) from its :class:`~fem2tmm.result.Result` and the
     stage timings (s)."""
@@ -449,7 +454,8 @@ def summary_table(s: dict) -> str:
     rows = [("mesh", f"{s['mesh']['nodes']} nodes, {s['mesh']['elements']} elements")]
     red = s.get("reduced")
     if red:
-        rows.append(("reduced model", f"{red['super_nodes']} super nodes + {red['boundary_nodes']} boundary nodes, "
+        rows.append(("reduced model", f"{red['super_nodes']} super nodes + "
+                     f"{count_of(red['boundary_nodes'], 'boundary node')}, "
                      f"{red['conductive_links']} GL ({negative_gl_count(red['negative_links'])}), "
                      f"{red['radiative_links']} GR"))
         if red.get("choice"):
