@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
-from .summary import NEGATIVE_GL_NOTE, count_of, choice_text, parametric_rows, refinement_rows, verified_rows
+from .summary import NEGATIVE_GL_NOTE, UNIT_TEXT, count_of, choice_text, parametric_rows, refinement_rows, verified_rows
 from .orbit import orbit_plots
 from .viewer import VIEWER_CSS, distinct_colors, face_super_nodes, view_data, viewer_html
 
@@ -300,15 +300,23 @@ def _verified_section(v: dict | None) -> str:
                 f"{_range_table(est)}<p>Each state: <code>model.esatan</code> with those constants edited, read back "
                 "and solved, recovered with the recovery of <code>reduced.npz</code>; its error is the a-posteriori "
                 "estimate (Newton steps of the detailed problem at that state from the recovered field, beyond "
-                f"its ray noise), not a comparison with the detailed model. Why unverified: {html.escape(v['reason'])}."
+                f"its ray noise), not a comparison with the detailed model. {_RANGES} Why unverified: "
+                f"{html.escape(v['reason'])}."
                 "</p>")
     noise = v.get("reference_noise")
     return (f"<h2>Validity range: <code>model.esatan</code> edited, solved and recovered against the detailed model</h2>"
             f"{_range_table(v)}<p>Each state: <code>model.esatan</code> with those constants edited, read back and "
             "solved, recovered with the recovery of <code>reduced.npz</code>, against the detailed model solved at "
-            "that state. Reference noise (design state): "
+            f"that state. {_RANGES} Reference noise (design state): "
             + ("not estimated" if noise is None else f"RMS {noise['rms_K']:.2g} K, max {noise['max_K']:.2g} K")
             + ".</p>")
+
+
+#: how the automatic ranges are chosen (docs/case-file.md, ``[reduction] verify``)
+_RANGES = ("The ranges, unless <code>[reduction] verify</code> sets them: each named power or flux from 0 to 4 x its "
+           "design value, each named held temperature 50 K either side of it, the sink from -270 °C up to the design "
+           "state's warmest temperature (a unit inside a warmer enclosure sees a sink that warm); each constant at "
+           "either end with the others at design, then all low and all high.")
 
 
 def _range_table(v: dict) -> str:
@@ -326,8 +334,7 @@ def _range_table(v: dict) -> str:
         rows.append((st["label"], *(g(st["values"][n]) for n in names), g(st["rms_K"], 3), g(st["max_K"], 3),
                      "" if not checked else f"{st.get('seconds') or 0.0:.2f}",
                      st["error"] or (flag if st["flagged"] else "" if checked else "not checked")))
-    unit = {"degC": "°C", "W/m2": "W/m²"}
-    head = ("state", *(f"{r['name']} [{unit.get(r['unit'], r['unit'])}]" for r in v["range"]), "RMS [K]",
+    head = ("state", *(f"{r['name']} [{UNIT_TEXT.get(r['unit'], r['unit'])}]" for r in v["range"]), "RMS [K]",
             "max [K]", "time [s]", "remark")
     return _table(rows, head)
 

@@ -21,6 +21,10 @@ REDUCTION_STAGES = ("cluster", "reduce", "radiation", "solve_reduced", "recover"
 
 
 
+#: a range record's deck units as the tables print them
+UNIT_TEXT = {"degC": "°C", "W/m2": "W/m²"}
+
+
 def count_of(k: int, noun: str) -> str:
     """``"1 boundary node"``, ``"2 boundary nodes"``."""
     return f"{k} {noun}{'' if k == 1 else 's'}"
@@ -421,7 +425,8 @@ def verified_rows(red: dict | None) -> list[tuple[str, str]]:
                          f"{est['design']['rms_K']:.3g} K; {est['seconds']:.1f} s)"))
             rows += _range_pairs(red)
         return rows
-    rng = "; ".join(f"{r['name']} {r['low']:.4g}..{r['high']:.4g} {r['unit']}" for r in v["range"])
+    rng = "; ".join(f"{r['name']} {r['low']:.4g}..{r['high']:.4g} {UNIT_TEXT.get(r['unit'], r['unit'])}"
+                    for r in v["range"])
     d, w, n = v["design"], v["worst"], v.get("reference_noise")
     text = f"{len(v['states'])} states over {rng or 'the design state only'}: "
     text += (f"worst '{w['label']}' RMS {w['rms_K']:.3g} K, max {w['max_K']:.3g} K" if w else "no state solved")
