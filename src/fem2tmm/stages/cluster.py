@@ -114,8 +114,9 @@ def _check_count(case: Case, info, element_dofs: np.ndarray, one_node: np.ndarra
     if info.super_nodes > free:
         raise Fem2TmmError(
             f"{case.source}: [[parts]] {info.name!r} asks for {info.super_nodes} super nodes, but its elements have "
-            f"only {free} nodes with an unknown temperature ({len(dofs)} nodes, {len(dofs) - free} of them fixed or "
-            f"kept): more super nodes than that repeat each other's mean temperature (linearly dependent).  Use at "
+            f"only {free} nodes with an unknown temperature ({len(dofs)} nodes, a held group's nodes counted as one, "
+            f"{len(dofs) - free} of them fixed or kept): more super nodes than that repeat each other's mean "
+            f"temperature (linearly dependent).  Use at "
             f"most {free}; a useful reduction has far fewer (each super node should hold several elements)")
 
 
