@@ -93,13 +93,14 @@ def _steady_inputs(result, model: str) -> tuple[list, str]:
 
 def by_correction(rm) -> float | None:
     """Heat (W) a radiation-aware network ``rm`` radiates outside its couplings to space: its known loads minus the
-    sum of its free nodes' Q and its loads' hot-spot nodes' (the correction load and the distribution with
+    sum of its nodes' Q and its loads' hot-spot nodes' (the correction load and the distribution with
     K' = K + diag(h) take it out); None for other networks, and for a network whose hot-spot nodes leave nothing."""
     known = getattr(rm.radiative, "known_load_W", None) if rm.radiative is not None else None
     if known is None:
         return None
-    # (the loads' share on fixed nodes is no input of the network: their Q moves nothing)
-    left = float(known - np.sum(np.asarray(rm.Q)[~np.asarray(rm.fixed, bool)]) - rm.hot_spot_W)
+    # (a fixed node's Q moves nothing, but its reaction, the book into that boundary, counts it: an input of the
+    # network's books)
+    left = float(known - np.sum(np.asarray(rm.Q)) - rm.hot_spot_W)
     # the network's hot-spot nodes apply and radiate what its distribution leaves: nothing left but round-off
     return None if rm.hot_spots is not None and abs(left) <= 1e-9 * max(abs(known), 1e-300) else left
 

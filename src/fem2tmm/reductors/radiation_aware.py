@@ -425,9 +425,11 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
             row[i] = 0.0
             # W neither its conductors nor its radiative couplings to the other super nodes carry (a held part that
             # radiates into the structure, examples/composite's deck: 88 W to the panels, booked to space as well
-            # until 2026-12-07, 32 % too much radiated in all)
+            # until 2026-12-07, 32 % too much radiated in all), with the share of the loads the distribution puts on
+            # the node itself (its Q, which its reaction includes; :func:`with_hot_spots` takes it off again where
+            # the hot spots apply it)
             exchange = 0.0 if G is None else SIGMA * float(G[i] @ (T[i] ** 4 - T**4))
-            left = float(held_W[i] - row @ (T[i] - T) - exchange)
+            left = float(held_W[i] - row @ (T[i] - T) - exchange + Q_applied[i])
             if np.isfinite(left) and abs(d4[i]) > 1e-12 * T[i] ** 4:
                 g_fixed[i] = left / (SIGMA * d4[i])
     # the emission slope to match: H less what a concave super node re-absorbs of its own emission (4σ GR_self T³),
@@ -448,6 +450,21 @@ def effective_network(rm: ReducedModel, sol: SteadySolution, Q_applied: np.ndarr
                           stacklevel=2)
         return given, sol
     return net, new
+
+
+def _without_fixed_load(rm: ReducedModel, T_sn: np.ndarray) -> dict:
+    """``{"g_space", "g_space_table"}`` of ``rm`` with each fixed node's coupling to space less what radiates its
+    own load ``rm.Q`` at the super-node temperatures ``T_sn`` (n,) K (:func:`effective_network` counts the load in
+    it; the node's reaction then stays the same once its Q is zero)."""
+    fixed = np.flatnonzero(np.asarray(rm.fixed, bool))
+    d4 = np.asarray(T_sn, float)[fixed] ** 4 - rm.T_sink**4
+    ok = np.abs(d4) > 1e-12 * np.asarray(T_sn, float)[fixed] ** 4
+    dg = np.zeros(rm.n)
+    dg[fixed[ok]] = np.asarray(rm.Q, float)[fixed[ok]] / (SIGMA * d4[ok])
+    table = rm.g_space_table
+    if table is not None:  # (a fixed node's table is constant)
+        table = (table[0], np.asarray(table[1], float) - dg[:, None])
+    return {"g_space": np.asarray(rm.g_space, float) - dg, "g_space_table": table}
 
 
 def with_hot_spots(model: FEModel, case: Case, rm: ReducedModel, sol: SteadySolution, q_detailed: np.ndarray,
@@ -478,8 +495,10 @@ def with_hot_spots(model: FEModel, case: Case, rm: ReducedModel, sol: SteadySolu
     if hs is None:
         return rm, sol
     # the loads' share on a fixed node moves nothing: the hot spots apply it (their share is the load less what
-    # the free nodes get), so it leaves the fixed nodes' Q and their books hold only their conductors' flows
-    rm = dataclasses.replace(rm, hot_spots=hs, Q=np.where(rm.fixed, 0.0, rm.Q))
+    # the free nodes get), so it leaves the fixed nodes' Q and their books hold only their conductors' flows (and
+    # their own coupling to space, which effective_network set to radiate that share too: taken off here)
+    rm = dataclasses.replace(rm, hot_spots=hs, Q=np.where(rm.fixed, 0.0, rm.Q),
+                             **_without_fixed_load(rm, sol.T))
     from ..linalg import blas_threads
 
     with blas_threads(1):
