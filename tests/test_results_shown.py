@@ -88,7 +88,8 @@ def test_too_many_super_nodes_fail_before_clustering():
     case = make_case([part], HEATED_PLATE["boundary"][:1], radiation={"enabled": False})
     t = time.perf_counter()
     with pytest.raises(Fem2TmmError, match=r"'plate' asks for 21 super nodes.*only 20 nodes with an unknown "
-                                           r"temperature \(21 nodes, a held group's nodes counted as one, 1 of them fixed or kept\).*at most 20"):
+                                           r"temperature \(21 nodes, a held group's nodes counted as one, 1 of them "
+                                           r"fixed or kept\).*at most 20"):
         run(case, mesh=meshes.plate(1.0, 1.0, 4, 4))
     assert time.perf_counter() - t < 1.0  # before any clustering or reduction
     # 16 (one per element) is allowed by the count; the run says how many GL are negative and what they are

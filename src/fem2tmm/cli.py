@@ -164,9 +164,9 @@ def _inspect(args) -> int:
         case = Case.from_toml(args.mesh)
         check_mesh_file(case)
         parts = [(p.name, list(p.groups), p.super_nodes) for p in case.parts]
-        rep = with_case_thickness(inspect_mesh(
-            case.mesh.file, unit=case.mesh.unit, unit_system=args.unit_system or getattr(case.mesh, "unit_system", None),
-            parts=parts), case)
+        system = args.unit_system or getattr(case.mesh, "unit_system", None)
+        rep = with_case_thickness(inspect_mesh(case.mesh.file, unit=case.mesh.unit, unit_system=system, parts=parts),
+                                  case)
         rep["unit_key"] = "[mesh] unit"  # where the unit comes from (what a size warning advises to change)
     else:
         rep = inspect_mesh(args.mesh, unit=args.unit, unit_system=args.unit_system)

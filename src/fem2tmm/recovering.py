@@ -7,8 +7,8 @@ thermo-elastic analysis with the recovery ``reduced.npz`` carries (:mod:`fem2tmm
 The temperature file is a CSV with a header row: first column the super-node name as in the deck (``reduced.npz``
 ``names``; case-insensitive) or its number there (``1001`` or ``D1001``, ``reduced.npz`` ``numbers``: what an
 ESATAN or SINDA result lists), then one column per time or case (°C); its header names the columns.  Every super
-node of the network must have a row.  Optional rows: a named load (``[[boundary]]`` name of a power or flux boundary, in
-W or W/m²) and ``sink`` (°C) give that value per column; the design value otherwise; ``time`` (s, on the run's
+node of the network must have a row.  Optional rows: a named load (``[[boundary]]`` name of a power or flux boundary,
+in W or W/m²) and ``sink`` (°C) give that value per column; the design value otherwise; ``time`` (s, on the run's
 time axis) gives each column's orbital loads to a network with orbital loads traced on the FE faces (the orbit
 average otherwise, as in the steady design case), or ``position`` (the orbit position counted from 1: position 1
 is the first row of ``orbit.npz``'s per-position arrays; ``[orbit] steady = "positions"``) that position's loads

@@ -304,7 +304,8 @@ def _verified_section(v: dict | None) -> str:
                 f"{html.escape(v['reason'])}."
                 "</p>")
     noise = v.get("reference_noise")
-    return (f"<h2>Validity range: <code>model.esatan</code> edited, solved and recovered against the detailed model</h2>"
+    return ("<h2>Validity range: <code>model.esatan</code> edited, solved and recovered against the detailed "
+            "model</h2>"
             f"{_range_table(v)}<p>Each state: <code>model.esatan</code> with those constants edited, read back and "
             "solved, recovered with the recovery of <code>reduced.npz</code>, against the detailed model solved at "
             f"that state. {_RANGES} Reference noise (design state): "

@@ -18,9 +18,6 @@ from .orbit import orbit_summary
 #: "estimate" stage itself and the detailed reference are not among them)
 REDUCTION_STAGES = ("cluster", "reduce", "radiation", "solve_reduced", "recover", "presolve_space", "ir_detailed",
                     "radiation_aware", "recovery")
-
-
-
 #: a range record's deck units as the tables print them
 UNIT_TEXT = {"degC": "°C", "W/m2": "W/m²"}
 
@@ -28,6 +25,7 @@ UNIT_TEXT = {"degC": "°C", "W/m2": "W/m²"}
 def count_of(k: int, noun: str) -> str:
     """``"1 boundary node"``, ``"2 boundary nodes"``."""
     return f"{k} {noun}{'' if k == 1 else 's'}"
+
 
 def build_summary(result: Result, timings: dict[str, float]) -> dict:
     """The ``summary.json`` dict of a run (plain JSON types) from its :class:`~fem2tmm.result.Result` and the
