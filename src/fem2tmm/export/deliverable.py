@@ -144,12 +144,12 @@ def _with_hot_spots(deck: Deck, rm, rec) -> Deck:
         Q=np.r_[np.asarray(deck.Q, float), hs.Q], load_terms=tuple(load_terms), space_tables=tables, transient=tr)
 
 
-def surface_optics(result: Result) -> tuple[np.ndarray, np.ndarray]:
-    """``(ALP, EPS)`` (n,) of each super node: the solar absorptivity and emissivity of its faces' active sides,
-    area-weighted (0 for a node without a radiating side).  What the deck's ``ALP`` and ``EPS`` state: surface
-    properties, as an engineer reads them.  The network's radiation is in its GR (a radiation-aware network's
-    effective coupling to space over its area exceeded 1 on 29 of examples/fin's 51 nodes, and the deck wrote that
-    as EPS until 2026-12-07, with ALP 0)."""
+def surface_emissivity(result: Result) -> np.ndarray:
+    """(n,) the emissivity of each super node's faces' active sides, area-weighted (0 for a node without a radiating
+    side): the deck's ``EPS``, a surface property as an engineer reads it.  The network's radiation is in its GR;
+    until 2026-12-07 EPS was the coupling to space over the area, which a radiation-aware network's effective
+    emission took above 1 (29 of examples/fin's 51 nodes, up to 1.0018).  ``ALP`` stays 0: the absorbed solar is in
+    the loads (docs/case-file.md)."""
     from ..reduce.network import face_owner
 
     rm, f = result.reduced.network, result.model.faces
@@ -158,12 +158,8 @@ def surface_optics(result: Result) -> tuple[np.ndarray, np.ndarray]:
     weight = np.repeat(f.area, 2) * f.active
     ok = side >= 0
     total = np.bincount(side[ok], weights=weight[ok], minlength=n)[:n]
-
-    def mean(v):
-        return np.divide(np.bincount(side[ok], weights=(v * weight)[ok], minlength=n)[:n], total,
-                         out=np.zeros(n), where=total > 0)
-
-    return mean(np.asarray(f.absorptivity, float)), mean(np.asarray(f.emissivity, float))
+    emitted = np.bincount(side[ok], weights=(np.asarray(f.emissivity, float) * weight)[ok], minlength=n)[:n]
+    return np.divide(emitted, total, out=np.zeros(n), where=total > 0)
 
 
 def network_deck(result: Result) -> Deck:
@@ -207,10 +203,10 @@ def network_deck(result: Result) -> Deck:
     GL = -rm.K.copy()
     np.fill_diagonal(GL, 0.0)
     area = rm.area if rm.area is not None else np.zeros(n)
-    alp, eps = surface_optics(result)
+    eps = surface_emissivity(result)
     C = rm.C if rm.C is not None else np.zeros(n)
     deck = Deck(numbers=numbers, labels=rm.names, boundary=rm.fixed, T=rs.T, C=np.nan_to_num(C), A=area,
-                alp=alp, eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
+                alp=np.zeros(n), eps=eps, GL=GL, GR=np.zeros((n, n)) if rm.GR is None else rm.GR,
                 GR_space=rm.g_space, Q=rm.Q, space=space, T_space=rm.T_sink,
                 transient=transient,
                 model_name=ex.model_name or Path(result.case.source).stem, load_terms=load_terms,
