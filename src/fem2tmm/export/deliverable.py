@@ -154,11 +154,11 @@ def surface_emissivity(result: Result) -> np.ndarray:
 
     rm, f = result.reduced.network, result.model.faces
     n = rm.n
-    side = np.repeat(face_owner(result.model, rm.supernodes, rm.element_cluster), 2)
-    weight = np.repeat(f.area, 2) * f.active
-    ok = side >= 0
-    total = np.bincount(side[ok], weights=weight[ok], minlength=n)[:n]
-    emitted = np.bincount(side[ok], weights=(np.asarray(f.emissivity, float) * weight)[ok], minlength=n)[:n]
+    owner = face_owner(result.model, rm.supernodes, rm.element_cluster)
+    ok = owner >= 0
+    eps_area = (np.asarray(f.emissivity, float) * f.active).reshape(-1, 2).sum(axis=1) * f.area  # (f,) m², both sides
+    total = np.bincount(owner[ok], weights=f.active_area[ok], minlength=n)[:n]
+    emitted = np.bincount(owner[ok], weights=eps_area[ok], minlength=n)[:n]
     return np.divide(emitted, total, out=np.zeros(n), where=total > 0)
 
 

@@ -18,6 +18,7 @@ from .orbit import orbit_summary
 #: "estimate" stage itself and the detailed reference are not among them)
 REDUCTION_STAGES = ("cluster", "reduce", "radiation", "solve_reduced", "recover", "presolve_space", "ir_detailed",
                     "radiation_aware", "recovery")
+
 #: a range record's deck units as the tables print them
 UNIT_TEXT = {"degC": "°C", "W/m2": "W/m²"}
 
