@@ -73,6 +73,57 @@ REGISTRY: dict[str, str] = {
 }
 
 
+#: name -> what it measures, one line (``fem2tmm bench list``)
+ABOUT: dict[str, str] = {
+    "assemble": "FE model build (K, capacity, faces, loads) of a 10^6-quad plate",
+    "solve": "one conduction solve of a 10^6-quad plate, Newton included",
+    "pipeline_baffle": "examples/baffle end to end at 10 and 100 super nodes, reference included",
+    "pipeline_truss": "examples/truss (121 693 tets) end to end at 10 and 100 super nodes",
+    "pipeline_1m": "a 1.07e6-quad conformal shell structure end to end against one PARDISO/CHOLMOD solve",
+    "pipeline_stages": "the 1M structure's pipeline at 2.7e5 quads, stage by stage",
+    "scaling": "pipeline and baseline solve at 1e4, 1e5, 1e6 (3e6) elements: cost curve, exponents, memory",
+    "nastran": "reading a 10^6-element CQUAD4 Nastran deck",
+    "cluster": "clustering time and memory, 1e5 and 1e6 quads, 3e5 tets",
+    "cluster_metis": "clustering against METIS: time, balance, edge cut and the reduced error with each",
+    "accuracy": "recovered error against super nodes on every study (the convergence plot)",
+    "accuracy_composite": "the composite box alone, both methods, 10 to 1 000 super nodes",
+    "accuracy_truss": "the truss alone at 10 and 100 super nodes",
+    "allocation": "composite box error against super nodes for each way of allocating the count",
+    "accuracy_quiet": "composite slope with the detailed ray factors (no ray noise)",
+    "accuracy_floor": "the composite error at one count against the rays of the network and of the reference",
+    "accuracy_mismatch": "composite error with and without the emission discretisation mismatch",
+    "accuracy_modes": "composite error with each super face emitting at its super node's temperature",
+    "reduce": "the conduction reduction: local against global, time and exactness",
+    "reduce_dask": "the reduction of 2.7e5 quads serially and on a LocalCluster, bit-identical",
+    "memory_per_element": "peak memory of the pipeline per element, and the size that fits 24 GB",
+    "rays": "exchange-factor tracing throughput against bare Embree queries",
+    "solar": "solar tracing throughput against bare Embree queries",
+    "quadric": "quadric super faces against planar ones",
+    "network": "an existing network (every FE DOF a node) grouped to about 1 000 nodes",
+    "cases": "a set of load cases serially and on Dask",
+    "cases_warm": "the load-case set on Dask clusters that are already running",
+    "cases_smallsat": "8 cases x orbit positions on the small satellite, serial and on Dask",
+    "network_positive": "the positive sparse network of examples/baffle",
+    "link_filter": "the deck's conductors after the link filter against the error, examples/composite",
+    "transient": "transients on the baffle and a 1e6-quad plate: reduced against detailed, and cost",
+    "orbit": "orbital heat fluxes on the small satellite: tracing throughput and cost",
+    "refine": "error-driven refinement on the composite box",
+    "envelope": "the handed-over network over an envelope of load cases",
+    "envelope_orbit": "the composite box's network over an orbit's load envelope",
+    "envelope_parametric": "the deck a user edits beyond the case set, with and without parametric tables",
+    "envelope_deck": "each example's deck edited as a user would, default against the thesis network",
+    "robustness": "the generated robustness campaign (thousands of random models, default against thesis)",
+    "rom": "the super-node network against projection ROMs (POD-Galerkin, POD-DEIM) at equal size",
+    "satellite": "examples/satellite from 30 to 1 000 super nodes",
+    "thermoelastic": "the thermo-elastic chain on examples/truss with CalculiX",
+    "choice": "what the default reduction chooses on every study, and what each method gives there",
+    "offdesign": "the L-bracket's single-case deck edited (0, 5, 40 W, sink) and solved outside fem2tmm",
+    "offdesign_curve": "the edited L-bracket deck from 30 to 1 000 super nodes",
+    "offdesign_books": "the L-bracket deck's heat books from its own conductors and loads",
+    "offdesign_transient": "the L-bracket's transient deck (10 -> 40 -> 0 W) integrated outside fem2tmm",
+}
+
+
 def median_time(fn: Callable[[], object], repeats: int = 3) -> tuple[float, list[float]]:
     """Median wall time (s) of ``repeats`` calls and the individual times."""
     times = []
@@ -153,8 +204,9 @@ def main(names: list[str] | None = None) -> int:
 
     names = list(names or [])
     if names == ["list"]:
-        for k, v in REGISTRY.items():
-            print(f"{k:10s} {v}")
+        width = max(map(len, REGISTRY))
+        for k in REGISTRY:
+            print(f"{k:{width}s}  {ABOUT[k]}")
         return 0
     unknown = [n for n in names if n not in REGISTRY and n != "pipeline"]
     if unknown:

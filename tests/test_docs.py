@@ -444,3 +444,16 @@ def test_the_checks_can_fail():
     assert _command_mentions("run `fem2tmm run x.toml --nope` # c") == ["run x.toml --nope"]
     options, _ = _cli_tree()
     assert "--nope" not in options[("run",)] and "--out" in options[("run",)]
+
+
+def test_every_benchmark_says_what_it_measures(capsys):
+    # `fem2tmm bench list` gives each benchmark one line a user can read
+    sys.path.insert(0, str(ROOT))
+    try:
+        from benchmarks.run import ABOUT, REGISTRY, main
+    finally:
+        sys.path.remove(str(ROOT))
+    assert set(ABOUT) == set(REGISTRY)
+    assert main(["list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == len(REGISTRY) and all(len(ln.split(None, 1)) == 2 for ln in lines)

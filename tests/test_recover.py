@@ -186,6 +186,7 @@ def test_two_columns_and_a_named_load_give_what_a_fresh_run_gives(plate_run, tmp
     (lambda rows: rows[:-1], "no row for super node"),
     (lambda rows: rows + [["no_such_node", "1.0"]], "no super node of this network"),
     (lambda rows: [rows[0], [rows[1][0], "warm"]] + rows[2:], "is not a number"),
+    (lambda rows: rows[1:], "put a header row"),  # no header: the first super node's row is read as it
 ])
 def test_bad_temperature_files_exit_2_and_write_nothing(plate_run, tmp_path, capsys, mutate, message):
     z = np.load(plate_run.out / "reduced.npz")

@@ -30,6 +30,15 @@ from .constants import KELVIN
 from .errors import Fem2TmmError
 
 
+def _numbers(cells) -> bool:
+    """Whether every cell of a row reads as a number."""
+    try:
+        [float(c) for c in cells]
+    except ValueError:
+        return False
+    return True
+
+
 def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.ndarray,
                            numbers: np.ndarray | None = None
                            ) -> tuple[np.ndarray, dict, np.ndarray | None, list[str], np.ndarray | None,
@@ -103,6 +112,11 @@ def read_temperature_table(path: str | Path, names: np.ndarray, load_names: np.n
                                + ("" if numbers is None else " (or their deck numbers "
                                   f"{', '.join(str(int(v)) for v in np.asarray(numbers).ravel()[:4])} ...)"))
     missing = [str(names[i]) for i in range(len(names)) if i not in seen]
+    first = rows[0][0].strip().upper()
+    if missing and first in index and index[first] not in seen and _numbers(rows[0][1:]):
+        raise Fem2TmmError(f"{path}: the first row is read as the header (node, column names ...) but it is super "
+                           f"node {rows[0][0].strip()!r} with its temperatures: put a header row such as "
+                           f"'node,T' above it")
     if missing:
         raise Fem2TmmError(f"{path}: no row for super node(s) {', '.join(missing[:10])}"
                            f"{f' and {len(missing) - 10} more' if len(missing) > 10 else ''}: every super node of the "
