@@ -133,9 +133,9 @@ def linear_forms(rec, T_star: np.ndarray, times: np.ndarray, load: str = "heater
 
     The detailed model: C T' + L T = q P(t) + b with L = K + diag(4σ e T*³) (the emission linearised about the design
     field; the IR exchange between the panels is left out in every form alike), the ``held`` super nodes' DOFs at
-    their design temperature, :data:`STEPS` for P, Crank–Nicolson with the run's step.  Y (n_f, n_s) is the exact static
-    condensation onto the super-node means (the saddle [[L, Aᵀ], [A, 0]] solved for each mean), x the heater's static
-    correction (zero means, K-orthogonal to Y).  Each form's super-node means are then recovered in time exactly
+    their design temperature, :data:`STEPS` for P, Crank–Nicolson with the run's step.  Y (n_f, n_s) is the exact
+    static condensation onto the super-node means (the saddle [[L, Aᵀ], [A, 0]] solved for each mean), x the heater's
+    static correction (zero means, K-orthogonal to Y).  Each form's super-node means are then recovered in time exactly
     (the constrained detailed equations integrated with the means given, as ``fem2tmm recover --in-time`` does), so
     what differs is only the means' dynamics:
 

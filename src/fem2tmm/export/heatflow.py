@@ -348,10 +348,11 @@ def heat_flow_summary(result) -> dict:
            "part_absorbed": part_absorbed(result), "part_to_part": None}
     if result.reduced is not None:
         names, F = part_exchange(result)
-        out["part_to_part"] = {"names": names, "W": F.tolist(),
+        rm = result.reduced.network
+        out["part_to_part"] = {"names": names, "W": F.tolist(), "held": [str(n) for n in rm.names[rm.fixed]],
                                "note": "net heat from the row's part to the column's through the reduced network's GL "
                                        "and GR at its steady temperatures (antisymmetric); 'held nodes' are the fixed-"
-                                       "temperature boundary nodes, 'space' the sink"}
+                                       "temperature boundary nodes (named in 'held'), 'space' the sink"}
     return out
 
 

@@ -409,10 +409,15 @@ def _heat_flows_html(hf: dict) -> str:
                    + _table(rows, ("part", *absorbed["columns"])))
     matrix = hf.get("part_to_part")
     if matrix:
-        names = matrix["names"]
-        rows = [(a, *(f"{v + 0.0:.4g}" if i != j else "—" for j, v in enumerate(row)))
-                for i, (a, row) in enumerate(zip(names, matrix["W"]))]
-        out.append("<h3>Heat from part (row) to part (column) [W]</h3>" + _table(rows, ("from \\ to", *names))
+        names, W = list(matrix["names"]), np.asarray(matrix["W"], float)
+        held = matrix.get("held") or []
+        if held and len(held) <= 3:  # the held nodes by their boundaries' names
+            names[-2] = "held: " + ", ".join(held)
+        # a part with no node in the network (all its nodes held) has no row or column of its own
+        keep = [i for i in range(len(names)) if i >= len(names) - 2 or np.any(W[i]) or np.any(W[:, i])]
+        rows = [(names[i], *(f"{W[i, j] + 0.0:.4g}" if i != j else "—" for j in keep)) for i in keep]
+        out.append("<h3>Heat from part (row) to part (column) [W]</h3>"
+                   + _table(rows, ("from \\ to", *(names[j] for j in keep)))
                    + f"<p>{html.escape(matrix.get('note', ''))}</p>")
     return "".join(out)
 
