@@ -1,5 +1,6 @@
 """Biot-aware allocation (issue 21 item 3): ``[clustering] allocation = "biot"`` weights shell elements by their
-Biot number h_rad A/(k t) from an emission-to-space pre-solve, and the per-element Bi > 1 warning."""
+Biot number h_rad A/(k t) from an emission-to-space pre-solve, and the per-element Bi > 1 warning; and
+``allocation = "loads"``: smaller super nodes around the named loads."""
 
 from __future__ import annotations
 
@@ -254,3 +255,48 @@ def test_an_element_collapsed_by_an_isothermal_joint_has_no_biot_number(tmp_path
     bi = h_el[far] / kt[far]
     # closed form for the elements that do not touch the joint: 4σT³ · 2 sides · A / (k t), A = 1/64 m², k t = 0.4
     assert bi.max() == pytest.approx(4 * SIGMA * 300.0**3 * 2 / 64 / 0.4, rel=1e-6)
+
+
+def test_loads_allocation_puts_smaller_super_nodes_around_the_heater():
+    # `allocation = "loads"`: the L-bracket's 0.2 m heater patch (16 of 24 x 24 quads a panel, 5 cm quads) and the
+    # elements within its reach √(0.04/π) = 0.113 m weigh 3x their area and are a region of their own; 60 super
+    # nodes then crowd around it
+    from fem2tmm.mesh import shapes
+    from fem2tmm.stages.cluster import LOAD_DENSITY, load_weights
+
+    mesh = shapes.bracket(n=24)
+
+    def case(allocation):
+        return make_case([{"name": "bracket", "groups": ["floor", "wall", "heater"], "material": "al",
+                           "thickness": 1.5e-3, "front": "black", "back": "black", "super_nodes": 60}],
+                         [{"kind": "temperature", "groups": ["edge"], "value": 20.0},
+                          {"name": "heater", "kind": "power", "groups": ["heater"], "value": 10.0}],
+                         clustering={"allocation": allocation}, reference={"detailed": False})
+
+    model = build_model(mesh, case("loads"))
+    w, rep, marks = load_weights(model, case("loads"))
+    area = model.mesh.element_areas(model.elements)
+    heater = np.isin(model.elements, mesh.groups["heater"].elements)
+    assert heater.sum() == 16 and rep["heater"]["area_m2"] == pytest.approx(0.04, rel=1e-9)
+    assert rep["heater"]["reach_m"] == pytest.approx(np.sqrt(0.04 / np.pi), rel=1e-12)
+    assert np.allclose(w[heater], LOAD_DENSITY * area[heater])
+    cen = model.mesh.points[model.element_cells[:, :4]].mean(axis=1)
+    gap = np.linalg.norm(cen[:, None] - cen[heater][None], axis=2).min(axis=1)
+    ring = ~heater & (gap <= rep["heater"]["reach_m"])
+    assert rep["heater"]["elements"] == int((heater | ring).sum()) and np.allclose(w[ring], LOAD_DENSITY * area[ring])
+    assert np.allclose(w[~(heater | ring)], area[~(heater | ring)])  # everything else: its area
+    assert (marks == (heater | ring)).all()  # the near elements are a region of their own
+    sizes = {}
+    for allocation in ("area", "loads"):
+        loads = allocation == "loads"
+        c = cluster_model(model, case(allocation), weights=w if loads else None, weights_report=rep,
+                          marks=marks if loads else None)
+        lab = c.labels[model.elements]
+        hot = np.unique(lab[heater])
+        sizes[allocation] = np.mean([(lab == k).sum() for k in hot])  # elements per super node on the patch
+        assert len(np.unique(lab[lab >= 0])) == 60  # the part's count is kept
+        if loads:  # no super node straddles the near region's edge
+            assert not np.intersect1d(lab[marks == 1], lab[marks == 0]).size
+    # the near region (the 16 patch quads and 44 around them) holds 60 x 3 of 1 092 + 180 weight: 9 of the 60 super
+    # nodes for 60 elements, about 7 elements each against 19 with equal areas
+    assert sizes["loads"] < 0.5 * sizes["area"], sizes

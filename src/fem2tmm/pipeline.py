@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ from .solve.steady import check_solvable
 from .keys import geometry_key, network_group, reduce_key, scene_key, trace_key
 from .reduce.biot import biot_weights, warn_coarse_mesh
 from .solve.problems import describe_nodes, detailed_problem, solve_case, solve_unit, solver_settings
-from .stages.cluster import check_super_node_counts, cluster_key, cluster_model, presolve_space
+from .stages.cluster import check_super_node_counts, cluster_key, cluster_model, load_weights, presolve_space
 from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_positions_detailed,
                            orbit_positions_reduced, super_face_orbit)
 from .stages.quadrics import fit_quadrics, quadric_regions
@@ -401,7 +402,7 @@ def _cluster(run: _RunState, labels: np.ndarray | None, refine: Refinement | Non
         flux = run.cached("solar_prepass", "tracing a coarse solar map for the clustering",
                           lambda: run.sun_key("solar_prepass", "flat", "prepass"),
                           lambda: solar_prepass(model, case, run.surface, scene=run.scenes.flat()))
-    weights = weights_report = None
+    weights = weights_report = marks = None
     if case.clustering.allocation == "biot" and labels is None:
         check_super_node_counts(model, case)  # before the pre-solve
         with prog.stage("presolve_biot", "pre-solve for the Biot numbers (emission to space only)"):
@@ -409,11 +410,16 @@ def _cluster(run: _RunState, labels: np.ndarray | None, refine: Refinement | Non
         if case.reduction.radiation_aware is not True:  # (that one warns from its own pre-solve)
             warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
                              max((r["max"] for r in weights_report.values()), default=None))
-    ckey = cluster_key(model, case, flux, labels, weights)
+    if case.clustering.allocation == "loads" and labels is None:
+        weights, weights_report, marks = load_weights(model, case)
+        if np.isnan(weights).all():
+            warnings.warn("[clustering] allocation = \"loads\": no named power or flux load lies on shell elements; "
+                          "the clusters keep equal areas", stacklevel=2)
+    ckey = cluster_key(model, case, flux, labels, weights, marks)
     clustering = run.cached(
         "cluster", "clustering", lambda: ckey,
         lambda: cluster_model(model, case, progress=lambda i, n: report(i, n, "regions clustered"), flux=flux,
-                              labels=labels, weights=weights, weights_report=weights_report))
+                              labels=labels, weights=weights, weights_report=weights_report, marks=marks))
     if refine is None and case.reduction.target_rms is not None:
         from .reduce.refine import check_budget
 

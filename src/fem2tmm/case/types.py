@@ -17,7 +17,7 @@ ReductionMethod = Literal["local", "global"]
 CapacitanceMethod = Literal["cluster", "equivalent"]
 ReducedNetwork = Literal["exact", "positive"]
 ClusteringMethod = Literal["growing", "metis"]
-ClusteringAllocation = Literal["area", "biot"]
+ClusteringAllocation = Literal["area", "biot", "loads"]
 TransientMethod = Literal["crank-nicolson", "backward-euler", "bdf2"]
 TransientCapacitance = Literal["lumped", "consistent"]
 
