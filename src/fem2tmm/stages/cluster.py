@@ -157,7 +157,8 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
     A load's footprint is the elements of its groups (for a load on nodes: the elements that touch them); its reach
     ℓ is the footprint's equivalent radius √(A/π).  A shell element whose centroid lies within ℓ of a footprint
     element's centroid (the footprint included) weighs its area × :data:`LOAD_DENSITY`, the part's other shell
-    elements their area; solids, bars and parts with no element within reach keep their own measure (NaN).  The
+    elements their area; solids, bars, parts that mix shells with them and parts with no element within reach keep
+    their own measure (NaN).  The
     elements within reach are also a region of their own (``marks`` 1, else 0): no cluster straddles the reach's edge,
     and the region gets its share of the part's super nodes by weight.  Measured on the L-bracket, the region matters:
     the same weights without it left cluster boundaries across the edge of the heavy region and the results erratic
