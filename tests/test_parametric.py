@@ -84,8 +84,8 @@ def test_the_deck_follows_its_named_constants_between_and_across_the_computed_st
     assert design.summary["reduced"]["parametric"]["values"]["temperature_0"] == pytest.approx([20.0, 0.0])
     from fem2tmm.export.summary import summary_table
 
-    assert ("power_1 5 (design) and 0, 2.5, 10, 20; temperature_0 20 degC (design) and 0 degC; sink -270 degC "
-            "(design) and -200, -100 degC") in \
+    assert ("power_1 5 (design) and 0, 2.5, 10, 20; temperature_0 20 °C (design) and 0 °C; sink -270 °C "
+            "(design) and -200, -100 °C") in \
         summary_table(design.summary)
     assert "parametric deck" in (tmp_path / "out" / "report.html").read_text()
     z = np.load(tmp_path / "out" / "reduced.npz")

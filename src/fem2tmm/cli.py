@@ -148,7 +148,7 @@ def _recover(args) -> int:
     res = recover(src, args.temperatures, out=out, in_time=args.in_time, step=args.step, scheme=args.scheme)
     T = res["temperature"]
     print(f"{T.shape[1]} column(s) recovered onto {int(np.isfinite(T[:, 0]).sum())} nodes "
-          f"({np.nanmin(T):.2f} .. {np.nanmax(T):.2f} degC); outputs in {res['out']}")
+          f"({np.nanmin(T):.2f} .. {np.nanmax(T):.2f} °C); outputs in {res['out']}")
     return 0
 
 

@@ -402,7 +402,7 @@ def parametric_rows(red: dict | None) -> list[tuple[str, str]]:
     par = (red or {}).get("parametric")
     if not par:
         return []
-    unit = {n: " degC" if u == "degC" else "" for n, u in par["units"].items()}
+    unit = {n: " °C" if u == "degC" else "" for n, u in par["units"].items()}  # (summary.json keeps "degC")
     what = "; ".join(f"{n} {vals[0]:g}{unit[n]} (design) and {', '.join(format(v, 'g') for v in vals[1:])}{unit[n]}"
                      for n, vals in par["values"].items())
     return [("parametric deck", f"the correction load follows {what} (model.esatan INTRP1 tables)")]
