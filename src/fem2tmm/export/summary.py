@@ -386,14 +386,19 @@ def refinement_rows(red: dict | None) -> list[tuple[str, str]]:
                            f"estimated RMS per round: {steps}")]
 
 
-def choice_text(choice: dict) -> str:
-    """One line saying which reduction a run used and why (summary.json ``reduced.choice``)."""
+def choice_text(choice: dict, short: bool = False) -> str:
+    """One line saying which reduction a run used and why (summary.json ``reduced.choice``); ``short`` (the
+    terminal): where ``"auto"`` compared both estimates, only those and where the whole reasoning is."""
     method = ("radiation-aware, IR on " + {"faces": "the FE face sides", "detailed": "the FE faces where it lands",
                                            "super_faces": "the super faces"}.get(choice["ir_on"], str(choice["ir_on"]))
               if choice["radiation_aware"] else "the thesis' reduction, uniform load per super node")
     bi = choice.get("biot_cluster_max")
     why = choice["chosen_by"] if bi is None or "Biot" in choice["chosen_by"] else \
         f"{choice['chosen_by']}; largest cluster Biot number {bi:.3g}"
+    est = choice.get("estimated_rms_K") or {}
+    if short and est.get("thesis") is not None and est.get("radiation_aware") is not None:
+        why = (f"auto: estimated error thesis {est['thesis']:.3g} K, radiation-aware {est['radiation_aware']:.3g} K "
+               "(why this one: the report, summary.json reduced.choice.chosen_by)")
     return f"{method}; {why}"
 
 
@@ -463,7 +468,7 @@ def summary_table(s: dict) -> str:
                      f"{red['conductive_links']} GL ({negative_gl_count(red['negative_links'])}), "
                      f"{red['radiative_links']} GR"))
         if red.get("choice"):
-            rows.append(("reduction", choice_text(red["choice"])))
+            rows.append(("reduction", choice_text(red["choice"], short=True)))
         rows += parametric_rows(red)
     pn = s.get("positive_network")
     if pn:
