@@ -158,9 +158,8 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
     ℓ is the footprint's equivalent radius √(A/π).  A shell element whose centroid lies within ℓ of a footprint
     element's centroid (the footprint included) weighs its area × :data:`LOAD_DENSITY`, the part's other shell
     elements their area; solids, bars, parts that mix shells with them and parts with no element within reach keep
-    their own measure (NaN).  The
-    elements within reach are also a region of their own (``marks`` 1, else 0): no cluster straddles the reach's edge,
-    and the region gets its share of the part's super nodes by weight.  Measured on the L-bracket, the region matters:
+    their own measure (NaN).  The elements within reach are also a region of their own (``marks`` 1, else 0): no
+    cluster straddles the reach's edge, and the region gets its share of the part's super nodes by weight.  Measured on the L-bracket, the region matters:
     the same weights without it left cluster boundaries across the edge of the heavy region and the results erratic
     (docs/studies.md).  Each part keeps its number of super nodes.  O(m log m) (a KD-tree per load).
 
@@ -170,10 +169,7 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
 
     mesh = model.mesh
     cells = model.element_cells
-    pts = mesh.points
-    count = np.maximum((cells >= 0).sum(axis=1), 1)
-    centroid = np.stack([np.where(cells >= 0, pts[np.maximum(cells, 0), k], 0.0).sum(axis=1) / count
-                         for k in range(3)], axis=1)
+    centroid = mesh.element_centroids(model.elements)
     area = mesh.element_areas(model.elements)
     shell = np.isfinite(area)
     near = np.zeros(len(model.elements), bool)
@@ -192,7 +188,7 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
         if b.nodes:
             nodes.append(mesh.node_index(np.asarray(b.nodes, np.int64), where=f"[[boundary]] {b.name!r}"))
         if nodes:
-            touched = np.zeros(len(pts), bool)
+            touched = np.zeros(mesh.n_nodes, bool)
             touched[np.concatenate(nodes)] = True
             rows |= np.any(np.where(cells >= 0, touched[np.maximum(cells, 0)], False), axis=1)
         rows &= shell
