@@ -159,9 +159,10 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
     element's centroid (the footprint included) weighs its area × :data:`LOAD_DENSITY`, the part's other shell
     elements their area; solids, bars, parts that mix shells with them and parts with no element within reach keep
     their own measure (NaN).  The elements within reach are also a region of their own (``marks`` 1, else 0): no
-    cluster straddles the reach's edge, and the region gets its share of the part's super nodes by weight.  Measured on the L-bracket, the region matters:
-    the same weights without it left cluster boundaries across the edge of the heavy region and the results erratic
-    (docs/studies.md).  Each part keeps its number of super nodes.  O(m log m) (a KD-tree per load).
+    cluster straddles the reach's edge, and the region gets its share of the part's super nodes by weight.  Measured
+    on the L-bracket, the region matters: the same weights without it left cluster boundaries across the edge of the
+    heavy region and the results erratic (docs/studies.md).  Each part keeps its number of super nodes.  O(m log m)
+    (a KD-tree per load).
 
     Returns ``(weights (m,) m² or NaN, report {load: {"area_m2", "reach_m", "elements"}}, marks (m,) int)``.
     """
