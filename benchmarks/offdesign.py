@@ -32,8 +32,9 @@ BOOKS = (30, 100, 300)
 
 
 def bracket_raw(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int = 60, thesis: bool = False,
-                detailed: bool = True, verify: bool = True) -> dict:
-    """The bracket's case table (default settings; ``thesis`` switches to the thesis' reduction)."""
+                detailed: bool = True, verify: bool = True, allocation: str = "area") -> dict:
+    """The bracket's case table (default settings; ``thesis`` switches to the thesis' reduction, ``allocation`` sets
+    ``[clustering] allocation``)."""
     raw = {"materials": {"composite": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
            "optics": {"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
            "parts": [{"name": "bracket", "groups": ["floor", "wall", "heater"], "material": "composite",
@@ -45,18 +46,21 @@ def bracket_raw(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int 
         raw["reduction"] = {"radiation_aware": False}
     if not verify:  # a run kept for its detailed reference only: no validity range to check
         raw.setdefault("reduction", {})["verify"] = False
+    if allocation != "area":
+        raw["clustering"] = {"allocation": allocation}
     return raw
 
 
 def bracket_case(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int = 60, thesis: bool = False,
-                 detailed: bool = True, verify: bool = True):
+                 detailed: bool = True, verify: bool = True, allocation: str = "area"):
     from fem2tmm.case import Case
 
-    return Case.from_dict(bracket_raw(n_sn, heater, sink_C, n, thesis, detailed, verify), base_dir=Path.cwd())
+    return Case.from_dict(bracket_raw(n_sn, heater, sink_C, n, thesis, detailed, verify, allocation),
+                          base_dir=Path.cwd())
 
 
 def run_bracket(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int = 60, thesis: bool = False,
-                detailed: bool = True, out=None, verify: bool = True):
+                detailed: bool = True, out=None, verify: bool = True, allocation: str = "area"):
     """``(result, wall seconds)`` of the bracket run (warnings silenced); ``verify`` False: no validity-range check
     (a run kept for its detailed reference)."""
     from fem2tmm.mesh import shapes
@@ -65,7 +69,8 @@ def run_bracket(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int 
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = run(bracket_case(n_sn, heater, sink_C, n, thesis, detailed, verify), mesh=shapes.bracket(n=n), out=out)
+        res = run(bracket_case(n_sn, heater, sink_C, n, thesis, detailed, verify, allocation),
+                  mesh=shapes.bracket(n=n), out=out)
     return res, time.perf_counter() - t0
 
 
@@ -161,8 +166,9 @@ def references(states=STATES, n: int = 60, cache: Path | None = None) -> dict:
 
 
 def offdesign_rows(counts=N_SN, n: int = 60, states=STATES, thesis: bool = True, tag: str = "offdesign",
-                   cache: Path | None = None) -> list[dict]:
-    """The study (module docstring) at each super-node count of ``counts`` on the bracket of ``n`` x ``n`` quads."""
+                   cache: Path | None = None, allocation: str = "area") -> list[dict]:
+    """The study (module docstring) at each super-node count of ``counts`` on the bracket of ``n`` x ``n`` quads
+    (``allocation``: the networks' ``[clustering] allocation``; the references do not depend on it)."""
     from fem2tmm.errors import Fem2TmmError
 
     t0 = time.perf_counter()
@@ -175,7 +181,7 @@ def offdesign_rows(counts=N_SN, n: int = 60, states=STATES, thesis: bool = True,
             methods = [("default", False)] + ([("thesis", True)] if thesis else [])
             for method, th in methods:
                 folder = tmp / f"{method}{N}"
-                design, wall = run_bracket(N, n=n, thesis=th, out=folder, detailed=False)
+                design, wall = run_bracket(N, n=n, thesis=th, out=folder, detailed=False, allocation=allocation)
                 for name, heater, sink in states:
                     model, T_ref, rb = refs[(heater, sink)]
                     try:
@@ -216,6 +222,16 @@ def _cache():
 def bench_offdesign_curve() -> list[dict]:
     """``fem2tmm bench offdesign_curve``: the default network from 30 to 1000 super nodes, every edited state."""
     return offdesign_rows(CURVE, thesis=False, tag="offdesign_curve", cache=_cache())
+
+
+def bench_offdesign_loads() -> list[dict]:
+    """``fem2tmm bench offdesign_loads``: the edited decks (:func:`offdesign_rows`) and the stepped transient
+    (:func:`benchmarks.offdesign_transient.transient_rows`) at 100 and 300 super nodes with ``[clustering] allocation =
+    "loads"``; the same with the default allocation are ``fem2tmm bench offdesign`` and ``offdesign_transient``."""
+    from .offdesign_transient import transient_rows
+
+    return (offdesign_rows(thesis=False, tag="offdesign_loads", cache=_cache(), allocation="loads")
+            + transient_rows(thesis=False, allocation="loads"))
 
 
 def bench_offdesign_books() -> list[dict]:

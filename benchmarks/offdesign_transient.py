@@ -40,8 +40,9 @@ def heater_at(t: np.ndarray) -> np.ndarray:
     return np.interp(t, x, y)
 
 
-def transient_rows(counts=N_SN, n: int = 60, thesis: bool = True) -> list[dict]:
-    """The study (module docstring) at each super-node count of ``counts``."""
+def transient_rows(counts=N_SN, n: int = 60, thesis: bool = True, allocation: str = "area") -> list[dict]:
+    """The study (module docstring) at each super-node count of ``counts`` (``allocation``: ``[clustering]
+    allocation``)."""
     from fem2tmm.constants import KELVIN
     from fem2tmm.errors import Fem2TmmError
     from fem2tmm.mesh import shapes
@@ -61,7 +62,7 @@ def transient_rows(counts=N_SN, n: int = 60, thesis: bool = True) -> list[dict]:
     with tempfile.TemporaryDirectory() as tmp:
         for N in counts:
             for method, th in [("default", False)] + ([("thesis", True)] if thesis else []):
-                raw = bracket_raw(N, thesis=th)
+                raw = bracket_raw(N, thesis=th, allocation=allocation)
                 raw["boundary"][1]["value"] = STEPS
                 raw["transient"] = dict(TRANSIENT)
                 folder = Path(tmp) / f"{method}{N}"
@@ -106,6 +107,7 @@ def transient_rows(counts=N_SN, n: int = 60, thesis: bool = True) -> list[dict]:
                 d_rms, d_max, d_at = errors(T_rec)
                 r_rms, r_max, r_at = errors(tr.T_recovered)
                 rows.append({"bench": "offdesign_transient", "super_nodes": N, "method": method,
+                             "allocation": allocation,
                              "deck_rms_K": round(d_rms, 3), "deck_max_K": round(d_max, 3), "deck_max_at_s": d_at,
                              "deck_quasi_static_rms_K": round(q_s, 3), "deck_quasi_static_max_K": round(q_max, 3),
                              "run_rms_K": round(r_rms, 3), "run_max_K": round(r_max, 3), "run_max_at_s": r_at,

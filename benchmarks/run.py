@@ -69,6 +69,7 @@ REGISTRY: dict[str, str] = {
     "offdesign": "benchmarks.offdesign:bench_offdesign",
     "offdesign_curve": "benchmarks.offdesign:bench_offdesign_curve",
     "offdesign_books": "benchmarks.offdesign:bench_offdesign_books",
+    "offdesign_loads": "benchmarks.offdesign:bench_offdesign_loads",
     "offdesign_transient": "benchmarks.offdesign_transient:bench_offdesign_transient",
     "offdesign_transient_forms": "benchmarks.offdesign_transient:bench_offdesign_transient_forms",
 }
@@ -121,6 +122,7 @@ ABOUT: dict[str, str] = {
     "offdesign": "the L-bracket's single-case deck edited (0, 5, 40 W, sink) and solved outside fem2tmm",
     "offdesign_curve": "the edited L-bracket deck from 30 to 1 000 super nodes",
     "offdesign_books": "the L-bracket deck's heat books from its own conductors and loads",
+    "offdesign_loads": "the L-bracket's edited decks and stepped transient with allocation = \"loads\"",
     "offdesign_transient": "the L-bracket's transient deck (10 -> 40 -> 0 W) integrated outside fem2tmm",
     "offdesign_transient_forms": "the L-bracket's transient in network forms a deck can and cannot carry",
 }
