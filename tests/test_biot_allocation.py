@@ -300,3 +300,35 @@ def test_loads_allocation_puts_smaller_super_nodes_around_the_heater():
     # the near region (the 16 patch quads and 44 around them) holds 60 x 3 of 1 092 + 180 weight: 9 of the 60 super
     # nodes for 60 elements, about 7 elements each against 19 with equal areas
     assert sizes["loads"] < 0.5 * sizes["area"], sizes
+
+
+def test_loads_allocation_leaves_a_load_spread_over_its_part_alone():
+    # a heater on the whole wall (576 of the bracket's 1 152 quads, half its area) is not concentrated
+    # (LOAD_CONCENTRATED = 0.25): no weight changes, no region of its own, and the report says why; the patch of the
+    # test above covers 16 / 1 152 = 1.4 % and is
+    from fem2tmm.mesh import shapes
+    from fem2tmm.stages.cluster import LOAD_CONCENTRATED, load_weights
+
+    mesh = shapes.bracket(n=24)
+    case = make_case([{"name": "bracket", "groups": ["floor", "wall", "heater"], "material": "al",
+                       "thickness": 1.5e-3, "front": "black", "back": "black", "super_nodes": 60}],
+                     [{"kind": "temperature", "groups": ["edge"], "value": 20.0},
+                      {"name": "wall_heater", "kind": "power", "groups": ["wall", "heater"], "value": 10.0},
+                      {"name": "patch", "kind": "power", "groups": ["heater"], "value": 10.0}],
+                     clustering={"allocation": "loads"}, reference={"detailed": False})
+    model = build_model(mesh, case)
+    w, rep, marks = load_weights(model, case)
+    assert rep["wall_heater"]["share"] == pytest.approx(0.5, rel=1e-9) and rep["wall_heater"]["spread"]
+    assert rep["wall_heater"]["elements"] == 0
+    assert rep["patch"]["share"] == pytest.approx(16 / 1152, rel=1e-9) and rep["patch"]["share"] < LOAD_CONCENTRATED
+    assert "spread" not in rep["patch"]
+    heater = np.isin(model.elements, mesh.groups["heater"].elements)
+    assert marks.sum() == rep["patch"]["elements"] and marks[heater].all()  # the patch's reach only
+    # with the spread load alone, nothing is weighted: the clusters keep equal areas
+    alone = make_case([{"name": "bracket", "groups": ["floor", "wall", "heater"], "material": "al",
+                        "thickness": 1.5e-3, "front": "black", "back": "black", "super_nodes": 60}],
+                      [{"kind": "temperature", "groups": ["edge"], "value": 20.0},
+                       {"name": "wall_heater", "kind": "power", "groups": ["wall", "heater"], "value": 10.0}],
+                      clustering={"allocation": "loads"}, reference={"detailed": False})
+    w, rep, marks = load_weights(build_model(mesh, alone), alone)
+    assert np.isnan(w).all() and not marks.any() and rep["wall_heater"]["spread"]

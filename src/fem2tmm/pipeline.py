@@ -42,7 +42,8 @@ from .solve.steady import check_solvable
 from .keys import geometry_key, network_group, reduce_key, scene_key, trace_key
 from .reduce.biot import biot_weights, warn_coarse_mesh
 from .solve.problems import describe_nodes, detailed_problem, solve_case, solve_unit, solver_settings
-from .stages.cluster import check_super_node_counts, cluster_key, cluster_model, load_weights, presolve_space
+from .stages.cluster import (LOAD_CONCENTRATED, check_super_node_counts, cluster_key, cluster_model, load_weights,
+                             presolve_space)
 from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_positions_detailed,
                            orbit_positions_reduced, super_face_orbit)
 from .stages.quadrics import fit_quadrics, quadric_regions
@@ -413,8 +414,12 @@ def _cluster(run: _RunState, labels: np.ndarray | None, refine: Refinement | Non
     if case.clustering.allocation == "loads" and labels is None:
         weights, weights_report, marks = load_weights(model, case)
         if np.isnan(weights).all():
-            warnings.warn("[clustering] allocation = \"loads\": no named power or flux load lies on shell elements; "
-                          "the clusters keep equal areas", stacklevel=2)
+            spread = sorted(k for k, r in weights_report.items() if r.get("spread"))
+            why = ("no named power or flux load lies on shell elements" if not spread else
+                   f"{', '.join(map(repr, spread))} cover{'s' if len(spread) == 1 else ''} more than "
+                   f"{LOAD_CONCENTRATED:.0%} of {'its' if len(spread) == 1 else 'their'} parts' area, no load is "
+                   "concentrated")
+            warnings.warn(f"[clustering] allocation = \"loads\": {why}; the clusters keep equal areas", stacklevel=2)
     ckey = cluster_key(model, case, flux, labels, weights, marks)
     clustering = run.cached(
         "cluster", "clustering", lambda: ckey,

@@ -147,6 +147,12 @@ def presolve_space(model: FEModel, case: Case) -> np.ndarray:
 #: while the 40 W deck's maximum fell from 3.22 to 2.10 K and the stepped transient's from 10.1 to 6.2 K; at 100
 #: super nodes it costs heater 0 W 1.56 → 2.0 K RMS for 40 W 17.7 → 2.3 K max
 LOAD_DENSITY = 3.0
+#: ``[clustering] allocation = "loads"`` acts on a load whose footprint covers at most this share of the shell area
+#: of the parts it lies on: a concentrated load (the L-bracket's heater patch, 1.4 % of its part; examples/composite's,
+#: 1.3 %).  A load spread over its whole part sets up no field of its own inside the part's clusters; weighting its
+#: reach only moved the neighbouring parts' clusters: over the robustness campaign (2026-12-07, 519 models with the
+#: reference) the 21 records whose verified range came out worse with `loads` all had a heater covering a whole part
+LOAD_CONCENTRATED = 0.25
 
 
 def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarray]:
@@ -158,13 +164,16 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
     ℓ is the footprint's equivalent radius √(A/π).  A shell element whose centroid lies within ℓ of a footprint
     element's centroid (the footprint included) weighs its area × :data:`LOAD_DENSITY`, the part's other shell
     elements their area; solids, bars, parts that mix shells with them and parts with no element within reach keep
-    their own measure (NaN).  The elements within reach are also a region of their own (``marks`` 1, else 0): no
-    cluster straddles the reach's edge, and the region gets its share of the part's super nodes by weight.  Measured
-    on the L-bracket, the region matters: the same weights without it left cluster boundaries across the edge of the
-    heavy region and the results erratic (docs/studies.md).  Each part keeps its number of super nodes.  O(m log m)
-    (a KD-tree per load).
+    their own measure (NaN).  A load whose footprint covers more than :data:`LOAD_CONCENTRATED` of the shell area of
+    the parts it lies on is not concentrated: it changes no weight (its report says so, ``"spread"``).  The elements
+    within reach are also a region of their own (``marks`` 1, else 0): no cluster straddles the reach's edge, and the
+    region gets its share of the part's super nodes by weight.  Measured on the L-bracket, the region matters: the
+    same weights without it left cluster boundaries across the edge of the heavy region and the results erratic
+    (docs/studies.md).  Each part keeps its number of super nodes.  O(m log m) (a KD-tree per load).
 
-    Returns ``(weights (m,) m² or NaN, report {load: {"area_m2", "reach_m", "elements"}}, marks (m,) int)``.
+    Returns ``(weights (m,) m² or NaN, report {load: {"area_m2", "reach_m", "elements", "share"}}, marks (m,)
+    int)``: ``share`` the footprint's share of its parts' shell area; ``elements`` 0 and ``"spread"`` True where the
+    load is not concentrated.
     """
     from scipy.spatial import cKDTree
 
@@ -197,10 +206,14 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
             continue
         a = float(area[rows].sum())
         reach = float(np.sqrt(a / np.pi))
+        share = a / float(area[np.isin(model.element_part, np.unique(model.element_part[rows])) & shell].sum())
+        if share > LOAD_CONCENTRATED:
+            report[b.name] = {"area_m2": a, "reach_m": reach, "elements": 0, "share": share, "spread": True}
+            continue
         d, _ = cKDTree(centroid[rows]).query(centroid, distance_upper_bound=reach * (1.0 + 1e-9))
         within = np.isfinite(d) & shell
         near |= within
-        report[b.name] = {"area_m2": a, "reach_m": reach, "elements": int(within.sum())}
+        report[b.name] = {"area_m2": a, "reach_m": reach, "elements": int(within.sum()), "share": share}
     weights = np.full(len(model.elements), np.nan)
     for p in range(len(model.parts)):
         rows = np.flatnonzero((model.element_part == p) & shell)
