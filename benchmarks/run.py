@@ -72,6 +72,7 @@ REGISTRY: dict[str, str] = {
     "offdesign_loads": "benchmarks.offdesign:bench_offdesign_loads",
     "offdesign_transient": "benchmarks.offdesign_transient:bench_offdesign_transient",
     "offdesign_transient_forms": "benchmarks.offdesign_transient:bench_offdesign_transient_forms",
+    "offdesign_transient_forms_loads": "benchmarks.offdesign_transient:bench_offdesign_transient_forms_loads",
 }
 
 
@@ -125,6 +126,7 @@ ABOUT: dict[str, str] = {
     "offdesign_loads": "the L-bracket's edited decks and stepped transient with allocation = \"loads\"",
     "offdesign_transient": "the L-bracket's transient deck (10 -> 40 -> 0 W) integrated outside fem2tmm",
     "offdesign_transient_forms": "the L-bracket's transient in network forms a deck can and cannot carry",
+    "offdesign_transient_forms_loads": "the same forms with allocation = \"loads\", at 100 and 300 super nodes",
 }
 
 
