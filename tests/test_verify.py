@@ -528,6 +528,12 @@ def test_the_satellites_short_bars_are_fed_along_their_links_where_that_holds_th
     assert ve["status"] == "UNVERIFIED" and ve["estimated"]["status"] == "estimated"
     assert ce["verified_range"]["by"] == "estimate" and not ce["verified_range"]["thesis"]
     assert e.reduced.method == "radiation_aware"
+    # the measured choice's whole cost: the design-state estimate and the range's estimated checks (both stages)
+    t = e.summary["timings_s"]
+    assert ce["range_estimate_seconds"] == pytest.approx(t["estimate_range"] + t["verify_floor"], rel=1e-12)
+    assert ce["estimate_total_cost_fraction"] == pytest.approx(
+        (ce["estimate_seconds"] + ce["range_estimate_seconds"]) / ce["reduction_seconds"], rel=1e-12)
+    assert ce["estimate_total_cost_fraction"] > ce["estimate_cost_fraction"] > 0
     # the estimate at each state against the error measured there (the same network, states and decks): the
     # estimator's accuracy off the design state as on it (at the design state over the robustness campaign, its
     # ratio's quartiles 0.92 and 1.23; here 0.6-0.95, measured 2026-12-07), bounded by a factor of 2

@@ -128,8 +128,15 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
         ch = red.choice or {}
         if ch.get("estimate_seconds") is not None and timings:  # the measured choice's cost (issue 42: <= 20 %)
             stages = sum(timings.get(k, 0.0) for k in REDUCTION_STAGES)
+            # without the detailed reference the range's choices rest on estimates too (stages estimate_range and,
+            # where the floor's candidates were estimated, verify_floor): the whole measured choice's cost beside it
+            ranged = timings.get("estimate_range", 0.0) + (timings.get("verify_floor", 0.0)
+                                                           if (ch.get("floor") or {}).get("by") == "estimate" else 0.0)
             s["reduced"]["choice"] = {**ch, "reduction_seconds": stages,
-                                      "estimate_cost_fraction": ch["estimate_seconds"] / max(stages, 1e-9)}
+                                      "estimate_cost_fraction": ch["estimate_seconds"] / max(stages, 1e-9),
+                                      "range_estimate_seconds": ranged,
+                                      "estimate_total_cost_fraction": (ch["estimate_seconds"] + ranged)
+                                      / max(stages, 1e-9)}
         if red.verified is not None:  # the validity range (fem2tmm.verify) and its cost within the run
             s["reduced"]["verified"] = dict(red.verified)
             if red.verified.get("seconds") is not None and timings:
