@@ -175,9 +175,9 @@ def _plot(curves: dict) -> str:
 #: ``fem2tmm bench allocation``: the composite study with area allocation, Biot-aware allocation
 #: (``[clustering] allocation = "biot"``), IR emitted per FE face (``[radiation] ir_on = "faces"``, with either
 #: allocation) and with 4x the reduced model's rays (is what remains ray noise?); ``area_rays4`` on request
-#: examples/composite's settings before 2026-12-03 (super-face emission, 5 outer iterations), which the allocation,
-#: quiet, floor and mismatch benches keep so that their README tables stay reproducible
-LEGACY = {"ir_on": "detailed", "outer_iterations": 5}
+#: examples/composite's settings before 2026-12-03 (super-face emission, 5 outer iterations, equal areas), which the
+#: allocation, quiet, floor and mismatch benches keep so that their README tables stay reproducible
+LEGACY = {"ir_on": "detailed", "outer_iterations": 5, "allocation": "area"}
 ALLOCATION_VARIANTS = {"area": {**LEGACY}, "biot": {**LEGACY, "allocation": "biot"},
                        "ir_faces": {**LEGACY, "ir_on": "faces"},
                        "ir_faces_biot": {**LEGACY, "ir_on": "faces", "allocation": "biot"},
@@ -233,6 +233,7 @@ def _quiet_case(n: int, rays_factor: float, ref_factor: float, ir_on: str | None
     (default :data:`LEGACY`'s) and ``outer_iterations`` (None: the example's)."""
     opts = {"rays_factor": rays_factor} if rays_factor != 1 else {}
     opts["ir_on"] = LEGACY["ir_on"] if ir_on is None else ir_on
+    opts["allocation"] = LEGACY["allocation"]
     if outer_iterations is not None:
         opts["outer_iterations"] = outer_iterations
     case = _case(STUDIES["composite"][0], n, opts)

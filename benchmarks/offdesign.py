@@ -32,9 +32,9 @@ BOOKS = (30, 100, 300)
 
 
 def bracket_raw(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int = 60, thesis: bool = False,
-                detailed: bool = True, verify: bool = True, allocation: str = "area") -> dict:
+                detailed: bool = True, verify: bool = True, allocation: str | None = None) -> dict:
     """The bracket's case table (default settings; ``thesis`` switches to the thesis' reduction, ``allocation`` sets
-    ``[clustering] allocation``)."""
+    ``[clustering] allocation``, None: its default)."""
     raw = {"materials": {"composite": {"conductivity": 5.0, "density": 1600.0, "specific_heat": 900.0}},
            "optics": {"paint": {"emissivity": 0.85, "absorptivity": 0.2}},
            "parts": [{"name": "bracket", "groups": ["floor", "wall", "heater"], "material": "composite",
@@ -46,13 +46,13 @@ def bracket_raw(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int 
         raw["reduction"] = {"radiation_aware": False}
     if not verify:  # a run kept for its detailed reference only: no validity range to check
         raw.setdefault("reduction", {})["verify"] = False
-    if allocation != "area":
+    if allocation is not None:
         raw["clustering"] = {"allocation": allocation}
     return raw
 
 
 def bracket_case(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int = 60, thesis: bool = False,
-                 detailed: bool = True, verify: bool = True, allocation: str = "area"):
+                 detailed: bool = True, verify: bool = True, allocation: str | None = None):
     from fem2tmm.case import Case
 
     return Case.from_dict(bracket_raw(n_sn, heater, sink_C, n, thesis, detailed, verify, allocation),
@@ -60,7 +60,7 @@ def bracket_case(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int
 
 
 def run_bracket(n_sn: int, heater: float = 10.0, sink_C: float = -270.0, n: int = 60, thesis: bool = False,
-                detailed: bool = True, out=None, verify: bool = True, allocation: str = "area"):
+                detailed: bool = True, out=None, verify: bool = True, allocation: str | None = None):
     """``(result, wall seconds)`` of the bracket run (warnings silenced); ``verify`` False: no validity-range check
     (a run kept for its detailed reference)."""
     from fem2tmm.mesh import shapes
@@ -166,7 +166,7 @@ def references(states=STATES, n: int = 60, cache: Path | None = None) -> dict:
 
 
 def offdesign_rows(counts=N_SN, n: int = 60, states=STATES, thesis: bool = True, tag: str = "offdesign",
-                   cache: Path | None = None, allocation: str = "area") -> list[dict]:
+                   cache: Path | None = None, allocation: str | None = None) -> list[dict]:
     """The study (module docstring) at each super-node count of ``counts`` on the bracket of ``n`` x ``n`` quads
     (``allocation``: the networks' ``[clustering] allocation``; the references do not depend on it)."""
     from fem2tmm.errors import Fem2TmmError
@@ -227,11 +227,20 @@ def bench_offdesign_curve() -> list[dict]:
 def bench_offdesign_loads() -> list[dict]:
     """``fem2tmm bench offdesign_loads``: the edited decks (:func:`offdesign_rows`) and the stepped transient
     (:func:`benchmarks.offdesign_transient.transient_rows`) at 100 and 300 super nodes with ``[clustering] allocation =
-    "loads"``; the same with the default allocation are ``fem2tmm bench offdesign`` and ``offdesign_transient``."""
+    "loads"`` (the default since 2026-12-07: ``fem2tmm bench offdesign`` and ``offdesign_transient`` give the same)."""
     from .offdesign_transient import transient_rows
 
     return (offdesign_rows(thesis=False, tag="offdesign_loads", cache=_cache(), allocation="loads")
             + transient_rows(thesis=False, allocation="loads"))
+
+
+def bench_offdesign_area() -> list[dict]:
+    """``fem2tmm bench offdesign_area``: as :func:`bench_offdesign_loads` with ``[clustering] allocation = "area"``
+    (equal areas, the default until 2026-12-07): what the default's allocation changed."""
+    from .offdesign_transient import transient_rows
+
+    return (offdesign_rows(thesis=False, tag="offdesign_area", cache=_cache(), allocation="area")
+            + transient_rows(thesis=False, allocation="area"))
 
 
 def bench_offdesign_books() -> list[dict]:

@@ -40,7 +40,7 @@ def heater_at(t: np.ndarray) -> np.ndarray:
     return np.interp(t, x, y)
 
 
-def transient_rows(counts=N_SN, n: int = 60, thesis: bool = True, allocation: str = "area") -> list[dict]:
+def transient_rows(counts=N_SN, n: int = 60, thesis: bool = True, allocation: str | None = None) -> list[dict]:
     """The study (module docstring) at each super-node count of ``counts`` (``allocation``: ``[clustering]
     allocation``)."""
     from fem2tmm.constants import KELVIN
@@ -230,7 +230,7 @@ def linear_forms(rec, T_star: np.ndarray, times: np.ndarray, load: str = "heater
     return rows
 
 
-def bench_offdesign_transient_forms(counts=FORMS_N_SN, allocation: str = "area") -> list[dict]:
+def bench_offdesign_transient_forms(counts=FORMS_N_SN, allocation: str | None = None) -> list[dict]:
     """``fem2tmm bench offdesign_transient_forms``: the bracket's transient (default settings; ``allocation`` its
     ``[clustering] allocation``) at each count, the run's own reduced transient against its detailed one, and beside
     it the same transient linearised about the design field in each form of :func:`linear_forms`: what the network's

@@ -54,7 +54,8 @@ def counts(model, clustering):
 def test_case_key_is_validated():
     assert two_plates_case(4, "area").clustering.allocation == "area"
     default = make_case([{"name": "p", "groups": ["a"], "material": "al", "thickness": T_THICK}])
-    assert default.clustering.allocation == "area"  # default: today's behaviour
+    # the default since 2026-12-07: smaller super nodes around concentrated loads, equal areas elsewhere
+    assert default.clustering.allocation == "loads"
     with pytest.raises(Fem2TmmError, match="allocation"):
         two_plates_case(4, "volume")
 
@@ -304,7 +305,7 @@ def test_loads_allocation_puts_smaller_super_nodes_around_the_heater():
 
 def test_loads_allocation_leaves_a_load_spread_over_its_part_alone():
     # a heater on the whole wall (576 of the bracket's 1 152 quads, half its area) is not concentrated
-    # (LOAD_CONCENTRATED = 0.25): no weight changes, no region of its own, and the report says why; the patch of the
+    # (LOAD_CONCENTRATED = 0.1): no weight changes, no region of its own, and the report says why; the patch of the
     # test above covers 16 / 1 152 = 1.4 % and is
     from fem2tmm.mesh import shapes
     from fem2tmm.stages.cluster import LOAD_CONCENTRATED, load_weights

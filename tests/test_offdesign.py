@@ -178,7 +178,9 @@ def test_the_deck_edited_to_a_sink_at_the_held_edges_temperature_is_solved_and_v
     from fem2tmm.lpm.solve import solve_network, steady_problem
     from fem2tmm.solve.steady import solve_steady
 
-    res = run_bracket(30, n=N_QUADS, out=tmp_path / "deck")[0]
+    # equal areas: the clusters of the deck whose Newton stalls (with the default's smaller super nodes at the heater,
+    # allocation = "loads", the same edited deck converges from its design temperatures)
+    res = run_bracket(30, n=N_QUADS, out=tmp_path / "deck", allocation="area")[0]
     v = res.summary["reduced"]["verified"]
     st = next(s for s in v["states"] if s["label"] == "sink high")
     assert st["values"]["sink"] == pytest.approx(20.0) and st["rms_K"] is not None and not v["failed"], st

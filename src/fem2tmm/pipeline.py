@@ -42,8 +42,7 @@ from .solve.steady import check_solvable
 from .keys import geometry_key, network_group, reduce_key, scene_key, trace_key
 from .reduce.biot import biot_weights, warn_coarse_mesh
 from .solve.problems import describe_nodes, detailed_problem, solve_case, solve_unit, solver_settings
-from .stages.cluster import (LOAD_CONCENTRATED, check_super_node_counts, cluster_key, cluster_model, load_weights,
-                             presolve_space)
+from .stages.cluster import check_super_node_counts, cluster_key, cluster_model, load_weights, presolve_space
 from .stages.orbit import (OrbitLoads, detailed_orbit, orbit_average, orbit_positions_detailed,
                            orbit_positions_reduced, super_face_orbit)
 from .stages.quadrics import fit_quadrics, quadric_regions
@@ -412,14 +411,9 @@ def _cluster(run: _RunState, labels: np.ndarray | None, refine: Refinement | Non
             warn_coarse_mesh(sum(r["elements_over_1"] for r in weights_report.values()),
                              max((r["max"] for r in weights_report.values()), default=None))
     if case.clustering.allocation == "loads" and labels is None:
+        # (the default: where no load is concentrated on shells the weights are all NaN and the clusters keep equal
+        # areas, as with "area"; summary.json reduced.clustering.allocation gives each load's share and reach)
         weights, weights_report, marks = load_weights(model, case)
-        if np.isnan(weights).all():
-            spread = sorted(k for k, r in weights_report.items() if r.get("spread"))
-            why = ("no named power or flux load lies on shell elements" if not spread else
-                   f"{', '.join(map(repr, spread))} cover{'s' if len(spread) == 1 else ''} more than "
-                   f"{LOAD_CONCENTRATED:.0%} of {'its' if len(spread) == 1 else 'their'} parts' area, no load is "
-                   "concentrated")
-            warnings.warn(f"[clustering] allocation = \"loads\": {why}; the clusters keep equal areas", stacklevel=2)
     ckey = cluster_key(model, case, flux, labels, weights, marks)
     clustering = run.cached(
         "cluster", "clustering", lambda: ckey,
@@ -648,8 +642,6 @@ def _parametric(run: _RunState, mesh: Mesh, reduced: Reduced) -> None:
                 raise InternalError(f"the parametric states' networks differ from the design's by "
                                     f"{reduced.parametric['gl_change']:.3g} (relative GL)")
     elif asked.reduction.parametric:
-        import warnings
-
         warnings.warn(f"{case.source}: [reduction] parametric is not used: the run's network is the thesis' "
                       f"({reduced.choice['chosen_by']}), which is state-independent: a named constant edited in "
                       "the deck already gives what fem2tmm gives", stacklevel=3)
@@ -730,8 +722,7 @@ def _reference(run: _RunState, problem, q_solar: np.ndarray | None, q_orbit: np.
             except Fem2TmmError as exc:
                 if not optional:
                     raise
-                import warnings  # asked for, but a transient from a given temperature does not need it
-
+                # asked for, but a transient from a given temperature does not need it
                 warnings.warn(f"the detailed steady reference failed and is left out; the transient goes on: {exc}",
                               stacklevel=3)
                 halves = []

@@ -169,9 +169,11 @@ class ClusteringSettings:
     smoothing_layers: int = 2
     balance: bool = True  # clusters of equal area within regions, area-proportional allocation (False: thesis)
     method: ClusteringMethod = "growing"  # growing | metis (pymetis on each region)
-    # area | biot: shell elements weighted by their Biot number h_rad A/(k t) from an emission-to-space pre-solve
+    # loads (the default since 2026-12-07): more, smaller super nodes around the named power and flux loads that are
+    # concentrated on shells (fem2tmm.stages.cluster.load_weights; elsewhere as area) | area: equal areas | biot:
+    # shell elements weighted by their Biot number h_rad A/(k t) from an emission-to-space pre-solve
     # (fem2tmm.reduce.biot.biot_weights): more, smaller super nodes where heat spreads short distances
-    allocation: ClusteringAllocation = "area"
+    allocation: ClusteringAllocation = "loads"
     # clusters follow a cheap solar pre-pass (fem2tmm.cluster.driver.flux_feature); None = automatic: on when
     # [environment] solar_on = "super_faces" and there is a Sun
     solar_aware: bool | None = None

@@ -149,10 +149,13 @@ def presolve_space(model: FEModel, case: Case) -> np.ndarray:
 LOAD_DENSITY = 3.0
 #: ``[clustering] allocation = "loads"`` acts on a load whose footprint covers at most this share of the shell area
 #: of the parts it lies on: a concentrated load (the L-bracket's heater patch, 1.4 % of its part; examples/composite's,
-#: 1.3 %).  A load spread over its whole part sets up no field of its own inside the part's clusters; weighting its
-#: reach only moved the neighbouring parts' clusters: over the robustness campaign (2026-12-07, 519 models with the
-#: reference) the 21 records whose verified range came out worse with `loads` all had a heater covering a whole part
-LOAD_CONCENTRATED = 0.25
+#: 1.3 %: where it was measured to gain).  A load spread over its whole part sets up no field of its own inside the
+#: part's clusters; weighting its reach only moved the neighbouring parts' clusters: over the robustness campaign
+#: (2026-12-07, 519 models with the reference) the 21 records whose verified range came out worse with `loads` all
+#: had a heater covering a whole part.  A heater on one face of a box (23 % of the part) is not a patch either: with
+#: 0.25 the campaign's five such boxes moved, four within the noise and one worse at its design state (3e-10 ->
+#: 0.009 K, its thesis' network then without a steady solution); with 0.1 every campaign record is as with `area`
+LOAD_CONCENTRATED = 0.1
 
 
 def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarray]:
