@@ -238,3 +238,20 @@ def test_above_the_estimates_size_the_cluster_biot_number_decides(monkeypatch):
         assert "unknowns, above the 1000 the error estimate runs for" in choice["chosen_by"], choice
         assert ("estimated_rms_K" not in choice) and r.summary["timings_s"].get("estimate") is None, choice
         assert r.reduced.method == ("radiation_aware" if aware else "thesis")
+
+
+def test_the_estimates_share_is_not_stated_against_stages_reused_from_the_cache(tmp_path):
+    # A second run in the same output folder reuses the clustering, the reduction and the radiation from the stage
+    # cache (<out>/.cache) and pays only the estimate: a share of a reduction that cost nothing would read > 100 %
+    # (examples/baffle/case_100.toml: 819 %), so none is stated and the reused stages are named.
+    mesh = box()
+    shares = []
+    for _ in range(2):
+        r = run(composite_box_case(10, 5.0, {"outer_iterations": 20}, detailed=False), mesh=mesh, out=tmp_path)
+        shares.append(r.summary["reduced"]["choice"])
+    first, again = shares
+    assert first["reduction_reused"] == [] and 0 < first["estimate_cost_fraction"] <= first[
+        "estimate_total_cost_fraction"]
+    assert {"cluster", "reduce"} <= set(again["reduction_reused"]), again["reduction_reused"]
+    assert again["estimate_cost_fraction"] is None and again["estimate_total_cost_fraction"] is None
+    assert again["estimate_seconds"] > 0  # the estimate itself ran again

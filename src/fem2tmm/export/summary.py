@@ -132,11 +132,15 @@ def build_summary(result: Result, timings: dict[str, float]) -> dict:
             # where the floor's candidates were estimated, verify_floor): the whole measured choice's cost beside it
             ranged = timings.get("estimate_range", 0.0) + (timings.get("verify_floor", 0.0)
                                                            if (ch.get("floor") or {}).get("by") == "estimate" else 0.0)
-            s["reduced"]["choice"] = {**ch, "reduction_seconds": stages,
-                                      "estimate_cost_fraction": ch["estimate_seconds"] / max(stages, 1e-9),
+            # a reduction stage reused from the stage cache costs nothing here: no share of its time is stated
+            reused = sorted(k for k, v in (result.cache or {}).items()
+                            if v == "reused" and k.rsplit("/", 1)[-1] in REDUCTION_STAGES)
+            s["reduced"]["choice"] = {**ch, "reduction_seconds": stages, "reduction_reused": reused,
+                                      "estimate_cost_fraction": None if reused
+                                      else ch["estimate_seconds"] / max(stages, 1e-9),
                                       "range_estimate_seconds": ranged,
-                                      "estimate_total_cost_fraction": (ch["estimate_seconds"] + ranged)
-                                      / max(stages, 1e-9)}
+                                      "estimate_total_cost_fraction": None if reused
+                                      else (ch["estimate_seconds"] + ranged) / max(stages, 1e-9)}
         if red.verified is not None:  # the validity range (fem2tmm.verify) and its cost within the run
             s["reduced"]["verified"] = dict(red.verified)
             if red.verified.get("seconds") is not None and timings:
