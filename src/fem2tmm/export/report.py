@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import KELVIN
-from .summary import NEGATIVE_GL_NOTE, UNIT_TEXT, count_of, choice_text, parametric_rows, refinement_rows, verified_rows
+from .summary import (NEGATIVE_GL_NOTE, UNIT_TEXT, allocation_rows, count_of, choice_text, parametric_rows,
+                      refinement_rows, verified_rows)
 from .orbit import orbit_plots
 from .viewer import VIEWER_CSS, distinct_colors, face_super_nodes, view_data, viewer_html
 
@@ -212,6 +213,7 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
                      f"{red['super_faces']} super faces"))
         if red["negative_links"]:
             rows.append(("negative GL", f"{red['negative_links']} of {red['conductive_links']}: {NEGATIVE_GL_NOTE}"))
+        rows += allocation_rows(red)
         if red.get("choice"):
             rows.append(("reduction", choice_text(red["choice"])))
         rows += parametric_rows(red)

@@ -10,6 +10,7 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
+from ..stages.cluster import LOAD_DENSITY
 from .heatflow import by_correction as _by_correction, heat_flow_rows, heat_flow_summary, network_radiated_W
 from .orbit import orbit_summary
 
@@ -422,6 +423,19 @@ def parametric_rows(red: dict | None) -> list[tuple[str, str]]:
     what = "; ".join(f"{n} {vals[0]:g}{unit[n]} (design) and {', '.join(format(v, 'g') for v in vals[1:])}{unit[n]}"
                      for n, vals in par["values"].items())
     return [("parametric deck", f"the correction load follows {what} (model.esatan INTRP1 tables)")]
+
+
+def allocation_rows(red: dict | None) -> list[tuple[str, str]]:
+    """The report row of ``[clustering] allocation = "loads"`` where it moved super nodes (summary.json
+    ``reduced.clustering.allocation``): which loads drew smaller super nodes around them, and how far."""
+    al = ((red or {}).get("clustering") or {}).get("allocation") or {}
+    near = {k: v for k, v in al.items() if isinstance(v, dict) and v.get("elements")}
+    if al.get("method") != "loads" or not near:
+        return []
+    what = "; ".join(f"'{k}' ({v['area_m2']:.3g} m², {v['share']:.1%} of its parts): {v['elements']} elements within "
+                     f"{100 * v['reach_m']:.3g} cm" for k, v in near.items())
+    return [("clusters", f"smaller super nodes around the concentrated loads ([clustering] allocation = \"loads\"): "
+                         f"{what}, a region of their own weighted {LOAD_DENSITY:g} × their area")]
 
 
 def verified_rows(red: dict | None) -> list[tuple[str, str]]:
