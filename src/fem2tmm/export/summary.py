@@ -10,7 +10,6 @@ from .._version import __version__
 from ..constants import KELVIN
 from ..reduce.network import conductive_links
 from ..result import Result
-from ..stages.cluster import LOAD_DENSITY
 from .heatflow import by_correction as _by_correction, heat_flow_rows, heat_flow_summary, network_radiated_W
 from .orbit import orbit_summary
 
@@ -435,7 +434,7 @@ def allocation_rows(red: dict | None) -> list[tuple[str, str]]:
     what = "; ".join(f"'{k}' ({v['area_m2']:.3g} m², {v['share']:.1%} of its parts): {v['elements']} elements within "
                      f"{100 * v['reach_m']:.3g} cm" for k, v in near.items())
     return [("clusters", f"smaller super nodes around the concentrated loads ([clustering] allocation = \"loads\"): "
-                         f"{what}, a region of their own weighted {LOAD_DENSITY:g} × their area")]
+                         f"{what}: a region of their own, weighted more per area (docs/case-file.md)")]
 
 
 def verified_rows(red: dict | None) -> list[tuple[str, str]]:
