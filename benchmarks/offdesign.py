@@ -224,23 +224,26 @@ def bench_offdesign_curve() -> list[dict]:
     return offdesign_rows(CURVE, thesis=False, tag="offdesign_curve", cache=_cache())
 
 
-def bench_offdesign_loads() -> list[dict]:
-    """``fem2tmm bench offdesign_loads``: the edited decks (:func:`offdesign_rows`) and the stepped transient
-    (:func:`benchmarks.offdesign_transient.transient_rows`) at 100 and 300 super nodes with ``[clustering] allocation =
-    "loads"`` (the default since 2026-12-07: ``fem2tmm bench offdesign`` and ``offdesign_transient`` give the same)."""
+def allocation_rows(allocation: str) -> list[dict]:
+    """The edited decks (:func:`offdesign_rows`) and the stepped transient
+    (:func:`benchmarks.offdesign_transient.transient_rows`) at 100 and 300 super nodes, the default network with
+    ``[clustering] allocation = allocation`` (rows tagged ``offdesign_<allocation>``)."""
     from .offdesign_transient import transient_rows
 
-    return (offdesign_rows(thesis=False, tag="offdesign_loads", cache=_cache(), allocation="loads")
-            + transient_rows(thesis=False, allocation="loads"))
+    return (offdesign_rows(thesis=False, tag=f"offdesign_{allocation}", cache=_cache(), allocation=allocation)
+            + transient_rows(thesis=False, allocation=allocation))
+
+
+def bench_offdesign_loads() -> list[dict]:
+    """``fem2tmm bench offdesign_loads``: :func:`allocation_rows` with ``"loads"`` (the default since 2026-12-07:
+    ``fem2tmm bench offdesign`` and ``offdesign_transient`` give the same)."""
+    return allocation_rows("loads")
 
 
 def bench_offdesign_area() -> list[dict]:
-    """``fem2tmm bench offdesign_area``: as :func:`bench_offdesign_loads` with ``[clustering] allocation = "area"``
-    (equal areas, the default until 2026-12-07): what the default's allocation changed."""
-    from .offdesign_transient import transient_rows
-
-    return (offdesign_rows(thesis=False, tag="offdesign_area", cache=_cache(), allocation="area")
-            + transient_rows(thesis=False, allocation="area"))
+    """``fem2tmm bench offdesign_area``: :func:`allocation_rows` with ``"area"`` (equal areas, the default until
+    2026-12-07): what the default's allocation changed."""
+    return allocation_rows("area")
 
 
 def bench_offdesign_books() -> list[dict]:

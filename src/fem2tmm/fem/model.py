@@ -446,7 +446,7 @@ def _build_model(mesh: Mesh, case: Case) -> FEModel:
     in_model[stencil.ravel()] = True
     node_boundary = np.full(n_nodes, -1, np.int64)
     fixed_specs = []
-    specs = [(b.name, b.value, _boundary_nodes(mesh, case, b)) for b in case.boundaries if b.kind == "temperature"]
+    specs = [(b.name, b.value, boundary_nodes(mesh, case, b)) for b in case.boundaries if b.kind == "temperature"]
     case_fixed = np.zeros(n_nodes, bool)
     for _, _, nodes in specs:
         case_fixed[nodes] = True
@@ -775,10 +775,10 @@ def _check_load_on_fixed(mesh: Mesh, case: Case, b: Boundary, q: np.ndarray, fix
                   f"{names} and flow straight into it", stacklevel=4)
 
 
-def _boundary_nodes(mesh: Mesh, case: Case, b: Boundary) -> np.ndarray:
-    nodes = [mesh.group(g, where=f"{case.source}: [[boundary]] {b.name!r}.groups").nodes for g in b.groups]
-    if b.nodes:
-        nodes.append(mesh.node_index(b.nodes, where=f"{case.source}: [[boundary]] {b.name!r}.nodes"))
+def boundary_nodes(mesh: Mesh, case: Case, b: Boundary) -> np.ndarray:
+    """Sorted mesh node indices of a boundary ``b``: its groups' nodes and its own ``nodes`` (ids)."""
+    nodes = ([mesh.group(g, where=f"{case.source}: [[boundary]] {b.name!r}.groups").nodes for g in b.groups]
+             + ([mesh.node_index(b.nodes, where=f"{case.source}: [[boundary]] {b.name!r}.nodes")] if b.nodes else []))
     return unique(np.concatenate(nodes)) if nodes else np.zeros(0, np.int64)
 
 
@@ -823,7 +823,7 @@ def _load_vector(mesh: Mesh, case: Case, b: Boundary, node_dof: np.ndarray, n_do
             raise Fem2TmmError(f"{where}: a flux (W/m²) needs surface groups, not node groups or node ids")
         if len(el):
             raise Fem2TmmError(f"{where}: give either element groups or nodes for a power boundary, not both")
-        nodes = _boundary_nodes(mesh, case, b)
+        nodes = boundary_nodes(mesh, case, b)
         nodal[nodes] = b.value / len(nodes)
     ok = node_dof >= 0
     lost = np.abs(nodal[~ok]).sum()

@@ -14,7 +14,7 @@ from ..case import Case
 from ..cluster import Clustering, PartInput, cluster_parts, from_labels
 from ..cluster.contact import join_dependent
 from ..errors import Fem2TmmError
-from ..fem.model import FEModel
+from ..fem.model import FEModel, boundary_nodes
 from ..reduce.network import determined_elements, kept_dofs
 from ..solve.problems import detailed_problem
 from ..solve.steady import solve_steady
@@ -188,12 +188,11 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
     # of the pipeline_1m family, where its one load is spread)
     area, known = np.full(m, np.nan), np.zeros(m, bool)
 
-    def areas(mask: np.ndarray) -> np.ndarray:
+    def areas(mask: np.ndarray) -> None:
         todo = mask & ~known
         if todo.any():
             area[todo] = mesh.element_areas(model.elements[todo])
             known[todo] = True
-        return area
 
     centroid = None
     near = np.zeros(m, bool)
@@ -201,20 +200,15 @@ def load_weights(model: FEModel, case: Case) -> tuple[np.ndarray, dict, np.ndarr
     for b in case.boundaries:
         if b.kind not in ("power", "flux"):
             continue
-        rows = np.zeros(m, bool)
-        nodes = []
-        for g in b.groups:
-            grp = mesh.groups[g]
-            if len(grp.elements):
-                rows |= np.isin(model.elements, grp.elements)
-            else:
-                nodes.append(np.asarray(grp.nodes, np.int64))
-        if b.nodes:
-            nodes.append(mesh.node_index(np.asarray(b.nodes, np.int64), where=f"[[boundary]] {b.name!r}"))
-        if nodes:
+        # its footprint: its element groups, or (a power on nodes: the model refuses a load that mixes both) the
+        # elements that touch its nodes
+        groups = [mesh.groups[g].elements for g in b.groups if len(mesh.groups[g].elements)]
+        if groups:
+            rows = np.isin(model.elements, np.concatenate(groups))
+        else:
             touched = np.zeros(mesh.n_nodes, bool)
-            touched[np.concatenate(nodes)] = True
-            rows |= np.any(np.where(cells >= 0, touched[np.maximum(cells, 0)], False), axis=1)
+            touched[boundary_nodes(mesh, case, b)] = True
+            rows = np.any(np.where(cells >= 0, touched[np.maximum(cells, 0)], False), axis=1)
         if not rows.any():
             continue
         parts = np.isin(model.element_part, np.unique(model.element_part[rows]))
