@@ -1,17 +1,23 @@
 """Issue 31: generated small models (shells, slivers, boxes, solids, parts touching at a node; issue 42's real-structure
 features: an inactive solid block on a radiator, RBE2 spiders that collapse elements, bars on panel edges, aluminium
-beside low-k CFRP, MLI with an effective emittance and stitches across; conductivity over three
-decades, emissivity 0-1, specular and diffuse, Sun on and off, sinks 0-400 K, heaters 0-1 kW, held temperatures above
-and below the sink, steady and transient, thesis and radiation-aware reductions, 1-50 super nodes) either solve with
-closed energy balances and temperatures within their sources' bounds, or stop with a Fem2TmmError naming the cause.
-The default run tries 80 models of every kind (100 until 2026-12-07 20:50 UTC; 150 until 2026-12-07 02:50 UTC, 63 s
-for the generated test then; 200 models took 64 s for the whole file at load ~4 on 2026-12-06 and 91 s at 23:10 UTC,
-when the machine ran 1.75x slower); ``fem2tmm bench robustness`` tries thousands."""
+beside low-k CFRP, MLI with an effective emittance and stitches across, a heater on a unit's footprint; conductivity
+over three decades, emissivity 0-1, specular and diffuse, Sun on and off, sinks 0-400 K, heaters 0-1 kW, held
+temperatures above and below the sink, steady and transient, thesis and radiation-aware reductions, 1-50 super nodes)
+either solve with closed energy balances and temperatures within their sources' bounds, or stop with a Fem2TmmError
+naming the cause. The default run tries 80 models of every kind (100 until 2026-12-07 20:50 UTC; 150 until 2026-12-07
+02:50 UTC, 63 s for the generated test then; 200 models took 64 s for the whole file at load ~4 on 2026-12-06 and 91
+s at 23:10 UTC, when the machine ran 1.75x slower); ``fem2tmm bench robustness`` tries thousands."""
 
 from __future__ import annotations
 
+import warnings
+
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
+
+from fem2tmm.case import Case
+from fem2tmm.pipeline import run
 
 from robustness import KINDS, OPEN_KINDS, check, make_mesh, models
 
@@ -276,6 +282,54 @@ REGRESSIONS["denormal_heater_hot_spot"] = ("merge(plate(0.3, 0.2, 1, 5), frame(0
     "reduction": {"radiation_aware": True, "outer_iterations": 20},
     "reference": {"detailed": True, "rays_per_face": 10, "noise": True},
     "transient": {"end": 600.0, "step": 60.0, "initial_temperature": -74.82641651591376}})
+
+# found by `fem2tmm bench robustness` (2026-12-08 00:05-00:23 UTC, the first campaign with heater patches): a panel
+# beside an MLI-covered one, one quad each, every corner of the covered panel and of the blanket a CBUSH end (so every
+# node of theirs a one-node super node), thesis' reduction, a transient.  Those two parts' elements are in no cluster,
+# and their capacitance (64 + 4 J/K) went to no super node: eight network nodes with C = 0, whose algebraic balance
+# the transient Newton could not meet even on a 6e-8 s step.  Such elements now give their nodes their shares
+# (reduce.capacitance.supernode_capacitance ``unclustered``)
+STITCHED = ("nodes_at(stitch(merge(plate(0.2, 0.2, 1, 1), plate(0.2, 0.2, 1, 1, origin=(0.2, 0.0, 0.0), "
+            "name='covered'), plate(0.2, 0.2, 1, 1, origin=(0.2, 0.0, 0.003), name='blanket')), 'blanket', "
+            "'covered'), 'root', x=0.0)")
+REGRESSIONS["stitched_parts_keep_their_capacitance"] = (STITCHED, {
+    "materials": {"cfrp": {"conductivity": 2.00001, "density": 1600.0, "specific_heat": 1000.0},
+                  "blanket": {"conductivity": 0.2, "density": 500.0, "specific_heat": 1000.0}},
+    "optics": {"paint": {"emissivity": 0.23557198594851528, "absorptivity": 0.6807794698664721, "specular": 0.5},
+               "mli": {"emissivity": 0.031219720809001074, "absorptivity": 0.031219720809001074},
+               "cover": {"emissivity": 0.8491916073594052, "absorptivity": 0.3333333333333333}},
+    "parts": [{"name": "p", "groups": ["plate"], "material": "cfrp", "front": "paint", "super_nodes": 1,
+               "thickness": 0.00014, "back": "paint"},
+              {"name": "covered", "groups": ["covered"], "material": "cfrp", "thickness": 0.001, "front": "mli",
+               "back": "paint", "super_nodes": 3},
+              {"name": "blanket", "groups": ["blanket"], "material": "blanket", "thickness": 0.0002, "front": "cover",
+               "back": "mli", "super_nodes": 1}],
+    "joints": [{"name": "stitches", "cards": ["CBUSH"], "treatment": "conductance",
+                "conductance": 0.017758960601665996}],
+    "boundary": [{**HEATER, "value": 28.790944840843775}],
+    "environment": {"sink_temperature": 93.7813698851312, "sun_direction": [0.3, 0.2, 1.0], "solar_flux": 1361.0},
+    "radiation": {"enabled": False, "rays_per_face": 50},
+    "reduction": {"radiation_aware": False, "outer_iterations": 20},
+    "reference": {"detailed": True, "rays_per_face": 10, "noise": False},
+    "transient": {"end": 600.0, "step": 60.0, "initial_temperature": -53.13628549687602}})
+
+
+@pytest.mark.parametrize("aware", [False, True])
+def test_stitched_parts_capacitance_reaches_the_network(aware):
+    """Every part's capacitance is in the network, those whose elements have no cluster (all their nodes CBUSH ends)
+    too: the network's total equals ρ c t A summed over the three parts (closed form: 1600·1000·0.14 mm, 1600·1000·1 mm
+    and 500·1000·0.2 mm on 0.04 m² each, 76.96 J/K), to round-off."""
+    call, data = REGRESSIONS["stitched_parts_keep_their_capacitance"]
+    data = {**data, "reduction": {**data["reduction"], "radiation_aware": aware}}
+    data.pop("transient")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = run(Case.from_dict(data), mesh=make_mesh(call))
+    C = r.reduced.network.C
+    total = 0.04 * (1600.0 * 1000.0 * 0.14e-3 + 1600.0 * 1000.0 * 1e-3 + 500.0 * 1000.0 * 0.2e-3)
+    assert abs(C.sum() - total) < 1e-12 * total  # before: 8.96 J/K, the one clustered panel's
+    assert np.all(C[~r.reduced.network.fixed] > 0)
+
 
 #: generated models that still fail (strict xfail: a fix turns them into failures to move into REGRESSIONS)
 KNOWN_FAILURES: dict = {}

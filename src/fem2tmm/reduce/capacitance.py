@@ -4,8 +4,11 @@ Two conserving choices are offered:
 
 * :func:`cluster_capacitance` — each cluster gets the capacitance its own elements give their nodes (the
   denominator of its row of A, so it is consistent with the super-node definition when A was built from the
-  same shares).  One-node super nodes (kept / boundary DOFs) get 0: their capacitance is already inside the
-  clusters around them.  The sum over super nodes is the model's total capacitance.
+  same shares).  One-node super nodes (kept / boundary DOFs) get what the elements *without a cluster* give them:
+  an element whose every node is a one-node super node (all its nodes joint ends, kept or held: no unknown inside,
+  no cluster) gives each of its nodes that is not held its share; the clustered elements' shares at a one-node
+  super node are already in their cluster's.  The sum over super nodes is the model's total capacitance less what
+  such elements give held nodes.
 * :func:`equivalent_capacitance` — TMRT's equivalent capacitance matrix ``Y C Yᵀ`` made diagonal by summing
   each row onto the diagonal: ``C_eq = Y C Yᵀ 1 = Y c`` because ``Yᵀ 1 = 1`` (a uniform super-node
   temperature recovers a uniform field: ``M [1; 0] = [K 1; A 1] = [0; 1]`` since K has zero row sums and A
@@ -24,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import Fem2TmmError, format_ids
+from ..errors import Fem2TmmError, InternalError, format_ids
 
 
 def cluster_capacitance(shares: np.ndarray, labels: np.ndarray, n_clusters: int | None = None) -> np.ndarray:
@@ -40,17 +43,38 @@ def cluster_capacitance(shares: np.ndarray, labels: np.ndarray, n_clusters: int 
     return np.bincount(labels, weights=shares.sum(axis=1), minlength=n_clusters)
 
 
-def supernode_capacitance(supernodes, shares: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Capacitance of each super node (n_SN,) J/K: cluster sums, 0 for one-node super nodes.
+def supernode_capacitance(supernodes, shares: np.ndarray, labels: np.ndarray,
+                          unclustered: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Capacitance of each super node (n_SN,) J/K: cluster sums, and for one-node super nodes the shares of the
+    elements without a cluster.
 
-    ``supernodes`` a :class:`~fem2tmm.reduce.supernodes.SuperNodes`; ``shares`` (m, k) J/K per element and
-    node (e.g. ρ·c·volume shares, even when A was built from volumes); ``labels`` (m,) as for A.
-    Σ result = Σ shares exactly (each element belongs to exactly one cluster).
+    Parameters
+    ----------
+    supernodes : :class:`~fem2tmm.reduce.supernodes.SuperNodes`
+    shares : (m, k) J/K per clustered element and node (e.g. ρ·c·volume shares, even when A was built from volumes)
+    labels : (m,) int, the cluster of each of those elements, as for A
+    unclustered : ``(element_dofs (u, k) int, shares (u, k) J/K)``, optional
+        The elements in no cluster because every node of theirs is a one-node super node (DOFs padded with -1;
+        a DOF given as -1 gets nothing, as a held node whose temperature is given): each share goes to its node's
+        super node.  Without them a part whose every node is a joint end (a small
+        panel stitched at every corner) had no capacitance at all, and a transient of it no solution.
+
+    Σ result = Σ shares (+ Σ of the unclustered shares) exactly: each element belongs to one cluster or gives its
+    shares to its own nodes.
     """
     per_cluster = cluster_capacitance(shares, labels, supernodes.n_clusters)
     out = np.zeros(supernodes.n_sn)
     is_cluster = supernodes.cluster >= 0
     out[is_cluster] = per_cluster[supernodes.cluster[is_cluster]]
+    if unclustered is not None:
+        ed, sh = (np.asarray(a) for a in unclustered)
+        row = np.full(supernodes.n_dof, -1, np.int64)  # the one-node super node of each DOF
+        one = supernodes.dof >= 0
+        row[supernodes.dof[one]] = np.flatnonzero(one)
+        dofs = ed[ed >= 0]
+        if np.any(row[dofs] < 0):
+            raise InternalError("an element without a cluster has a node that is no one-node super node")
+        out += np.bincount(row[dofs], weights=np.asarray(sh, float)[ed >= 0], minlength=supernodes.n_sn)
     return out
 
 

@@ -166,7 +166,12 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
         if case.reduction.capacitance == "equivalent":
             C = equivalent_capacitance(red, model.capacity)
         else:
-            C = supernode_capacitance(sn, model.capacity_shares[rows], labels)
+            # the elements in no cluster whose nodes are all one-node super nodes (joint ends, kept nodes) give those
+            # nodes their shares; a held node's temperature is given, it gets none (as before)
+            lone = np.flatnonzero(determined_elements(model, kept))
+            lone_dofs = np.where(np.isin(ed[lone], boundary), -1, ed[lone])
+            C = supernode_capacitance(sn, model.capacity_shares[rows], labels,
+                                      unclustered=(lone_dofs, model.capacity_shares[lone]))
     n = sn.n_sn
     element_cluster = np.full(len(model.elements), -1, np.int64)
     element_cluster[rows] = labels
