@@ -8,7 +8,8 @@ their sources' bounds) or is refused with a Fem2TmmError; anything else (a trace
 balance, a temperature out of bounds) is a failure, reported with the model that produced it.
 
 Issue 42 adds real-structure models (an inactive solid block on a radiator, RBE2 spiders that collapse elements,
-bars on panel edges, aluminium beside low-k CFRP, MLI as an effective emittance with CBUSH stitches across) and
+bars on panel edges, aluminium beside low-k CFRP, MLI as an effective emittance with CBUSH stitches across, a heater
+on a unit's footprint of at most 1/16 of its panel, where the default allocation puts smaller super nodes) and
 draws ``radiation_aware`` from true / false / "auto".  Every solved model with the default ``"auto"`` records the
 default's error and the thesis method's against the detailed reference (``tests/robustness.accuracy_record``):
 ``accuracy`` counts the models where the default is worse than the thesis method by more than the reference's own

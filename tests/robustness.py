@@ -91,16 +91,25 @@ def nodes_at(mesh: Mesh, name: str, x: float | None = None, y: float | None = No
     return dataclasses.replace(mesh, groups={**mesh.groups, name: make_group(name, 1, None, np.flatnonzero(ok))})
 
 
+def patch(mesh: Mesh, name: str, lo, hi) -> Mesh:
+    """``mesh`` with an element group ``name``: its elements whose centroid lies in the box ``lo``-``hi`` ((x, y) m)."""
+    c = mesh.element_centroids()[:, :2]
+    inside = np.flatnonzero(np.all((c >= np.asarray(lo, float)) & (c <= np.asarray(hi, float)), axis=1))
+    return dataclasses.replace(mesh, groups={**mesh.groups, name: make_group(name, 2, inside, None,
+                                                                              mesh.padded_cells)})
+
+
 def make_mesh(call: str):
     """The mesh of a generator call such as ``"plate(0.1, 0.1, 3, 3)"`` (functions of :mod:`fem2tmm.meshes` and the
     helpers above: :func:`frame`, :func:`spider`, :func:`stitch`)."""
     names = {name: getattr(meshes, name) for name in ("plate", "box", "merge", "transform")}
-    return eval(call, {**names, "frame": frame, "spider": spider, "stitch": stitch, "nodes_at": nodes_at})
+    return eval(call, {**names, "frame": frame, "spider": spider, "stitch": stitch, "nodes_at": nodes_at,
+                       "patch": patch})
 
 
 #: every model kind of :func:`models`
 KINDS = ("plate", "sliver", "box", "solid", "two_plates_at_a_node", "blocked", "solid_blocker", "joints", "edge_bars",
-         "mli")
+         "mli", "heater_patch")
 #: kinds with open failures: ``fem2tmm bench robustness`` draws them, the default test run draws the others until
 #: they are fixed (none since the radiation-aware network's emission follows H_SN on every super node, 2026-12-06:
 #: the MLI and RBE2-unit models, docs/studies.md "Robustness on generated models")
@@ -177,6 +186,16 @@ def models(draw, kinds=KINDS):
                    "front": "cover", "back": "mli", "super_nodes": draw(st.integers(1, 2))}]
         joints.append({"name": "stitches", "cards": ["CBUSH"], "treatment": "conductance",
                        "conductance": draw(st.floats(1e-3, 0.05))})
+    elif kind == "heater_patch":  # a unit's footprint heating a panel: a concentrated load (at most 1/16 of the
+        # panel's area), round which the default allocation puts smaller super nodes
+        n = draw(st.integers(6, 16))
+        k = draw(st.integers(1, n // 4))
+        i, j = draw(st.integers(0, n - k)), draw(st.integers(0, n - k))
+        a = draw(st.floats(0.2, 0.8))
+        d = a / n
+        call = (f"patch(plate({a!r}, {a!r}, {n}, {n}), 'unit', ({i * d!r}, {j * d!r}), "
+                f"({(i + k) * d!r}, {(j + k) * d!r}))")
+        part_groups, held, loaded = ["plate"], "xmin", ["unit"]
     else:  # two plates touching at one corner node only
         call = "merge(plate(0.1, 0.1, 3, 3), transform(plate(0.1, 0.1, 3, 3), translation=(0.1, 0.1, 0.0)))"
         part_groups, held = ["plate"], "xmin"
@@ -205,7 +224,8 @@ def models(draw, kinds=KINDS):
     # the real-structure models (issue 42) carry a spacecraft's heat density, up to 50 W on their 0.04-0.06 m²
     # (about 1 kW/m²); the bare shapes keep 0-1 kW.  (An MLI model at 252 W, 6 kW/m², is
     # test_robustness.REGRESSIONS["mli_corners_emit_by_themselves"])
-    heater = draw(st.floats(0.0, 50.0 if kind in ("solid_blocker", "joints", "edge_bars", "mli") else 1000.0))
+    heater = draw(st.floats(0.0, 50.0 if kind in ("solid_blocker", "joints", "edge_bars", "mli", "heater_patch")
+                            else 1000.0))
     if heater > 0 or not hold:
         boundary.append({"name": "heater", "kind": "power",
                          "groups": loaded or (part_groups[:1] if kind != "box" else ["zmax"]), "value": heater})
@@ -328,7 +348,9 @@ def accuracy_record(s: dict) -> dict:
     reference), 0 without face-to-face radiation (no rays).  ``reference_floor_K``: the warmest temperature of a
     reference field below ``COLD_FIELD`` (1 K) whose Newton stopped on a residual floor instead of its step
     (``detailed.stopped_on`` "cold field" or "round-off": near 0 K the Jacobian 4σεA·T³ vanishes and Newton only
-    contracts as T -> 3/4 T, so the distance left to the solution is of the field's own size), else 0."""
+    contracts as T -> 3/4 T, so the distance left to the solution is of the field's own size), else 0.
+    ``concentrated_loads``: the named loads round which the clustering put smaller super nodes
+    (``reduced.clustering.allocation``, the loads not "spread")."""
     acc = s.get("accuracy") or {}
     if acc.get("rms_K") is None:
         return {}
@@ -345,4 +367,7 @@ def accuracy_record(s: dict) -> dict:
             "verified_range": None if not choice.get("verified_range") else {
                 k: choice["verified_range"][k] for k in ("thesis", "worst_K", "worst_state", "tolerance_K", "failed")},
             "floor": None if not choice.get("floor") else {
-                k: choice["floor"][k] for k in ("source", "worst_K", "worst_state", "tolerance_K", "failed")}}
+                k: choice["floor"][k] for k in ("source", "worst_K", "worst_state", "tolerance_K", "failed")},
+            # the loads round which the allocation put smaller super nodes (`allocation = "loads"`: not "spread")
+            "concentrated_loads": sorted(k for k, v in ((s["reduced"].get("clustering") or {}).get("allocation")
+                                                        or {}).items() if isinstance(v, dict) and not v.get("spread"))}
