@@ -111,7 +111,8 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
     # Elements whose nodes are all boundary/kept DOFs have no unknown: their conduction links those
     # one-node super nodes directly, and a cluster made only of them is dropped (it is fully determined).
     ed = model.element_dofs
-    determined = determined_elements(model, kept) | (labels_all < 0)
+    lone = determined_elements(model, kept)  # (their capacitance goes to their nodes, below)
+    determined = lone | (labels_all < 0)
     rows = np.flatnonzero(~determined)
     used_clusters = unique(labels_all[rows])
     new_id = np.full(len(clustering.cluster_part), -1, np.int64)
@@ -168,7 +169,6 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
         else:
             # the elements in no cluster whose nodes are all one-node super nodes (joint ends, kept nodes) give those
             # nodes their shares; a held node's temperature is given, it gets none (as before)
-            lone = np.flatnonzero(determined_elements(model, kept))
             lone_dofs = np.where(np.isin(ed[lone], boundary), -1, ed[lone])
             C = supernode_capacitance(sn, model.capacity_shares[rows], labels,
                                       unclustered=(lone_dofs, model.capacity_shares[lone]))
