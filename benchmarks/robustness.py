@@ -110,7 +110,7 @@ def range_table(rows: list[dict]) -> dict:
 def bench_robustness(n_models: int | None = None, seed: int = 31) -> list[dict]:
     from hypothesis import HealthCheck, given, seed as hseed, settings
 
-    from robustness import check, models
+    from robustness import CN_OSCILLATION, check, models
 
     n = int(n_models or os.environ.get("FEM2TMM_ROBUSTNESS_MODELS", 2000))
     outcome: collections.Counter = collections.Counter()
@@ -136,7 +136,9 @@ def bench_robustness(n_models: int | None = None, seed: int = 31) -> list[dict]:
             records.append({**rec, "what": what[:300], "data": data})  # data: the case, to reproduce the model
         if res.startswith("solved"):
             outcome["solved"] += 1
-            if res != "solved":
+            if res.endswith(CN_OSCILLATION):
+                outcome["outside_bounds_crank_nicolson"] += 1
+            elif res != "solved":
                 outcome["outside_bounds_negative_conductances"] += 1
         else:
             outcome["refused"] += 1
@@ -151,4 +153,5 @@ def bench_robustness(n_models: int | None = None, seed: int = 31) -> list[dict]:
     return [{"bench": "robustness", "models": outcome["solved"] + outcome["refused"] + outcome["failed"], "solved": outcome["solved"],
              "refused": outcome["refused"], "refused_by_cause": dict(refused.most_common()),
              "solved_outside_bounds_negative_conductances": outcome["outside_bounds_negative_conductances"],
+             "solved_outside_bounds_crank_nicolson": outcome["outside_bounds_crank_nicolson"],
              "failed": outcome["failed"], "failures": failures, "accuracy": accuracy_table(records), "seconds": round(time.perf_counter() - t0, 1)}]
