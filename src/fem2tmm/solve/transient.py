@@ -366,10 +366,11 @@ class _Integrator:
         prev, it, ok = None, 0, False
         F1 = pieces = None
         dn = None
+        damped = False
         while it < MAX_NEWTON:
             F1, pieces = self._flux(t1, T1)
             R = self._CdT(T1 - self.T)[free] - beta * F1[free] - r
-            if newton.linear and it == 1:
+            if newton.linear and it == 1 and not damped:  # (one undamped step solves a linear one)
                 ok = True
                 break
             # the residual criterion (J): the step's equation holds to STEP_RESIDUAL of its gross heat terms
@@ -394,7 +395,7 @@ class _Integrator:
             if a < 1.0:
                 T1[free] += a * dx
                 solve = newton.solver(beta, T1, refresh=True)
-                prev = None
+                prev, damped = None, True
                 continue
             dn = float(np.max(np.abs(dx))) if dx.size else 0.0
             change = float(np.max(np.abs(T1[free] + dx - self.T[free]))) if dx.size else 0.0

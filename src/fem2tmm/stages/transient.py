@@ -207,14 +207,21 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
 
             when = re.search(r"at t = (\S+) s", str(exc))
             # measured on a generated model (tests/test_robustness.py): the linear thesis network, integrated
-            # without the solver's positivity damping, drops below 0 K at the very time the Newton steps fail
+            # without the solver's positivity damping, drops below 0 K at the very time the Newton steps fail.
+            # The advice names only what can change the network: the radiation-aware reduction where something
+            # emits (with nothing emitting, "auto" and true keep the thesis' network, and a box of that kind
+            # refused again with true: tests/test_robustness.py), the positive network where the thesis' is used
+            emits = bool(np.any(model.faces.eps_area > 0)) if model.faces is not None else False
+            aware = case.reduction.radiation_aware is True
+            fixes = (['[reduction] radiation_aware = false with network = "positive"'] if aware else
+                     ['[reduction] network = "positive"']) + (
+                ["radiation_aware = true"] if emits and not aware else []) + ["more super nodes"]
             raise Fem2TmmError(
                 f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation "
                 "of the thesis' reduction), which break the maximum principle: in this transient they drive super "
                 f"nodes towards 0 K{'' if when is None else ' (at t = ' + when.group(1) + ' s)'}: the network's "
-                "property, not the physics'; use " + ("more super nodes" if case.reduction.radiation_aware else
-                                                         "[reduction] network = \"positive\", radiation_aware = "
-                                                         "true, or more super nodes")) from None
+                f"property, not the physics'; use {', '.join(fixes[:-1])}{' or ' if len(fixes) > 1 else ''}"
+                f"{fixes[-1]}") from None
         clock.stop()
         clock = _Clock(run.timings, "recover")
         q = load_series(model.Q if q_recover is None else q_recover, tables)
