@@ -328,15 +328,16 @@ def check(data: dict, mesh, record: dict | None = None) -> str:
         if not heated:
             # a field settling at 0 K stops on the residual floor, within COLD_FIELD of 0 K (solve.steady)
             ok = ok and T.max() <= max(lo) + BOUND_TOLERANCE + (COLD_FIELD if max(lo) < COLD_FIELD else 0.0)
-        if not ok and oscillates:
-            # Crank–Nicolson's overshoot: within the sources' span beyond them (a runaway or a sign error is not)
-            span = max(lo) - min(lo)
-            if T.min() >= min(lo) - span and (heated or T.max() <= max(lo) + span):
-                outside.append(CN_OSCILLATION)
-                continue
-        if not ok:
-            assert which == "reduced" and not monotone, (which, float(T.min()), float(T.max()), lo)
+        if ok:
+            continue
+        if which == "reduced" and not monotone:  # the network's own property (above)
             outside.append(which)
+            continue
+        # else only Crank–Nicolson's overshoot, within the sources' span beyond them (a runaway or a sign error is not)
+        span = max(lo) - min(lo)
+        assert oscillates and T.min() >= min(lo) - span and (heated or T.max() <= max(lo) + span), (
+            which, float(T.min()), float(T.max()), lo)
+        outside.append(CN_OSCILLATION)
     if not outside:
         return "solved"
     if all(o == CN_OSCILLATION for o in outside):
