@@ -387,11 +387,6 @@ def test_mli_corners_network_books_match_its_field():
     issue's acceptance; measured 4e-7), and the heat into the held edge to 0.1 % of the detailed model's (measured
     2.6e-4: the two tracings' ray noise).  Before the hot-spot books, the held node took that load as a negative
     emitting area (-0.21 m²: the network "radiated" -1.4 W to space where its field emits 125 W)."""
-    import warnings
-
-    from fem2tmm.case import Case
-    from fem2tmm.pipeline import run
-
     call, data = REGRESSIONS["mli_corners_emit_by_themselves"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -409,13 +404,6 @@ def test_emissionless_radiator_network_is_exact_at_its_fixed_point():
     traced emission of that field agree to 1 % (the issue's acceptance; measured 2.1e-6), its books close to 1e-9
     relative (check's criterion), and it is better than the thesis' network by more than the reference's ray noise
     (the campaign's criterion, docs/studies.md: 19.1 K RMS against 418 K, noise 8.4 K)."""
-    import warnings
-
-    import numpy as np
-
-    from fem2tmm.case import Case
-    from fem2tmm.pipeline import run
-
     call, data = REGRESSIONS["mli_emissionless_radiator_negative_share"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -499,11 +487,7 @@ def test_a_thesis_network_driven_below_0_k_in_a_transient_is_refused_by_cause():
             "transient": {"end": 600.0, "step": 60.0, "initial_temperature": 0.0}}
     out = check(data, make_mesh("box(0.2, 0.15, 0.1, 5, 4, 3)"))
     assert out.startswith("refused: the reduced network has # negative conductances"), out
-    import warnings
-
     from fem2tmm import Fem2TmmError
-    from fem2tmm.case import Case
-    from fem2tmm.pipeline import run
 
     with warnings.catch_warnings(), pytest.raises(Fem2TmmError, match=r"towards 0 K \(at t = 32\.\d+ s\)"):
         warnings.simplefilter("ignore")

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import Fem2TmmError, InternalError, format_ids
+from ..errors import Fem2TmmError, format_ids
 
 
 def cluster_capacitance(shares: np.ndarray, labels: np.ndarray, n_clusters: int | None = None) -> np.ndarray:
@@ -53,11 +53,11 @@ def supernode_capacitance(supernodes, shares: np.ndarray, labels: np.ndarray,
     supernodes : :class:`~fem2tmm.reduce.supernodes.SuperNodes`
     shares : (m, k) J/K per clustered element and node (e.g. ρ·c·volume shares, even when A was built from volumes)
     labels : (m,) int, the cluster of each of those elements, as for A
-    unclustered : ``(element_dofs (u, k) int, shares (u, k) J/K)``, optional
-        The elements in no cluster because every node of theirs is a one-node super node (DOFs padded with -1;
-        a DOF given as -1 gets nothing, as a held node whose temperature is given): each share goes to its node's
-        super node.  Without them a part whose every node is a joint end (a small
-        panel stitched at every corner) had no capacitance at all, and a transient of it no solution.
+    unclustered : ``(rows (u, k) int, shares (u, k) J/K)``, optional
+        The elements in no cluster because every node of theirs is a one-node super node: the super-node row of
+        each of their nodes (-1: nothing, a padded slot or a held node whose temperature is given) and its share,
+        which goes to that row.  Without them a part whose every node is a joint end (a small panel stitched at
+        every corner) had no capacitance at all, and a transient of it no solution.
 
     Σ result = Σ shares (+ Σ of the unclustered shares) exactly: each element belongs to one cluster or gives its
     shares to its own nodes.
@@ -67,14 +67,8 @@ def supernode_capacitance(supernodes, shares: np.ndarray, labels: np.ndarray,
     is_cluster = supernodes.cluster >= 0
     out[is_cluster] = per_cluster[supernodes.cluster[is_cluster]]
     if unclustered is not None:
-        ed, sh = (np.asarray(a) for a in unclustered)
-        row = np.full(supernodes.n_dof, -1, np.int64)  # the one-node super node of each DOF
-        one = supernodes.dof >= 0
-        row[supernodes.dof[one]] = np.flatnonzero(one)
-        dofs = ed[ed >= 0]
-        if np.any(row[dofs] < 0):
-            raise InternalError("an element without a cluster has a node that is no one-node super node")
-        out += np.bincount(row[dofs], weights=np.asarray(sh, float)[ed >= 0], minlength=supernodes.n_sn)
+        rows, sh = np.asarray(unclustered[0], np.int64), np.asarray(unclustered[1], float)
+        out += np.bincount(rows[rows >= 0], weights=sh[rows >= 0], minlength=supernodes.n_sn)
     return out
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from ..arrays import unique
 from ..case import Case
 from ..cluster import Clustering
-from ..errors import Fem2TmmError, format_ids
+from ..errors import Fem2TmmError, InternalError, format_ids
 from ..fem.model import FEModel
 from .capacitance import equivalent_capacitance, supernode_capacitance
 from .conduction import ConductiveReduction, reduce_conduction
@@ -169,9 +169,13 @@ def build_reduced(model: FEModel, clustering: Clustering, case: Case, T_ref: np.
         else:
             # the elements in no cluster whose nodes are all one-node super nodes (joint ends, kept nodes) give those
             # nodes their shares; a held node's temperature is given, it gets none (as before)
-            lone_dofs = np.where(np.isin(ed[lone], boundary), -1, ed[lone])
+            lone_dofs = ed[lone]
+            gets = (lone_dofs >= 0) & ~np.isin(lone_dofs, boundary)
+            lone_rows = np.where(gets, row_of_dof[np.maximum(lone_dofs, 0)], -1)
+            if np.any(gets & (lone_rows < 0)):
+                raise InternalError("an element without a cluster has a node that is no one-node super node")
             C = supernode_capacitance(sn, model.capacity_shares[rows], labels,
-                                      unclustered=(lone_dofs, model.capacity_shares[lone]))
+                                      unclustered=(lone_rows, model.capacity_shares[lone]))
     n = sn.n_sn
     element_cluster = np.full(len(model.elements), -1, np.int64)
     element_cluster[rows] = labels
