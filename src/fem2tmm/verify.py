@@ -399,7 +399,8 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
     from .linalg import blas_threads
     from .lpm.readers import read_network
     from .lpm.solve import solve_network
-    from .reduce.exported import ESTIMATED_RANGE_TOLERANCE, RANGE_RECOVERY_TOLERANCE, load
+    from .reduce.exported import (ESTIMATED_RANGE_TOLERANCE, ESTIMATED_RECOVERY_TOLERANCE, RANGE_RECOVERY_TOLERANCE,
+                                  load)
     from .solve.steady import solve_steady
 
     t_start = time.perf_counter()
@@ -497,7 +498,7 @@ def verify_network(result, problem, references: dict | None = None, warn: bool =
 
         # an estimate's states need neither the deck's nor the recovery's last digits (ESTIMATED_RANGE_TOLERANCE)
         deck_tol, recovery_tol = ((1e-10, RANGE_RECOVERY_TOLERANCE) if estimator is None else
-                                  (ESTIMATED_RANGE_TOLERANCE, ESTIMATED_RANGE_TOLERANCE))
+                                  (ESTIMATED_RANGE_TOLERANCE, ESTIMATED_RECOVERY_TOLERANCE))
         if session is None:
             design_deck = None
             T_sn0, design_deck, _, _ = deck_state(None)
