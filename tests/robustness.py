@@ -275,7 +275,8 @@ def check(data: dict, mesh, record: dict | None = None) -> str:
             r = run(case, mesh=mesh)
     except Fem2TmmError as exc:
         msg = str(exc)
-        assert "did not converge" not in msg and "singular" not in msg, f"solver failure on a well-posed model: {msg}"
+        assert not any(w in msg for w in ("did not converge", "did not settle", "singular")), \
+            f"solver failure on a well-posed model: {msg}"
         # the cause without the case's name and numbers, so that refusals group by kind
         cause = re.sub(r"[-+]?\d[\d.]*(e[-+]?\d+)?", "#", msg.removeprefix("<case>: ").split(";")[0])
         cause = re.sub(r"#(?:, #)*(?:, … \(# in all\))?", "#", cause)
