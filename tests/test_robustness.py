@@ -500,8 +500,9 @@ def test_a_damped_step_of_a_linear_transient_is_not_accepted():
     negative conductances), a Crank–Nicolson transient.  A Newton step of the linear network that the positivity rule
     damped was accepted as the step's solution (a linear step is taken as solved after one correction): the
     transient's books were open by 0.22 % (451 J of 101 kJ).  Now a damped step is followed by more corrections; here
-    the network's super nodes then run to 0 K and the run is refused, naming the fix that works (the positive network:
-    its books close) and not `radiation_aware = true`, which keeps the thesis' network where nothing emits."""
+    the network's super nodes then run to 0 K.  With the thesis' network asked for, the run is refused, naming the fix
+    that works (the positive network) and not `radiation_aware = true`, which keeps the thesis' network where nothing
+    emits.  With the default (`"auto"`), the positive network replaces the refused one, and the summary says why."""
     from fem2tmm import Fem2TmmError
 
     call = "box(0.2, 0.15, 0.1, 5, 1, 4)"
@@ -512,18 +513,24 @@ def test_a_damped_step_of_a_linear_transient_is_not_accepted():
             "boundary": [{**HELD, "groups": ["zmin"], "value": 7.651208137459901},
                          {**HEATER, "groups": ["zmax"], "value": 164.34926199745718}],
             "environment": {"sink_temperature": -262.6789084349771}, "radiation": {"enabled": False},
-            "reduction": {"radiation_aware": "auto", "outer_iterations": 20},
+            "reduction": {"radiation_aware": False, "outer_iterations": 20},
             "reference": {"detailed": True, "rays_per_face": 10, "noise": False, "steady": True},
             "transient": {"end": 600.0, "step": 60.0, "initial_temperature": 65.30228170791514}}
     with warnings.catch_warnings(), pytest.raises(Fem2TmmError) as exc:
         warnings.simplefilter("ignore")
         run(Case.from_dict(data), mesh=make_mesh(call))
     assert 'network = "positive"' in str(exc.value) and "radiation_aware = true" not in str(exc.value)
-    positive = {**data, "reduction": {**data["reduction"], "network": "positive"}}
+    default = {**data, "reduction": {**data["reduction"], "radiation_aware": "auto"}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = run(Case.from_dict(positive), mesh=make_mesh(call))
-    assert r.summary["transient"]["energy_balance"]["reduced"]["relative"] < 1e-9
+        r = run(Case.from_dict(default), mesh=make_mesh(call))
+    s = r.summary
+    assert r.reduced.method == "positive" and s["reduced"]["choice"]["network_refused"]["method"] == "thesis"
+    assert "refused in the transient" in s["reduced"]["choice"]["chosen_by"]
+    assert s["transient"]["energy_balance"]["reduced"]["relative"] < 1e-9  # its books close (the solver's own)
+    # the maximum principle of the positive network: its super nodes stay within the sources' temperatures (held
+    # 7.65 °C, start 65.3 °C; the heater only warms)
+    assert float(np.min(r.transient.reduced.T)) > 273.15 + 7.65 - 1e-6
 
 
 #: the campaign's models where the default was worse than the thesis method by more than the reference noise before

@@ -15,6 +15,12 @@ class Fem2TmmError(Exception):
     """A user-facing error: bad input, inconsistent case, unsolvable model."""
 
 
+class NetworkRefusal(Fem2TmmError):
+    """The reduced network has no physical solution for a property of its own, not of the model: the exact
+    condensation's negative conductances drive its super nodes towards 0 K.  Another network of the same model (the
+    positive one) may have one; the run falls back to it where the user left the choice to fem2tmm."""
+
+
 class InternalError(RuntimeError):
     """An internal invariant does not hold: a bug in fem2tmm, not a problem of the input."""
 

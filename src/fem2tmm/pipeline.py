@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import Case
-from .errors import Fem2TmmError, InternalError
+from .errors import Fem2TmmError, InternalError, NetworkRefusal
 from .cache import digest
 from .compute import SceneShelf, cached_stage, map_units, run_concurrently
 from .constants import KELVIN
@@ -347,7 +347,14 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
         problem = _reference(run, problem, q_solar, q_orbit)
     result.detailed, result.orbit = run.dpart, run.opart
     if run.case.transient is not None:
-        _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
+        try:
+            _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
+        except NetworkRefusal as exc:
+            asked = run.asked.reduction
+            if reduced is None or asked.radiation_aware != "auto" or asked.network != "exact":
+                raise  # (the user chose the network: the refusal says what to change)
+            reduced, reductor = _positive_instead(run, net, clustering, extra, mesh, q_orbit, str(exc))
+            _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
     if reduced is not None:
         deliver_and_verify(run, reduced, problem, net, q_orbit, _hand_over)
     result.summary = build_summary(result, prog.timings)
@@ -765,6 +772,35 @@ def _transient(run: _RunState, reduced: Reduced | None, reductor, problem, q_orb
                                              None if reduced is None else reduced.q_recover,
                                              problem if with_ref else None, None if det is None else det.T,
                                              orbit=orbit_loads, exported=exported)
+
+
+def _positive_instead(run: _RunState, net: _Network, clustering, extra: dict, mesh: Mesh, q_orbit: np.ndarray | None,
+                      refusal: str) -> tuple[Reduced, object]:
+    """The default's network when the chosen one's transient was refused for its negative conductances
+    (:class:`~fem2tmm.errors.NetworkRefusal`): the thesis' reduction with a positive network (``network =
+    "positive"``), whose maximum principle holds, reduced, checked and handed over in its place; the choice record
+    says why.  A generated box with nothing emitting and a 164 W heater on 0.1 mm walls was refused before
+    (tests/test_robustness.py)."""
+    asked, first = run.asked, run.result.reduced
+    run.case = dataclasses.replace(asked, reduction=dataclasses.replace(asked.reduction, network="positive"))
+    run.alternative = None  # (the first choice's other candidate: not weighed against this network)
+    reduced, reductor, red = _reduce(run, net, clustering, None, extra)
+    cause = refusal.removeprefix(f"{asked.source}: ").split("; use ")[0]
+    what = "radiation-aware" if first.method == "radiation_aware" else "thesis'"
+    reduced.choice = {**reduced.choice, "network_refused": {"method": first.method, "choice": first.choice,
+                                                            "refusal": refusal},
+                      "chosen_by": f"auto: the {what} network was refused in the transient ({cause}): the thesis' "
+                                   "reduction with a positive network (network = \"positive\") replaces it"}
+    fit = (reduced.method_report or {}).get("T_vs_exact_K") or {}
+    warnings.warn(f"{asked.source}: {reduced.choice['chosen_by']}; at the design state it is {fit.get('max', 0.0):.3g} K "
+                  "from the exact condensation at most (summary.json reduced.method_report); more super nodes keep "
+                  "the exact network", stacklevel=3)
+    if run.trace:
+        _emission_check(run, net, reduced, red, extra["radiation"])
+    _parametric(run, mesh, reduced)
+    if net.q_sn_orbit is not None and run.orbit.steady == "positions":
+        _orbit_positions_reduced(run, net, reduced, q_orbit)
+    return reduced, reductor
 
 
 def _hand_over(run: _RunState, net: _Network, alt: Reduced, q_orbit: np.ndarray | None) -> None:

@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 
 from ..case import Case
-from ..errors import Fem2TmmError
+from ..errors import Fem2TmmError, NetworkRefusal
 from ..fem.model import FEModel, boundary_load
 from ..reduce.network import ReducedModel
 from ..solve.steady import SteadyProblem
@@ -216,7 +216,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
             fixes = (['[reduction] radiation_aware = false with network = "positive"'] if aware else
                      ['[reduction] network = "positive"']) + (
                 ["radiation_aware = true"] if emits and not aware else []) + ["more super nodes"]
-            raise Fem2TmmError(
+            raise NetworkRefusal(
                 f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation "
                 "of the thesis' reduction), which break the maximum principle: in this transient they drive super "
                 f"nodes towards 0 K{'' if when is None else ' (at t = ' + when.group(1) + ' s)'}: the network's "
