@@ -23,6 +23,7 @@ Comments run from ``#`` to the end of the line; a statement ends at ``;`` and ma
 
 from __future__ import annotations
 
+import functools
 import gc
 import hashlib
 import re
@@ -32,7 +33,7 @@ import numpy as np
 
 from ..constants import KELVIN, SIGMA
 from ..errors import Fem2TmmError
-from .expressions import ExpressionError, evaluate, resolve, split_quoted, split_top
+from .expressions import ExpressionError, evaluate, number, resolve, split_quoted, split_top
 from .network import Network, couplings_from_lists
 
 _NODE = re.compile(r"^([A-Za-z])\s*(\d+)\s*=\s*(.*)$", re.S)
@@ -245,6 +246,40 @@ def _read(path, time, window):
             gc.enable()
 
 
+@functools.lru_cache(maxsize=1 << 15)
+def _plain_numbers(text: str) -> np.ndarray | None:
+    """An array's values ``text`` (comma-separated) where each is a plain number, else None (read-only).  Kept for the
+    next read of the same text: the validity range reads its deck again at every state with only the constants
+    edited (a node's temperature table of ``$ARRAYS``)."""
+    values = [number(p) for p in split_top(text)]
+    if None in values:
+        return None
+    out = np.array(values, float)
+    out.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=1 << 15)
+def _plain_node(text: str) -> tuple[str, tuple[tuple[str, float], ...]] | None:
+    """A node definition after its ``=`` (``'label', T = 20, C = 5``): its label and attributes where each is a known
+    KEY = plain number, else None (the statement is then read attribute by attribute, with its errors).  Kept for the
+    next read of the same text, as :func:`_plain_numbers`."""
+    parts = [p.strip() for p in split_top(text)]
+    label = ""
+    if parts and parts[0][:1] in "'\"":
+        label = parts.pop(0).strip("'\"")
+    out = []
+    for p in parts:
+        if not p:
+            continue
+        key, eq, expr = p.partition("=")
+        key, v = key.strip().upper(), number(expr)
+        if not eq or key not in _NODE_KEYS or v is None:
+            return None
+        out.append((key, v))
+    return label, tuple(out)
+
+
 def _read_deck(path, time, window):
     path = Path(path)
     try:
@@ -292,10 +327,12 @@ def _read_deck(path, time, window):
         if block == "ARRAYS":
             m = _ARRAY.match(s)
             if m:
-                try:
-                    vals = [evaluate(v, consts) for v in split_top(m.group(3))]
-                except ExpressionError as exc:
-                    fail(line, f"array {m.group(1)}: {exc}")
+                vals = _plain_numbers(m.group(3))
+                if vals is None:
+                    try:
+                        vals = [evaluate(v, consts) for v in split_top(m.group(3))]
+                    except ExpressionError as exc:
+                        fail(line, f"array {m.group(1)}: {exc}")
                 arrays[m.group(1).upper()] = np.array(vals[: int(m.group(2))], float)
     time0 = consts.get("TIMEO", 0.0) if time is None else float(time)
     times = None
@@ -347,6 +384,10 @@ def _read_deck(path, time, window):
             kind = m.group(1).upper()
             if kind not in "DBX":
                 fail(line, f"node kind {kind!r} of node {m.group(2)} is not D, B or X")
+            numeric = _plain_node(m.group(3))
+            if numeric is not None:  # (every attribute a number: the usual, read once per text)
+                nodes.append((line, kind, int(m.group(2)), numeric[0], dict(numeric[1])))
+                continue
             parts = [p.strip() for p in split_top(m.group(3))]
             label = ""
             if parts and parts[0][:1] in "'\"":

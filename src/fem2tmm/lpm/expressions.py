@@ -26,6 +26,12 @@ class ExpressionError(ValueError):
     """The expression text cannot be evaluated (message says why)."""
 
 
+def number(text: str) -> float | None:
+    """The value of ``text`` where it is a plain number (Fortran ``D`` exponents too; blanks around it), else None."""
+    s = text.strip()
+    return float(_FORTRAN_EXP.sub("e", s)) if _NUMBER.match(s) else None
+
+
 def evaluate(text: str, names: dict[str, float] | None = None) -> float:
     """Value of ``text``; ``names`` maps UPPER-CASE constant names to values.  Raises :class:`ExpressionError`."""
     s = text.strip()
