@@ -314,6 +314,25 @@ REGRESSIONS["stitched_parts_keep_their_capacitance"] = (STITCHED, {
     "transient": {"end": 600.0, "step": 60.0, "initial_temperature": -53.13628549687602}})
 
 
+# found by `fem2tmm bench robustness` (seed 11, 2026-12-08 02:42-03:09 UTC): 886 W on four quads of a 0.67 m x 1.2 mm
+# aluminium strip 0.14 mm thick, one super node, ε = 0 with radiation on, radiation-aware, a transient.  The super
+# node runs to 7·10⁶ K; the exported recovery's absorbed-IR rounds, with nothing emitting, changed by round-off (5e-5 K)
+# and never settled below 1e-10 K: "did not settle in 60 rounds" (a solver failure counted as a refusal until the
+# campaign's check named it one).  With nothing to absorb one round is the answer
+REGRESSIONS["nothing_emits_nothing_to_settle"] = ("plate(0.6655363967768518, 0.0012404184563919662, 4, 1)", {
+    "materials": {"al": {"conductivity": 160.0, "density": 2700.0, "specific_heat": 900.0}},
+    "optics": {"paint": {"emissivity": 0.0, "absorptivity": 0.6655363967768518, "specular": 0.5}},
+    "parts": [{"name": "p", "groups": ["plate"], "material": "al", "front": "paint", "super_nodes": 1,
+               "thickness": 0.00014, "back": "paint"}],
+    "boundary": [{**HELD, "groups": ["xmin"], "value": 28.614981588819433},
+                 {**HEATER, "value": 886.5492150074099}],
+    "environment": {"sink_temperature": -47.576917509955734},
+    "radiation": {"enabled": True, "rays_per_face": 50},
+    "reduction": {"radiation_aware": True, "outer_iterations": 20},
+    "reference": {"detailed": True, "rays_per_face": 10, "noise": True},
+    "transient": {"end": 600.0, "step": 60.0, "initial_temperature": -88.73315172990921}})
+
+
 @pytest.mark.parametrize("aware", [False, True])
 def test_stitched_parts_capacitance_reaches_the_network(aware):
     """Every part's capacitance is in the network, those whose elements have no cluster (all their nodes CBUSH ends)
