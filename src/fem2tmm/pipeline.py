@@ -792,9 +792,9 @@ def _positive_instead(run: _RunState, net: _Network, clustering, extra: dict, me
                       "chosen_by": f"auto: the {what} network was refused in the transient ({cause}): the thesis' "
                                    "reduction with a positive network (network = \"positive\") replaces it"}
     fit = (reduced.method_report or {}).get("T_vs_exact_K") or {}
-    warnings.warn(f"{asked.source}: {reduced.choice['chosen_by']}; at the design state it is {fit.get('max', 0.0):.3g} K "
-                  "from the exact condensation at most (summary.json reduced.method_report); more super nodes keep "
-                  "the exact network", stacklevel=3)
+    warnings.warn(f"{asked.source}: {reduced.choice['chosen_by']}; at the design state it is "
+                  f"{fit.get('max', 0.0):.3g} K from the exact condensation at most (summary.json "
+                  "reduced.method_report); with more super nodes the exact network may integrate it", stacklevel=3)
     if run.trace:
         _emission_check(run, net, reduced, red, extra["radiation"])
     _parametric(run, mesh, reduced)
