@@ -34,7 +34,7 @@ from .radiation.quadric_scene import QuadricScene
 from .radiation.surfaces import TriangleScene
 from .radiation.tracer import side_fractions
 from .range_checks import deliver_and_verify
-from .reduce.network import build_reduced, refresh_reduced, super_faces
+from .reduce.network import build_reduced, negative_loads, refresh_reduced, super_faces
 from .reductors import ReductionInputs, choose_reduction, first_reductor, reductor_for
 from .reductors.radiation_aware import parametric_corrections, parametric_states, set_parametric
 from .result import CasesResult, Detailed, Orbit, Reduced, Result
@@ -351,8 +351,9 @@ def _run(case: Case, prog: Progress, mesh: Mesh | None, reference: bool | None, 
             _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
         except NetworkRefusal as exc:
             asked = run.asked.reduction
-            if reduced is None or asked.radiation_aware != "auto" or asked.network != "exact":
-                raise  # (the user chose the network: the refusal says what to change)
+            if (reduced is None or asked.radiation_aware != "auto" or asked.network != "exact"
+                    or negative_loads(reduced.network)[1]):
+                raise  # (the user chose the network, or a positive one keeps negative loads: the refusal says so)
             reduced, reductor = _positive_instead(run, net, clustering, extra, mesh, q_orbit, str(exc))
             _transient(run, reduced, reductor, problem, q_orbit, q_sn_orbit)
     if reduced is not None:

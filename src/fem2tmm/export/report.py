@@ -231,8 +231,10 @@ def write_report(folder: Path, result, case_text: str, before_html=None) -> list
     pn = s.get("positive_network")
     if pn:
         text = (f"{pn['links']} positive GL between touching super nodes (exact: {pn['exact_links']} GL, "
-                f"{pn['exact_negative_links']} negative); max {pn['T_vs_exact_K']['max']:.3g} K from the exact "
-                f"reduction; criteria {'met' if pn['criteria']['met'] else 'NOT met'}")
+                f"{pn['exact_negative_links']} negative); " + (
+                    "the exact reduction has no physical steady solution to compare with" if pn["T_vs_exact_K"] is None
+                    else f"max {pn['T_vs_exact_K']['max']:.3g} K from the exact reduction; criteria "
+                         f"{'met' if pn['criteria']['met'] else 'NOT met'}"))
         err = pn.get("recovered_error_K")
         if err:
             text += (f"; recovered RMS {err['positive']['rms']:.4g} K against {err['exact']['rms']:.4g} K for the "

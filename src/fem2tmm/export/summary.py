@@ -499,9 +499,11 @@ def summary_table(s: dict) -> str:
         err = pn.get("recovered_error_K")
         vs = "" if not err else (f"; recovered RMS {err['positive']['rms']:.4f} K vs {err['exact']['rms']:.4f} K "
                                  "exact")
+        vs_exact = ("the exact reduction has no physical steady solution" if pn["T_vs_exact_K"] is None else
+                    f"max {pn['T_vs_exact_K']['max']:.3g} K from the exact reduction, criteria "
+                    f"{'met' if pn['criteria']['met'] else 'NOT met'}")
         rows.append(("positive network", f"{pn['links']} GL > 0 between touching super nodes (exact: "
-                     f"{pn['exact_negative_links']} negative of {pn['exact_links']}), max {pn['T_vs_exact_K']['max']:.3g} "
-                     f"K from the exact reduction, criteria {'met' if pn['criteria']['met'] else 'NOT met'}{vs}"))
+                     f"{pn['exact_negative_links']} negative of {pn['exact_links']}), {vs_exact}{vs}"))
     rows += refinement_rows(red)
     rad = s.get("radiation") or {}
     if rad.get("rays"):

@@ -276,3 +276,12 @@ def super_faces(model: FEModel, rm: ReducedModel) -> tuple[np.ndarray, np.ndarra
     groups = np.full(2 * f.n, -1, np.int64)
     groups[key >= 0] = inv.ravel()
     return groups, uniq // 2
+
+
+def negative_loads(rm: ReducedModel) -> tuple[float, int]:
+    """The negative load (W, <= 0) the network ``rm`` puts on its free super nodes (the exact distribution Y'q of
+    non-negative loads can give some: a heater's neighbours on a thin panel), and on how many super nodes."""
+    Q = np.asarray(rm.Q, float)[~np.asarray(rm.fixed, bool)]
+    scale = max(float(np.abs(Q).max(initial=0.0)), 1e-300)
+    low = Q < -1e-9 * scale
+    return float(Q[low].sum()), int(low.sum())

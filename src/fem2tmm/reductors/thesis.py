@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import Fem2TmmError
+from ..errors import Fem2TmmError, NetworkRefusal
+from ..reduce.network import negative_loads
 from ..solve.problems import reduced_problem, solve_case
 from .base import Reduced, ReductionInputs, Reductor
 
@@ -44,13 +45,20 @@ def solve_exact(inputs: ReductionInputs):
         if not negative:
             raise
         # the exact condensation's negative conductances break the maximum principle: with extreme loads such a
-        # network can have no positive steady solution although the detailed model has one
-        # (a refusal never advises a setting already in force)
-        advice = [x for x, now in (("[reduction] network = \"positive\"", case.reduction.network == "positive"),
-                                   ("radiation_aware = true", case.reduction.radiation_aware is True))
-                  if not now] + ["more super nodes"]
-        raise Fem2TmmError(
+        # network can have no positive steady solution although the detailed model has one.  The advice names what
+        # can give one and is not in force: the positive network where the loads' exact distribution has no negative
+        # share (it keeps the loads: a thin composite bracket's 40 W heater gives -33 W to 16 super nodes,
+        # tests/test_no_refusal.py), the radiation-aware reduction where something emits
+        held_back, shares = negative_loads(rm)
+        emits = bool(np.any(inputs.model.space_coupling() > 0))
+        advice = [x for x, ok in (("[reduction] network = \"positive\"",
+                                   case.reduction.network != "positive" and not shares),
+                                  ("radiation_aware = true", case.reduction.radiation_aware is not True and emits))
+                  if ok] + ["more super nodes"]
+        loads = ("" if not shares else f"; its exact distribution of the loads also takes {-held_back:.3g} W from "
+                 f"{shares} super nodes (negative loads), which a positive network keeps")
+        raise NetworkRefusal(
             f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation of the "
             "thesis' reduction), which break the maximum principle, and no physical steady solution under these "
-            f"loads (the detailed model has one); use {', '.join(advice[:-1])}{' or ' if len(advice) > 1 else ''}"
+            f"loads (the detailed model has one){loads}; use {', '.join(advice[:-1])}{' or ' if len(advice) > 1 else ''}"
             f"{advice[-1]}") from None

@@ -68,6 +68,7 @@ import numpy as np
 
 from ..case import Case
 from ..errors import Fem2TmmError
+from ..reduce.network import negative_loads
 from ..reductors import AUTO_BIOT, REDUCTORS, Reduced, ReductionInputs
 from .refine import Refinement, error_field, side_tally, uses_side_tally
 
@@ -361,7 +362,8 @@ def reduce_aware(inputs: ReductionInputs, prog, start: Reduced, thesis_refused: 
             raise
         src = f"{inputs.case.source}: "
         cause = lambda msg: msg.removeprefix(src).split("; use ")[0]  # noqa: E731  (their advice: tried here)
-        advice = ("" if inputs.case.reduction.network == "positive" else
+        # (the positive network keeps the loads: not where their exact distribution has a negative share)
+        advice = ("" if inputs.case.reduction.network == "positive" or negative_loads(inputs.network)[1] else
                   "[reduction] network = \"positive\" (the thesis' reduction with positive conductances) or ")
         raise Fem2TmmError(
             f"{inputs.case.source}: neither reduction method has a physical steady solution for this model at these "

@@ -11,7 +11,7 @@ import numpy as np
 from ..case import Case
 from ..errors import Fem2TmmError, NetworkRefusal
 from ..fem.model import FEModel, boundary_load
-from ..reduce.network import ReducedModel
+from ..reduce.network import ReducedModel, negative_loads
 from ..solve.steady import SteadyProblem
 from ..solve.transient import TransientProblem, TransientRun, TransientSettings, recover_series, solve_transient
 from ..timefunc import Series, Table
@@ -211,11 +211,14 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
             # The advice names only what can change the network: the radiation-aware reduction where something
             # emits (with nothing emitting, "auto" and true keep the thesis' network, and a box of that kind
             # refused again with true: tests/test_robustness.py), the positive network where the thesis' is used
+            # (and the positive network only where the loads' exact distribution has no negative share: it keeps
+            # the loads, reduce.network.negative_loads)
             emits = bool(np.any(model.faces.eps_area > 0)) if model.faces is not None else False
             aware = case.reduction.radiation_aware is True
-            fixes = (['[reduction] radiation_aware = false with network = "positive"'] if aware else
-                     ['[reduction] network = "positive"']) + (
-                ["radiation_aware = true"] if emits and not aware else []) + ["more super nodes"]
+            positive = [] if negative_loads(rm)[1] else (
+                ['[reduction] radiation_aware = false with network = "positive"'] if aware else
+                ['[reduction] network = "positive"'])
+            fixes = positive + (["radiation_aware = true"] if emits and not aware else []) + ["more super nodes"]
             raise NetworkRefusal(
                 f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation "
                 "of the thesis' reduction), which break the maximum principle: in this transient they drive super "
