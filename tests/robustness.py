@@ -363,7 +363,8 @@ def accuracy_record(s: dict) -> dict:
     ``default_rms_K`` is the network handed over (``accuracy.rms_K``); ``thesis_rms_K`` the thesis' reduction in
     the same run (``accuracy.thesis_method``, its pre-solve), or the default's own figure when ``"auto"`` chose the
     thesis' reduction (the same network); None when the thesis' network had no physical solution
-    (``thesis_refused``).  ``noise_K`` is ``accuracy.reference_noise_rms_K`` (two half-budget tracings of the
+    (``thesis_refused``).  ``network_refused``: the positive network was handed over because the first one's
+    transient was refused (:class:`fem2tmm.errors.NetworkRefusal`).  ``noise_K`` is ``accuracy.reference_noise_rms_K`` (two half-budget tracings of the
     reference), 0 without face-to-face radiation (no rays).  ``reference_floor_K``: the warmest temperature of a
     reference field below ``COLD_FIELD`` (1 K) whose Newton stopped on a residual floor instead of its step
     (``detailed.stopped_on`` "cold field" or "round-off": near 0 K the Jacobian 4σεA·T³ vanishes and Newton only
@@ -379,6 +380,8 @@ def accuracy_record(s: dict) -> dict:
     thesis = th["rms_K"] if th else (acc["rms_K"] if chosen == "thesis" else None)
     return {"chosen": chosen, "default_rms_K": acc["rms_K"], "thesis_rms_K": thesis,
             "noise_K": acc.get("reference_noise_rms_K") or 0.0, "thesis_refused": bool(choice.get("thesis_refused")),
+            # the positive network handed over because the first one could not integrate the transient
+            "network_refused": bool(choice.get("network_refused")),
             "reference_floor_K": _reference_floor(s.get("detailed")),
             "biot_cluster_max": choice.get("biot_cluster_max"),
             "estimated_rms_K": choice.get("estimated_rms_K"), "estimate_noise_K": choice.get("estimate_noise_K"),

@@ -785,6 +785,8 @@ def _positive_instead(run: _RunState, net: _Network, clustering, extra: dict, me
     asked, first = run.asked, run.result.reduced
     run.case = dataclasses.replace(asked, reduction=dataclasses.replace(asked.reduction, network="positive"))
     run.alternative = None  # (the first choice's other candidate: not weighed against this network)
+    if first.method == "thesis":  # its field stays the run's thesis' figure (summary accuracy.thesis_method)
+        extra["thesis_T_recovered"] = first.T_recovered
     reduced, reductor, red = _reduce(run, net, clustering, None, extra)
     cause = refusal.removeprefix(f"{asked.source}: ").split("; use ")[0]
     what = "radiation-aware" if first.method == "radiation_aware" else "thesis'"
