@@ -67,10 +67,11 @@ def positive_reduced(model: FEModel, rm: ReducedModel, exact: SteadySolution | N
         held_back, shares = negative_loads(rm)
         why = (f"the loads' exact distribution takes {-held_back:.3g} W from {shares} super nodes (negative loads)"
                if shares else str(exc))
+        # (the radiation-aware reduction is not defined on the positive network: its advice says to leave it)
+        aware = '[reduction] network = "exact" with radiation_aware = true or '
         raise NetworkRefusal(f"{case.source}: neither the exact reduced network (its negative conductances) nor the "
                              f"positive one fitted to it has a physical steady solution under these loads: {why}; use "
-                             f"{'radiation_aware = true or ' if np.any(model.space_coupling() > 0) else ''}more super "
-                             "nodes") from None
+                             f"{aware if np.any(model.space_coupling() > 0) else ''}more super nodes") from None
     if exact is None:
         return rm_pos, sol, {**pn.report, "exact": "no physical steady solution (its negative conductances)",
                              "T_vs_exact_K": None, "heat_into_fixed_W": None, "criteria": None}
