@@ -545,6 +545,7 @@ def test_a_damped_step_of_a_linear_transient_is_not_accepted():
         r = run(Case.from_dict(default), mesh=make_mesh(call))
     s = r.summary
     assert r.reduced.method == "positive" and s["reduced"]["choice"]["network_refused"]["method"] == "thesis"
+    assert r.reduced.case.reduction.network == "positive"  # the case the handed-over network ran
     assert "refused in the transient" in s["reduced"]["choice"]["chosen_by"]
     # the trade, stated: at the steady design state the thesis' network (nothing radiates: the exact condensation)
     # is exact, the positive one 7.0 K RMS off (measured; the box runs at ~10⁴ K), but only the latter integrates

@@ -784,6 +784,7 @@ def _positive_instead(run: _RunState, net: _Network, clustering, extra: dict, me
     (tests/test_robustness.py)."""
     asked, first = run.asked, run.result.reduced
     run.case = dataclasses.replace(asked, reduction=dataclasses.replace(asked.reduction, network="positive"))
+    net.inputs = dataclasses.replace(net.inputs, case=run.case)  # (the first method's resolved case: not this one's)
     run.alternative = None  # (the first choice's other candidate: not weighed against this network)
     if first.method == "thesis":  # its field stays the run's thesis' figure (summary accuracy.thesis_method)
         extra["thesis_T_recovered"] = first.T_recovered
