@@ -24,8 +24,7 @@ whose default handed the positive network over instead (their design-state error
 One JSON line: ``models``, ``solved``, ``refused`` (cause -> count), ``failures`` (list of {what, error}),
 ``default_refused_for_the_network`` (the models with the default reduction settings refused for the network's
 negative conductances or its super nodes at 0 K, properties of the network and not of the model: {what, cause,
-data}), ``accuracy`` (above),
-``seconds``.  ``FEM2TMM_ROBUSTNESS_MODELS`` sets the number of models (default 2000);
+data}), ``accuracy`` (above), ``seconds``.  ``FEM2TMM_ROBUSTNESS_MODELS`` sets the number of models (default 2000);
 ``FEM2TMM_ROBUSTNESS_RECORDS`` names a file for every ``"auto"`` model's record (one JSON line each: both methods'
 errors, the reference noise, the choice's estimates and their noise, the mesh call ``what`` and the case ``data``).
 """
@@ -61,7 +60,8 @@ def accuracy_table(records: list[dict]) -> dict:
     rows = [r for r in rows if not r.get("network_refused")]
     out = {"models": len(rows),
            "positive_for_a_transient": [{k: r.get(k) for k in ("what", "default_rms_K", "thesis_rms_K", "noise_K")}
-                                        for r in swapped], "margin": "max(reference_noise_rms_K, reference_floor_K, 1 mK)", "by_choice": {},
+                                        for r in swapped],
+           "margin": "max(reference_noise_rms_K, reference_floor_K, 1 mK)", "by_choice": {},
            "worse": [], "cold_field_references": sum(1 for r in rows if r.get("reference_floor_K")),
            "thesis_refused_default_solved": sum(1 for r in rows if r["thesis_rms_K"] is None)}
     comp = [r for r in rows if r["thesis_rms_K"] is not None]

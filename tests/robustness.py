@@ -364,8 +364,9 @@ def accuracy_record(s: dict) -> dict:
     the same run (``accuracy.thesis_method``, its pre-solve), or the default's own figure when ``"auto"`` chose the
     thesis' reduction (the same network); None when the thesis' network had no physical solution
     (``thesis_refused``).  ``network_refused``: the positive network was handed over because the first one's
-    transient was refused (:class:`fem2tmm.errors.NetworkRefusal`).  ``noise_K`` is ``accuracy.reference_noise_rms_K`` (two half-budget tracings of the
-    reference), 0 without face-to-face radiation (no rays).  ``reference_floor_K``: the warmest temperature of a
+    transient was refused (:class:`fem2tmm.errors.NetworkRefusal`).  ``noise_K`` is
+    ``accuracy.reference_noise_rms_K`` (two half-budget tracings of the reference), 0 without face-to-face radiation
+    (no rays).  ``reference_floor_K``: the warmest temperature of a
     reference field below ``COLD_FIELD`` (1 K) whose Newton stopped on a residual floor instead of its step
     (``detailed.stopped_on`` "cold field" or "round-off": near 0 K the Jacobian 4σεA·T³ vanishes and Newton only
     contracts as T -> 3/4 T, so the distance left to the solution is of the field's own size), else 0.

@@ -60,5 +60,5 @@ def solve_exact(inputs: ReductionInputs):
         raise NetworkRefusal(
             f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation of the "
             "thesis' reduction), which break the maximum principle, and no physical steady solution under these "
-            f"loads (the detailed model has one){loads}; use {', '.join(advice[:-1])}{' or ' if len(advice) > 1 else ''}"
-            f"{advice[-1]}") from None
+            f"loads (the detailed model has one){loads}; use {', '.join(advice[:-1])}"
+            f"{' or ' if len(advice) > 1 else ''}{advice[-1]}") from None
