@@ -31,3 +31,8 @@ def format_ids(ids, limit: int = 10) -> str:
     if len(ids) <= limit:
         return ", ".join(str(i) for i in ids)
     return ", ".join(str(i) for i in ids[:limit]) + f", … ({len(ids)} in all)"
+
+
+def either(options: list[str]) -> str:
+    """Render the fixes a refusal advises: ``a``, ``a or b``, ``a, b or c``."""
+    return f"{', '.join(options[:-1])}{' or ' if len(options) > 1 else ''}{options[-1]}"

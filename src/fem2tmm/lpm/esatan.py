@@ -259,15 +259,21 @@ def _plain_numbers(text: str) -> np.ndarray | None:
     return out
 
 
+def _node_fields(text: str) -> tuple[str, list[str]]:
+    """A node definition after its ``=``: its label (quotes removed; "" without one) and its ``KEY = value`` pieces."""
+    parts = [p.strip() for p in split_top(text)]
+    label = ""
+    if parts and parts[0][:1] in "'\"":
+        label = parts.pop(0).strip("'\"")
+    return label, parts
+
+
 @functools.lru_cache(maxsize=1 << 15)
 def _plain_node(text: str) -> tuple[str, tuple[tuple[str, float], ...]] | None:
     """A node definition after its ``=`` (``'label', T = 20, C = 5``): its label and attributes where each is a known
     KEY = plain number, else None (the statement is then read attribute by attribute, with its errors).  Kept for the
     next read of the same text, as :func:`_plain_numbers`."""
-    parts = [p.strip() for p in split_top(text)]
-    label = ""
-    if parts and parts[0][:1] in "'\"":
-        label = parts.pop(0).strip("'\"")
+    label, parts = _node_fields(text)
     out = []
     for p in parts:
         if not p:
@@ -388,10 +394,7 @@ def _read_deck(path, time, window):
             if numeric is not None:  # (every attribute a number: the usual, read once per text)
                 nodes.append((line, kind, int(m.group(2)), numeric[0], dict(numeric[1])))
                 continue
-            parts = [p.strip() for p in split_top(m.group(3))]
-            label = ""
-            if parts and parts[0][:1] in "'\"":
-                label = parts.pop(0).strip("'\"")
+            label, parts = _node_fields(m.group(3))
             attrs = {}
             for p in parts:
                 if not p:

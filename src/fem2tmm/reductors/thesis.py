@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import Fem2TmmError, NetworkRefusal
+from ..errors import Fem2TmmError, NetworkRefusal, either
 from ..reduce.network import negative_loads
 from ..solve.problems import reduced_problem, solve_case
 from .base import Reduced, ReductionInputs, Reductor
@@ -60,5 +60,4 @@ def solve_exact(inputs: ReductionInputs):
         raise NetworkRefusal(
             f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation of the "
             "thesis' reduction), which break the maximum principle, and no physical steady solution under these "
-            f"loads (the detailed model has one){loads}; use {', '.join(advice[:-1])}"
-            f"{' or ' if len(advice) > 1 else ''}{advice[-1]}") from None
+            f"loads (the detailed model has one){loads}; use {either(advice)}") from None

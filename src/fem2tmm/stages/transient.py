@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 
 from ..case import Case
-from ..errors import Fem2TmmError, NetworkRefusal
+from ..errors import Fem2TmmError, NetworkRefusal, either
 from ..fem.model import FEModel, boundary_load
 from ..reduce.network import ReducedModel, negative_loads
 from ..solve.steady import SteadyProblem
@@ -223,8 +223,7 @@ def run_transient(case: Case, model: FEModel, rm: ReducedModel | None = None, T_
                 f"{case.source}: the reduced network has {negative} negative conductances (the exact condensation "
                 "of the thesis' reduction), which break the maximum principle: in this transient they drive super "
                 f"nodes towards 0 K{'' if when is None else ' (at t = ' + when.group(1) + ' s)'}: the network's "
-                f"property, not the physics'; use {', '.join(fixes[:-1])}{' or ' if len(fixes) > 1 else ''}"
-                f"{fixes[-1]}") from None
+                f"property, not the physics'; use {either(fixes)}") from None
         clock.stop()
         clock = _Clock(run.timings, "recover")
         q = load_series(model.Q if q_recover is None else q_recover, tables)
